@@ -1,0 +1,355 @@
+//! Geometry: a bounding volume hierarchy (binned SAH) over the scene triangles, for
+//! visibility (any-hit segment) queries.
+//!
+//! Occlusion is geometric: a triangle blocks light from either side, even though it only
+//! emits, reflects and receives on its front. Queries skip the triangles a segment
+//! starts and ends on, so a ray leaving a surface never counts that surface as a blocker,
+//! and endpoints are pulled in by a relative epsilon so that rays grazing a neighbouring
+//! coplanar triangle are not blocked.
+
+use glam::Vec3A;
+
+#[derive(Clone, Copy, Debug)]
+struct Node {
+    lo: Vec3A,
+    hi: Vec3A,
+    /// Leaf: first triangle; inner: index of the left child (right = left + 1).
+    first: u32,
+    /// Triangles in a leaf; 0 for inner nodes.
+    count: u32,
+}
+
+#[derive(Clone, Copy, Debug)]
+struct Tri {
+    v0: Vec3A,
+    e1: Vec3A,
+    e2: Vec3A,
+}
+
+/// A BVH over triangles given as corner triples.
+pub struct Bvh {
+    nodes: Vec<Node>,
+    tris: Vec<Tri>,
+    /// Caller's index of each stored triangle.
+    ids: Vec<u32>,
+}
+
+const LEAF_MAX: usize = 4;
+const BINS: usize = 12;
+
+impl Bvh {
+    /// Builds the hierarchy. `tris[i]` keeps the id `i` in queries.
+    pub fn new(tris: &[[Vec3A; 3]]) -> Bvh {
+        let mut ids: Vec<u32> = (0..tris.len() as u32).collect();
+        let cent: Vec<Vec3A> = tris.iter().map(|t| (t[0] + t[1] + t[2]) / 3.0).collect();
+        let lo: Vec<Vec3A> = tris.iter().map(|t| t[0].min(t[1]).min(t[2])).collect();
+        let hi: Vec<Vec3A> = tris.iter().map(|t| t[0].max(t[1]).max(t[2])).collect();
+        let mut nodes = Vec::with_capacity(2 * tris.len().max(1));
+        nodes.push(Node {
+            lo: Vec3A::ZERO,
+            hi: Vec3A::ZERO,
+            first: 0,
+            count: 0,
+        });
+        if !tris.is_empty() {
+            build(&mut nodes, 0, &mut ids, 0, &cent, &lo, &hi);
+        }
+        let stored = ids
+            .iter()
+            .map(|&i| {
+                let t = tris[i as usize];
+                Tri {
+                    v0: t[0],
+                    e1: t[1] - t[0],
+                    e2: t[2] - t[0],
+                }
+            })
+            .collect();
+        Bvh {
+            nodes,
+            tris: stored,
+            ids,
+        }
+    }
+
+    /// True when some triangle other than `skip` blocks the open segment `from → to`.
+    /// The segment's ends are trimmed by `1e-5` of its length.
+    pub fn occluded(&self, from: Vec3A, to: Vec3A, skip: [u32; 2]) -> bool {
+        if self.tris.is_empty() {
+            return false;
+        }
+        let d = to - from;
+        let (tmin, tmax) = (1e-5f32, 1.0 - 1e-5f32);
+        let inv = d.recip();
+        let mut stack = [0u32; 64];
+        let mut sp = 0usize;
+        let mut node = 0u32;
+        loop {
+            let n = &self.nodes[node as usize];
+            if slab(n.lo, n.hi, from, inv, tmin, tmax) {
+                if n.count > 0 {
+                    for k in n.first..n.first + n.count {
+                        let id = self.ids[k as usize];
+                        if id == skip[0] || id == skip[1] {
+                            continue;
+                        }
+                        if hit(&self.tris[k as usize], from, d, tmin, tmax) {
+                            return true;
+                        }
+                    }
+                } else {
+                    if sp < stack.len() {
+                        stack[sp] = n.first + 1;
+                        sp += 1;
+                    }
+                    node = n.first;
+                    continue;
+                }
+            }
+            if sp == 0 {
+                return false;
+            }
+            sp -= 1;
+            node = stack[sp];
+        }
+    }
+
+    /// Distance parameter of the nearest hit along `from + t·d`, t in (tmin, tmax), with
+    /// the id of the triangle hit.
+    pub fn nearest(&self, from: Vec3A, d: Vec3A, tmin: f32, tmax: f32) -> Option<(f32, u32)> {
+        if self.tris.is_empty() {
+            return None;
+        }
+        let inv = d.recip();
+        let mut best: Option<(f32, u32)> = None;
+        let mut tmax = tmax;
+        let mut stack = [0u32; 64];
+        let mut sp = 0usize;
+        let mut node = 0u32;
+        loop {
+            let n = &self.nodes[node as usize];
+            if slab(n.lo, n.hi, from, inv, tmin, tmax) {
+                if n.count > 0 {
+                    for k in n.first..n.first + n.count {
+                        if let Some(t) = hit_t(&self.tris[k as usize], from, d, tmin, tmax) {
+                            tmax = t;
+                            best = Some((t, self.ids[k as usize]));
+                        }
+                    }
+                } else {
+                    if sp < stack.len() {
+                        stack[sp] = n.first + 1;
+                        sp += 1;
+                    }
+                    node = n.first;
+                    continue;
+                }
+            }
+            if sp == 0 {
+                return best;
+            }
+            sp -= 1;
+            node = stack[sp];
+        }
+    }
+}
+
+#[inline]
+fn slab(lo: Vec3A, hi: Vec3A, o: Vec3A, inv: Vec3A, tmin: f32, tmax: f32) -> bool {
+    let t0 = (lo - o) * inv;
+    let t1 = (hi - o) * inv;
+    // NaN (0·inf on an axis-parallel ray in a box face) drops out of min/max.
+    let near = t0.min(t1).max_element().max(tmin);
+    let far = t0.max(t1).min_element().min(tmax);
+    near <= far * 1.000_001
+}
+
+#[inline]
+fn hit_t(t: &Tri, o: Vec3A, d: Vec3A, tmin: f32, tmax: f32) -> Option<f32> {
+    let p = d.cross(t.e2);
+    let det = t.e1.dot(p);
+    if det.abs() < 1e-20 {
+        return None;
+    }
+    let inv = 1.0 / det;
+    let s = o - t.v0;
+    let u = s.dot(p) * inv;
+    const E: f32 = 1e-6;
+    if !(-E..=1.0 + E).contains(&u) {
+        return None;
+    }
+    let q = s.cross(t.e1);
+    let v = d.dot(q) * inv;
+    if v < -E || u + v > 1.0 + E {
+        return None;
+    }
+    let tt = t.e2.dot(q) * inv;
+    (tt > tmin && tt < tmax).then_some(tt)
+}
+
+#[inline]
+fn hit(t: &Tri, o: Vec3A, d: Vec3A, tmin: f32, tmax: f32) -> bool {
+    hit_t(t, o, d, tmin, tmax).is_some()
+}
+
+fn build(
+    nodes: &mut Vec<Node>,
+    at: usize,
+    ids: &mut [u32],
+    first: u32,
+    cent: &[Vec3A],
+    lo: &[Vec3A],
+    hi: &[Vec3A],
+) {
+    let mut blo = Vec3A::splat(f32::INFINITY);
+    let mut bhi = Vec3A::splat(f32::NEG_INFINITY);
+    let mut clo = blo;
+    let mut chi = bhi;
+    for &i in ids.iter() {
+        blo = blo.min(lo[i as usize]);
+        bhi = bhi.max(hi[i as usize]);
+        clo = clo.min(cent[i as usize]);
+        chi = chi.max(cent[i as usize]);
+    }
+    nodes[at].lo = blo;
+    nodes[at].hi = bhi;
+    let leaf = |nodes: &mut Vec<Node>| {
+        nodes[at].first = first;
+        nodes[at].count = ids.len() as u32;
+    };
+    if ids.len() <= LEAF_MAX {
+        return leaf(nodes);
+    }
+    // Binned SAH over the widest centroid axis.
+    let ext = chi - clo;
+    let axis = if ext.x >= ext.y && ext.x >= ext.z {
+        0
+    } else if ext.y >= ext.z {
+        1
+    } else {
+        2
+    };
+    if ext[axis] <= 0.0 {
+        return leaf(nodes);
+    }
+    let scale = BINS as f32 / ext[axis];
+    let bin_of = |i: u32| (((cent[i as usize][axis] - clo[axis]) * scale) as usize).min(BINS - 1);
+    let mut bcount = [0usize; BINS];
+    let mut blo_b = [Vec3A::splat(f32::INFINITY); BINS];
+    let mut bhi_b = [Vec3A::splat(f32::NEG_INFINITY); BINS];
+    for &i in ids.iter() {
+        let b = bin_of(i);
+        bcount[b] += 1;
+        blo_b[b] = blo_b[b].min(lo[i as usize]);
+        bhi_b[b] = bhi_b[b].max(hi[i as usize]);
+    }
+    let area = |l: Vec3A, h: Vec3A| {
+        let e = (h - l).max(Vec3A::ZERO);
+        e.x * e.y + e.y * e.z + e.z * e.x
+    };
+    let mut best = (f32::INFINITY, 0usize);
+    for split in 1..BINS {
+        let (mut ln, mut rn) = (0usize, 0usize);
+        let (mut l0, mut l1) = (Vec3A::splat(f32::INFINITY), Vec3A::splat(f32::NEG_INFINITY));
+        let (mut r0, mut r1) = (l0, l1);
+        for b in 0..split {
+            ln += bcount[b];
+            l0 = l0.min(blo_b[b]);
+            l1 = l1.max(bhi_b[b]);
+        }
+        for b in split..BINS {
+            rn += bcount[b];
+            r0 = r0.min(blo_b[b]);
+            r1 = r1.max(bhi_b[b]);
+        }
+        if ln == 0 || rn == 0 {
+            continue;
+        }
+        let cost = ln as f32 * area(l0, l1) + rn as f32 * area(r0, r1);
+        if cost < best.0 {
+            best = (cost, split);
+        }
+    }
+    if best.0 >= ids.len() as f32 * area(blo, bhi) && ids.len() <= 16 {
+        return leaf(nodes);
+    }
+    let mid = if best.1 == 0 {
+        ids.len() / 2
+    } else {
+        let mut m = 0;
+        for k in 0..ids.len() {
+            if bin_of(ids[k]) < best.1 {
+                ids.swap(k, m);
+                m += 1;
+            }
+        }
+        m
+    };
+    let mid = if mid == 0 || mid == ids.len() {
+        ids.len() / 2
+    } else {
+        mid
+    };
+    let left = nodes.len();
+    nodes[at].first = left as u32;
+    nodes[at].count = 0;
+    let blank = Node {
+        lo: Vec3A::ZERO,
+        hi: Vec3A::ZERO,
+        first: 0,
+        count: 0,
+    };
+    nodes.push(blank);
+    nodes.push(blank);
+    let (l, r) = ids.split_at_mut(mid);
+    build(nodes, left, l, first, cent, lo, hi);
+    build(nodes, left + 1, r, first + mid as u32, cent, lo, hi);
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn quad(y: f32, id_base: usize) -> Vec<[Vec3A; 3]> {
+        let _ = id_base;
+        let a = Vec3A::new(-1.0, y, -1.0);
+        let b = Vec3A::new(1.0, y, -1.0);
+        let c = Vec3A::new(1.0, y, 1.0);
+        let d = Vec3A::new(-1.0, y, 1.0);
+        vec![[a, b, c], [a, c, d]]
+    }
+
+    #[test]
+    fn blocks_and_skips() {
+        let mut tris = quad(0.0, 0);
+        tris.extend(quad(1.0, 2));
+        // Many small far triangles so the tree has depth.
+        for k in 0..200 {
+            let x = 10.0 + k as f32;
+            tris.push([
+                Vec3A::new(x, 0.0, 0.0),
+                Vec3A::new(x + 0.5, 0.0, 0.0),
+                Vec3A::new(x, 0.5, 0.0),
+            ]);
+        }
+        let bvh = Bvh::new(&tris);
+        let from = Vec3A::new(0.1, -1.0, 0.2);
+        let to = Vec3A::new(0.0, 2.0, 0.0);
+        assert!(bvh.occluded(from, to, [u32::MAX; 2]));
+        // Endpoint on the lower quad: that quad is skipped, the upper one still blocks.
+        let on_floor = Vec3A::new(0.3, 0.0, 0.3);
+        assert!(bvh.occluded(on_floor, to, [0, 1]));
+        // Between the two quads nothing blocks.
+        assert!(!bvh.occluded(on_floor, Vec3A::new(-0.2, 0.9, 0.1), [0, 1]));
+        // A segment lying in the plane of the lower quad (grazing) is not blocked by it.
+        assert!(!bvh.occluded(
+            Vec3A::new(-0.5, 0.0, 0.5),
+            Vec3A::new(0.5, 0.0, -0.5),
+            [u32::MAX; 2]
+        ));
+        let (t, id) = bvh
+            .nearest(from, Vec3A::new(0.0, 1.0, 0.0), 0.0, 10.0)
+            .unwrap();
+        assert!((t - 1.0).abs() < 1e-5 && id < 2);
+    }
+}

@@ -1,0 +1,18 @@
+//! relight: relights static 3D scenes in milliseconds from a precomputed radiosity
+//! transfer. See `ARCHITECTURE.md` for the map of the crate.
+//!
+//! Data path: [`scene`] → [`mesh`] → [`bvh`] → [`formfactor`] → [`solve`]/[`transfer`]
+//! → [`cache`], orchestrated by [`bake`]; [`report`] turns solutions into per-surface
+//! answers.
+
+pub mod bake;
+pub mod bvh;
+pub mod cache;
+pub mod color;
+pub mod formfactor;
+pub mod lighting;
+pub mod mesh;
+pub mod report;
+pub mod scene;
+pub mod solve;
+pub mod transfer;

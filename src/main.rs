@@ -1,0 +1,287 @@
+//! The `relight` command line: a thin shell over the library.
+
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+
+use anyhow::{Context, Result};
+use clap::{Parser, Subcommand};
+use indicatif::{ProgressBar, ProgressStyle};
+
+use relight::bake::{self, BakeOptions, CachePolicy, Stage};
+use relight::color::luminance64;
+use relight::lighting::LightState;
+use relight::report::Report;
+
+#[derive(Parser)]
+#[command(
+    name = "relight",
+    version,
+    about = "Relights static 3D scenes from a precomputed radiosity transfer"
+)]
+struct Cli {
+    #[command(subcommand)]
+    cmd: Cmd,
+}
+
+#[derive(Subcommand)]
+enum Cmd {
+    /// Bake a scene's transfer (form factors, factorization, light-group columns) into the cache.
+    Bake {
+        /// Scene folder (OBJ + MTL + optional scene.toml). Omit with --all.
+        scene: Option<PathBuf>,
+        /// Bake every scene under --scenes.
+        #[arg(long)]
+        all: bool,
+        /// Folder of scenes for --all.
+        #[arg(long, env = "RELIGHT_SCENES", default_value = "scenes")]
+        scenes: PathBuf,
+        /// Cache folder [default: $RELIGHT_CACHE, $XDG_CACHE_HOME/relight or ~/.cache/relight].
+        #[arg(long, env = "RELIGHT_CACHE")]
+        cache: Option<PathBuf>,
+        /// Bake even if a valid cache entry exists.
+        #[arg(long)]
+        force: bool,
+    },
+    /// Print per-surface radiosity and illuminance and the power balance for a lighting state.
+    Radiosity {
+        scene: PathBuf,
+        /// Light setting: ID=INTENSITY or ID=R,G,B (repeatable). Other groups keep defaults.
+        #[arg(long = "light", value_name = "ID=VALUE")]
+        lights: Vec<String>,
+        /// Print JSON instead of a table.
+        #[arg(long)]
+        json: bool,
+        #[arg(long, env = "RELIGHT_CACHE")]
+        cache: Option<PathBuf>,
+        /// Override the mesh size (longest patch edge, metres).
+        #[arg(long)]
+        max_edge: Option<f64>,
+    },
+    /// List the scenes under a folder with their patch counts and light groups.
+    Info {
+        #[arg(long, env = "RELIGHT_SCENES", default_value = "scenes")]
+        scenes: PathBuf,
+    },
+}
+
+fn main() -> ExitCode {
+    tracing_subscriber::fmt()
+        .with_env_filter(
+            tracing_subscriber::EnvFilter::try_from_env("RELIGHT_LOG")
+                .unwrap_or_else(|_| "info".into()),
+        )
+        .with_writer(std::io::stderr)
+        .init();
+    let cli = Cli::parse();
+    match run(cli) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e:#}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
+fn run(cli: Cli) -> Result<()> {
+    match cli.cmd {
+        Cmd::Bake {
+            scene,
+            all,
+            scenes,
+            cache,
+            force,
+        } => {
+            let cache = cache.unwrap_or_else(bake::default_cache_dir);
+            let dirs = match (scene, all) {
+                (Some(s), false) => vec![s],
+                (None, true) => bake::scene_dirs(&scenes)
+                    .with_context(|| format!("reading {}", scenes.display()))?,
+                _ => anyhow::bail!("give a scene folder or --all"),
+            };
+            let mut failed = 0;
+            for d in dirs {
+                if let Err(e) = bake_one(&d, &cache, force) {
+                    eprintln!("error: {e:#}");
+                    failed += 1;
+                }
+            }
+            if failed > 0 {
+                anyhow::bail!("{failed} scene(s) failed");
+            }
+            Ok(())
+        }
+        Cmd::Radiosity {
+            scene,
+            lights,
+            json,
+            cache,
+            max_edge,
+        } => radiosity(&scene, &lights, json, cache, max_edge),
+        Cmd::Info { scenes } => info(&scenes),
+    }
+}
+
+fn progress_bar(label: &str) -> ProgressBar {
+    let pb = ProgressBar::new(1000);
+    pb.set_style(
+        ProgressStyle::with_template("{prefix} [{bar:40}] {percent:>3}% {msg} ({elapsed})")
+            .expect("valid template")
+            .progress_chars("=> "),
+    );
+    pb.set_prefix(label.to_string());
+    pb
+}
+
+fn bake_one(dir: &Path, cache: &Path, force: bool) -> Result<()> {
+    let label = dir
+        .file_name()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    let pb = progress_bar(&label);
+    let policy = if force {
+        CachePolicy::Off
+    } else {
+        CachePolicy::ReadWrite(cache)
+    };
+    let progress = |stage: Stage, f: f64| {
+        pb.set_message(format!("{stage:?}"));
+        pb.set_position((stage.overall(f) * 1000.0) as u64);
+    };
+    let mut baked = bake::load_or_bake(dir, policy, &BakeOptions::default(), &progress)?;
+    if force {
+        // Baked without reading the cache: write the fresh entry now.
+        let settings = bake::settings_json(
+            &baked.scene,
+            &BakeOptions::default(),
+            baked.scene.mesh.max_edge,
+        );
+        let key = relight::cache::cache_key(&baked.scene.files, &settings)?;
+        let path = relight::cache::entry_path(cache, &baked.scene.id, &key);
+        baked.stats.cache_bytes = relight::cache::write(
+            &path,
+            &baked.scene.id,
+            &key,
+            &settings,
+            baked.mesh.fingerprint(),
+            &baked.transfer,
+        )?;
+        relight::cache::prune(cache, &baked.scene.id, &path);
+        baked.stats.cache_path = Some(path);
+    }
+    pb.finish_and_clear();
+    let s = &baked.stats;
+    for w in &baked.scene.warnings {
+        eprintln!("warning: {}: {w}", baked.scene.id);
+    }
+    println!("scene          {}  ({})", baked.scene.id, baked.scene.name);
+    println!("patches        {}", s.patches);
+    println!("mode           {:?}", baked.transfer.mode);
+    if s.from_cache {
+        println!("loaded from    cache in {:.3} s", s.load_s);
+    } else {
+        println!("form factors   {:.2} s", s.form_factor_s);
+        println!("solve          {:.2} s", s.solve_s);
+    }
+    println!("residual       {:.2e}", s.residual);
+    println!(
+        "cache          {:.1} MB  {}",
+        s.cache_bytes as f64 / 1e6,
+        s.cache_path
+            .as_ref()
+            .map(|p| p.display().to_string())
+            .unwrap_or_default()
+    );
+    Ok(())
+}
+
+fn radiosity(
+    dir: &Path,
+    lights: &[String],
+    json: bool,
+    cache: Option<PathBuf>,
+    max_edge: Option<f64>,
+) -> Result<()> {
+    let cache = cache.unwrap_or_else(bake::default_cache_dir);
+    let opts = BakeOptions {
+        max_edge,
+        ..Default::default()
+    };
+    let pb = progress_bar("baking");
+    let progress = |stage: Stage, f: f64| pb.set_position((stage.overall(f) * 1000.0) as u64);
+    let baked = bake::load_or_bake(dir, CachePolicy::ReadWrite(&cache), &opts, &progress)?;
+    pb.finish_and_clear();
+    let mut state = LightState::default();
+    for l in lights {
+        state.parse_arg(l).map_err(anyhow::Error::msg)?;
+    }
+    let weights = state.weights(&baked.scene)?;
+    let sol = baked.transfer.relight(&weights);
+    let report = Report::new(&baked.scene, &baked.mesh, &baked.transfer, &sol);
+    if json {
+        println!("{}", serde_json::to_string_pretty(&report)?);
+        return Ok(());
+    }
+    println!(
+        "{} — {} patches; radiosity B in lm/m², illuminance E in lux (area-weighted means)",
+        baked.scene.name, baked.stats.patches
+    );
+    println!(
+        "{:<20} {:>9}  {:>28} {:>9}  {:>28} {:>9}",
+        "surface", "area m²", "B (R G B)", "B lum", "E (R G B)", "E lux"
+    );
+    for (name, s) in &report.surfaces {
+        let rgb = |v: [f64; 3]| format!("{:>9.4} {:>9.4} {:>9.4}", v[0], v[1], v[2]);
+        println!(
+            "{:<20} {:>9.4}  {} {:>9.4}  {} {:>9.4}",
+            name,
+            s.area,
+            rgb(s.radiosity),
+            s.radiosity_y(),
+            rgb(s.illuminance),
+            s.illuminance_y()
+        );
+    }
+    let p = &report.power;
+    println!();
+    println!(
+        "power (lm)   emitted {:.4}   absorbed {:.4}   escaped {:.4}   imbalance {:+.2e}",
+        p.emitted_lm, p.absorbed_lm, p.escaped_lm, p.imbalance
+    );
+    println!(
+        "  per channel emitted {:.4}/{:.4}/{:.4}  absorbed {:.4}/{:.4}/{:.4}  escaped {:.4}/{:.4}/{:.4}",
+        p.emitted[0], p.emitted[1], p.emitted[2], p.absorbed[0], p.absorbed[1], p.absorbed[2],
+        p.escaped[0], p.escaped[1], p.escaped[2]
+    );
+    let _ = luminance64;
+    Ok(())
+}
+
+fn info(root: &Path) -> Result<()> {
+    let dirs = bake::scene_dirs(root).with_context(|| format!("reading {}", root.display()))?;
+    if dirs.is_empty() {
+        println!("no scenes under {}", root.display());
+    }
+    for d in dirs {
+        match relight::scene::Scene::load(&d) {
+            Ok(s) => {
+                let mesh = relight::mesh::Mesh::build(&s);
+                let groups: Vec<String> = s.lights.iter().map(|l| l.id.clone()).collect();
+                let cams: Vec<String> = s.cameras.iter().map(|c| c.id.clone()).collect();
+                println!(
+                    "{:<16} {:<28} {:>6} patches  surfaces {:<3} lights [{}]  cameras [{}]",
+                    s.id,
+                    s.name,
+                    mesh.len(),
+                    s.surfaces.len(),
+                    groups.join(", "),
+                    cams.join(", ")
+                );
+            }
+            Err(e) => println!(
+                "{:<16} FAILED: {e}",
+                d.file_name().unwrap_or_default().to_string_lossy()
+            ),
+        }
+    }
+    Ok(())
+}

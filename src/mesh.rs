@@ -1,0 +1,432 @@
+//! Meshing: scene triangles → patches.
+//!
+//! Per surface, vertices are welded by position, T-junctions already in the input are
+//! repaired (a vertex lying inside another triangle's edge splits that triangle), and the
+//! triangles are refined by Rivara's longest-edge bisection until no edge is longer than
+//! `max_edge`. Longest-edge bisection keeps the mesh conforming: neighbouring patches of a
+//! surface share their vertices, so per-vertex (Gouraud) interpolation has no cracks.
+//!
+//! **Patch order** (stable, part of the API): surfaces in the order of their first
+//! appearance in the OBJ; within a surface, front-side patches in refinement order
+//! (deterministic for a given input and `max_edge`), then, for two-sided surfaces, the
+//! back-side patches in the same order. Each surface owns one contiguous range.
+
+use std::collections::HashMap;
+use std::ops::Range;
+
+use glam::DVec3;
+
+use crate::scene::{is_two_sided, Scene};
+
+/// One patch: a triangle of constant radiosity.
+#[derive(Debug, Clone)]
+pub struct Patch {
+    /// Vertex indices into [`Mesh::vertices`], counter-clockwise seen from the front.
+    pub v: [u32; 3],
+    pub surface: u32,
+    pub material: u32,
+    /// Light group of an emitting patch.
+    pub group: Option<u32>,
+    /// Area in m².
+    pub area: f64,
+    /// Centroid in metres.
+    pub centroid: DVec3,
+    /// Unit normal of the front (emitting, reflecting, receiving) side.
+    pub normal: DVec3,
+    /// Index of the scene triangle the patch was cut from.
+    pub source: u32,
+}
+
+/// The patches of a scene and their shared vertices.
+#[derive(Debug, Clone)]
+pub struct Mesh {
+    /// Vertex positions in metres. Vertices are shared within a surface only.
+    pub vertices: Vec<DVec3>,
+    pub patches: Vec<Patch>,
+    /// Patch range of each surface (indexed like `Scene::surfaces`).
+    pub surface_patches: Vec<Range<u32>>,
+}
+
+impl Mesh {
+    /// Meshes `scene` with its `max_edge`.
+    pub fn build(scene: &Scene) -> Mesh {
+        Self::build_with(scene, scene.mesh.max_edge)
+    }
+
+    /// Meshes `scene` with patches no longer than `max_edge` metres on any edge.
+    pub fn build_with(scene: &Scene, max_edge: f64) -> Mesh {
+        let mut vertices = Vec::new();
+        let mut patches = Vec::new();
+        let mut surface_patches = Vec::with_capacity(scene.surfaces.len());
+        for s in 0..scene.surfaces.len() as u32 {
+            let start = patches.len() as u32;
+            let tris: Vec<u32> = (0..scene.triangles.len() as u32)
+                .filter(|&t| scene.triangles[t as usize].surface == s)
+                .collect();
+            if !tris.is_empty() {
+                let mut r = Refiner::new(scene, &tris);
+                r.fix_t_junctions();
+                r.refine(max_edge);
+                let base = vertices.len() as u32;
+                vertices.extend_from_slice(&r.pos);
+                let front: Vec<usize> = (0..r.tris.len()).filter(|&t| r.alive[t]).collect();
+                for &t in &front {
+                    let src = r.src[t];
+                    let tri = &scene.triangles[src as usize];
+                    let v = r.tris[t].map(|k| k + base);
+                    patches.push(make_patch(&vertices, v, tri, src));
+                }
+                let two: Vec<usize> = front
+                    .iter()
+                    .copied()
+                    .filter(|&t| {
+                        let tri = &scene.triangles[r.src[t] as usize];
+                        is_two_sided(tri, &scene.materials, &scene.surfaces)
+                    })
+                    .collect();
+                for t in two {
+                    let src = r.src[t];
+                    let tri = &scene.triangles[src as usize];
+                    let [a, b, c] = r.tris[t].map(|k| k + base);
+                    patches.push(make_patch(&vertices, [a, c, b], tri, src));
+                }
+            }
+            surface_patches.push(start..patches.len() as u32);
+        }
+        Mesh {
+            vertices,
+            patches,
+            surface_patches,
+        }
+    }
+
+    /// Number of patches.
+    pub fn len(&self) -> usize {
+        self.patches.len()
+    }
+
+    /// True when the mesh has no patch.
+    pub fn is_empty(&self) -> bool {
+        self.patches.is_empty()
+    }
+
+    /// Corner positions of patch `i`.
+    pub fn corners(&self, i: usize) -> [DVec3; 3] {
+        self.patches[i].v.map(|k| self.vertices[k as usize])
+    }
+
+    /// A hash of the mesh geometry, stored in the cache to check that a transfer belongs
+    /// to this exact patch set.
+    pub fn fingerprint(&self) -> u64 {
+        let mut h = xxhash_rust::xxh3::Xxh3::new();
+        for p in &self.vertices {
+            for c in p.to_array() {
+                h.update(&c.to_le_bytes());
+            }
+        }
+        for p in &self.patches {
+            for k in p.v {
+                h.update(&k.to_le_bytes());
+            }
+            h.update(&p.surface.to_le_bytes());
+            h.update(&p.material.to_le_bytes());
+            h.update(&p.group.map_or(u32::MAX, |g| g).to_le_bytes());
+        }
+        h.digest()
+    }
+}
+
+fn make_patch(vertices: &[DVec3], v: [u32; 3], tri: &crate::scene::Triangle, src: u32) -> Patch {
+    let [a, b, c] = v.map(|k| vertices[k as usize]);
+    let cr = (b - a).cross(c - a);
+    Patch {
+        v,
+        surface: tri.surface,
+        material: tri.material,
+        group: tri.group,
+        area: 0.5 * cr.length(),
+        centroid: (a + b + c) / 3.0,
+        normal: cr.normalize(),
+        source: src,
+    }
+}
+
+type EdgeKey = (u32, u32);
+
+fn key(a: u32, b: u32) -> EdgeKey {
+    if a < b {
+        (a, b)
+    } else {
+        (b, a)
+    }
+}
+
+/// Longest-edge (Rivara) refinement of one surface's triangles.
+struct Refiner {
+    pos: Vec<DVec3>,
+    tris: Vec<[u32; 3]>,
+    src: Vec<u32>,
+    alive: Vec<bool>,
+    edges: HashMap<EdgeKey, Vec<u32>>,
+}
+
+impl Refiner {
+    fn new(scene: &Scene, tris: &[u32]) -> Refiner {
+        let mut weld: HashMap<[u64; 3], u32> = HashMap::new();
+        let mut r = Refiner {
+            pos: Vec::new(),
+            tris: Vec::new(),
+            src: Vec::new(),
+            alive: Vec::new(),
+            edges: HashMap::new(),
+        };
+        for &t in tris {
+            let tri = &scene.triangles[t as usize];
+            let v = tri.p.map(|p| {
+                let k = p.to_array().map(|c| (c + 0.0).to_bits());
+                *weld.entry(k).or_insert_with(|| {
+                    r.pos.push(p);
+                    (r.pos.len() - 1) as u32
+                })
+            });
+            if v[0] == v[1] || v[1] == v[2] || v[0] == v[2] {
+                continue;
+            }
+            r.add(v, t);
+        }
+        r
+    }
+
+    fn add(&mut self, v: [u32; 3], src: u32) -> u32 {
+        let t = self.tris.len() as u32;
+        self.tris.push(v);
+        self.src.push(src);
+        self.alive.push(true);
+        for k in 0..3 {
+            self.edges
+                .entry(key(v[k], v[(k + 1) % 3]))
+                .or_default()
+                .push(t);
+        }
+        t
+    }
+
+    fn kill(&mut self, t: u32) {
+        self.alive[t as usize] = false;
+        let v = self.tris[t as usize];
+        for k in 0..3 {
+            let e = key(v[k], v[(k + 1) % 3]);
+            if let Some(list) = self.edges.get_mut(&e) {
+                list.retain(|&x| x != t);
+                if list.is_empty() {
+                    self.edges.remove(&e);
+                }
+            }
+        }
+    }
+
+    /// Splits triangle `t` at vertex `m`, which lies on its edge starting at corner `k`.
+    fn split_at(&mut self, t: u32, k: usize, m: u32) {
+        let v = self.tris[t as usize];
+        let (a, b, c) = (v[k], v[(k + 1) % 3], v[(k + 2) % 3]);
+        let src = self.src[t as usize];
+        self.kill(t);
+        self.add([a, m, c], src);
+        self.add([m, b, c], src);
+    }
+
+    fn len2(&self, e: EdgeKey) -> f64 {
+        self.pos[e.0 as usize].distance_squared(self.pos[e.1 as usize])
+    }
+
+    /// The longest edge of `t`, ties broken by vertex index so the order is total.
+    fn longest(&self, t: u32) -> EdgeKey {
+        let v = self.tris[t as usize];
+        let mut best = key(v[0], v[1]);
+        let mut best_l = self.len2(best);
+        for k in 1..3 {
+            let e = key(v[k], v[(k + 1) % 3]);
+            let l = self.len2(e);
+            if l > best_l || (l == best_l && e > best) {
+                best = e;
+                best_l = l;
+            }
+        }
+        best
+    }
+
+    /// Splits every triangle whose edge passes through another vertex of the surface.
+    fn fix_t_junctions(&mut self) {
+        // Vertices sorted by x, to find candidates near an edge quickly.
+        let mut by_x: Vec<u32> = (0..self.pos.len() as u32).collect();
+        by_x.sort_by(|&a, &b| self.pos[a as usize].x.total_cmp(&self.pos[b as usize].x));
+        let xs: Vec<f64> = by_x.iter().map(|&v| self.pos[v as usize].x).collect();
+        let mut t = 0u32;
+        while (t as usize) < self.tris.len() {
+            if !self.alive[t as usize] {
+                t += 1;
+                continue;
+            }
+            let v = self.tris[t as usize];
+            let mut split = None;
+            'edges: for k in 0..3 {
+                let (a, b) = (v[k], v[(k + 1) % 3]);
+                let (pa, pb) = (self.pos[a as usize], self.pos[b as usize]);
+                let d = pb - pa;
+                let len2 = d.length_squared();
+                let tol = 1e-7 * len2.sqrt();
+                let (x0, x1) = (pa.x.min(pb.x) - tol, pa.x.max(pb.x) + tol);
+                let lo = xs.partition_point(|&x| x < x0);
+                for (i, &m) in by_x.iter().enumerate().skip(lo) {
+                    if xs[i] > x1 {
+                        break;
+                    }
+                    if m == a || m == b || v.contains(&m) {
+                        continue;
+                    }
+                    let pm = self.pos[m as usize];
+                    let s = (pm - pa).dot(d) / len2;
+                    if s <= 1e-9 || s >= 1.0 - 1e-9 {
+                        continue;
+                    }
+                    if (pa + d * s).distance(pm) <= tol {
+                        split = Some((k, m));
+                        break 'edges;
+                    }
+                }
+            }
+            match split {
+                Some((k, m)) => self.split_at(t, k, m),
+                None => t += 1,
+            }
+        }
+    }
+
+    /// Rivara refinement: bisect longest edges (along the longest-edge propagation path,
+    /// so no hanging vertex is ever created) until every edge is at most `h`.
+    fn refine(&mut self, h: f64) {
+        let h2 = h * h * (1.0 + 1e-9);
+        let mut t = 0u32;
+        while (t as usize) < self.tris.len() {
+            while self.alive[t as usize] && self.len2(self.longest(t)) > h2 {
+                let mut cur = t;
+                loop {
+                    let e = self.longest(cur);
+                    let next = self.edges[&e]
+                        .iter()
+                        .copied()
+                        .find(|&n| n != cur && self.longest(n) != e);
+                    match next {
+                        Some(n) => cur = n,
+                        None => {
+                            self.bisect(e);
+                            break;
+                        }
+                    }
+                }
+            }
+            t += 1;
+        }
+    }
+
+    /// Splits edge `e` at its midpoint, in every triangle that has it.
+    fn bisect(&mut self, e: EdgeKey) {
+        let m = self.pos.len() as u32;
+        self.pos
+            .push(0.5 * (self.pos[e.0 as usize] + self.pos[e.1 as usize]));
+        let owners = self.edges[&e].clone();
+        for t in owners {
+            let v = self.tris[t as usize];
+            let k = (0..3)
+                .find(|&k| key(v[k], v[(k + 1) % 3]) == e)
+                .expect("owner has the edge");
+            self.split_at(t, k, m);
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::collections::HashMap as Map;
+
+    fn square_scene(extra_t_junction: bool) -> Scene {
+        let dir = tempfile::tempdir().unwrap();
+        let mut obj = String::from("mtllib m.mtl\no floor\nusemtl w\n");
+        if extra_t_junction {
+            // Left half is one quad, right half two quads: the middle vertex at (1,0,1)
+            // lies on the left quad's edge.
+            obj += "v 0 0 0\nv 1 0 0\nv 1 0 2\nv 0 0 2\nf 1 4 3 2\n";
+            obj += "v 2 0 0\nv 2 0 1\nv 1 0 1\nf 2 7 6 5\n";
+            obj += "v 2 0 2\nf 7 3 8 6\n";
+        } else {
+            obj += "v 0 0 0\nv 2 0 0\nv 2 0 2\nv 0 0 2\nf 1 4 3 2\n";
+        }
+        std::fs::write(dir.path().join("s.obj"), obj).unwrap();
+        std::fs::write(dir.path().join("m.mtl"), "newmtl w\nKd 0.5 0.5 0.5\n").unwrap();
+        let s = Scene::load(dir.path()).unwrap();
+        std::mem::forget(dir);
+        s
+    }
+
+    /// Every interior edge must be shared by exactly two patches: no hanging vertices.
+    fn assert_conforming(m: &Mesh) {
+        let mut count: Map<(u32, u32), usize> = Map::new();
+        for p in &m.patches {
+            for k in 0..3 {
+                *count.entry(key(p.v[k], p.v[(k + 1) % 3])).or_default() += 1;
+            }
+        }
+        // A vertex lying strictly inside some edge would be a hanging node.
+        for &(a, b) in count.keys() {
+            let (pa, pb) = (m.vertices[a as usize], m.vertices[b as usize]);
+            for (i, &pv) in m.vertices.iter().enumerate() {
+                if i as u32 == a || i as u32 == b {
+                    continue;
+                }
+                let d = pb - pa;
+                let s = (pv - pa).dot(d) / d.length_squared();
+                if s > 1e-6 && s < 1.0 - 1e-6 {
+                    assert!(
+                        (pa + d * s).distance(pv) > 1e-9,
+                        "hanging vertex {i} on edge {a}-{b}"
+                    );
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn refinement_respects_max_edge_and_area() {
+        let s = square_scene(false);
+        let m = Mesh::build_with(&s, 0.3);
+        let total: f64 = m.patches.iter().map(|p| p.area).sum();
+        assert!((total - 4.0).abs() < 1e-9, "area {total}");
+        for i in 0..m.len() {
+            let c = m.corners(i);
+            for k in 0..3 {
+                assert!(c[k].distance(c[(k + 1) % 3]) <= 0.3 + 1e-9);
+            }
+            assert!((m.patches[i].normal - DVec3::Y).length() < 1e-9);
+        }
+        assert!(m.len() > 40);
+        assert_conforming(&m);
+    }
+
+    #[test]
+    fn input_t_junctions_are_repaired() {
+        let s = square_scene(true);
+        let m = Mesh::build_with(&s, 0.7);
+        let total: f64 = m.patches.iter().map(|p| p.area).sum();
+        assert!((total - 4.0).abs() < 1e-9);
+        assert_conforming(&m);
+    }
+
+    #[test]
+    fn patch_order_is_stable() {
+        let s = square_scene(true);
+        let a = Mesh::build_with(&s, 0.25);
+        let b = Mesh::build_with(&s, 0.25);
+        assert_eq!(a.fingerprint(), b.fingerprint());
+    }
+}

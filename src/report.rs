@@ -1,0 +1,117 @@
+//! Per-surface answers from a solution: area-weighted averages, extremes and the power
+//! balance, with units (radiosity lm/m², illuminance lux, power lm).
+
+use std::collections::BTreeMap;
+
+use serde::Serialize;
+
+use crate::color::luminance64;
+use crate::mesh::Mesh;
+use crate::scene::Scene;
+use crate::transfer::{Power, Solution, Transfer};
+
+/// Area-weighted averages over one surface.
+#[derive(Debug, Clone, Serialize)]
+pub struct SurfaceAverage {
+    /// Area, m² (both sides for two-sided surfaces).
+    pub area: f64,
+    /// Mean radiosity, lm/m² per channel.
+    pub radiosity: [f64; 3],
+    /// Mean incident illuminance, lux per channel.
+    pub illuminance: [f64; 3],
+}
+
+impl SurfaceAverage {
+    /// Luminous radiosity, lm/m².
+    pub fn radiosity_y(&self) -> f64 {
+        luminance64(self.radiosity)
+    }
+    /// Luminous illuminance, lux.
+    pub fn illuminance_y(&self) -> f64 {
+        luminance64(self.illuminance)
+    }
+}
+
+/// Area-weighted averages of every surface, by name.
+pub fn surface_averages(
+    scene: &Scene,
+    mesh: &Mesh,
+    s: &Solution,
+) -> BTreeMap<String, SurfaceAverage> {
+    let mut out = BTreeMap::new();
+    for (k, range) in mesh.surface_patches.iter().enumerate() {
+        let mut a = 0f64;
+        let mut b = [0f64; 3];
+        let mut h = [0f64; 3];
+        for i in range.clone() {
+            let i = i as usize;
+            let ai = mesh.patches[i].area;
+            a += ai;
+            for c in 0..3 {
+                b[c] += ai * s.b[3 * i + c] as f64;
+                h[c] += ai * s.h[3 * i + c] as f64;
+            }
+        }
+        if a > 0.0 {
+            out.insert(
+                scene.surfaces[k].name.clone(),
+                SurfaceAverage {
+                    area: a,
+                    radiosity: b.map(|x| x / a),
+                    illuminance: h.map(|x| x / a),
+                },
+            );
+        }
+    }
+    out
+}
+
+/// The power balance with luminous totals.
+#[derive(Debug, Clone, Serialize)]
+pub struct PowerReport {
+    /// Per channel, lm.
+    pub emitted: [f64; 3],
+    pub absorbed: [f64; 3],
+    pub escaped: [f64; 3],
+    /// Luminous totals, lm.
+    pub emitted_lm: f64,
+    pub absorbed_lm: f64,
+    pub escaped_lm: f64,
+    /// (emitted − absorbed − escaped) / emitted, luminous.
+    pub imbalance: f64,
+}
+
+impl PowerReport {
+    pub fn new(p: Power) -> PowerReport {
+        let (e, a, x) = (
+            luminance64(p.emitted),
+            luminance64(p.absorbed),
+            luminance64(p.escaped),
+        );
+        PowerReport {
+            emitted: p.emitted,
+            absorbed: p.absorbed,
+            escaped: p.escaped,
+            emitted_lm: e,
+            absorbed_lm: a,
+            escaped_lm: x,
+            imbalance: if e > 0.0 { (e - a - x) / e } else { 0.0 },
+        }
+    }
+}
+
+/// What `relight radiosity --json` prints.
+#[derive(Debug, Clone, Serialize)]
+pub struct Report {
+    pub surfaces: BTreeMap<String, SurfaceAverage>,
+    pub power: PowerReport,
+}
+
+impl Report {
+    pub fn new(scene: &Scene, mesh: &Mesh, t: &Transfer, s: &Solution) -> Report {
+        Report {
+            surfaces: surface_averages(scene, mesh, s),
+            power: PowerReport::new(t.power(s)),
+        }
+    }
+}

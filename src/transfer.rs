@@ -1,0 +1,396 @@
+//! The baked transfer: everything needed to relight a scene, immutable once built.
+//!
+//! Two modes:
+//! - **factored**: an LU factorization of `(I − ρF)` per distinct reflectance channel,
+//!   plus `F` itself. Any per-patch emission vector is solved exactly
+//!   ([`Transfer::solve`]); light groups are served from precomputed columns as well.
+//! - **columns**: only the response columns of the light groups (from Jacobi iteration to
+//!   a relative tolerance of [`COLUMN_TOL`]); `F` is not kept.
+//!
+//! In both modes every light group g has three interleaved RGB columns (n × 3 floats),
+//! computed for the group at intensity 1 and colour (1, 1, 1):
+//! `e_g` its emission (lm/m²), `b_g` the radiosity it causes (lm/m²) and `h_g` the
+//! incident illuminance it causes (lux). A lighting state with per-group RGB weights
+//! `w_g` gives `B = Σ_g w_g ⊙ b_g`, and likewise for H and E: relighting is linear.
+
+use faer::Mat;
+use serde::Serialize;
+
+use crate::color::Rgb;
+use crate::mesh::Mesh;
+use crate::scene::{Scene, TransferChoice};
+use crate::solve::{self, ChannelLu};
+
+/// Relative tolerance of the iterative column solver.
+pub const COLUMN_TOL: f64 = 1e-7;
+/// Largest patch count for which `auto` picks the factored mode.
+pub const AUTO_FACTORED_MAX: usize = 6000;
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum TransferMode {
+    Factored,
+    Columns,
+}
+
+impl TransferMode {
+    /// Resolves a scene's choice for `n` patches.
+    pub fn resolve(choice: TransferChoice, n: usize) -> TransferMode {
+        match choice {
+            TransferChoice::Factored => TransferMode::Factored,
+            TransferChoice::Columns => TransferMode::Columns,
+            TransferChoice::Auto if n <= AUTO_FACTORED_MAX => TransferMode::Factored,
+            TransferChoice::Auto => TransferMode::Columns,
+        }
+    }
+}
+
+/// Response columns of one light group (each n × 3, interleaved RGB).
+#[derive(Clone)]
+pub struct GroupColumns {
+    /// Emission, lm/m².
+    pub e: Vec<f32>,
+    /// Radiosity, lm/m².
+    pub b: Vec<f32>,
+    /// Incident illuminance, lux.
+    pub h: Vec<f32>,
+}
+
+/// Factored-mode data.
+#[derive(Clone)]
+pub struct Factored {
+    /// Distinct channel factorizations.
+    pub lus: Vec<ChannelLu>,
+    /// Which factorization serves each of R, G, B.
+    pub channel_lu: [u8; 3],
+    /// The form-factor matrix, row-major n × n.
+    pub f: Vec<f32>,
+}
+
+/// How the bake-time solve went.
+#[derive(Debug, Clone, Copy, Default, Serialize, serde::Deserialize)]
+pub struct SolveInfo {
+    /// Largest relative residual `‖E − (I − ρF)B‖∞ / ‖E‖∞` over the group columns.
+    pub residual: f64,
+    /// Jacobi sweeps (columns mode), 0 for the direct solve.
+    pub sweeps: usize,
+}
+
+/// The baked, immutable transfer of one scene.
+#[derive(Clone)]
+pub struct Transfer {
+    pub mode: TransferMode,
+    pub n: usize,
+    /// Diffuse reflectance per patch and channel.
+    pub rho: Vec<Rgb>,
+    /// Patch areas, m².
+    pub area: Vec<f32>,
+    /// Fraction of each patch's outgoing light that hits no patch (leaves the scene).
+    pub escape: Vec<f32>,
+    pub groups: Vec<GroupColumns>,
+    pub factored: Option<Factored>,
+    pub info: SolveInfo,
+}
+
+/// A full solution: per patch RGB emission, radiosity and incident illuminance.
+#[derive(Debug, Clone)]
+pub struct Solution {
+    /// Emission, lm/m², n × 3 interleaved.
+    pub e: Vec<f32>,
+    /// Radiosity, lm/m².
+    pub b: Vec<f32>,
+    /// Incident illuminance, lux.
+    pub h: Vec<f32>,
+}
+
+/// Power balance of a solution, lumens per channel.
+#[derive(Debug, Clone, Copy, Serialize)]
+pub struct Power {
+    /// Σ A·E.
+    pub emitted: [f64; 3],
+    /// Σ A·(1 − ρ)·H.
+    pub absorbed: [f64; 3],
+    /// Σ A·B·(1 − Σ_j F_ij): light that leaves through openings.
+    pub escaped: [f64; 3],
+}
+
+/// Per-group RGB emission columns for `mesh`, at intensity 1 and colour (1, 1, 1).
+pub fn group_emission(scene: &Scene, mesh: &Mesh) -> Vec<Vec<f32>> {
+    let n = mesh.len();
+    let mut cols = vec![vec![0f32; 3 * n]; scene.lights.len()];
+    for (i, p) in mesh.patches.iter().enumerate() {
+        if let Some(g) = p.group {
+            let ke = scene.materials[p.material as usize].ke;
+            let s = scene.lights[g as usize].ke_scale;
+            for c in 0..3 {
+                cols[g as usize][3 * i + c] = (ke[c] as f64 * s) as f32;
+            }
+        }
+    }
+    cols
+}
+
+impl Transfer {
+    /// Solves the scene for its light groups (and factors it in factored mode).
+    pub fn build(
+        scene: &Scene,
+        mesh: &Mesh,
+        f: Vec<f32>,
+        mode: TransferMode,
+        progress: &(dyn Fn(f64) + Sync),
+    ) -> Transfer {
+        let n = mesh.len();
+        let rho: Vec<Rgb> = mesh
+            .patches
+            .iter()
+            .map(|p| scene.materials[p.material as usize].kd)
+            .collect();
+        let area: Vec<f32> = mesh.patches.iter().map(|p| p.area as f32).collect();
+        let escape: Vec<f32> = crate::formfactor::row_sums(&f, n)
+            .into_iter()
+            .map(|s| (1.0 - s).max(0.0) as f32)
+            .collect();
+        let rho_ch: [Vec<f32>; 3] = std::array::from_fn(|c| rho.iter().map(|r| r[c]).collect());
+        let emission = group_emission(scene, mesh);
+        let g = emission.len();
+        // E as an n × 3G matrix, column 3g + c.
+        let mut e = Mat::<f32>::zeros(n, 3 * g);
+        for (gi, col) in emission.iter().enumerate() {
+            for i in 0..n {
+                for c in 0..3 {
+                    e[(i, 3 * gi + c)] = col[3 * i + c];
+                }
+            }
+        }
+        let rho_of_col: Vec<&[f32]> = (0..3 * g).map(|k| rho_ch[k % 3].as_slice()).collect();
+
+        let (b, lus, sweeps) = match mode {
+            TransferMode::Factored => {
+                // One factorization per distinct channel.
+                let mut channel_lu = [0u8; 3];
+                let mut distinct: Vec<usize> = Vec::new();
+                for c in 0..3 {
+                    match distinct.iter().position(|&d| rho_ch[d] == rho_ch[c]) {
+                        Some(k) => channel_lu[c] = k as u8,
+                        None => {
+                            channel_lu[c] = distinct.len() as u8;
+                            distinct.push(c);
+                        }
+                    }
+                }
+                let mut lus = Vec::new();
+                for (k, &c) in distinct.iter().enumerate() {
+                    lus.push(ChannelLu::factor(&f, &rho_ch[c], n));
+                    progress(0.9 * (k + 1) as f64 / distinct.len() as f64);
+                }
+                let b = solve_refined(&lus, channel_lu, &f, e.as_ref(), &rho_of_col);
+                (b, Some((lus, channel_lu)), 0)
+            }
+            TransferMode::Columns => {
+                let (b, sweeps) =
+                    solve::jacobi(&f, n, e.as_ref(), &rho_of_col, COLUMN_TOL, 2000, progress);
+                (b, None, sweeps)
+            }
+        };
+        let h = solve::apply_f(&f, n, b.as_ref());
+        let mut residual = 0f64;
+        for k in 0..3 * g {
+            let col = |m: &Mat<f32>| -> Vec<f32> { (0..n).map(|i| m[(i, k)]).collect() };
+            residual = residual.max(solve::relative_residual(
+                &col(&e),
+                &col(&b),
+                &col(&h),
+                rho_of_col[k],
+            ));
+        }
+        let groups = (0..g)
+            .map(|gi| GroupColumns {
+                e: emission[gi].clone(),
+                b: solve::interleave(b.as_ref(), [3 * gi, 3 * gi + 1, 3 * gi + 2]),
+                h: solve::interleave(h.as_ref(), [3 * gi, 3 * gi + 1, 3 * gi + 2]),
+            })
+            .collect();
+        let factored = lus.map(|(lus, channel_lu)| Factored { lus, channel_lu, f });
+        progress(1.0);
+        Transfer {
+            mode,
+            n,
+            rho,
+            area,
+            escape,
+            groups,
+            factored,
+            info: SolveInfo { residual, sweeps },
+        }
+    }
+
+    /// Number of light groups.
+    pub fn group_count(&self) -> usize {
+        self.groups.len()
+    }
+
+    /// Radiosity (lm/m², n × 3 interleaved) for per-group RGB weights, into `out`.
+    /// This is the hot path of relighting: a weighted sum of a few columns.
+    pub fn relight_into(&self, weights: &[Rgb], out: &mut [f32]) {
+        weighted_sum(self.groups.iter().map(|g| g.b.as_slice()), weights, out);
+    }
+
+    /// Full solution (emission, radiosity, illuminance) for per-group RGB weights.
+    pub fn relight(&self, weights: &[Rgb]) -> Solution {
+        let len = 3 * self.n;
+        let mut s = Solution {
+            e: vec![0.0; len],
+            b: vec![0.0; len],
+            h: vec![0.0; len],
+        };
+        weighted_sum(
+            self.groups.iter().map(|g| g.e.as_slice()),
+            weights,
+            &mut s.e,
+        );
+        weighted_sum(
+            self.groups.iter().map(|g| g.b.as_slice()),
+            weights,
+            &mut s.b,
+        );
+        weighted_sum(
+            self.groups.iter().map(|g| g.h.as_slice()),
+            weights,
+            &mut s.h,
+        );
+        s
+    }
+
+    /// Exact solution for an arbitrary per-patch emission (lm/m², n × 3 interleaved).
+    /// Only in factored mode; `None` otherwise.
+    pub fn solve(&self, emission: &[f32]) -> Option<Solution> {
+        let fac = self.factored.as_ref()?;
+        let n = self.n;
+        if emission.len() != 3 * n {
+            return None;
+        }
+        let mut x = Mat::<f32>::zeros(n, 3);
+        for i in 0..n {
+            for c in 0..3 {
+                x[(i, c)] = emission[3 * i + c];
+            }
+        }
+        fac.solve_cols(x.as_mut());
+        let h = solve::apply_f(&fac.f, n, x.as_ref());
+        Some(Solution {
+            e: emission.to_vec(),
+            b: solve::interleave(x.as_ref(), [0, 1, 2]),
+            h: solve::interleave(h.as_ref(), [0, 1, 2]),
+        })
+    }
+
+    /// Power balance of a solution, lumens per channel.
+    pub fn power(&self, s: &Solution) -> Power {
+        let mut p = Power {
+            emitted: [0.0; 3],
+            absorbed: [0.0; 3],
+            escaped: [0.0; 3],
+        };
+        for i in 0..self.n {
+            let a = self.area[i] as f64;
+            for c in 0..3 {
+                let k = 3 * i + c;
+                p.emitted[c] += a * s.e[k] as f64;
+                p.absorbed[c] += a * (1.0 - self.rho[i][c] as f64) * s.h[k] as f64;
+                p.escaped[c] += a * s.b[k] as f64 * self.escape[i] as f64;
+            }
+        }
+        p
+    }
+}
+
+/// `out = Σ_g w_g ⊙ col_g` over interleaved RGB columns. Works in blocks of 24 floats
+/// (8 patches, a whole number of RGB triples) so the per-channel weights form a fixed
+/// pattern and the inner loop vectorizes.
+pub fn weighted_sum<'a>(cols: impl Iterator<Item = &'a [f32]>, weights: &[Rgb], out: &mut [f32]) {
+    const W: usize = 24;
+    let active: Vec<(&[f32], [f32; W])> = cols
+        .zip(weights)
+        .filter(|(_, w)| w.iter().any(|&x| x != 0.0))
+        .map(|(c, w)| (c, std::array::from_fn(|k| w[k % 3])))
+        .collect();
+    let full = out.len() / W * W;
+    let (head, tail) = out.split_at_mut(full);
+    for (blk, o) in head.chunks_exact_mut(W).enumerate() {
+        let mut acc = [0f32; W];
+        let base = blk * W;
+        for (c, pat) in &active {
+            let src = &c[base..base + W];
+            for k in 0..W {
+                acc[k] += pat[k] * src[k];
+            }
+        }
+        o.copy_from_slice(&acc);
+    }
+    for (k, o) in tail.iter_mut().enumerate() {
+        let idx = full + k;
+        *o = active.iter().map(|(c, pat)| pat[idx % 3] * c[idx]).sum();
+    }
+}
+
+/// Solves `(I − ρF) X = E` for the columns of `e` (column k uses channel k % 3), with one
+/// step of iterative refinement.
+pub fn solve_refined(
+    lus: &[ChannelLu],
+    channel_lu: [u8; 3],
+    f: &[f32],
+    e: faer::MatRef<'_, f32>,
+    rho_of_col: &[&[f32]],
+) -> Mat<f32> {
+    let n = e.nrows();
+    let mut x = e.to_owned();
+    solve_cols(lus, channel_lu, x.as_mut());
+    // r = E − (X − ρ F X); X += (I − ρF)⁻¹ r
+    let fx = solve::apply_f(f, n, x.as_ref());
+    let mut r = Mat::<f32>::zeros(n, e.ncols());
+    for k in 0..e.ncols() {
+        let rho = rho_of_col[k];
+        for i in 0..n {
+            r[(i, k)] = e[(i, k)] - (x[(i, k)] - rho[i] * fx[(i, k)]);
+        }
+    }
+    solve_cols(lus, channel_lu, r.as_mut());
+    for k in 0..e.ncols() {
+        for i in 0..n {
+            x[(i, k)] += r[(i, k)];
+        }
+    }
+    x
+}
+
+/// Solves in place; column k is solved with the factorization of channel k % 3.
+fn solve_cols(lus: &[ChannelLu], channel_lu: [u8; 3], mut x: faer::MatMut<'_, f32>) {
+    let k = x.ncols();
+    let n = x.nrows();
+    for c in 0..3 {
+        let cols: Vec<usize> = (c..k).step_by(3).collect();
+        if cols.is_empty() {
+            continue;
+        }
+        // Gather the channel's columns, solve them together, scatter back.
+        let mut m = Mat::<f32>::zeros(n, cols.len());
+        for (a, &col) in cols.iter().enumerate() {
+            for i in 0..n {
+                m[(i, a)] = x[(i, col)];
+            }
+        }
+        lus[channel_lu[c] as usize].solve_in_place(m.as_mut());
+        for (a, &col) in cols.iter().enumerate() {
+            for i in 0..n {
+                x[(i, col)] = m[(i, a)];
+            }
+        }
+    }
+}
+
+impl Factored {
+    /// Solves in place; column k is solved with the factorization of channel k % 3.
+    pub fn solve_cols(&self, x: faer::MatMut<'_, f32>) {
+        solve_cols(&self.lus, self.channel_lu, x)
+    }
+}
