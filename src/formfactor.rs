@@ -33,15 +33,18 @@ use crate::mesh::Mesh;
 pub struct FormFactorOptions {
     /// Most visibility rays for one pair.
     pub max_rays: u32,
-    /// Rays per unit of max(F_ij, F_ji), before clamping to [1, max_rays].
+    /// Rays per unit of max(F_ij, F_ji), before clamping to [probe_rays, max_rays].
     pub rays_per_ff: f64,
+    /// Rays every pair gets first; if they disagree, the pair gets `max_rays`.
+    pub probe_rays: u32,
 }
 
 impl Default for FormFactorOptions {
     fn default() -> Self {
         FormFactorOptions {
-            max_rays: 16,
+            max_rays: 24,
             rays_per_ff: 400.0,
+            probe_rays: 4,
         }
     }
 }
@@ -231,21 +234,46 @@ pub fn compute(
                     continue;
                 }
                 let fmax = (g / a.area).max(g / b.area);
-                let rays = ((fmax * opts.rays_per_ff).ceil() as u32).clamp(1, opts.max_rays);
+                let rays = ((fmax * opts.rays_per_ff).ceil() as u32)
+                    .clamp(opts.probe_rays, opts.max_rays.max(opts.probe_rays));
                 let mut rng = Rng::new(i, j);
-                let mut free = 0u32;
-                // Stratify the first sample coordinate over the rays.
-                for r in 0..rays {
-                    let s = (r as f64 + rng.next_f64()) / rays as f64;
-                    let x = sample_triangle(&a.c, s, rng.next_f64());
-                    let y = sample_triangle(&b.c, rng.next_f64(), rng.next_f64());
-                    let blocked = bvh.occluded(
-                        Vec3A::from(x.as_vec3()),
-                        Vec3A::from(y.as_vec3()),
-                        [a.source, b.source],
-                    );
-                    free += u32::from(!blocked);
+                let mut cast = |count: u32, rng: &mut Rng| -> u32 {
+                    let mut free = 0u32;
+                    // Stratify the first sample coordinate of both ends over the rays.
+                    for r in 0..count {
+                        let s = (r as f64 + rng.next_f64()) / count as f64;
+                        let t = ((r * 7 + 3) % count) as f64 / count as f64;
+                        let x = sample_triangle(&a.c, s, rng.next_f64());
+                        let y = sample_triangle(
+                            &b.c,
+                            t + rng.next_f64() / count as f64,
+                            rng.next_f64(),
+                        );
+                        let blocked = bvh.occluded(
+                            Vec3A::from(x.as_vec3()),
+                            Vec3A::from(y.as_vec3()),
+                            [a.source, b.source],
+                        );
+                        free += u32::from(!blocked);
+                    }
+                    free
+                };
+                // Probe first; a pair the probes see as partly hidden gets the full budget
+                // of rays, so shadow boundaries are resolved where they are.
+                let probes = opts.probe_rays.min(rays);
+                let mut free = cast(probes, &mut rng);
+                let mut total = probes;
+                let partial = free != 0 && free != probes;
+                let budget = if partial {
+                    opts.max_rays.max(rays)
+                } else {
+                    rays
+                };
+                if budget > total {
+                    free += cast(budget - total, &mut rng);
+                    total = budget;
                 }
+                let (free, rays) = (free, total);
                 row[j] = (g * free as f64 / rays as f64) as f32;
             }
             let pairs = n - i - 1;

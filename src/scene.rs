@@ -540,12 +540,14 @@ fn resolve_units(cfg: &SceneToml, toml_path: &Path) -> Result<(String, f64), Sce
         "mm" | "millimetre" | "millimetres" => 0.001,
         "in" | "inch" | "inches" => 0.0254,
         "ft" | "foot" | "feet" => 0.3048,
-        other => return Err(SceneError::Invalid {
-            path: toml_path.into(),
-            message: format!(
+        other => {
+            return Err(SceneError::Invalid {
+                path: toml_path.into(),
+                message: format!(
                 "units = \"{other}\": use m, cm, mm, in or ft, or give scale = <factor to metres>"
             ),
-        }),
+            })
+        }
     };
     Ok((u, s))
 }

@@ -1,0 +1,166 @@
+//! Helpers shared by the integration tests: scenes written to temporary folders.
+#![allow(dead_code)]
+
+use std::path::{Path, PathBuf};
+
+use relight::bake::scene_bvh;
+use relight::formfactor::{self, FormFactorOptions};
+use relight::mesh::Mesh;
+use relight::scene::Scene;
+
+/// A scene folder in a temporary directory, removed on drop.
+pub struct TempScene {
+    pub dir: tempfile::TempDir,
+}
+
+impl TempScene {
+    pub fn path(&self) -> &Path {
+        self.dir.path()
+    }
+}
+
+/// Writes `scene.obj`, `scene.mtl` and (if given) `scene.toml` into a fresh folder.
+pub fn write_scene(obj: &str, mtl: &str, toml: Option<&str>) -> TempScene {
+    let dir = tempfile::tempdir().expect("tempdir");
+    std::fs::write(
+        dir.path().join("scene.obj"),
+        format!("mtllib scene.mtl\n{obj}"),
+    )
+    .unwrap();
+    std::fs::write(dir.path().join("scene.mtl"), mtl).unwrap();
+    if let Some(t) = toml {
+        std::fs::write(dir.path().join("scene.toml"), t).unwrap();
+    }
+    TempScene { dir }
+}
+
+/// OBJ text for one quad (object `name`, material `mat`) whose front faces `normal`.
+/// `p` are the corners in order around the quad.
+pub fn quad(name: &str, mat: &str, p: [[f64; 3]; 4], normal: [f64; 3]) -> String {
+    let sub = |a: [f64; 3], b: [f64; 3]| [a[0] - b[0], a[1] - b[1], a[2] - b[2]];
+    let (u, v) = (sub(p[1], p[0]), sub(p[2], p[0]));
+    let n = [
+        u[1] * v[2] - u[2] * v[1],
+        u[2] * v[0] - u[0] * v[2],
+        u[0] * v[1] - u[1] * v[0],
+    ];
+    let mut p = p.to_vec();
+    if n[0] * normal[0] + n[1] * normal[1] + n[2] * normal[2] < 0.0 {
+        p.reverse();
+    }
+    polygon(name, mat, &p)
+}
+
+/// OBJ text for one convex polygon, using negative (relative) indices.
+pub fn polygon(name: &str, mat: &str, p: &[[f64; 3]]) -> String {
+    let mut s = format!("o {name}\nusemtl {mat}\n");
+    for v in p {
+        s += &format!("v {} {} {}\n", v[0], v[1], v[2]);
+    }
+    s += "f";
+    for k in 0..p.len() {
+        s += &format!(" {}", k as i64 - p.len() as i64);
+    }
+    s + "\n"
+}
+
+/// The six faces of an axis-aligned box, fronts inward (a room) or outward (a block).
+/// Face names are `prefix` + one of -x +x -y +y -z +z.
+pub fn box_faces(prefix: &str, mat: &str, lo: [f64; 3], hi: [f64; 3], inward: bool) -> String {
+    let s = if inward { -1.0 } else { 1.0 };
+    let [x0, y0, z0] = lo;
+    let [x1, y1, z1] = hi;
+    let faces = [
+        (
+            "-x",
+            [[x0, y0, z0], [x0, y1, z0], [x0, y1, z1], [x0, y0, z1]],
+            [-s, 0.0, 0.0],
+        ),
+        (
+            "+x",
+            [[x1, y0, z0], [x1, y1, z0], [x1, y1, z1], [x1, y0, z1]],
+            [s, 0.0, 0.0],
+        ),
+        (
+            "-y",
+            [[x0, y0, z0], [x1, y0, z0], [x1, y0, z1], [x0, y0, z1]],
+            [0.0, -s, 0.0],
+        ),
+        (
+            "+y",
+            [[x0, y1, z0], [x1, y1, z0], [x1, y1, z1], [x0, y1, z1]],
+            [0.0, s, 0.0],
+        ),
+        (
+            "-z",
+            [[x0, y0, z0], [x1, y0, z0], [x1, y1, z0], [x0, y1, z0]],
+            [0.0, 0.0, -s],
+        ),
+        (
+            "+z",
+            [[x0, y0, z1], [x1, y0, z1], [x1, y1, z1], [x0, y1, z1]],
+            [0.0, 0.0, s],
+        ),
+    ];
+    faces
+        .iter()
+        .map(|(k, p, n)| quad(&format!("{prefix}{k}"), mat, *p, *n))
+        .collect()
+}
+
+/// A loaded scene with its mesh and dense form factors.
+pub struct Solved {
+    pub scene: Scene,
+    pub mesh: Mesh,
+    pub f: Vec<f32>,
+}
+
+pub fn form_factors(dir: &Path) -> Solved {
+    let scene = Scene::load(dir).expect("scene loads");
+    let mesh = Mesh::build(&scene);
+    let bvh = scene_bvh(&scene);
+    let f = formfactor::compute(&mesh, &bvh, &FormFactorOptions::default(), &|_| {});
+    Solved { scene, mesh, f }
+}
+
+impl Solved {
+    pub fn n(&self) -> usize {
+        self.mesh.len()
+    }
+
+    /// Surface-to-surface factor: Σ_{i∈a} A_i Σ_{j∈b} F_ij / A_a.
+    pub fn surface_factor(&self, a: &str, b: &str) -> f64 {
+        let sa = self.scene.surface_index(a).expect("surface a");
+        let sb = self.scene.surface_index(b).expect("surface b");
+        let (ra, rb) = (
+            self.mesh.surface_patches[sa].clone(),
+            self.mesh.surface_patches[sb].clone(),
+        );
+        let n = self.n();
+        let mut num = 0.0;
+        let mut area = 0.0;
+        for i in ra {
+            let ai = self.mesh.patches[i as usize].area;
+            area += ai;
+            for j in rb.clone() {
+                num += ai * self.f[i as usize * n + j as usize] as f64;
+            }
+        }
+        num / area
+    }
+
+    pub fn surface_area(&self, a: &str) -> f64 {
+        let s = self.scene.surface_index(a).unwrap();
+        self.mesh.surface_patches[s]
+            .clone()
+            .map(|i| self.mesh.patches[i as usize].area)
+            .sum()
+    }
+}
+
+pub const GREY_MTL: &str = "newmtl grey\nKd 0.5 0.5 0.5\n";
+
+/// The bundled scenes folder.
+pub fn scenes_dir() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes")
+}
