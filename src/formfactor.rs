@@ -4,7 +4,7 @@
 //! 1. **Unoccluded factor.** The point-to-polygon factor from a point x on i to the whole
 //!    triangle j is exact (Lambert's contour integral, after clipping j to the hemisphere
 //!    above x). It is averaged over quadrature points on i: one point (the centroid) for
-//!    distant pairs, 4, 16 or 64 points (midpoint rule on a regular subdivision) as the
+//!    distant pairs, 4, 16, 64 or 256 points (midpoint rule on a regular subdivision) as the
 //!    pair gets closer relative to its size, so adjacent patches stay accurate.
 //!    The same is done from j to i, and the pair's coupling `A_i F_ij = A_j F_ji` is the
 //!    mean of the two estimates: reciprocity holds exactly by construction.
@@ -89,8 +89,8 @@ pub fn point_to_polygon(x: DVec3, n: DVec3, poly: &[DVec3]) -> f64 {
     (sum / (2.0 * PI)).abs()
 }
 
-/// Barycentric midpoint-rule points for 4^level sub-triangles (levels 0..=3).
-fn quadrature_tables() -> [Vec<DVec3>; 4] {
+/// Barycentric midpoint-rule points for 4^level sub-triangles (levels 0..=4).
+fn quadrature_tables() -> [Vec<DVec3>; 5] {
     fn rec(a: DVec3, b: DVec3, c: DVec3, level: u32, out: &mut Vec<DVec3>) {
         if level == 0 {
             out.push((a + b + c) / 3.0);
@@ -217,14 +217,12 @@ pub fn compute(
                 let d = a.centroid.distance(b.centroid);
                 let level = |own: f64, other: f64| -> usize {
                     let r = d / own.max(other * 0.5);
-                    if r > 4.0 {
-                        0
-                    } else if r > 1.6 {
-                        1
-                    } else if r > 0.7 {
-                        2
-                    } else {
-                        3
+                    match r {
+                        r if r > 8.0 => 0,
+                        r if r > 4.0 => 1,
+                        r if r > 2.0 => 2,
+                        r if r > 1.0 => 3,
+                        _ => 4,
                     }
                 };
                 let fij = directed(a, b, &quad[level(a.size, b.size)]);
@@ -237,7 +235,7 @@ pub fn compute(
                 let rays = ((fmax * opts.rays_per_ff).ceil() as u32)
                     .clamp(opts.probe_rays, opts.max_rays.max(opts.probe_rays));
                 let mut rng = Rng::new(i, j);
-                let mut cast = |count: u32, rng: &mut Rng| -> u32 {
+                let cast = |count: u32, rng: &mut Rng| -> u32 {
                     let mut free = 0u32;
                     // Stratify the first sample coordinate of both ends over the rays.
                     for r in 0..count {
