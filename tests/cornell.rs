@@ -70,11 +70,7 @@ fn cornell_box_matches_the_path_traced_reference() {
         assert!(rel.abs() < 1e-4, "imbalance {rel}");
     }
     let absorbed_ref = [0.4630, 0.4775, 0.4997];
-    for c in 0..3 {
-        assert!(
-            (p.absorbed[c] / absorbed_ref[c] - 1.0).abs() < 0.01,
-            "absorbed {:?}",
-            p.absorbed
-        );
+    for (got, want) in p.absorbed.iter().zip(absorbed_ref) {
+        assert!((got / want - 1.0).abs() < 0.01, "absorbed {:?}", p.absorbed);
     }
 }
