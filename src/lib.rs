@@ -6,6 +6,7 @@
 //! answers.
 
 pub mod bake;
+pub mod bench;
 pub mod bvh;
 pub mod cache;
 pub mod color;

@@ -57,6 +57,17 @@ enum Cmd {
         #[arg(long)]
         max_edge: Option<f64>,
     },
+    /// Measure bake, cached-load and relight performance (one subprocess per case).
+    Bench {
+        /// Run one case only: cornell, cornell-10k or groups-10k.
+        #[arg(long)]
+        case: Option<String>,
+        #[arg(long, env = "RELIGHT_SCENES", default_value = "scenes")]
+        scenes: PathBuf,
+        /// Print the case's figures as JSON (used between the parent and its subprocesses).
+        #[arg(long)]
+        json: bool,
+    },
     /// List the scenes under a folder with their patch counts and light groups.
     Info {
         #[arg(long, env = "RELIGHT_SCENES", default_value = "scenes")]
@@ -118,6 +129,7 @@ fn run(cli: Cli) -> Result<()> {
             max_edge,
         } => radiosity(&scene, &lights, json, cache, max_edge),
         Cmd::Info { scenes } => info(&scenes),
+        Cmd::Bench { case, scenes, json } => bench(case, &scenes, json),
     }
 }
 
@@ -282,6 +294,87 @@ fn info(root: &Path) -> Result<()> {
                 d.file_name().unwrap_or_default().to_string_lossy()
             ),
         }
+    }
+    Ok(())
+}
+
+const BENCH_CASES: [&str; 3] = ["cornell", "cornell-10k", "groups-10k"];
+
+fn bench(case: Option<String>, scenes: &Path, json: bool) -> Result<()> {
+    let Some(case) = case else {
+        println!(
+            "{:<12} {:>7} {:>3} {:>9} {:>8} {:>8} {:>9} {:>9} {:>9} {:>10} {:>10} {:>9}",
+            "case",
+            "patches",
+            "grp",
+            "mode",
+            "ff s",
+            "solve s",
+            "cold s",
+            "cached s",
+            "cache MB",
+            "relight µs",
+            "solve E ms",
+            "peak MB"
+        );
+        for c in BENCH_CASES {
+            let out = std::process::Command::new(std::env::current_exe()?)
+                .args(["bench", "--json", "--case", c, "--scenes"])
+                .arg(scenes)
+                .output()?;
+            anyhow::ensure!(
+                out.status.success(),
+                "case {c} failed: {}",
+                String::from_utf8_lossy(&out.stderr)
+            );
+            let r: serde_json::Value = serde_json::from_slice(&out.stdout)?;
+            let f = |k: &str| r[k].as_f64().unwrap_or(f64::NAN);
+            println!(
+                "{:<12} {:>7} {:>3} {:>9} {:>8.2} {:>8.2} {:>9.2} {:>9.3} {:>9.1} {:>10.1} {:>10} {:>9.0}",
+                c,
+                r["patches"],
+                r["groups"],
+                r["mode"].as_str().unwrap_or(""),
+                f("form_factor_s"),
+                f("solve_s"),
+                f("cold_bake_s"),
+                f("cached_load_s"),
+                f("cache_mb"),
+                f("relight_us"),
+                r["solve_emission_ms"]
+                    .as_f64()
+                    .map_or("-".to_string(), |v| format!("{v:.1}")),
+                f("peak_rss_mb"),
+            );
+        }
+        return Ok(());
+    };
+    let tmp = tempfile::tempdir()?;
+    let (dir, opts) = match case.as_str() {
+        "cornell" => (scenes.join("cornell-box"), BakeOptions::default()),
+        "cornell-10k" => (
+            scenes.join("cornell-box"),
+            BakeOptions {
+                max_edge: Some(0.033),
+                // Factored at 10k patches, to measure the LU at that size.
+                mode: Some(relight::transfer::TransferMode::Factored),
+                ..Default::default()
+            },
+        ),
+        "groups-10k" => {
+            relight::bench::write_group_room(tmp.path(), 8, 7_000)?;
+            (tmp.path().to_path_buf(), BakeOptions::default())
+        }
+        other => anyhow::bail!(
+            "unknown case '{other}': use one of {}",
+            BENCH_CASES.join(", ")
+        ),
+    };
+    let r = relight::bench::run_case(&case, &dir, &opts)?;
+    if json {
+        println!("{}", serde_json::to_string(&r)?);
+    } else {
+        println!("{}", serde_json::to_string_pretty(&r)?);
     }
     Ok(())
 }

@@ -1,0 +1,186 @@
+//! `relight bench`: the engine's performance figures, measured in this process.
+//!
+//! One case per process (the CLI spawns itself per case) so that the peak resident memory
+//! read from `/proc/self/status` (VmHWM) belongs to that case alone.
+
+use std::path::Path;
+use std::time::Instant;
+
+use serde::Serialize;
+
+use crate::bake::{load_or_bake, BakeOptions, CachePolicy};
+use crate::transfer::TransferMode;
+
+/// Figures of one bench case.
+#[derive(Debug, Serialize)]
+pub struct BenchResult {
+    pub case: String,
+    pub patches: usize,
+    pub groups: usize,
+    pub mode: TransferMode,
+    pub form_factor_s: f64,
+    /// Factorization plus columns (factored), or the Jacobi columns (columns mode).
+    pub solve_s: f64,
+    pub cold_bake_s: f64,
+    pub cached_load_s: f64,
+    pub cache_mb: f64,
+    /// Median time of one relight (radiosity of all patches for all groups), microseconds.
+    pub relight_us: f64,
+    /// Median time of one exact solve of an arbitrary emission vector (factored only), ms.
+    pub solve_emission_ms: Option<f64>,
+    pub peak_rss_mb: f64,
+}
+
+/// Peak resident set size of this process, MB (Linux; 0 elsewhere).
+pub fn peak_rss_mb() -> f64 {
+    std::fs::read_to_string("/proc/self/status")
+        .ok()
+        .and_then(|s| {
+            s.lines()
+                .find(|l| l.starts_with("VmHWM:"))
+                .and_then(|l| l.split_whitespace().nth(1)?.parse::<f64>().ok())
+        })
+        .map_or(0.0, |kb| kb / 1024.0)
+}
+
+fn median(mut v: Vec<f64>) -> f64 {
+    v.sort_by(f64::total_cmp);
+    v[v.len() / 2]
+}
+
+/// Bakes `dir` cold, reloads it from a fresh cache, and times relighting.
+pub fn run_case(case: &str, dir: &Path, opts: &BakeOptions) -> anyhow::Result<BenchResult> {
+    let cache = tempfile::tempdir()?;
+    let t0 = Instant::now();
+    let baked = load_or_bake(dir, CachePolicy::ReadWrite(cache.path()), opts, &|_, _| {})?;
+    let cold = t0.elapsed().as_secs_f64();
+    let t1 = Instant::now();
+    let again = load_or_bake(dir, CachePolicy::ReadWrite(cache.path()), opts, &|_, _| {})?;
+    let cached = t1.elapsed().as_secs_f64();
+    anyhow::ensure!(
+        again.stats.from_cache,
+        "second load did not come from the cache"
+    );
+    drop(again);
+
+    let t = &baked.transfer;
+    let g = t.group_count();
+    let mut out = vec![0f32; 3 * t.n];
+    let mut samples = Vec::new();
+    for k in 0..2000 {
+        // A different state every call, so nothing is hoisted out of the loop.
+        let w: Vec<[f32; 3]> = (0..g)
+            .map(|i| [0.5 + ((k + i) % 7) as f32 * 0.1, 0.8, 0.3])
+            .collect();
+        let s = Instant::now();
+        t.relight_into(&w, &mut out);
+        samples.push(s.elapsed().as_secs_f64() * 1e6);
+        std::hint::black_box(&out);
+    }
+    let solve_emission_ms = t.factored.as_ref().map(|_| {
+        let e: Vec<f32> = (0..3 * t.n).map(|i| (i % 5) as f32).collect();
+        median(
+            (0..5)
+                .map(|_| {
+                    let s = Instant::now();
+                    std::hint::black_box(t.solve(&e));
+                    s.elapsed().as_secs_f64() * 1e3
+                })
+                .collect(),
+        )
+    });
+    Ok(BenchResult {
+        case: case.into(),
+        patches: t.n,
+        groups: g,
+        mode: t.mode,
+        form_factor_s: baked.stats.form_factor_s,
+        solve_s: baked.stats.solve_s,
+        cold_bake_s: cold,
+        cached_load_s: cached,
+        cache_mb: baked.stats.cache_bytes as f64 / 1e6,
+        relight_us: median(samples),
+        solve_emission_ms,
+        peak_rss_mb: peak_rss_mb(),
+    })
+}
+
+/// Writes a room with `groups` ceiling panels, each its own light group, into `dir`.
+pub fn write_group_room(dir: &Path, groups: usize, target_patches: usize) -> std::io::Result<()> {
+    let (w, h, d) = (8.0f64, 3.0f64, 6.0f64);
+    let mut obj = String::from("mtllib room.mtl\n");
+    let mut vi = 1;
+    let mut quad = |obj: &mut String, name: &str, mat: &str, p: [[f64; 3]; 4]| {
+        *obj += &format!("o {name}\nusemtl {mat}\n");
+        for v in p {
+            *obj += &format!("v {} {} {}\n", v[0], v[1], v[2]);
+        }
+        *obj += &format!("f {} {} {} {}\n", vi, vi + 1, vi + 2, vi + 3);
+        vi += 4;
+    };
+    // Inward-facing room (counter-clockwise seen from inside).
+    quad(
+        &mut obj,
+        "floor",
+        "floor",
+        [[0., 0., 0.], [0., 0., d], [w, 0., d], [w, 0., 0.]],
+    );
+    quad(
+        &mut obj,
+        "ceiling",
+        "white",
+        [[0., h, 0.], [w, h, 0.], [w, h, d], [0., h, d]],
+    );
+    quad(
+        &mut obj,
+        "wall_w",
+        "wall",
+        [[0., 0., 0.], [0., h, 0.], [0., h, d], [0., 0., d]],
+    );
+    quad(
+        &mut obj,
+        "wall_e",
+        "wall",
+        [[w, 0., 0.], [w, 0., d], [w, h, d], [w, h, 0.]],
+    );
+    quad(
+        &mut obj,
+        "wall_s",
+        "wall",
+        [[0., 0., 0.], [w, 0., 0.], [w, h, 0.], [0., h, 0.]],
+    );
+    quad(
+        &mut obj,
+        "wall_n",
+        "wall",
+        [[0., 0., d], [0., h, d], [w, h, d], [w, 0., d]],
+    );
+    let mut toml = format!("name = \"{groups}-group room\"\ntransfer = \"columns\"\n[mesh]\ntarget_patches = {target_patches}\n");
+    let per_row = groups.div_ceil(2).max(1);
+    for g in 0..groups {
+        let (row, col) = (g / per_row, g % per_row);
+        let x0 = (col as f64 + 0.3) * w / per_row as f64;
+        let z0 = (row as f64 + 0.35) * d / 2.0;
+        let y = h - 0.02;
+        quad(
+            &mut obj,
+            &format!("panel{g}"),
+            "panel",
+            [
+                [x0, y, z0],
+                [x0 + 0.6, y, z0],
+                [x0 + 0.6, y, z0 + 0.6],
+                [x0, y, z0 + 0.6],
+            ],
+        );
+        toml += &format!("[[lights]]\nid = \"g{g}\"\nsurfaces = [\"panel{g}\"]\nlumens = 3000\n");
+    }
+    std::fs::create_dir_all(dir)?;
+    std::fs::write(dir.join("room.obj"), obj)?;
+    std::fs::write(
+        dir.join("room.mtl"),
+        "newmtl floor\nKd 0.2 0.2 0.2\nnewmtl white\nKd 0.8 0.8 0.8\nnewmtl wall\nKd 0.5 0.5 0.5\n\
+         newmtl panel\nKd 0 0 0\nKe 1000 1000 1000\n",
+    )?;
+    std::fs::write(dir.join("scene.toml"), toml)
+}
