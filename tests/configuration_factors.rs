@@ -41,6 +41,7 @@ fn coaxial_disks(r1: f64, r2: f64, h: f64) -> f64 {
 
 fn assert_rel(got: f64, want: f64, tol: f64, what: &str) {
     let rel = (got - want) / want;
+    eprintln!("{what}: {got:.6} vs {want:.6} ({rel:+.5})");
     assert!(
         rel.abs() <= tol,
         "{what}: got {got:.6}, closed form {want:.6}, rel. error {rel:+.4}"
