@@ -25,6 +25,8 @@ struct Cli {
 
 #[derive(Subcommand)]
 enum Cmd {
+    /// Serve the scenes and the web page over HTTP (bakes in the background).
+    Serve(ServeArgs),
     /// Bake a scene's transfer (form factors, factorization, light-group columns) into the cache.
     Bake {
         /// Scene folder (OBJ + MTL + optional scene.toml). Omit with --all.
@@ -75,6 +77,35 @@ enum Cmd {
     },
 }
 
+#[derive(clap::Args)]
+struct ServeArgs {
+    /// Address to listen on.
+    #[arg(long, env = "RELIGHT_ADDR", default_value = "127.0.0.1:8080")]
+    addr: std::net::SocketAddr,
+    /// Folder of scene folders.
+    #[arg(long, env = "RELIGHT_SCENES", default_value = "scenes")]
+    scenes: PathBuf,
+    /// Cache folder for baked transfers [default: $XDG_CACHE_HOME/relight or ~/.cache/relight].
+    #[arg(long, env = "RELIGHT_CACHE")]
+    cache: Option<PathBuf>,
+    /// Serve only what the cache holds: never bake, never write.
+    #[arg(long, env = "RELIGHT_READ_ONLY")]
+    read_only: bool,
+    /// Folder with the web page, served at /.
+    #[arg(long, env = "RELIGHT_STATIC", default_value = "static")]
+    static_dir: PathBuf,
+    /// Origins allowed by CORS (repeat or comma-separate; `*` for any). Default: same origin only.
+    #[arg(
+        long = "cors-origin",
+        env = "RELIGHT_CORS_ORIGINS",
+        value_delimiter = ','
+    )]
+    cors_origins: Vec<String>,
+    /// Largest request body in bytes.
+    #[arg(long, env = "RELIGHT_BODY_LIMIT", default_value_t = relight::server::DEFAULT_BODY_LIMIT)]
+    body_limit: usize,
+}
+
 fn main() -> ExitCode {
     tracing_subscriber::fmt()
         .with_env_filter(
@@ -95,6 +126,19 @@ fn main() -> ExitCode {
 
 fn run(cli: Cli) -> Result<()> {
     match cli.cmd {
+        Cmd::Serve(a) => {
+            let config = relight::server::ServerConfig {
+                addr: a.addr,
+                scenes: a.scenes,
+                cache: a.cache.unwrap_or_else(bake::default_cache_dir),
+                read_only: a.read_only,
+                static_dir: a.static_dir,
+                cors_origins: a.cors_origins,
+                body_limit: a.body_limit,
+            };
+            let rt = tokio::runtime::Runtime::new()?;
+            rt.block_on(relight::server::serve(config))
+        }
         Cmd::Bake {
             scene,
             all,

@@ -115,3 +115,70 @@ impl Report {
         }
     }
 }
+
+/// An illuminance value: luminous (lux) and per channel.
+#[derive(Debug, Clone, Copy, Serialize, PartialEq)]
+pub struct Lux {
+    pub lux: f64,
+    pub rgb: [f64; 3],
+}
+
+impl Lux {
+    pub fn new(rgb: [f64; 3]) -> Lux {
+        Lux {
+            lux: luminance64(rgb),
+            rgb,
+        }
+    }
+}
+
+/// Illuminance statistics of one surface: area-weighted mean, the darkest and brightest
+/// patch (by luminous value), and the uniformity Emin / Eavg.
+#[derive(Debug, Clone, Serialize)]
+pub struct SurfaceIlluminance {
+    /// m².
+    pub area: f64,
+    pub avg: Lux,
+    pub min: Lux,
+    pub max: Lux,
+    /// Emin / Eavg (luminous); 0 when the surface is unlit.
+    pub uniformity: f64,
+}
+
+/// Statistics of per-patch illuminance `h` (n × 3, lux) over surface `s`.
+pub fn surface_illuminance(mesh: &Mesh, s: usize, h: &[f32]) -> SurfaceIlluminance {
+    let mut area = 0f64;
+    let mut acc = [0f64; 3];
+    let mut min: Option<Lux> = None;
+    let mut max: Option<Lux> = None;
+    for i in mesh.surface_patches[s].clone() {
+        let i = i as usize;
+        let a = mesh.patches[i].area;
+        let rgb = [h[3 * i] as f64, h[3 * i + 1] as f64, h[3 * i + 2] as f64];
+        area += a;
+        for c in 0..3 {
+            acc[c] += a * rgb[c];
+        }
+        let l = Lux::new(rgb);
+        if min.is_none_or(|m| l.lux < m.lux) {
+            min = Some(l);
+        }
+        if max.is_none_or(|m| l.lux > m.lux) {
+            max = Some(l);
+        }
+    }
+    let avg = Lux::new(acc.map(|x| if area > 0.0 { x / area } else { 0.0 }));
+    let zero = Lux::new([0.0; 3]);
+    let min = min.unwrap_or(zero);
+    SurfaceIlluminance {
+        area,
+        avg,
+        min,
+        max: max.unwrap_or(zero),
+        uniformity: if avg.lux > 0.0 {
+            min.lux / avg.lux
+        } else {
+            0.0
+        },
+    }
+}

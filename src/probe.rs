@@ -1,0 +1,76 @@
+//! Illuminance at arbitrary points, gathered from a solved scene.
+//!
+//! `E(x, n) = Σ_j F(x → P_j) · V(x, P_j) · B_j`: the exact point-to-polygon factor of every
+//! patch whose front faces x (clipped to the hemisphere above x), times the fraction of
+//! visibility rays from x to stratified points on the patch that are unblocked. A point
+//! lying on a surface sees the hemisphere above it: rays start a hair above the point.
+
+use glam::{DVec3, Vec3A};
+use rayon::prelude::*;
+
+use crate::bvh::Bvh;
+use crate::formfactor::point_to_polygon;
+use crate::mesh::Mesh;
+
+/// Rays every contributing patch gets first; a patch the probes see partly hidden gets
+/// [`FULL_RAYS`].
+const PROBE_RAYS: u32 = 4;
+const FULL_RAYS: u32 = 16;
+
+/// Illuminance (lux per channel) at `x` on a receiver facing `n`, for per-patch radiosity
+/// `b` (n × 3 interleaved, lm/m²).
+pub fn illuminance_at(mesh: &Mesh, bvh: &Bvh, b: &[f32], x: DVec3, n: DVec3) -> [f64; 3] {
+    let n = n.normalize();
+    let lift = 1e-6 * (1.0 + x.abs().max_element());
+    let origin = x + n * lift;
+    let o = Vec3A::from(origin.as_vec3());
+    (0..mesh.len())
+        .into_par_iter()
+        .with_min_len(256)
+        .map(|j| {
+            let bj = [b[3 * j], b[3 * j + 1], b[3 * j + 2]];
+            if bj.iter().all(|&v| v == 0.0) {
+                return [0.0; 3];
+            }
+            let p = &mesh.patches[j];
+            if p.normal.dot(x - p.centroid) <= 0.0 {
+                return [0.0; 3];
+            }
+            let c = mesh.corners(j);
+            let ff = point_to_polygon(x, n, &c);
+            if ff <= 0.0 {
+                return [0.0; 3];
+            }
+            let mut state = (j as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15) | 1;
+            let mut next = || {
+                state ^= state << 13;
+                state ^= state >> 7;
+                state ^= state << 17;
+                (state >> 11) as f64 / (1u64 << 53) as f64
+            };
+            let mut cast = |count: u32| {
+                let mut free = 0;
+                for r in 0..count {
+                    let (mut u, mut v) = ((r as f64 + next()) / count as f64, next());
+                    if u + v > 1.0 {
+                        u = 1.0 - u;
+                        v = 1.0 - v;
+                    }
+                    let g = p.centroid;
+                    let y = g + (c[0] + (c[1] - c[0]) * u + (c[2] - c[0]) * v - g) * (1.0 - 1e-4);
+                    let blocked = bvh.occluded(o, Vec3A::from(y.as_vec3()), [p.source, u32::MAX]);
+                    free += u32::from(!blocked);
+                }
+                free
+            };
+            let mut free = cast(PROBE_RAYS);
+            let mut total = PROBE_RAYS;
+            if free != 0 && free != PROBE_RAYS {
+                free += cast(FULL_RAYS - PROBE_RAYS);
+                total = FULL_RAYS;
+            }
+            let w = ff * free as f64 / total as f64;
+            bj.map(|v| w * v as f64)
+        })
+        .reduce(|| [0.0; 3], |a, b| [a[0] + b[0], a[1] + b[1], a[2] + b[2]])
+}

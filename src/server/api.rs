@@ -1,0 +1,672 @@
+//! Request handlers. Bodies are parsed from JSON by hand (after a syntax check by
+//! serde_json) so that every mistake gets a precise 422 message naming the field.
+
+use std::collections::BTreeMap;
+use std::sync::Arc;
+
+use axum::body::Bytes;
+use axum::extract::rejection::BytesRejection;
+use axum::extract::{Path, State};
+use axum::http::{header, HeaderMap, StatusCode};
+use axum::response::{IntoResponse, Response};
+use axum::Json;
+use glam::DVec3;
+use serde::Serialize;
+use serde_json::{json, Map, Value};
+
+use super::{AppError, AppState, Ready};
+use crate::color::Rgb;
+use crate::lighting::{known_ids, LightSetting, LightState};
+use crate::report::{surface_averages, surface_illuminance, Lux, PowerReport, SurfaceIlluminance};
+use crate::transfer::{Solution, TransferMode};
+
+/// Largest emission value accepted, lm/m².
+pub const MAX_EMISSION: f64 = 1e9;
+/// Most lighting states in one batch.
+pub const MAX_BATCH: usize = 1000;
+/// Most points in one illuminance request.
+pub const MAX_POINTS: usize = 10_000;
+
+type ApiResult = Result<Response, AppError>;
+
+pub async fn healthz() -> &'static str {
+    "ok"
+}
+
+pub async fn not_found() -> AppError {
+    AppError::NotFound("no such endpoint; see /api/openapi.json".into())
+}
+
+pub async fn metrics(State(state): State<Arc<AppState>>) -> Response {
+    (
+        [(
+            header::CONTENT_TYPE,
+            "text/plain; version=0.0.4; charset=utf-8",
+        )],
+        state.metrics.render(),
+    )
+        .into_response()
+}
+
+pub async fn openapi() -> Response {
+    (
+        [(header::CONTENT_TYPE, "application/json")],
+        super::openapi::spec().to_string(),
+    )
+        .into_response()
+}
+
+fn scene_summary(slot: &super::SceneSlot) -> Value {
+    let (status, ready, error) = slot.status();
+    let mut v = json!({
+        "id": slot.id,
+        "name": ready.as_ref().map_or(slot.id.clone(), |r| r.baked.scene.name.clone()),
+        "status": status,
+        "progress": slot.progress(),
+    });
+    if let Some(r) = ready {
+        v["patches"] = json!(r.baked.transfer.n);
+        v["lights"] = json!(r.groups);
+        v["transfer"] = json!(r.baked.transfer.mode);
+    }
+    if let Some(e) = error {
+        v["error"] = json!(e);
+    }
+    v
+}
+
+pub async fn readyz(State(state): State<Arc<AppState>>) -> Response {
+    let scenes: Vec<Value> = state.slots.iter().map(|s| scene_summary(s)).collect();
+    let ready = state.settled();
+    let status = if ready {
+        StatusCode::OK
+    } else {
+        StatusCode::SERVICE_UNAVAILABLE
+    };
+    (status, Json(json!({ "ready": ready, "scenes": scenes }))).into_response()
+}
+
+pub async fn list_scenes(State(state): State<Arc<AppState>>) -> Json<Value> {
+    Json(json!({
+        "scenes": state.slots.iter().map(|s| scene_summary(s)).collect::<Vec<_>>()
+    }))
+}
+
+pub async fn scene_details(
+    State(state): State<Arc<AppState>>,
+    Path(id): Path<String>,
+) -> ApiResult {
+    let r = state.slot(&id)?.ready()?;
+    let b = &r.baked;
+    let (lo, hi) = b.scene.bounds();
+    let surfaces: Vec<Value> = b
+        .scene
+        .surfaces
+        .iter()
+        .enumerate()
+        .map(|(k, s)| {
+            let range = &b.mesh.surface_patches[k];
+            let area: f64 = range.clone().map(|i| b.mesh.patches[i as usize].area).sum();
+            json!({
+                "id": s.name, "index": k, "area": area,
+                "patches": {"start": range.start, "end": range.end, "count": range.len()},
+                "two_sided": s.two_sided,
+            })
+        })
+        .collect();
+    Ok(Json(json!({
+        "id": b.scene.id,
+        "name": b.scene.name,
+        "status": "ready",
+        "patches": b.transfer.n,
+        "transfer": b.transfer.mode,
+        "units": {"length": "m", "source_units": b.scene.units, "scale_to_m": b.scene.scale,
+                  "radiosity": "lm/m2", "illuminance": "lx", "flux": "lm"},
+        "bounds": {"min": lo.to_array(), "max": hi.to_array()},
+        "lights": r.groups,
+        "cameras": b.scene.cameras,
+        "surfaces": surfaces,
+        "bake": {"seconds": r.bake_seconds, "from_cache": b.stats.from_cache, "residual": b.transfer.info.residual},
+    }))
+    .into_response())
+}
+
+fn wants_binary(headers: &HeaderMap) -> bool {
+    headers
+        .get(header::ACCEPT)
+        .and_then(|v| v.to_str().ok())
+        .is_some_and(|a| a.contains("application/octet-stream"))
+}
+
+fn binary(floats: Vec<f32>, n: usize, layout: &'static str) -> Response {
+    let bytes: Vec<u8> = bytemuck::cast_slice(&floats).to_vec();
+    (
+        [
+            (header::CONTENT_TYPE, "application/octet-stream".to_string()),
+            (
+                header::HeaderName::from_static("x-relight-patches"),
+                n.to_string(),
+            ),
+            (
+                header::HeaderName::from_static("x-relight-layout"),
+                layout.to_string(),
+            ),
+        ],
+        bytes,
+    )
+        .into_response()
+}
+
+pub async fn patches(
+    State(state): State<Arc<AppState>>,
+    Path(id): Path<String>,
+    headers: HeaderMap,
+) -> ApiResult {
+    let r = state.slot(&id)?.ready()?;
+    let m = &r.baked.mesh;
+    if wants_binary(&headers) {
+        let mut out = Vec::with_capacity(8 * m.len());
+        for p in &m.patches {
+            out.push(f32::from_bits(p.surface));
+            out.push(p.area as f32);
+            out.extend(p.centroid.as_vec3().to_array());
+            out.extend(p.normal.as_vec3().to_array());
+        }
+        return Ok(binary(
+            out,
+            m.len(),
+            "per patch 32 bytes LE: u32 surface, f32 area m2, f32x3 centroid m, f32x3 normal",
+        ));
+    }
+    let names = &r.baked.scene.surfaces;
+    let list: Vec<Value> = m
+        .patches
+        .iter()
+        .map(|p| {
+            json!({
+                "surface": names[p.surface as usize].name,
+                "area": p.area,
+                "centroid": p.centroid.to_array(),
+                "normal": p.normal.to_array(),
+            })
+        })
+        .collect();
+    Ok(Json(json!({ "patches": list })).into_response())
+}
+
+// ---------------------------------------------------------------------------- parsing
+
+/// Parses a JSON object body; 400 for syntax, 413 for size, 415 for content type.
+fn parse_body(
+    headers: &HeaderMap,
+    body: Result<Bytes, BytesRejection>,
+) -> Result<Map<String, Value>, AppError> {
+    // Multipart bodies are never JSON; anything else (curl's default form type included)
+    // is parsed as JSON and judged by its content.
+    if let Some(ct) = headers
+        .get(header::CONTENT_TYPE)
+        .and_then(|v| v.to_str().ok())
+    {
+        if ct.starts_with("multipart/") {
+            return Err(AppError::UnsupportedMediaType(format!(
+                "content type '{ct}': send application/json"
+            )));
+        }
+    }
+    let body = body.map_err(|e| {
+        if e.status() == StatusCode::PAYLOAD_TOO_LARGE {
+            AppError::TooLarge(format!("request body exceeds the limit: {}", e.body_text()))
+        } else {
+            AppError::BadRequest(e.body_text())
+        }
+    })?;
+    if body.is_empty() {
+        return Ok(Map::new());
+    }
+    match serde_json::from_slice::<Value>(&body) {
+        Ok(Value::Object(m)) => Ok(m),
+        Ok(_) => Err(AppError::Invalid("the body must be a JSON object".into())),
+        Err(e) if e.is_syntax() || e.is_eof() => {
+            Err(AppError::BadRequest(format!("malformed JSON: {e}")))
+        }
+        Err(e) => Err(AppError::Invalid(format!("invalid JSON: {e}"))),
+    }
+}
+
+fn check_keys(body: &Map<String, Value>, allowed: &[&str]) -> Result<(), AppError> {
+    for k in body.keys() {
+        if !allowed.contains(&k.as_str()) {
+            return Err(AppError::Invalid(format!(
+                "unknown field '{k}' (expected: {})",
+                allowed.join(", ")
+            )));
+        }
+    }
+    Ok(())
+}
+
+fn number(v: &Value, what: &str) -> Result<f64, AppError> {
+    let x = v
+        .as_f64()
+        .ok_or_else(|| AppError::Invalid(format!("{what} must be a number, got {v}")))?;
+    if !x.is_finite() {
+        return Err(AppError::Invalid(format!("{what} must be finite")));
+    }
+    Ok(x)
+}
+
+fn triple(v: &Value, what: &str) -> Result<[f64; 3], AppError> {
+    let arr = v.as_array().filter(|a| a.len() == 3).ok_or_else(|| {
+        AppError::Invalid(format!("{what} must be an array of three numbers, got {v}"))
+    })?;
+    Ok([
+        number(&arr[0], what)?,
+        number(&arr[1], what)?,
+        number(&arr[2], what)?,
+    ])
+}
+
+/// `"lights": {"<group>": 0.5 | {"intensity": 0.5, "color": [r, g, b]}}` → per-group weights.
+pub fn parse_lights(v: Option<&Value>, ready: &Ready) -> Result<Vec<Rgb>, AppError> {
+    let scene = &ready.baked.scene;
+    let mut state = LightState::default();
+    if let Some(v) = v {
+        let obj = v.as_object().ok_or_else(|| {
+            AppError::Invalid(format!(
+                "'lights' must be an object of group settings, got {v}"
+            ))
+        })?;
+        for (id, s) in obj {
+            let g = scene.light_index(id).ok_or_else(|| {
+                AppError::Invalid(format!(
+                    "unknown light group '{id}' (known: {})",
+                    known_ids(scene)
+                ))
+            })?;
+            let def = &scene.lights[g];
+            let mut setting = LightSetting {
+                intensity: def.intensity,
+                color: def.color,
+            };
+            match s {
+                Value::Object(o) => {
+                    for k in o.keys() {
+                        if k != "intensity" && k != "color" {
+                            return Err(AppError::Invalid(format!(
+                                "light '{id}': unknown field '{k}' (expected intensity, color)"
+                            )));
+                        }
+                    }
+                    if let Some(i) = o.get("intensity") {
+                        setting.intensity = number(i, &format!("light '{id}' intensity"))? as f32;
+                    }
+                    if let Some(c) = o.get("color") {
+                        setting.color =
+                            triple(c, &format!("light '{id}' color"))?.map(|x| x as f32);
+                    }
+                }
+                other => setting.intensity = number(other, &format!("light '{id}'"))? as f32,
+            }
+            setting.validate(id)?;
+            state.lights.insert(id.clone(), setting);
+        }
+    }
+    Ok(state.weights(scene)?)
+}
+
+/// Per-patch emission, dense `[[r,g,b], …]` or sparse `{"<index>": [r,g,b]}`.
+fn parse_emission(v: &Value, ready: &Ready) -> Result<Vec<f32>, AppError> {
+    let t = &ready.baked.transfer;
+    if t.mode != TransferMode::Factored {
+        return Err(AppError::Invalid(format!(
+            "scene '{}' uses the columns transfer, which answers light groups only; per-patch \
+             emission needs transfer = \"factored\" in scene.toml",
+            ready.baked.scene.id
+        )));
+    }
+    let n = t.n;
+    let mut e = vec![0f32; 3 * n];
+    let mut put = |i: usize, val: &Value| -> Result<(), AppError> {
+        let what = format!("emission[{i}]");
+        let tr = triple(val, &what)?;
+        for (c, x) in tr.iter().enumerate() {
+            if *x < 0.0 || *x > MAX_EMISSION {
+                return Err(AppError::Invalid(format!(
+                    "{what}: values must be in [0, {MAX_EMISSION:e}] lm/m², got {x}"
+                )));
+            }
+            e[3 * i + c] = *x as f32;
+        }
+        Ok(())
+    };
+    match v {
+        Value::Array(a) => {
+            if a.len() != n {
+                return Err(AppError::Invalid(format!(
+                    "emission has {} entries; the scene has {n} patches (one [r,g,b] per patch)",
+                    a.len()
+                )));
+            }
+            for (i, val) in a.iter().enumerate() {
+                put(i, val)?;
+            }
+        }
+        Value::Object(o) => {
+            for (k, val) in o {
+                let i: usize = k.parse().map_err(|_| {
+                    AppError::Invalid(format!("emission key '{k}' is not a patch index"))
+                })?;
+                if i >= n {
+                    return Err(AppError::Invalid(format!(
+                        "emission patch index {i} out of range (the scene has {n} patches)"
+                    )));
+                }
+                put(i, val)?;
+            }
+        }
+        other => {
+            return Err(AppError::Invalid(format!(
+                "emission must be an array of [r,g,b] per patch or an object of patch index → [r,g,b], got {}",
+                kind(other)
+            )))
+        }
+    }
+    Ok(e)
+}
+
+fn kind(v: &Value) -> &'static str {
+    match v {
+        Value::Null => "null",
+        Value::Bool(_) => "a boolean",
+        Value::Number(_) => "a number",
+        Value::String(_) => "a string",
+        Value::Array(_) => "an array",
+        Value::Object(_) => "an object",
+    }
+}
+
+/// A lighting request: group settings or a per-patch emission.
+enum Lighting {
+    Groups(Vec<Rgb>),
+    Emission(Vec<f32>),
+}
+
+fn parse_lighting(body: &Map<String, Value>, ready: &Ready) -> Result<Lighting, AppError> {
+    match (body.get("lights"), body.get("emission")) {
+        (Some(_), Some(_)) => Err(AppError::Invalid(
+            "give either 'lights' (group settings) or 'emission' (per patch), not both".into(),
+        )),
+        (_, Some(e)) => Ok(Lighting::Emission(parse_emission(e, ready)?)),
+        (l, None) => Ok(Lighting::Groups(parse_lights(l, ready)?)),
+    }
+}
+
+fn solve(ready: &Ready, l: &Lighting) -> Result<Solution, AppError> {
+    match l {
+        Lighting::Groups(w) => Ok(ready.baked.transfer.relight(w)),
+        Lighting::Emission(e) => ready
+            .baked
+            .transfer
+            .solve(e)
+            .ok_or_else(|| AppError::Internal("factored data missing".into())),
+    }
+}
+
+async fn blocking<T: Send + 'static>(
+    f: impl FnOnce() -> Result<T, AppError> + Send + 'static,
+) -> Result<T, AppError> {
+    tokio::task::spawn_blocking(f)
+        .await
+        .map_err(|e| AppError::Internal(format!("worker failed: {e}")))?
+}
+
+fn surface_list(v: Option<&Value>, ready: &Ready) -> Result<Vec<usize>, AppError> {
+    let scene = &ready.baked.scene;
+    let Some(v) = v else { return Ok(vec![]) };
+    let arr = v.as_array().ok_or_else(|| {
+        AppError::Invalid(format!(
+            "'surfaces' must be an array of surface names, got {}",
+            kind(v)
+        ))
+    })?;
+    arr.iter()
+        .map(|s| {
+            let name = s.as_str().ok_or_else(|| {
+                AppError::Invalid(format!("surface names must be strings, got {s}"))
+            })?;
+            scene.surface_index(name).ok_or_else(|| {
+                let known: Vec<&str> = scene.surfaces.iter().map(|s| s.name.as_str()).collect();
+                AppError::Invalid(format!(
+                    "unknown surface '{name}' (known: {})",
+                    known.join(", ")
+                ))
+            })
+        })
+        .collect()
+}
+
+fn surface_stats(
+    ready: &Ready,
+    surfaces: &[usize],
+    h: &[f32],
+) -> BTreeMap<String, SurfaceIlluminance> {
+    surfaces
+        .iter()
+        .map(|&s| {
+            (
+                ready.baked.scene.surfaces[s].name.clone(),
+                surface_illuminance(&ready.baked.mesh, s, h),
+            )
+        })
+        .collect()
+}
+
+// ---------------------------------------------------------------------------- endpoints
+
+pub async fn radiosity(
+    State(state): State<Arc<AppState>>,
+    Path(id): Path<String>,
+    headers: HeaderMap,
+    body: Result<Bytes, BytesRejection>,
+) -> ApiResult {
+    let ready = state.slot(&id)?.ready()?;
+    let body = parse_body(&headers, body)?;
+    check_keys(&body, &["lights", "emission", "surfaces"])?;
+    let want_surfaces = match body.get("surfaces") {
+        None => false,
+        Some(Value::Bool(b)) => *b,
+        Some(v) => {
+            return Err(AppError::Invalid(format!(
+                "'surfaces' must be true or false, got {v}"
+            )))
+        }
+    };
+    let lighting = parse_lighting(&body, &ready)?;
+    let n = ready.baked.transfer.n;
+    // The hot path: group weights and binary out, no surfaces: one weighted sum.
+    if let (Lighting::Groups(w), true, false) = (&lighting, wants_binary(&headers), want_surfaces) {
+        let mut out = vec![0f32; 3 * n];
+        ready.baked.transfer.relight_into(w, &mut out);
+        return Ok(binary(out, n, "f32 LE [patch][r,g,b] radiosity, lm/m2"));
+    }
+    let r2 = ready.clone();
+    let sol = match lighting {
+        l @ Lighting::Emission(_) => blocking(move || solve(&r2, &l)).await?,
+        l => solve(&ready, &l)?,
+    };
+    if wants_binary(&headers) {
+        return Ok(binary(sol.b, n, "f32 LE [patch][r,g,b] radiosity, lm/m2"));
+    }
+    #[derive(Serialize)]
+    struct Out<'a> {
+        scene: &'a str,
+        patches: usize,
+        unit: &'static str,
+        radiosity: &'a [[f32; 3]],
+        #[serde(skip_serializing_if = "Option::is_none")]
+        surfaces: Option<BTreeMap<String, crate::report::SurfaceAverage>>,
+    }
+    let b = &ready.baked;
+    let rgb: &[[f32; 3]] = bytemuck::cast_slice(&sol.b);
+    let out = Out {
+        scene: &b.scene.id,
+        patches: n,
+        unit: "lm/m2",
+        radiosity: rgb,
+        surfaces: want_surfaces.then(|| surface_averages(&b.scene, &b.mesh, &sol)),
+    };
+    Ok(Json(out).into_response())
+}
+
+fn parse_points(v: &Value) -> Result<Vec<(DVec3, DVec3)>, AppError> {
+    let arr = v
+        .as_array()
+        .ok_or_else(|| AppError::Invalid(format!("'points' must be an array, got {}", kind(v))))?;
+    if arr.len() > MAX_POINTS {
+        return Err(AppError::Invalid(format!(
+            "{} points requested; the limit is {MAX_POINTS} per request",
+            arr.len()
+        )));
+    }
+    arr.iter()
+        .enumerate()
+        .map(|(k, p)| {
+            let o = p.as_object().ok_or_else(|| {
+                AppError::Invalid(format!(
+                    "points[{k}] must be {{\"position\": [x,y,z], \"normal\": [x,y,z]}}"
+                ))
+            })?;
+            for key in o.keys() {
+                if key != "position" && key != "normal" {
+                    return Err(AppError::Invalid(format!(
+                        "points[{k}]: unknown field '{key}'"
+                    )));
+                }
+            }
+            let pos = triple(
+                o.get("position").unwrap_or(&Value::Null),
+                &format!("points[{k}].position"),
+            )?;
+            let nrm = triple(
+                o.get("normal").unwrap_or(&Value::Null),
+                &format!("points[{k}].normal"),
+            )?;
+            let n = DVec3::from_array(nrm);
+            if n.length() < 1e-9 {
+                return Err(AppError::Invalid(format!(
+                    "points[{k}].normal must not be zero"
+                )));
+            }
+            Ok((DVec3::from_array(pos), n.normalize()))
+        })
+        .collect()
+}
+
+pub async fn illuminance(
+    State(state): State<Arc<AppState>>,
+    Path(id): Path<String>,
+    headers: HeaderMap,
+    body: Result<Bytes, BytesRejection>,
+) -> ApiResult {
+    let ready = state.slot(&id)?.ready()?;
+    let body = parse_body(&headers, body)?;
+    check_keys(&body, &["lights", "emission", "surfaces", "points"])?;
+    let lighting = parse_lighting(&body, &ready)?;
+    let mut surfaces = surface_list(body.get("surfaces"), &ready)?;
+    let points = body
+        .get("points")
+        .map(parse_points)
+        .transpose()?
+        .unwrap_or_default();
+    if surfaces.is_empty() && points.is_empty() && body.get("surfaces").is_none() {
+        surfaces = (0..ready.baked.scene.surfaces.len()).collect();
+    }
+    let heavy = !points.is_empty() || matches!(lighting, Lighting::Emission(_));
+    let work = move |ready: Arc<Ready>| -> Result<Value, AppError> {
+        let sol = solve(&ready, &lighting)?;
+        let stats = surface_stats(&ready, &surfaces, &sol.h);
+        let b = &ready.baked;
+        let pts: Vec<Lux> = points
+            .iter()
+            .map(|(x, n)| {
+                Lux::new(crate::probe::illuminance_at(
+                    &b.mesh, &b.bvh, &sol.b, *x, *n,
+                ))
+            })
+            .collect();
+        Ok(json!({ "unit": "lx", "points": pts, "surfaces": stats }))
+    };
+    let v = if heavy {
+        let r = ready.clone();
+        blocking(move || work(r)).await?
+    } else {
+        work(ready)?
+    };
+    Ok(Json(v).into_response())
+}
+
+pub async fn batch(
+    State(state): State<Arc<AppState>>,
+    Path(id): Path<String>,
+    headers: HeaderMap,
+    body: Result<Bytes, BytesRejection>,
+) -> ApiResult {
+    let ready = state.slot(&id)?.ready()?;
+    let body = parse_body(&headers, body)?;
+    check_keys(&body, &["states", "surfaces", "radiosity"])?;
+    let states = body
+        .get("states")
+        .and_then(Value::as_array)
+        .ok_or_else(|| AppError::Invalid("'states' must be an array of lighting states".into()))?;
+    if states.is_empty() || states.len() > MAX_BATCH {
+        return Err(AppError::Invalid(format!(
+            "'states' has {} entries; give 1 to {MAX_BATCH}",
+            states.len()
+        )));
+    }
+    let with_radiosity = match body.get("radiosity") {
+        None => false,
+        Some(Value::Bool(b)) => *b,
+        Some(v) => {
+            return Err(AppError::Invalid(format!(
+                "'radiosity' must be true or false, got {v}"
+            )))
+        }
+    };
+    let mut surfaces = surface_list(body.get("surfaces"), &ready)?;
+    if body.get("surfaces").is_none() {
+        surfaces = (0..ready.baked.scene.surfaces.len()).collect();
+    }
+    let mut parsed = Vec::with_capacity(states.len());
+    for (k, s) in states.iter().enumerate() {
+        let obj = s
+            .as_object()
+            .ok_or_else(|| AppError::Invalid(format!("states[{k}] must be an object")))?;
+        check_keys(obj, &["lights", "emission"])
+            .map_err(|e| AppError::Invalid(format!("states[{k}]: {e}")))?;
+        parsed.push(
+            parse_lighting(obj, &ready)
+                .map_err(|e| AppError::Invalid(format!("states[{k}]: {e}")))?,
+        );
+    }
+    let r = ready.clone();
+    let results = blocking(move || {
+        parsed
+            .iter()
+            .map(|l| {
+                let sol = solve(&r, l)?;
+                let mut v = json!({
+                    "surfaces": surface_stats(&r, &surfaces, &sol.h),
+                    "power": PowerReport::new(r.baked.transfer.power(&sol)),
+                });
+                if with_radiosity {
+                    let rgb: &[[f32; 3]] = bytemuck::cast_slice(&sol.b);
+                    v["radiosity"] = json!(rgb);
+                }
+                Ok(v)
+            })
+            .collect::<Result<Vec<_>, AppError>>()
+    })
+    .await?;
+    Ok(Json(json!({ "unit": {"illuminance": "lx", "radiosity": "lm/m2", "power": "lm"}, "results": results })).into_response())
+}

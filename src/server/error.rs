@@ -1,0 +1,85 @@
+//! `AppError`: every failure of a request, rendered as an RFC 9457 problem document
+//! (`application/problem+json`) with a precise `detail`.
+
+use axum::http::{header, StatusCode};
+use axum::response::{IntoResponse, Response};
+use serde_json::json;
+
+#[derive(Debug, thiserror::Error)]
+pub enum AppError {
+    /// 400: the body is not valid JSON (or a query string is malformed).
+    #[error("{0}")]
+    BadRequest(String),
+    /// 404: unknown scene or route.
+    #[error("{0}")]
+    NotFound(String),
+    /// 413: the body exceeds the limit.
+    #[error("{0}")]
+    TooLarge(String),
+    /// 415: wrong content type.
+    #[error("{0}")]
+    UnsupportedMediaType(String),
+    /// 422: well-formed JSON with invalid content (unknown light, wrong length, NaN…).
+    #[error("{0}")]
+    Invalid(String),
+    /// 503: the scene is still baking (with progress) or failed to load.
+    #[error("{detail}")]
+    Unavailable {
+        detail: String,
+        progress: Option<f64>,
+    },
+    /// 500: a bug. Never produced by bad input.
+    #[error("{0}")]
+    Internal(String),
+}
+
+impl AppError {
+    pub fn status(&self) -> StatusCode {
+        match self {
+            AppError::BadRequest(_) => StatusCode::BAD_REQUEST,
+            AppError::NotFound(_) => StatusCode::NOT_FOUND,
+            AppError::TooLarge(_) => StatusCode::PAYLOAD_TOO_LARGE,
+            AppError::UnsupportedMediaType(_) => StatusCode::UNSUPPORTED_MEDIA_TYPE,
+            AppError::Invalid(_) => StatusCode::UNPROCESSABLE_ENTITY,
+            AppError::Unavailable { .. } => StatusCode::SERVICE_UNAVAILABLE,
+            AppError::Internal(_) => StatusCode::INTERNAL_SERVER_ERROR,
+        }
+    }
+}
+
+impl From<crate::lighting::LightError> for AppError {
+    fn from(e: crate::lighting::LightError) -> Self {
+        AppError::Invalid(e.to_string())
+    }
+}
+
+impl IntoResponse for AppError {
+    fn into_response(self) -> Response {
+        let status = self.status();
+        if status.is_server_error() && status != StatusCode::SERVICE_UNAVAILABLE {
+            tracing::error!("internal error: {self}");
+        }
+        let mut body = json!({
+            "type": "about:blank",
+            "title": status.canonical_reason().unwrap_or("Error"),
+            "status": status.as_u16(),
+            "detail": self.to_string(),
+        });
+        if let AppError::Unavailable {
+            progress: Some(p), ..
+        } = &self
+        {
+            body["progress"] = json!(p);
+        }
+        let mut resp = (status, body.to_string()).into_response();
+        resp.headers_mut().insert(
+            header::CONTENT_TYPE,
+            header::HeaderValue::from_static("application/problem+json"),
+        );
+        if status == StatusCode::SERVICE_UNAVAILABLE {
+            resp.headers_mut()
+                .insert(header::RETRY_AFTER, header::HeaderValue::from_static("2"));
+        }
+        resp
+    }
+}

@@ -1,0 +1,109 @@
+//! The OpenAPI 3 description of the API, served at `/api/openapi.json`.
+
+use serde_json::{json, Value};
+
+fn problem(desc: &str) -> Value {
+    json!({"description": desc, "content": {"application/problem+json": {"schema": {"$ref": "#/components/schemas/Problem"}}}})
+}
+
+fn scene_id() -> Value {
+    json!({"name": "id", "in": "path", "required": true, "description": "Scene id: the scene's folder name.", "schema": {"type": "string"}})
+}
+
+fn errors() -> Value {
+    json!({
+        "400": problem("Malformed JSON."),
+        "404": problem("Unknown scene."),
+        "413": problem("Body over the size limit."),
+        "415": problem("Content type is not JSON."),
+        "422": problem("Invalid content: unknown light group or surface, wrong emission length, NaN, infinite, negative or too large values, a colour that is not three numbers."),
+        "503": problem("The scene is still baking (with `progress`) or failed to load (with its error).")
+    })
+}
+
+/// The spec document.
+pub fn spec() -> Value {
+    let mut radiosity_resp = errors();
+    radiosity_resp["200"] = json!({
+        "description": "Per-patch radiosity in lm/m², in patch order.",
+        "content": {
+            "application/json": {"schema": {"$ref": "#/components/schemas/RadiosityResponse"}},
+            "application/octet-stream": {"schema": {"type": "string", "format": "binary",
+                "description": "n × 3 little-endian f32: [r, g, b] radiosity (lm/m²) of each patch in patch order. Header X-Relight-Patches gives n."}}
+        }
+    });
+    let mut illum_resp = errors();
+    illum_resp["200"] = json!({"description": "Illuminance answers in lux.",
+        "content": {"application/json": {"schema": {"$ref": "#/components/schemas/IlluminanceResponse"}}}});
+    let mut batch_resp = errors();
+    batch_resp["200"] = json!({"description": "One result per state, in request order.",
+        "content": {"application/json": {"schema": {"type": "object", "properties": {
+            "results": {"type": "array", "items": {"type": "object", "properties": {
+                "surfaces": {"type": "object", "additionalProperties": {"$ref": "#/components/schemas/SurfaceIlluminance"}},
+                "power": {"$ref": "#/components/schemas/Power"},
+                "radiosity": {"type": "array", "items": {"$ref": "#/components/schemas/Rgb"}}}}}}}}}});
+    json!({
+        "openapi": "3.0.3",
+        "info": {
+            "title": "relight",
+            "version": env!("CARGO_PKG_VERSION"),
+            "description": "Relights static scenes from a precomputed radiosity transfer. Units: radiosity and exitance in lm/m² (per linear RGB channel), illuminance in lux, flux in lumens, lengths in metres. The luminous value of an RGB triple is Y = 0.2126 R + 0.7152 G + 0.0722 B. Errors are RFC 9457 problem documents."
+        },
+        "paths": {
+            "/healthz": {"get": {"summary": "Liveness: 200 while the process is up.", "responses": {"200": {"description": "ok", "content": {"text/plain": {}}}}}},
+            "/readyz": {"get": {"summary": "Readiness: 200 once every scene is ready or failed, else 503 with progress.",
+                "responses": {"200": {"description": "All scenes settled.", "content": {"application/json": {}}}, "503": {"description": "Some scene is still baking.", "content": {"application/json": {}}}}}},
+            "/metrics": {"get": {"summary": "Prometheus metrics: requests and latency per route, bake times.", "responses": {"200": {"description": "Text exposition format.", "content": {"text/plain": {}}}}}},
+            "/api/scenes": {"get": {"summary": "All scenes with status (queued, baking with progress 0..1, ready, failed with error), patch count and light groups.",
+                "responses": {"200": {"description": "Scene list.", "content": {"application/json": {"schema": {"type": "object", "properties": {"scenes": {"type": "array", "items": {"$ref": "#/components/schemas/SceneSummary"}}}}}}}}}},
+            "/api/scenes/{id}": {"get": {"summary": "Light groups, cameras, surfaces (with patch ranges), bounds, units and transfer mode of a scene.",
+                "parameters": [scene_id()], "responses": {"200": {"description": "Scene details.", "content": {"application/json": {}}}, "404": problem("Unknown scene."), "503": problem("Baking or failed.")}}},
+            "/api/scenes/{id}/patches": {"get": {"summary": "Per patch: surface, area (m²), centroid and normal (m).",
+                "parameters": [scene_id()],
+                "responses": {"200": {"description": "Patches in patch order.", "content": {
+                    "application/json": {},
+                    "application/octet-stream": {"schema": {"type": "string", "format": "binary",
+                        "description": "32 bytes per patch, little-endian: u32 surface index, f32 area, f32×3 centroid, f32×3 unit normal."}}}},
+                    "404": problem("Unknown scene."), "503": problem("Baking or failed.")}}},
+            "/api/scenes/{id}/radiosity": {"post": {"summary": "Per-patch radiosity for a lighting state (group settings, or a per-patch emission in factored mode).",
+                "parameters": [scene_id()],
+                "requestBody": {"required": false, "content": {"application/json": {"schema": {"$ref": "#/components/schemas/RadiosityRequest"}}}},
+                "responses": radiosity_resp}},
+            "/api/scenes/{id}/illuminance": {"post": {"summary": "Illuminance per surface (avg, min, max, uniformity) and at points (gathered from the solved patches with occlusion).",
+                "parameters": [scene_id()],
+                "requestBody": {"required": false, "content": {"application/json": {"schema": {"$ref": "#/components/schemas/IlluminanceRequest"}}}},
+                "responses": illum_resp}},
+            "/api/scenes/{id}/batch": {"post": {"summary": "Up to 1000 lighting states in one request, each with surface illuminance statistics and the power balance.",
+                "parameters": [scene_id()],
+                "requestBody": {"required": true, "content": {"application/json": {"schema": {"type": "object", "required": ["states"], "properties": {
+                    "states": {"type": "array", "maxItems": 1000, "items": {"$ref": "#/components/schemas/LightingState"}},
+                    "surfaces": {"type": "array", "items": {"type": "string"}, "description": "Surfaces to report (default: all)."},
+                    "radiosity": {"type": "boolean", "description": "Also return per-patch radiosity for each state."}}}}}},
+                "responses": batch_resp}}
+        },
+        "components": {"schemas": {
+            "Rgb": {"type": "array", "items": {"type": "number"}, "minItems": 3, "maxItems": 3},
+            "Problem": {"type": "object", "properties": {"type": {"type": "string"}, "title": {"type": "string"}, "status": {"type": "integer"}, "detail": {"type": "string"}, "progress": {"type": "number"}}},
+            "LightSetting": {"oneOf": [
+                {"type": "number", "minimum": 0, "description": "Intensity (dimming factor; 1 = as modelled)."},
+                {"type": "object", "additionalProperties": false, "properties": {"intensity": {"type": "number", "minimum": 0}, "color": {"$ref": "#/components/schemas/Rgb"}}}]},
+            "LightingState": {"type": "object", "additionalProperties": false, "properties": {
+                "lights": {"type": "object", "additionalProperties": {"$ref": "#/components/schemas/LightSetting"}, "description": "Group id → setting. Groups left out keep their defaults."},
+                "emission": {"description": "Factored mode only: per-patch emitted exitance (lm/m²), dense (one [r,g,b] per patch) or sparse (patch index → [r,g,b]). Replaces the light groups.",
+                    "oneOf": [{"type": "array", "items": {"$ref": "#/components/schemas/Rgb"}}, {"type": "object", "additionalProperties": {"$ref": "#/components/schemas/Rgb"}}]}}},
+            "RadiosityRequest": {"allOf": [{"$ref": "#/components/schemas/LightingState"}, {"type": "object", "properties": {"surfaces": {"type": "boolean", "description": "Also return per-surface area-weighted averages."}}}]},
+            "RadiosityResponse": {"type": "object", "properties": {"scene": {"type": "string"}, "patches": {"type": "integer"}, "unit": {"type": "string"},
+                "radiosity": {"type": "array", "items": {"$ref": "#/components/schemas/Rgb"}},
+                "surfaces": {"type": "object", "additionalProperties": {"type": "object", "properties": {"area": {"type": "number"}, "radiosity": {"$ref": "#/components/schemas/Rgb"}, "illuminance": {"$ref": "#/components/schemas/Rgb"}}}}}},
+            "IlluminanceRequest": {"allOf": [{"$ref": "#/components/schemas/LightingState"}, {"type": "object", "properties": {
+                "surfaces": {"type": "array", "items": {"type": "string"}},
+                "points": {"type": "array", "maxItems": 10000, "items": {"type": "object", "required": ["position", "normal"], "properties": {"position": {"$ref": "#/components/schemas/Rgb"}, "normal": {"$ref": "#/components/schemas/Rgb"}}}}}}]},
+            "Lux": {"type": "object", "properties": {"lux": {"type": "number"}, "rgb": {"$ref": "#/components/schemas/Rgb"}}},
+            "SurfaceIlluminance": {"type": "object", "properties": {"area": {"type": "number"}, "avg": {"$ref": "#/components/schemas/Lux"}, "min": {"$ref": "#/components/schemas/Lux"}, "max": {"$ref": "#/components/schemas/Lux"}, "uniformity": {"type": "number", "description": "Emin / Eavg"}}},
+            "IlluminanceResponse": {"type": "object", "properties": {"points": {"type": "array", "items": {"$ref": "#/components/schemas/Lux"}},
+                "surfaces": {"type": "object", "additionalProperties": {"$ref": "#/components/schemas/SurfaceIlluminance"}}}},
+            "Power": {"type": "object", "description": "Lumens per channel and luminous totals.", "properties": {"emitted": {"$ref": "#/components/schemas/Rgb"}, "absorbed": {"$ref": "#/components/schemas/Rgb"}, "escaped": {"$ref": "#/components/schemas/Rgb"}, "emitted_lm": {"type": "number"}, "absorbed_lm": {"type": "number"}, "escaped_lm": {"type": "number"}, "imbalance": {"type": "number"}}},
+            "SceneSummary": {"type": "object", "properties": {"id": {"type": "string"}, "name": {"type": "string"}, "status": {"type": "string", "enum": ["queued", "baking", "ready", "failed"]}, "progress": {"type": "number"}, "patches": {"type": "integer"}, "error": {"type": "string"}, "lights": {"type": "array", "items": {"type": "object"}}}}
+        }}
+    })
+}
