@@ -12,35 +12,50 @@ use crate::bvh::Bvh;
 use crate::formfactor::point_to_polygon;
 use crate::mesh::Mesh;
 
-/// Rays every contributing patch gets first; a patch the probes see partly hidden gets
-/// [`FULL_RAYS`].
+/// Rays every contributing patch gets first.
 const PROBE_RAYS: u32 = 4;
-const FULL_RAYS: u32 = 16;
+/// Rays for a partly hidden patch, at least and at most.
+const MIN_RAYS: u32 = 16;
+const MAX_RAYS: u32 = 512;
+/// Rays a partly hidden patch gets per unit share of the unoccluded illuminance.
+const RAYS_PER_SHARE: f64 = 4096.0;
 
 /// Illuminance (lux per channel) at `x` on a receiver facing `n`, for per-patch radiosity
 /// `b` (n × 3 interleaved, lm/m²).
+///
+/// Pass 1 finds every patch that can contribute and its unoccluded contribution; pass 2
+/// traces visibility, giving a partly hidden patch rays in proportion to its share of the
+/// total, so penumbrae of bright sources are resolved finely.
 pub fn illuminance_at(mesh: &Mesh, bvh: &Bvh, b: &[f32], x: DVec3, n: DVec3) -> [f64; 3] {
     let n = n.normalize();
     let lift = 1e-6 * (1.0 + x.abs().max_element());
-    let origin = x + n * lift;
-    let o = Vec3A::from(origin.as_vec3());
-    (0..mesh.len())
+    let o = Vec3A::from((x + n * lift).as_vec3());
+    let candidates: Vec<(usize, f64, [f64; 3])> = (0..mesh.len())
         .into_par_iter()
         .with_min_len(256)
-        .map(|j| {
-            let bj = [b[3 * j], b[3 * j + 1], b[3 * j + 2]];
+        .filter_map(|j| {
+            let bj = [b[3 * j] as f64, b[3 * j + 1] as f64, b[3 * j + 2] as f64];
             if bj.iter().all(|&v| v == 0.0) {
-                return [0.0; 3];
+                return None;
             }
             let p = &mesh.patches[j];
             if p.normal.dot(x - p.centroid) <= 0.0 {
-                return [0.0; 3];
+                return None;
             }
+            let ff = point_to_polygon(x, n, &mesh.corners(j));
+            (ff > 0.0).then_some((j, ff, bj))
+        })
+        .collect();
+    let total: f64 = candidates
+        .iter()
+        .map(|(_, ff, bj)| ff * crate::color::luminance64(*bj))
+        .sum();
+    candidates
+        .par_iter()
+        .with_min_len(64)
+        .map(|&(j, ff, bj)| {
+            let p = &mesh.patches[j];
             let c = mesh.corners(j);
-            let ff = point_to_polygon(x, n, &c);
-            if ff <= 0.0 {
-                return [0.0; 3];
-            }
             let mut state = (j as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15) | 1;
             let mut next = || {
                 state ^= state << 13;
@@ -64,13 +79,19 @@ pub fn illuminance_at(mesh: &Mesh, bvh: &Bvh, b: &[f32], x: DVec3, n: DVec3) -> 
                 free
             };
             let mut free = cast(PROBE_RAYS);
-            let mut total = PROBE_RAYS;
+            let mut rays = PROBE_RAYS;
             if free != 0 && free != PROBE_RAYS {
-                free += cast(FULL_RAYS - PROBE_RAYS);
-                total = FULL_RAYS;
+                let share = if total > 0.0 {
+                    ff * crate::color::luminance64(bj) / total
+                } else {
+                    0.0
+                };
+                let want = ((share * RAYS_PER_SHARE).ceil() as u32).clamp(MIN_RAYS, MAX_RAYS);
+                free += cast(want - PROBE_RAYS);
+                rays = want;
             }
-            let w = ff * free as f64 / total as f64;
-            bj.map(|v| w * v as f64)
+            let w = ff * free as f64 / rays as f64;
+            bj.map(|v| w * v)
         })
         .reduce(|| [0.0; 3], |a, b| [a[0] + b[0], a[1] + b[1], a[2] + b[2]])
 }
