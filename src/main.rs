@@ -69,6 +69,9 @@ enum Cmd {
         /// Print the case's figures as JSON (used between the parent and its subprocesses).
         #[arg(long)]
         json: bool,
+        /// Only write the 8-group benchmark room (about 10,000 patches) into this folder.
+        #[arg(long, value_name = "DIR")]
+        make_scene: Option<PathBuf>,
     },
     /// List the scenes under a folder with their patch counts and light groups.
     Info {
@@ -173,7 +176,17 @@ fn run(cli: Cli) -> Result<()> {
             max_edge,
         } => radiosity(&scene, &lights, json, cache, max_edge),
         Cmd::Info { scenes } => info(&scenes),
-        Cmd::Bench { case, scenes, json } => bench(case, &scenes, json),
+        Cmd::Bench {
+            make_scene: Some(dir),
+            ..
+        } => {
+            relight::bench::write_group_room(&dir, 8, BENCH_ROOM_TARGET)?;
+            println!("wrote {}", dir.display());
+            Ok(())
+        }
+        Cmd::Bench {
+            case, scenes, json, ..
+        } => bench(case, &scenes, json),
     }
 }
 
@@ -342,6 +355,9 @@ fn info(root: &Path) -> Result<()> {
     Ok(())
 }
 
+/// `target_patches` that gives the 8-group room just over 10,000 patches.
+const BENCH_ROOM_TARGET: usize = 8_200;
+
 const BENCH_CASES: [&str; 3] = ["cornell", "cornell-10k", "groups-10k"];
 
 fn bench(case: Option<String>, scenes: &Path, json: bool) -> Result<()> {
@@ -406,7 +422,7 @@ fn bench(case: Option<String>, scenes: &Path, json: bool) -> Result<()> {
             },
         ),
         "groups-10k" => {
-            relight::bench::write_group_room(tmp.path(), 8, 7_000)?;
+            relight::bench::write_group_room(tmp.path(), 8, BENCH_ROOM_TARGET)?;
             (tmp.path().to_path_buf(), BakeOptions::default())
         }
         other => anyhow::bail!(

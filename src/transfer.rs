@@ -235,6 +235,11 @@ impl Transfer {
         weighted_sum(self.groups.iter().map(|g| g.b.as_slice()), weights, out);
     }
 
+    /// Incident illuminance (lux, n × 3 interleaved) for per-group RGB weights, into `out`.
+    pub fn illuminance_into(&self, weights: &[Rgb], out: &mut [f32]) {
+        weighted_sum(self.groups.iter().map(|g| g.h.as_slice()), weights, out);
+    }
+
     /// Full solution (emission, radiosity, illuminance) for per-group RGB weights.
     pub fn relight(&self, weights: &[Rgb]) -> Solution {
         let len = 3 * self.n;
