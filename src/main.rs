@@ -19,8 +19,9 @@ use relight::report::Report;
     about = "Relights static 3D scenes from a precomputed radiosity transfer"
 )]
 struct Cli {
+    /// Without a command, `relight` serves the bundled scenes on 127.0.0.1:8080.
     #[command(subcommand)]
-    cmd: Cmd,
+    cmd: Option<Cmd>,
 }
 
 #[derive(Subcommand)]
@@ -80,7 +81,7 @@ enum Cmd {
     },
 }
 
-#[derive(clap::Args)]
+#[derive(clap::Parser)]
 struct ServeArgs {
     /// Address to listen on.
     #[arg(long, env = "RELIGHT_ADDR", default_value = "127.0.0.1:8080")]
@@ -128,7 +129,11 @@ fn main() -> ExitCode {
 }
 
 fn run(cli: Cli) -> Result<()> {
-    match cli.cmd {
+    let cmd = match cli.cmd {
+        Some(c) => c,
+        None => Cmd::Serve(ServeArgs::parse_from(["serve"])),
+    };
+    match cmd {
         Cmd::Serve(a) => {
             let config = relight::server::ServerConfig {
                 addr: a.addr,
