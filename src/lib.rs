@@ -14,6 +14,7 @@ pub mod formfactor;
 pub mod lighting;
 pub mod mesh;
 pub mod probe;
+pub mod render;
 pub mod report;
 pub mod scene;
 pub mod server;

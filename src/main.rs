@@ -74,6 +74,34 @@ enum Cmd {
         #[arg(long, value_name = "DIR")]
         make_scene: Option<PathBuf>,
     },
+    /// Render an image of a scene under a lighting state (format from the extension:
+    /// .png, .jpg, .exr or .pfm for linear radiance).
+    Render {
+        scene: PathBuf,
+        /// Camera preset id from scene.toml (default: the first).
+        #[arg(long)]
+        camera: Option<String>,
+        /// Light setting: ID=INTENSITY or ID=R,G,B (repeatable).
+        #[arg(long = "light", value_name = "ID=VALUE")]
+        lights: Vec<String>,
+        #[arg(short, long)]
+        output: PathBuf,
+        #[arg(long, default_value_t = 512)]
+        width: u32,
+        #[arg(long, default_value_t = 512)]
+        height: u32,
+        /// Exposure in stops (the image is scaled by 2^exposure before tone mapping).
+        #[arg(long, default_value_t = 0.0)]
+        exposure: f32,
+        /// Tone mapping: clamp or filmic.
+        #[arg(long, default_value = "filmic")]
+        tonemap: String,
+        /// Show illuminance (lux) in false colour instead of the shaded image.
+        #[arg(long)]
+        falsecolor: bool,
+        #[arg(long, env = "RELIGHT_CACHE")]
+        cache: Option<PathBuf>,
+    },
     /// List the scenes under a folder with their patch counts and light groups.
     Info {
         #[arg(long, env = "RELIGHT_SCENES", default_value = "scenes")]
@@ -181,6 +209,29 @@ fn run(cli: Cli) -> Result<()> {
             max_edge,
         } => radiosity(&scene, &lights, json, cache, max_edge),
         Cmd::Info { scenes } => info(&scenes),
+        Cmd::Render {
+            scene,
+            camera,
+            lights,
+            output,
+            width,
+            height,
+            exposure,
+            tonemap,
+            falsecolor,
+            cache,
+        } => render(RenderArgs {
+            scene,
+            camera,
+            lights,
+            output,
+            width,
+            height,
+            exposure,
+            tonemap,
+            falsecolor,
+            cache,
+        }),
         Cmd::Bench {
             make_scene: Some(dir),
             ..
@@ -441,5 +492,127 @@ fn bench(case: Option<String>, scenes: &Path, json: bool) -> Result<()> {
     } else {
         println!("{}", serde_json::to_string_pretty(&r)?);
     }
+    Ok(())
+}
+
+struct RenderArgs {
+    scene: PathBuf,
+    camera: Option<String>,
+    lights: Vec<String>,
+    output: PathBuf,
+    width: u32,
+    height: u32,
+    exposure: f32,
+    tonemap: String,
+    falsecolor: bool,
+    cache: Option<PathBuf>,
+}
+
+fn render(a: RenderArgs) -> Result<()> {
+    use relight::render::{self, Camera, Format, Shading, ToneMap, ViewBuffer};
+    let cache = a.cache.unwrap_or_else(bake::default_cache_dir);
+    let pb = progress_bar("baking");
+    let progress = |stage: Stage, f: f64| pb.set_position((stage.overall(f) * 1000.0) as u64);
+    let baked = bake::load_or_bake(
+        &a.scene,
+        CachePolicy::ReadWrite(&cache),
+        &BakeOptions::default(),
+        &progress,
+    )?;
+    pb.finish_and_clear();
+    let scene = &baked.scene;
+    let def = match &a.camera {
+        Some(id) => scene
+            .cameras
+            .iter()
+            .find(|c| &c.id == id)
+            .with_context(|| {
+                let ids: Vec<&str> = scene.cameras.iter().map(|c| c.id.as_str()).collect();
+                format!("unknown camera '{id}' (known: {})", ids.join(", "))
+            })?,
+        None => scene
+            .cameras
+            .first()
+            .context("the scene defines no camera; add [[cameras]] to scene.toml")?,
+    };
+    let cam = Camera::from_def(def, a.width, a.height);
+    cam.validate().map_err(anyhow::Error::msg)?;
+    let tm = match a.tonemap.as_str() {
+        "clamp" => ToneMap::Clamp,
+        "filmic" => ToneMap::Filmic,
+        other => anyhow::bail!("tonemap '{other}': use clamp or filmic"),
+    };
+    let mut state = LightState::default();
+    for l in &a.lights {
+        state.parse_arg(l).map_err(anyhow::Error::msg)?;
+    }
+    let sol = baked.transfer.relight(&state.weights(scene)?);
+    let shading = Shading::new(&baked.mesh);
+    let t0 = std::time::Instant::now();
+    let view = ViewBuffer::build(&baked.mesh, &shading, &cam);
+    let t_view = t0.elapsed();
+    let ext = a
+        .output
+        .extension()
+        .map(|e| e.to_string_lossy().to_lowercase())
+        .unwrap_or_default();
+    let t1 = std::time::Instant::now();
+    let bytes = if a.falsecolor {
+        let img = view.gather(&shading.vertex_values(&sol.h), 1.0);
+        let max = img
+            .iter()
+            .map(|p| relight::color::luminance(*p))
+            .fold(0.0, f32::max);
+        let rgb = render::false_color(&img, a.width, a.height, max / 100.0, max);
+        eprintln!(
+            "false colour: log scale {:.3} to {:.3} lux",
+            max / 100.0,
+            max
+        );
+        render::encode_8bit(
+            &rgb,
+            a.width,
+            a.height,
+            if ext == "jpg" || ext == "jpeg" {
+                Format::Jpeg
+            } else {
+                Format::Png
+            },
+        )
+        .map_err(anyhow::Error::msg)?
+    } else {
+        let img = view.gather(&shading.vertex_values(&sol.b), std::f32::consts::FRAC_1_PI);
+        match ext.as_str() {
+            "png" => render::encode_8bit(
+                &render::tonemap(&img, a.exposure, tm),
+                a.width,
+                a.height,
+                Format::Png,
+            ),
+            "jpg" | "jpeg" => render::encode_8bit(
+                &render::tonemap(&img, a.exposure, tm),
+                a.width,
+                a.height,
+                Format::Jpeg,
+            ),
+            "exr" => render::encode_exr(&img, a.width, a.height),
+            "pfm" => Ok(render::encode_pfm(&img, a.width, a.height)),
+            other => Err(format!(
+                "output extension '.{other}': use .png, .jpg, .exr or .pfm"
+            )),
+        }
+        .map_err(anyhow::Error::msg)?
+    };
+    let t_img = t1.elapsed();
+    std::fs::write(&a.output, &bytes).with_context(|| format!("writing {}", a.output.display()))?;
+    println!(
+        "{} {}×{}: view buffer {:.1} ms, relit image {:.1} ms, {} bytes",
+        a.output.display(),
+        a.width,
+        a.height,
+        t_view.as_secs_f64() * 1e3,
+        t_img.as_secs_f64() * 1e3,
+        bytes.len()
+    );
     Ok(())
 }

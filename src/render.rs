@@ -1,0 +1,583 @@
+//! Rendering: the solved radiosity seen through a camera.
+//!
+//! Radiosity is view-independent, so an image splits into a geometric part, built once
+//! per (scene, camera, size), and a cheap per-lighting part:
+//!
+//! 1. [`Shading`]: Gouraud values per *shading vertex*. A shading vertex is a mesh vertex
+//!    together with the patches around it that lie within one surface and bend less than
+//!    [`CREASE_DEG`] against each other. Its value is the area-weighted mean of those
+//!    patches, so creases stay sharp and no light bleeds across corners or surfaces.
+//! 2. [`ViewBuffer`]: the scene rasterized with a z-buffer at S×S samples per pixel. Every
+//!    pixel keeps the few shading vertices it blends, with weights (barycentric × sample
+//!    coverage). Back faces occlude but show black; empty samples are black.
+//! 3. A relit image is a gather: vertex values (lm/m²) → radiance B/π → the pixel's
+//!    weighted sum, then exposure, tone mapping, sRGB and encoding.
+
+use glam::{DVec3, Vec3};
+use rayon::prelude::*;
+
+use crate::color::{luminance, Rgb};
+use crate::mesh::Mesh;
+use crate::scene::CameraDef;
+
+/// Patches meeting at a vertex at a sharper angle than this are shaded separately.
+pub const CREASE_DEG: f64 = 30.0;
+/// Largest image side.
+pub const MAX_SIDE: u32 = 4096;
+
+/// Per-corner shading vertices and their patch weights (CSR).
+pub struct Shading {
+    /// Shading vertex of each patch corner.
+    pub corner: Vec<[u32; 3]>,
+    start: Vec<u32>,
+    patch: Vec<u32>,
+    weight: Vec<f32>,
+}
+
+impl Shading {
+    pub fn new(mesh: &Mesh) -> Shading {
+        // Incident patches per mesh vertex.
+        let nv = mesh.vertices.len();
+        let mut inc: Vec<Vec<(u32, u8)>> = vec![Vec::new(); nv];
+        for (p, patch) in mesh.patches.iter().enumerate() {
+            for (k, &v) in patch.v.iter().enumerate() {
+                inc[v as usize].push((p as u32, k as u8));
+            }
+        }
+        let cos_crease = CREASE_DEG.to_radians().cos();
+        let mut corner = vec![[0u32; 3]; mesh.len()];
+        let mut start = vec![0u32];
+        let mut patch = Vec::new();
+        let mut weight = Vec::new();
+        for list in &inc {
+            // Greedy clusters by normal.
+            let mut clusters: Vec<(DVec3, Vec<(u32, u8)>)> = Vec::new();
+            for &(p, k) in list {
+                let n = mesh.patches[p as usize].normal;
+                match clusters.iter_mut().find(|(cn, _)| cn.dot(n) >= cos_crease) {
+                    Some(c) => c.1.push((p, k)),
+                    None => clusters.push((n, vec![(p, k)])),
+                }
+            }
+            for (_, members) in clusters {
+                let sv = (start.len() - 1) as u32;
+                let total: f64 = members
+                    .iter()
+                    .map(|&(p, _)| mesh.patches[p as usize].area)
+                    .sum();
+                for &(p, k) in &members {
+                    corner[p as usize][k as usize] = sv;
+                    patch.push(p);
+                    weight.push((mesh.patches[p as usize].area / total) as f32);
+                }
+                start.push(patch.len() as u32);
+            }
+        }
+        Shading {
+            corner,
+            start,
+            patch,
+            weight,
+        }
+    }
+
+    /// Number of shading vertices.
+    pub fn len(&self) -> usize {
+        self.start.len() - 1
+    }
+
+    /// True when there is no shading vertex.
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    /// Vertex values from per-patch values (n × 3 interleaved).
+    pub fn vertex_values(&self, per_patch: &[f32]) -> Vec<Rgb> {
+        (0..self.len())
+            .into_par_iter()
+            .with_min_len(1024)
+            .map(|s| {
+                let mut acc = [0f32; 3];
+                for k in self.start[s] as usize..self.start[s + 1] as usize {
+                    let p = self.patch[k] as usize;
+                    let w = self.weight[k];
+                    for c in 0..3 {
+                        acc[c] += w * per_patch[3 * p + c];
+                    }
+                }
+                acc
+            })
+            .collect()
+    }
+}
+
+/// A pinhole camera. `fov_deg` is the vertical field of view.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Camera {
+    pub position: Vec3,
+    pub target: Vec3,
+    pub up: Vec3,
+    pub fov_deg: f32,
+    pub width: u32,
+    pub height: u32,
+}
+
+impl Camera {
+    pub fn from_def(c: &CameraDef, width: u32, height: u32) -> Camera {
+        let v = |a: [f64; 3]| Vec3::new(a[0] as f32, a[1] as f32, a[2] as f32);
+        Camera {
+            position: v(c.position),
+            target: v(c.target),
+            up: v(c.up),
+            fov_deg: c.fov_deg as f32,
+            width,
+            height,
+        }
+    }
+
+    /// Checks the numbers; the message names the problem.
+    pub fn validate(&self) -> Result<(), String> {
+        if self.width == 0 || self.height == 0 || self.width > MAX_SIDE || self.height > MAX_SIDE {
+            return Err(format!(
+                "image size {}×{}: width and height must be 1 to {MAX_SIDE}",
+                self.width, self.height
+            ));
+        }
+        let finite = [self.position, self.target, self.up]
+            .iter()
+            .all(|v| v.is_finite());
+        if !finite {
+            return Err("camera position, target and up must be finite".into());
+        }
+        if !(self.fov_deg > 0.5 && self.fov_deg < 179.0) {
+            return Err(format!("fov_deg {} must be in (0.5, 179)", self.fov_deg));
+        }
+        let f = self.target - self.position;
+        if f.length() < 1e-6 {
+            return Err("camera target must differ from its position".into());
+        }
+        if f.normalize().cross(self.up.normalize_or_zero()).length() < 1e-4 {
+            return Err("camera up must not be parallel to the view direction".into());
+        }
+        Ok(())
+    }
+
+    /// A key for view-buffer caches.
+    pub fn key(&self) -> [u32; 12] {
+        let b = |x: f32| x.to_bits();
+        [
+            b(self.position.x),
+            b(self.position.y),
+            b(self.position.z),
+            b(self.target.x),
+            b(self.target.y),
+            b(self.target.z),
+            b(self.up.x),
+            b(self.up.y),
+            b(self.up.z),
+            b(self.fov_deg),
+            self.width,
+            self.height,
+        ]
+    }
+}
+
+/// Per pixel: the shading vertices it blends and their weights (CSR).
+pub struct ViewBuffer {
+    pub width: u32,
+    pub height: u32,
+    start: Vec<u32>,
+    sv: Vec<u32>,
+    weight: Vec<f32>,
+    /// Patch seen at the centre sample of each pixel (u32::MAX: none), for picking.
+    pub center_patch: Vec<u32>,
+}
+
+/// Samples per pixel side.
+fn samples_per_side(cam: &Camera) -> u32 {
+    if cam.width as u64 * cam.height as u64 > 1_200_000 {
+        2
+    } else {
+        3
+    }
+}
+
+impl ViewBuffer {
+    /// Rasterizes `mesh` seen by `cam`.
+    pub fn build(mesh: &Mesh, shading: &Shading, cam: &Camera) -> ViewBuffer {
+        let s = samples_per_side(cam);
+        let (w, h) = (cam.width as usize, cam.height as usize);
+        let (sw, sh) = (w * s as usize, h * s as usize);
+        let fwd = (cam.target - cam.position).normalize();
+        let right = fwd.cross(cam.up).normalize();
+        let up = right.cross(fwd);
+        let tan = (cam.fov_deg.to_radians() * 0.5).tan();
+        let aspect = w as f32 / h as f32;
+        let near = 1e-4f32;
+        // Camera-space corners of each patch.
+        let to_cam = |p: DVec3| {
+            let d = p.as_vec3() - cam.position;
+            Vec3::new(d.dot(right), d.dot(up), d.dot(fwd))
+        };
+        let mut depth = vec![f32::INFINITY; sw * sh];
+        // Per sample: patch, and barycentrics b1, b2 (b0 = 1 − b1 − b2).
+        let mut sample: Vec<(u32, f32, f32)> = vec![(u32::MAX, 0.0, 0.0); sw * sh];
+        let project = |c: Vec3| -> (f32, f32) {
+            let x = c.x / (c.z * tan * aspect);
+            let y = c.y / (c.z * tan);
+            ((x * 0.5 + 0.5) * sw as f32, (0.5 - y * 0.5) * sh as f32)
+        };
+        for (pi, p) in mesh.patches.iter().enumerate() {
+            let cc = p.v.map(|k| to_cam(mesh.vertices[k as usize]));
+            // Clip against the near plane; the polygon keeps barycentric tags.
+            let bary = [Vec3::X, Vec3::Y, Vec3::Z];
+            let mut poly: Vec<(Vec3, Vec3)> = Vec::with_capacity(4);
+            for k in 0..3 {
+                let (a, ba) = (cc[k], bary[k]);
+                let (b, bb) = (cc[(k + 1) % 3], bary[(k + 1) % 3]);
+                if a.z >= near {
+                    poly.push((a, ba));
+                }
+                if (a.z >= near) != (b.z >= near) {
+                    let t = (near - a.z) / (b.z - a.z);
+                    poly.push((a + (b - a) * t, ba + (bb - ba) * t));
+                }
+            }
+            if poly.len() < 3 {
+                continue;
+            }
+            for k in 1..poly.len() - 1 {
+                raster_triangle(
+                    [poly[0], poly[k], poly[k + 1]],
+                    pi as u32,
+                    &project,
+                    sw,
+                    sh,
+                    &mut depth,
+                    &mut sample,
+                );
+            }
+        }
+        // Front-facing test per patch (seen from the camera).
+        let front: Vec<bool> = mesh
+            .patches
+            .iter()
+            .map(|p| p.normal.as_vec3().dot(cam.position - p.centroid.as_vec3()) > 0.0)
+            .collect();
+        // Resolve samples into per-pixel vertex weights.
+        let inv = 1.0 / (s * s) as f32;
+        let rows: Vec<(Vec<u32>, Vec<u32>, Vec<f32>, Vec<u32>)> = (0..h)
+            .into_par_iter()
+            .map(|y| {
+                let mut counts = Vec::with_capacity(w);
+                let mut svs = Vec::new();
+                let mut wts = Vec::new();
+                let mut centre = Vec::with_capacity(w);
+                for x in 0..w {
+                    let mut local: Vec<(u32, f32)> = Vec::with_capacity(12);
+                    for sy in 0..s as usize {
+                        for sx in 0..s as usize {
+                            let idx = (y * s as usize + sy) * sw + x * s as usize + sx;
+                            let (p, b1, b2) = sample[idx];
+                            if p == u32::MAX || !front[p as usize] {
+                                continue;
+                            }
+                            let corners = shading.corner[p as usize];
+                            for (k, b) in [(0, 1.0 - b1 - b2), (1, b1), (2, b2)] {
+                                let v = corners[k];
+                                let wgt = b.max(0.0) * inv;
+                                match local.iter_mut().find(|e| e.0 == v) {
+                                    Some(e) => e.1 += wgt,
+                                    None => local.push((v, wgt)),
+                                }
+                            }
+                        }
+                    }
+                    let mid = (s / 2) as usize;
+                    centre.push(sample[(y * s as usize + mid) * sw + x * s as usize + mid].0);
+                    counts.push(local.len() as u32);
+                    for (v, wgt) in local {
+                        svs.push(v);
+                        wts.push(wgt);
+                    }
+                }
+                (counts, svs, wts, centre)
+            })
+            .collect();
+        let mut start = Vec::with_capacity(w * h + 1);
+        start.push(0u32);
+        let mut sv = Vec::new();
+        let mut weight = Vec::new();
+        let mut center_patch = Vec::with_capacity(w * h);
+        for (counts, s, wt, c) in rows {
+            for n in counts {
+                start.push(start.last().copied().unwrap_or(0) + n);
+            }
+            sv.extend(s);
+            weight.extend(wt);
+            center_patch.extend(c);
+        }
+        ViewBuffer {
+            width: cam.width,
+            height: cam.height,
+            start,
+            sv,
+            weight,
+            center_patch,
+        }
+    }
+
+    /// Linear image (row 0 at the top) of per-vertex values times `scale`.
+    pub fn gather(&self, values: &[Rgb], scale: f32) -> Vec<Rgb> {
+        let n = (self.width * self.height) as usize;
+        (0..n)
+            .into_par_iter()
+            .with_min_len(4096)
+            .map(|i| {
+                let mut acc = [0f32; 3];
+                for k in self.start[i] as usize..self.start[i + 1] as usize {
+                    let v = &values[self.sv[k] as usize];
+                    let w = self.weight[k] * scale;
+                    acc[0] += w * v[0];
+                    acc[1] += w * v[1];
+                    acc[2] += w * v[2];
+                }
+                acc
+            })
+            .collect()
+    }
+
+    /// Memory held, bytes.
+    pub fn bytes(&self) -> usize {
+        4 * (self.start.len() + self.sv.len() + self.weight.len() + self.center_patch.len())
+    }
+}
+
+#[allow(clippy::too_many_arguments)]
+fn raster_triangle(
+    t: [(Vec3, Vec3); 3],
+    patch: u32,
+    project: &impl Fn(Vec3) -> (f32, f32),
+    sw: usize,
+    sh: usize,
+    depth: &mut [f32],
+    sample: &mut [(u32, f32, f32)],
+) {
+    let s = t.map(|(c, _)| project(c));
+    let iz = t.map(|(c, _)| 1.0 / c.z);
+    let area = (s[1].0 - s[0].0) * (s[2].1 - s[0].1) - (s[2].0 - s[0].0) * (s[1].1 - s[0].1);
+    if area.abs() < 1e-12 {
+        return;
+    }
+    let minx = s
+        .iter()
+        .map(|p| p.0)
+        .fold(f32::INFINITY, f32::min)
+        .floor()
+        .max(0.0) as usize;
+    let maxx = (s
+        .iter()
+        .map(|p| p.0)
+        .fold(f32::NEG_INFINITY, f32::max)
+        .ceil() as isize)
+        .min(sw as isize - 1);
+    let miny = s
+        .iter()
+        .map(|p| p.1)
+        .fold(f32::INFINITY, f32::min)
+        .floor()
+        .max(0.0) as usize;
+    let maxy = (s
+        .iter()
+        .map(|p| p.1)
+        .fold(f32::NEG_INFINITY, f32::max)
+        .ceil() as isize)
+        .min(sh as isize - 1);
+    if maxx < 0 || maxy < 0 {
+        return;
+    }
+    let inv_area = 1.0 / area;
+    for y in miny..=maxy as usize {
+        let py = y as f32 + 0.5;
+        for x in minx..=maxx as usize {
+            let px = x as f32 + 0.5;
+            // Edge functions (screen-space barycentrics), inclusive with a tiny tolerance
+            // so shared edges leave no gaps.
+            let w0 = ((s[1].0 - px) * (s[2].1 - py) - (s[2].0 - px) * (s[1].1 - py)) * inv_area;
+            let w1 = ((s[2].0 - px) * (s[0].1 - py) - (s[0].0 - px) * (s[2].1 - py)) * inv_area;
+            let w2 = 1.0 - w0 - w1;
+            const E: f32 = -1e-6;
+            if w0 < E || w1 < E || w2 < E {
+                continue;
+            }
+            // Perspective-correct interpolation.
+            let z_inv = w0 * iz[0] + w1 * iz[1] + w2 * iz[2];
+            let z = 1.0 / z_inv;
+            let idx = y * sw + x;
+            if z >= depth[idx] {
+                continue;
+            }
+            depth[idx] = z;
+            let bary = (t[0].1 * (w0 * iz[0]) + t[1].1 * (w1 * iz[1]) + t[2].1 * (w2 * iz[2])) * z;
+            sample[idx] = (patch, bary.y, bary.z);
+        }
+    }
+}
+
+/// Tone mapping of linear radiance after exposure.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Deserialize, serde::Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum ToneMap {
+    /// Clip at 1.
+    Clamp,
+    /// ACES filmic curve (Narkowicz fit): soft shoulder, keeps highlights.
+    Filmic,
+}
+
+fn srgb_oetf(x: f32) -> f32 {
+    if x <= 0.003_130_8 {
+        12.92 * x
+    } else {
+        1.055 * x.powf(1.0 / 2.4) - 0.055
+    }
+}
+
+fn aces(x: f32) -> f32 {
+    let (a, b, c, d, e) = (2.51, 0.03, 2.43, 0.59, 0.14);
+    ((x * (a * x + b)) / (x * (c * x + d) + e)).clamp(0.0, 1.0)
+}
+
+/// 8-bit sRGB pixels from linear values, scaled by 2^exposure.
+pub fn tonemap(img: &[Rgb], exposure: f32, tm: ToneMap) -> Vec<u8> {
+    let k = exposure.exp2();
+    let lut: Vec<u8> = (0..4096)
+        .map(|i| (srgb_oetf(i as f32 / 4095.0) * 255.0 + 0.5) as u8)
+        .collect();
+    img.par_iter()
+        .flat_map_iter(|p| {
+            let m = p.map(|v| {
+                let v = (v * k).max(0.0);
+                let t = match tm {
+                    ToneMap::Clamp => v.min(1.0),
+                    ToneMap::Filmic => aces(v),
+                };
+                lut[(t * 4095.0 + 0.5) as usize]
+            });
+            m.into_iter()
+        })
+        .collect()
+}
+
+/// False colour: a perceptual blue→green→yellow→red scale of luminance over
+/// `[lo, hi]` on a log10 axis, with a legend bar on the right edge.
+pub fn false_color(img: &[Rgb], width: u32, height: u32, lo: f32, hi: f32) -> Vec<u8> {
+    let (l0, l1) = (lo.max(1e-9).log10(), hi.max(lo * 1.0001).max(1e-9).log10());
+    let mut out: Vec<u8> = img
+        .par_iter()
+        .flat_map_iter(|p| {
+            let y = luminance(*p);
+            let t = if y <= 0.0 {
+                0.0
+            } else {
+                ((y.log10() - l0) / (l1 - l0)).clamp(0.0, 1.0)
+            };
+            scale_color(t).into_iter()
+        })
+        .collect();
+    // Legend: a vertical bar 1/24 of the width at the right, high values at the top.
+    let bar = (width / 24).max(4);
+    for y in 0..height {
+        let t = 1.0 - y as f32 / (height.max(2) - 1) as f32;
+        let c = scale_color(t);
+        for x in width.saturating_sub(bar)..width {
+            let i = 3 * (y * width + x) as usize;
+            out[i..i + 3].copy_from_slice(&c);
+        }
+    }
+    out
+}
+
+/// The false-colour scale at t in [0, 1] (0 = `lo`, 1 = `hi`).
+pub fn scale_color(t: f32) -> [u8; 3] {
+    const STOPS: [[f32; 3]; 6] = [
+        [0.05, 0.05, 0.35],
+        [0.0, 0.35, 0.9],
+        [0.0, 0.75, 0.55],
+        [0.55, 0.85, 0.1],
+        [1.0, 0.8, 0.0],
+        [0.85, 0.1, 0.05],
+    ];
+    let x = t.clamp(0.0, 1.0) * (STOPS.len() - 1) as f32;
+    let i = (x.floor() as usize).min(STOPS.len() - 2);
+    let f = x - i as f32;
+    let c = [0, 1, 2].map(|k| STOPS[i][k] + (STOPS[i + 1][k] - STOPS[i][k]) * f);
+    c.map(|v| (v * 255.0 + 0.5) as u8)
+}
+
+/// Output encodings.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Deserialize, serde::Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Format {
+    Png,
+    Jpeg,
+    /// Linear OpenEXR, f32 RGB radiance in W/(m²·sr)-like units (lm/(m²·sr)).
+    Exr,
+}
+
+impl Format {
+    pub fn content_type(self) -> &'static str {
+        match self {
+            Format::Png => "image/png",
+            Format::Jpeg => "image/jpeg",
+            Format::Exr => "image/x-exr",
+        }
+    }
+}
+
+/// Encodes 8-bit sRGB pixels as PNG (fast compression) or JPEG (quality 90).
+pub fn encode_8bit(rgb: &[u8], w: u32, h: u32, format: Format) -> Result<Vec<u8>, String> {
+    use image::ImageEncoder;
+    let mut out = Vec::new();
+    match format {
+        Format::Png => image::codecs::png::PngEncoder::new_with_quality(
+            &mut out,
+            image::codecs::png::CompressionType::Fast,
+            image::codecs::png::FilterType::Sub,
+        )
+        .write_image(rgb, w, h, image::ExtendedColorType::Rgb8),
+        Format::Jpeg => image::codecs::jpeg::JpegEncoder::new_with_quality(&mut out, 90)
+            .write_image(rgb, w, h, image::ExtendedColorType::Rgb8),
+        Format::Exr => return Err("EXR is written from linear data".into()),
+    }
+    .map_err(|e| e.to_string())?;
+    Ok(out)
+}
+
+/// Encodes linear RGB as OpenEXR (32-bit float).
+pub fn encode_exr(img: &[Rgb], w: u32, h: u32) -> Result<Vec<u8>, String> {
+    use image::ImageEncoder;
+    let flat: Vec<f32> = img.iter().flatten().copied().collect();
+    let mut out = std::io::Cursor::new(Vec::new());
+    image::codecs::openexr::OpenExrEncoder::new(&mut out)
+        .write_image(
+            bytemuck::cast_slice(&flat),
+            w,
+            h,
+            image::ExtendedColorType::Rgb32F,
+        )
+        .map_err(|e| e.to_string())?;
+    Ok(out.into_inner())
+}
+
+/// Writes linear RGB as PFM (little-endian, bottom row first), as the reference images.
+pub fn encode_pfm(img: &[Rgb], w: u32, h: u32) -> Vec<u8> {
+    let mut out = format!("PF\n{w} {h}\n-1.0\n").into_bytes();
+    for y in (0..h as usize).rev() {
+        for p in &img[y * w as usize..(y + 1) * w as usize] {
+            for c in p {
+                out.extend_from_slice(&c.to_le_bytes());
+            }
+        }
+    }
+    out
+}
