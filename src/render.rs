@@ -193,6 +193,9 @@ pub struct ViewBuffer {
     pub center_patch: Vec<u32>,
 }
 
+/// One image row while resolving: per-pixel counts, vertices, weights, centre patches.
+type PixelRow = (Vec<u32>, Vec<u32>, Vec<f32>, Vec<u32>);
+
 /// Samples per pixel side.
 fn samples_per_side(cam: &Camera) -> u32 {
     if cam.width as u64 * cam.height as u64 > 1_200_000 {
@@ -266,7 +269,7 @@ impl ViewBuffer {
             .collect();
         // Resolve samples into per-pixel vertex weights.
         let inv = 1.0 / (s * s) as f32;
-        let rows: Vec<(Vec<u32>, Vec<u32>, Vec<f32>, Vec<u32>)> = (0..h)
+        let rows: Vec<PixelRow> = (0..h)
             .into_par_iter()
             .map(|y| {
                 let mut counts = Vec::with_capacity(w);
