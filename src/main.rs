@@ -90,9 +90,10 @@ enum Cmd {
         width: u32,
         #[arg(long, default_value_t = 512)]
         height: u32,
-        /// Exposure in stops (the image is scaled by 2^exposure before tone mapping).
-        #[arg(long, default_value_t = 0.0)]
-        exposure: f32,
+        /// Exposure in stops (the image is scaled by 2^exposure before tone mapping);
+        /// default: auto (log-average luminance to middle grey).
+        #[arg(long)]
+        exposure: Option<f32>,
         /// Tone mapping: clamp or filmic.
         #[arg(long, default_value = "filmic")]
         tonemap: String,
@@ -502,7 +503,7 @@ struct RenderArgs {
     output: PathBuf,
     width: u32,
     height: u32,
-    exposure: f32,
+    exposure: Option<f32>,
     tonemap: String,
     falsecolor: bool,
     cache: Option<PathBuf>,
@@ -582,15 +583,16 @@ fn render(a: RenderArgs) -> Result<()> {
         .map_err(anyhow::Error::msg)?
     } else {
         let img = view.gather(&shading.vertex_values(&sol.b), std::f32::consts::FRAC_1_PI);
+        let ev = a.exposure.unwrap_or_else(|| render::auto_exposure(&img));
         match ext.as_str() {
             "png" => render::encode_8bit(
-                &render::tonemap(&img, a.exposure, tm),
+                &render::tonemap(&img, ev, tm),
                 a.width,
                 a.height,
                 Format::Png,
             ),
             "jpg" | "jpeg" => render::encode_8bit(
-                &render::tonemap(&img, a.exposure, tm),
+                &render::tonemap(&img, ev, tm),
                 a.width,
                 a.height,
                 Format::Jpeg,

@@ -9,7 +9,7 @@
 //!    patches, so creases stay sharp and no light bleeds across corners or surfaces.
 //! 2. [`ViewBuffer`]: the scene rasterized with a z-buffer at S×S samples per pixel. Every
 //!    pixel keeps the few shading vertices it blends, with weights (barycentric × sample
-//!    coverage). Back faces occlude but show black; empty samples are black.
+//!    coverage). Back faces are culled; empty samples are black.
 //! 3. A relit image is a gather: vertex values (lm/m²) → radiance B/π → the pixel's
 //!    weighted sum, then exposure, tone mapping, sRGB and encoding.
 
@@ -231,6 +231,11 @@ impl ViewBuffer {
             ((x * 0.5 + 0.5) * sw as f32, (0.5 - y * 0.5) * sh as f32)
         };
         for (pi, p) in mesh.patches.iter().enumerate() {
+            // Back faces are culled: only fronts are ever lit, and the back of a two-sided
+            // panel would z-fight with its front.
+            if p.normal.as_vec3().dot(cam.position - p.centroid.as_vec3()) <= 0.0 {
+                continue;
+            }
             let cc = p.v.map(|k| to_cam(mesh.vertices[k as usize]));
             // Clip against the near plane; the polygon keeps barycentric tags.
             let bary = [Vec3::X, Vec3::Y, Vec3::Z];
@@ -261,12 +266,6 @@ impl ViewBuffer {
                 );
             }
         }
-        // Front-facing test per patch (seen from the camera).
-        let front: Vec<bool> = mesh
-            .patches
-            .iter()
-            .map(|p| p.normal.as_vec3().dot(cam.position - p.centroid.as_vec3()) > 0.0)
-            .collect();
         // Resolve samples into per-pixel vertex weights.
         let inv = 1.0 / (s * s) as f32;
         let rows: Vec<PixelRow> = (0..h)
@@ -282,7 +281,7 @@ impl ViewBuffer {
                         for sx in 0..s as usize {
                             let idx = (y * s as usize + sy) * sw + x * s as usize + sx;
                             let (p, b1, b2) = sample[idx];
-                            if p == u32::MAX || !front[p as usize] {
+                            if p == u32::MAX {
                                 continue;
                             }
                             let corners = shading.corner[p as usize];
@@ -437,6 +436,28 @@ pub enum ToneMap {
     Filmic,
 }
 
+/// Exposure (stops) that maps the log-average luminance of the lit pixels to middle grey
+/// (0.18), like a camera's auto exposure. 0 for a black image.
+pub fn auto_exposure(img: &[Rgb]) -> f32 {
+    // Every 5th pixel is plenty for a mean of logarithms.
+    let (sum, count) = img
+        .par_chunks(4096)
+        .map(|chunk| {
+            chunk
+                .iter()
+                .step_by(5)
+                .map(|p| luminance(*p))
+                .filter(|&y| y > 0.0)
+                .fold((0f64, 0usize), |(s, c), y| (s + (y as f64).ln(), c + 1))
+        })
+        .reduce(|| (0.0, 0), |a, b| (a.0 + b.0, a.1 + b.1));
+    if count == 0 {
+        return 0.0;
+    }
+    let avg = (sum / count as f64).exp();
+    ((0.18 / avg).log2() as f32).clamp(-40.0, 40.0)
+}
+
 fn srgb_oetf(x: f32) -> f32 {
     if x <= 0.003_130_8 {
         12.92 * x
@@ -450,25 +471,46 @@ fn aces(x: f32) -> f32 {
     ((x * (a * x + b)) / (x * (c * x + d) + e)).clamp(0.0, 1.0)
 }
 
-/// 8-bit sRGB pixels from linear values, scaled by 2^exposure.
+/// Values above this (after exposure) map to white in every tone curve.
+const LUT_MAX: f32 = 16.0;
+const LUT_SIZE: usize = 16384;
+
+/// 8-bit sRGB pixels from linear values, scaled by 2^exposure. The whole curve (tone map,
+/// then the sRGB transfer function) is one table indexed by √(v / LUT_MAX), which keeps
+/// the steep dark end finely resolved.
 pub fn tonemap(img: &[Rgb], exposure: f32, tm: ToneMap) -> Vec<u8> {
-    let k = exposure.exp2();
-    let lut: Vec<u8> = (0..4096)
-        .map(|i| (srgb_oetf(i as f32 / 4095.0) * 255.0 + 0.5) as u8)
-        .collect();
-    img.par_iter()
-        .flat_map_iter(|p| {
-            let m = p.map(|v| {
-                let v = (v * k).max(0.0);
-                let t = match tm {
-                    ToneMap::Clamp => v.min(1.0),
-                    ToneMap::Filmic => aces(v),
-                };
-                lut[(t * 4095.0 + 0.5) as usize]
-            });
-            m.into_iter()
+    static LUTS: std::sync::OnceLock<[Vec<u8>; 2]> = std::sync::OnceLock::new();
+    let luts = LUTS.get_or_init(|| {
+        [ToneMap::Clamp, ToneMap::Filmic].map(|tm| {
+            (0..LUT_SIZE)
+                .map(|i| {
+                    let u = i as f32 / (LUT_SIZE - 1) as f32;
+                    let v = u * u * LUT_MAX;
+                    let t = match tm {
+                        ToneMap::Clamp => v.min(1.0),
+                        ToneMap::Filmic => aces(v),
+                    };
+                    (srgb_oetf(t) * 255.0 + 0.5) as u8
+                })
+                .collect()
         })
-        .collect()
+    });
+    let lut = &luts[tm as usize];
+    let k = exposure.exp2();
+    let scale = k / LUT_MAX;
+    let top = (LUT_SIZE - 1) as f32;
+    let mut out = vec![0u8; 3 * img.len()];
+    out.par_chunks_mut(3 * 4096)
+        .zip(img.par_chunks(4096))
+        .for_each(|(o, px)| {
+            for (o, p) in o.chunks_exact_mut(3).zip(px) {
+                for c in 0..3 {
+                    let u = (p[c] * scale).clamp(0.0, 1.0).sqrt();
+                    o[c] = lut[(u * top + 0.5) as usize];
+                }
+            }
+        });
+    out
 }
 
 /// False colour: a perceptual blue→green→yellow→red scale of luminance over
@@ -548,8 +590,13 @@ pub fn encode_8bit(rgb: &[u8], w: u32, h: u32, format: Format) -> Result<Vec<u8>
             image::codecs::png::FilterType::Sub,
         )
         .write_image(rgb, w, h, image::ExtendedColorType::Rgb8),
-        Format::Jpeg => image::codecs::jpeg::JpegEncoder::new_with_quality(&mut out, 90)
-            .write_image(rgb, w, h, image::ExtendedColorType::Rgb8),
+        Format::Jpeg => {
+            let mut enc = jpeg_encoder::Encoder::new(&mut out, 90);
+            enc.set_sampling_factor(jpeg_encoder::SamplingFactor::F_2_2);
+            enc.encode(rgb, w as u16, h as u16, jpeg_encoder::ColorType::Rgb)
+                .map_err(|e| e.to_string())?;
+            return Ok(out);
+        }
         Format::Exr => return Err("EXR is written from linear data".into()),
     }
     .map_err(|e| e.to_string())?;

@@ -368,6 +368,7 @@ async fn oversized_bodies_get_413() {
         },
         slots: base.slots.clone(),
         metrics: Default::default(),
+        views: Default::default(),
     });
     let body = format!(r#"{{"lights": {{}}, "pad": "{}"}}"#, "x".repeat(5000));
     let (s, h, v) = post(router(small), "/api/scenes/cornell-box/radiosity", body).await;
@@ -595,6 +596,7 @@ async fn openapi_metrics_and_cors() {
         },
         slots: base.slots.clone(),
         metrics: Default::default(),
+        views: Default::default(),
     });
     let req = Request::get("/api/scenes")
         .header(header::ORIGIN, "http://studio.example")
@@ -648,4 +650,66 @@ async fn real_server_on_a_loopback_port_relights_the_cornell_box() {
 
 fn ready_cornell() -> Arc<relight::server::Ready> {
     ready("cornell-box")
+}
+
+#[tokio::test]
+async fn render_endpoints_return_images_and_precise_errors() {
+    let req = |uri: &str| Request::get(uri).body(Body::empty()).unwrap();
+    // Quick GET: PNG; a brighter light gives a brighter image (fixed exposure).
+    let (s, h, dim) = send(app(), req("/api/scenes/cornell-box/render.png?camera=front&w=64&h=64&exposure=0&light.ceiling=0.5")).await;
+    assert_eq!(s, StatusCode::OK);
+    assert_eq!(h[header::CONTENT_TYPE], "image/png");
+    assert_eq!(&dim[1..4], b"PNG");
+    let (_, _, bright) = send(app(), req("/api/scenes/cornell-box/render.png?camera=front&w=64&h=64&exposure=0&light.ceiling=1.5")).await;
+    let mean = |png: &[u8]| {
+        let img = image::load_from_memory(png).unwrap().to_rgb8();
+        img.pixels()
+            .map(|p| p.0.iter().map(|&v| v as f64).sum::<f64>())
+            .sum::<f64>()
+    };
+    assert!(mean(&bright) > mean(&dim) * 1.2);
+    // POST: JPEG, EXR, false colour with its range header.
+    for (fmt, ct) in [("jpeg", "image/jpeg"), ("exr", "image/x-exr")] {
+        let body = json!({"camera": "front", "width": 32, "height": 32, "format": fmt}).to_string();
+        let r = Request::post("/api/scenes/cornell-box/render")
+            .body(Body::from(body))
+            .unwrap();
+        let (s, h, b) = send(app(), r).await;
+        assert_eq!(
+            (s, h[header::CONTENT_TYPE].to_str().unwrap()),
+            (StatusCode::OK, ct)
+        );
+        assert!(b.len() > 100);
+    }
+    let body = json!({"camera": {"position": [0.278, 0.273, -0.8], "target": [0.278, 0.273, 0], "fov_deg": 39.3},
+                      "width": 48, "height": 32, "mode": "falsecolor"});
+    let (s, h, _) = send(
+        app(),
+        Request::post("/api/scenes/cornell-box/render")
+            .body(Body::from(body.to_string()))
+            .unwrap(),
+    )
+    .await;
+    assert_eq!(s, StatusCode::OK);
+    assert!(h.contains_key("x-relight-falsecolor-lux"));
+    // Errors.
+    for (body, needle) in [
+        (json!({"width": 5000}), "4096"),
+        (json!({"camera": "top"}), "unknown camera 'top'"),
+        (json!({"format": "gif"}), "format 'gif'"),
+        (
+            json!({"camera": {"position": [0, 0, 0], "target": [0, 0, 0], "fov_deg": 40}}),
+            "target must differ",
+        ),
+        (json!({"mode": "falsecolor", "format": "exr"}), "8-bit"),
+    ] {
+        let (s, _, v) = post(app(), "/api/scenes/cornell-box/render", body.to_string()).await;
+        assert_eq!(s, StatusCode::UNPROCESSABLE_ENTITY, "{body}");
+        assert!(
+            v["detail"].as_str().unwrap().contains(needle),
+            "{body}: {v}"
+        );
+    }
+    let (s, _, _) = send(app(), req("/api/scenes/cornell-box/render.png?w=big")).await;
+    assert_eq!(s, StatusCode::BAD_REQUEST);
 }

@@ -196,7 +196,7 @@ pub async fn patches(
 // ---------------------------------------------------------------------------- parsing
 
 /// Parses a JSON object body; 400 for syntax, 413 for size, 415 for content type.
-fn parse_body(
+pub fn parse_body(
     headers: &HeaderMap,
     body: Result<Bytes, BytesRejection>,
 ) -> Result<Map<String, Value>, AppError> {
@@ -232,7 +232,7 @@ fn parse_body(
     }
 }
 
-fn check_keys(body: &Map<String, Value>, allowed: &[&str]) -> Result<(), AppError> {
+pub fn check_keys(body: &Map<String, Value>, allowed: &[&str]) -> Result<(), AppError> {
     for k in body.keys() {
         if !allowed.contains(&k.as_str()) {
             return Err(AppError::Invalid(format!(
@@ -244,7 +244,7 @@ fn check_keys(body: &Map<String, Value>, allowed: &[&str]) -> Result<(), AppErro
     Ok(())
 }
 
-fn number(v: &Value, what: &str) -> Result<f64, AppError> {
+pub fn number(v: &Value, what: &str) -> Result<f64, AppError> {
     let x = v
         .as_f64()
         .ok_or_else(|| AppError::Invalid(format!("{what} must be a number, got {v}")))?;
@@ -254,7 +254,7 @@ fn number(v: &Value, what: &str) -> Result<f64, AppError> {
     Ok(x)
 }
 
-fn triple(v: &Value, what: &str) -> Result<[f64; 3], AppError> {
+pub fn triple(v: &Value, what: &str) -> Result<[f64; 3], AppError> {
     let arr = v.as_array().filter(|a| a.len() == 3).ok_or_else(|| {
         AppError::Invalid(format!("{what} must be an array of three numbers, got {v}"))
     })?;
@@ -385,12 +385,12 @@ fn kind(v: &Value) -> &'static str {
 }
 
 /// A lighting request: group settings or a per-patch emission.
-enum Lighting {
+pub enum Lighting {
     Groups(Vec<Rgb>),
     Emission(Vec<f32>),
 }
 
-fn parse_lighting(body: &Map<String, Value>, ready: &Ready) -> Result<Lighting, AppError> {
+pub fn parse_lighting(body: &Map<String, Value>, ready: &Ready) -> Result<Lighting, AppError> {
     match (body.get("lights"), body.get("emission")) {
         (Some(_), Some(_)) => Err(AppError::Invalid(
             "give either 'lights' (group settings) or 'emission' (per patch), not both".into(),
@@ -400,7 +400,8 @@ fn parse_lighting(body: &Map<String, Value>, ready: &Ready) -> Result<Lighting, 
     }
 }
 
-fn solve(ready: &Ready, l: &Lighting) -> Result<Solution, AppError> {
+/// The full solution for a lighting request.
+pub fn solve_for(ready: &Ready, l: &Lighting) -> Result<Solution, AppError> {
     match l {
         Lighting::Groups(w) => Ok(ready.baked.transfer.relight(w)),
         Lighting::Emission(e) => ready
@@ -411,7 +412,7 @@ fn solve(ready: &Ready, l: &Lighting) -> Result<Solution, AppError> {
     }
 }
 
-async fn blocking<T: Send + 'static>(
+pub async fn blocking<T: Send + 'static>(
     f: impl FnOnce() -> Result<T, AppError> + Send + 'static,
 ) -> Result<T, AppError> {
     tokio::task::spawn_blocking(f)
@@ -498,8 +499,8 @@ pub async fn radiosity(
         l => {
             let r2 = ready.clone();
             let sol = match l {
-                l @ Lighting::Emission(_) => blocking(move || solve(&r2, &l)).await?,
-                l => solve(&ready, &l)?,
+                l @ Lighting::Emission(_) => blocking(move || solve_for(&r2, &l)).await?,
+                l => solve_for(&ready, &l)?,
             };
             let surfaces = want_surfaces.then(|| surface_averages(&b.scene, &b.mesh, &sol));
             (sol.b, surfaces)
@@ -614,7 +615,7 @@ pub async fn illuminance(
     }
     let heavy = !points.is_empty() || matches!(lighting, Lighting::Emission(_));
     let work = move |ready: Arc<Ready>| -> Result<Value, AppError> {
-        let sol = solve(&ready, &lighting)?;
+        let sol = solve_for(&ready, &lighting)?;
         let stats = surface_stats(&ready, &surfaces, &sol.h);
         let b = &ready.baked;
         let pts: Vec<Lux> = points
@@ -685,7 +686,7 @@ pub async fn batch(
         parsed
             .iter()
             .map(|l| {
-                let sol = solve(&r, l)?;
+                let sol = solve_for(&r, l)?;
                 let mut v = json!({
                     "surfaces": surface_stats(&r, &surfaces, &sol.h),
                     "power": PowerReport::new(r.baked.transfer.power(&sol)),

@@ -9,6 +9,7 @@ pub mod api;
 pub mod error;
 pub mod metrics;
 pub mod openapi;
+pub mod render_api;
 
 use std::net::SocketAddr;
 use std::path::PathBuf;
@@ -70,6 +71,7 @@ pub struct Ready {
     pub baked: Baked,
     pub groups: Vec<GroupInfo>,
     pub bake_seconds: f64,
+    shading: std::sync::OnceLock<crate::render::Shading>,
 }
 
 impl Ready {
@@ -106,7 +108,14 @@ impl Ready {
             baked,
             groups,
             bake_seconds,
+            shading: std::sync::OnceLock::new(),
         }
+    }
+
+    /// Gouraud shading vertices, built on first use.
+    pub fn shading(&self) -> &crate::render::Shading {
+        self.shading
+            .get_or_init(|| crate::render::Shading::new(&self.baked.mesh))
     }
 }
 
@@ -233,6 +242,8 @@ pub struct AppState {
     pub config: ServerConfig,
     pub slots: Vec<Arc<SceneSlot>>,
     pub metrics: metrics::Metrics,
+    /// View buffers per (scene, camera, size), bounded LRU.
+    pub views: std::sync::Mutex<render_api::ViewCache>,
 }
 
 impl AppState {
@@ -246,6 +257,7 @@ impl AppState {
             config,
             slots,
             metrics: metrics::Metrics::default(),
+            views: Default::default(),
         }))
     }
 
@@ -322,6 +334,8 @@ pub fn router(state: Arc<AppState>) -> Router {
         .route("/api/scenes/{id}/radiosity", post(api::radiosity))
         .route("/api/scenes/{id}/illuminance", post(api::illuminance))
         .route("/api/scenes/{id}/batch", post(api::batch))
+        .route("/api/scenes/{id}/render", post(render_api::render_post))
+        .route("/api/scenes/{id}/render.png", get(render_api::render_get))
         .route("/api/{*rest}", axum::routing::any(api::not_found))
         .fallback_service(ServeDir::new(static_dir).not_found_service(not_found))
         .layer(axum::extract::DefaultBodyLimit::max(

@@ -1,0 +1,432 @@
+//! `POST /api/scenes/{id}/render` and `GET /api/scenes/{id}/render.png`: relit images.
+//!
+//! View buffers are built once per (scene, camera, size) and kept in a bounded LRU
+//! ([`ViewCache`]); a relit image is then a gather over the buffer plus encoding. All of
+//! it runs on the blocking pool.
+
+use std::collections::{HashMap, VecDeque};
+use std::sync::{Arc, Mutex};
+use std::time::Instant;
+
+use axum::body::Bytes;
+use axum::extract::rejection::BytesRejection;
+use axum::extract::{Path, Query, State};
+use axum::http::{header, HeaderMap};
+use axum::response::{IntoResponse, Response};
+use serde_json::{Map, Value};
+
+use super::api::{blocking, number, parse_body, parse_lighting, solve_for, triple, Lighting};
+use super::{AppError, AppState, Ready};
+use crate::render::{self, Camera, Format, ToneMap, ViewBuffer, MAX_SIDE};
+
+/// Most bytes of view buffers kept.
+pub const VIEW_CACHE_BYTES: usize = 1 << 30;
+
+type ViewKey = (String, [u32; 12]);
+
+/// A least-recently-used cache of view buffers, bounded in bytes.
+#[derive(Default)]
+pub struct ViewCache {
+    map: HashMap<ViewKey, Arc<ViewBuffer>>,
+    order: VecDeque<ViewKey>,
+    bytes: usize,
+}
+
+impl ViewCache {
+    fn get(&mut self, k: &ViewKey) -> Option<Arc<ViewBuffer>> {
+        let v = self.map.get(k)?.clone();
+        self.order.retain(|x| x != k);
+        self.order.push_back(k.clone());
+        Some(v)
+    }
+
+    fn put(&mut self, k: ViewKey, v: Arc<ViewBuffer>) {
+        self.bytes += v.bytes();
+        if let Some(old) = self.map.insert(k.clone(), v) {
+            self.bytes -= old.bytes();
+            self.order.retain(|x| x != &k);
+        }
+        self.order.push_back(k);
+        while self.bytes > VIEW_CACHE_BYTES && self.order.len() > 1 {
+            if let Some(old) = self.order.pop_front() {
+                if let Some(v) = self.map.remove(&old) {
+                    self.bytes -= v.bytes();
+                }
+            }
+        }
+    }
+
+    pub fn len(&self) -> usize {
+        self.map.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.map.is_empty()
+    }
+}
+
+/// What to draw and how.
+#[derive(Debug, Clone)]
+pub struct RenderOptions {
+    pub camera: Camera,
+    /// Stops; None = auto exposure.
+    pub exposure: Option<f32>,
+    pub format: Format,
+    pub falsecolor: bool,
+    pub tonemap: ToneMap,
+    /// False-colour range in lux (default: max/100 .. max).
+    pub range: Option<(f32, f32)>,
+}
+
+fn camera_from(v: Option<&Value>, ready: &Ready, w: u32, h: u32) -> Result<Camera, AppError> {
+    let scene = &ready.baked.scene;
+    let cam = match v {
+        None => {
+            let def = scene.cameras.first().ok_or_else(|| {
+                AppError::Invalid("the scene has no camera preset; pass a full camera".into())
+            })?;
+            Camera::from_def(def, w, h)
+        }
+        Some(Value::String(id)) => {
+            let def = scene.cameras.iter().find(|c| &c.id == id).ok_or_else(|| {
+                let ids: Vec<&str> = scene.cameras.iter().map(|c| c.id.as_str()).collect();
+                AppError::Invalid(format!("unknown camera '{id}' (known: {})", ids.join(", ")))
+            })?;
+            Camera::from_def(def, w, h)
+        }
+        Some(Value::Object(o)) => {
+            for k in o.keys() {
+                if !["position", "target", "up", "fov_deg"].contains(&k.as_str()) {
+                    return Err(AppError::Invalid(format!(
+                        "camera: unknown field '{k}' (expected position, target, up, fov_deg)"
+                    )));
+                }
+            }
+            let get = |k: &str| -> Result<[f64; 3], AppError> {
+                triple(o.get(k).unwrap_or(&Value::Null), &format!("camera.{k}"))
+            };
+            let up = match o.get("up") {
+                Some(_) => get("up")?,
+                None => [0.0, 1.0, 0.0],
+            };
+            let fov = number(o.get("fov_deg").unwrap_or(&Value::Null), "camera.fov_deg")?;
+            let v3 = |a: [f64; 3]| glam::Vec3::new(a[0] as f32, a[1] as f32, a[2] as f32);
+            Camera {
+                position: v3(get("position")?),
+                target: v3(get("target")?),
+                up: v3(up),
+                fov_deg: fov as f32,
+                width: w,
+                height: h,
+            }
+        }
+        Some(other) => {
+            return Err(AppError::Invalid(format!(
+                "camera must be a preset id or {{position, target, up, fov_deg}}, got {other}"
+            )))
+        }
+    };
+    cam.validate().map_err(AppError::Invalid)?;
+    Ok(cam)
+}
+
+fn size(v: Option<&Value>, what: &str, default: u32) -> Result<u32, AppError> {
+    match v {
+        None => Ok(default),
+        Some(v) => {
+            let x = number(v, what)?;
+            if x.fract() != 0.0 || x < 1.0 || x > MAX_SIDE as f64 {
+                return Err(AppError::Invalid(format!(
+                    "{what} = {x}: must be a whole number from 1 to {MAX_SIDE}"
+                )));
+            }
+            Ok(x as u32)
+        }
+    }
+}
+
+fn options(body: &Map<String, Value>, ready: &Ready) -> Result<RenderOptions, AppError> {
+    let w = size(body.get("width"), "width", 512)?;
+    let h = size(body.get("height"), "height", 512)?;
+    let camera = camera_from(body.get("camera"), ready, w, h)?;
+    let exposure = match body.get("exposure") {
+        None => None,
+        Some(Value::String(a)) if a == "auto" => None,
+        Some(v) => {
+            let e = number(v, "exposure")?;
+            if e.abs() > 40.0 {
+                return Err(AppError::Invalid(format!(
+                    "exposure {e} stops is outside ±40"
+                )));
+            }
+            Some(e as f32)
+        }
+    };
+    let pick = |k: &str, default: &str| -> Result<String, AppError> {
+        match body.get(k) {
+            None => Ok(default.into()),
+            Some(Value::String(s)) => Ok(s.clone()),
+            Some(v) => Err(AppError::Invalid(format!("{k} must be a string, got {v}"))),
+        }
+    };
+    let format = match pick("format", "png")?.as_str() {
+        "png" => Format::Png,
+        "jpeg" | "jpg" => Format::Jpeg,
+        "exr" => Format::Exr,
+        f => {
+            return Err(AppError::Invalid(format!(
+                "format '{f}': use png, jpeg or exr"
+            )))
+        }
+    };
+    let falsecolor = match pick("mode", "shaded")?.as_str() {
+        "shaded" => false,
+        "falsecolor" => true,
+        m => {
+            return Err(AppError::Invalid(format!(
+                "mode '{m}': use shaded or falsecolor"
+            )))
+        }
+    };
+    let tonemap = match pick("tonemap", "filmic")?.as_str() {
+        "filmic" => ToneMap::Filmic,
+        "clamp" => ToneMap::Clamp,
+        t => {
+            return Err(AppError::Invalid(format!(
+                "tonemap '{t}': use filmic or clamp"
+            )))
+        }
+    };
+    let range = match body.get("range") {
+        None => None,
+        Some(v) => {
+            let a = v
+                .as_array()
+                .filter(|a| a.len() == 2)
+                .ok_or_else(|| AppError::Invalid("range must be [low, high] in lux".into()))?;
+            let (lo, hi) = (number(&a[0], "range[0]")?, number(&a[1], "range[1]")?);
+            if !(lo > 0.0 && hi > lo) {
+                return Err(AppError::Invalid("range needs 0 < low < high (lux)".into()));
+            }
+            Some((lo as f32, hi as f32))
+        }
+    };
+    if falsecolor && format == Format::Exr {
+        return Err(AppError::Invalid(
+            "false colour is an 8-bit image: use png or jpeg".into(),
+        ));
+    }
+    Ok(RenderOptions {
+        camera,
+        exposure,
+        format,
+        falsecolor,
+        tonemap,
+        range,
+    })
+}
+
+/// The view buffer for this scene and camera, from the cache or built now.
+pub fn view_for(state: &AppState, ready: &Ready, cam: &Camera) -> Arc<ViewBuffer> {
+    let key = (ready.baked.scene.id.clone(), cam.key());
+    if let Some(v) = lock(&state.views).get(&key) {
+        return v;
+    }
+    let v = Arc::new(ViewBuffer::build(&ready.baked.mesh, ready.shading(), cam));
+    lock(&state.views).put(key, v.clone());
+    v
+}
+
+fn lock<T>(m: &Mutex<T>) -> std::sync::MutexGuard<'_, T> {
+    m.lock().unwrap_or_else(|p| p.into_inner())
+}
+
+/// An encoded image and the settings it was made with.
+pub struct Rendered {
+    pub bytes: Vec<u8>,
+    /// False-colour range in lux, when in false colour.
+    pub range: Option<(f32, f32)>,
+    /// Exposure used, stops (shaded 8-bit images).
+    pub exposure: Option<f32>,
+}
+
+/// Renders and encodes.
+pub fn render_image(
+    state: &AppState,
+    ready: &Ready,
+    lighting: &Lighting,
+    o: &RenderOptions,
+) -> Result<Rendered, AppError> {
+    let view = view_for(state, ready, &o.camera);
+    let shading = ready.shading();
+    let (w, h) = (o.camera.width, o.camera.height);
+    let per_patch = |want_h: bool| -> Result<Vec<f32>, AppError> {
+        Ok(match lighting {
+            Lighting::Groups(wts) => {
+                let mut out = vec![0f32; 3 * ready.baked.transfer.n];
+                if want_h {
+                    ready.baked.transfer.illuminance_into(wts, &mut out);
+                } else {
+                    ready.baked.transfer.relight_into(wts, &mut out);
+                }
+                out
+            }
+            l => {
+                let s = solve_for(ready, l)?;
+                if want_h {
+                    s.h
+                } else {
+                    s.b
+                }
+            }
+        })
+    };
+    if o.falsecolor {
+        let img = view.gather(&shading.vertex_values(&per_patch(true)?), 1.0);
+        let (lo, hi) = o.range.unwrap_or_else(|| {
+            let max = img
+                .iter()
+                .map(|p| crate::color::luminance(*p))
+                .fold(0.0, f32::max);
+            let max = if max > 0.0 { max } else { 1.0 };
+            (max / 100.0, max)
+        });
+        let rgb = render::false_color(&img, w, h, lo, hi);
+        let bytes = render::encode_8bit(&rgb, w, h, o.format).map_err(AppError::Internal)?;
+        return Ok(Rendered {
+            bytes,
+            range: Some((lo, hi)),
+            exposure: None,
+        });
+    }
+    let img = view.gather(
+        &shading.vertex_values(&per_patch(false)?),
+        std::f32::consts::FRAC_1_PI,
+    );
+    if o.format == Format::Exr {
+        let bytes = render::encode_exr(&img, w, h).map_err(AppError::Internal)?;
+        return Ok(Rendered {
+            bytes,
+            range: None,
+            exposure: None,
+        });
+    }
+    let ev = o.exposure.unwrap_or_else(|| render::auto_exposure(&img));
+    let bytes = render::encode_8bit(&render::tonemap(&img, ev, o.tonemap), w, h, o.format)
+        .map_err(AppError::Internal)?;
+    Ok(Rendered {
+        bytes,
+        range: None,
+        exposure: Some(ev),
+    })
+}
+
+async fn respond(
+    state: Arc<AppState>,
+    ready: Arc<Ready>,
+    lighting: Lighting,
+    o: RenderOptions,
+) -> Result<Response, AppError> {
+    let t0 = Instant::now();
+    let format = o.format;
+    let r = blocking(move || render_image(&state, &ready, &lighting, &o)).await?;
+    let mut resp = ([(header::CONTENT_TYPE, format.content_type())], r.bytes).into_response();
+    let hd = resp.headers_mut();
+    if let Ok(v) = format!("{:.3}", t0.elapsed().as_secs_f64() * 1e3).parse() {
+        hd.insert("x-relight-render-ms", v);
+    }
+    if let Some(ev) = r.exposure {
+        if let Ok(v) = format!("{ev:.3}").parse() {
+            hd.insert("x-relight-exposure", v);
+        }
+    }
+    if let Some((lo, hi)) = r.range {
+        if let Ok(v) = format!("{lo},{hi}").parse() {
+            hd.insert("x-relight-falsecolor-lux", v);
+        }
+    }
+    hd.insert(
+        header::CACHE_CONTROL,
+        "no-store".parse().expect("static header"),
+    );
+    Ok(resp)
+}
+
+pub async fn render_post(
+    State(state): State<Arc<AppState>>,
+    Path(id): Path<String>,
+    headers: HeaderMap,
+    body: Result<Bytes, BytesRejection>,
+) -> Result<Response, AppError> {
+    let ready = state.slot(&id)?.ready()?;
+    let body = parse_body(&headers, body)?;
+    super::api::check_keys(
+        &body,
+        &[
+            "lights", "emission", "camera", "width", "height", "exposure", "format", "mode",
+            "tonemap", "range",
+        ],
+    )?;
+    let lighting = parse_lighting(&body, &ready)?;
+    let o = options(&body, &ready)?;
+    respond(state, ready, lighting, o).await
+}
+
+/// `GET …/render.png?camera=front&w=512&h=512&light.ceiling=0.5&exposure=0&mode=falsecolor`
+pub async fn render_get(
+    State(state): State<Arc<AppState>>,
+    Path(id): Path<String>,
+    Query(q): Query<Vec<(String, String)>>,
+) -> Result<Response, AppError> {
+    let ready = state.slot(&id)?.ready()?;
+    let mut body = Map::new();
+    let mut lights = Map::new();
+    body.insert("format".into(), Value::from("png"));
+    let num = |k: &str, v: &str| -> Result<Value, AppError> {
+        v.parse::<f64>()
+            .map(Value::from)
+            .map_err(|_| AppError::BadRequest(format!("query parameter {k}={v}: not a number")))
+    };
+    for (k, v) in &q {
+        match k.as_str() {
+            "camera" => {
+                body.insert("camera".into(), Value::from(v.as_str()));
+            }
+            "w" | "width" => {
+                body.insert("width".into(), num(k, v)?);
+            }
+            "h" | "height" => {
+                body.insert("height".into(), num(k, v)?);
+            }
+            "exposure" if v == "auto" => {}
+            "exposure" => {
+                body.insert("exposure".into(), num(k, v)?);
+            }
+            "mode" | "tonemap" => {
+                body.insert(k.clone(), Value::from(v.as_str()));
+            }
+            _ => match k.strip_prefix("light.") {
+                Some(g) => {
+                    // light.ID=0.5 or light.ID=r,g,b
+                    let parts: Vec<&str> = v.split(',').collect();
+                    let val = if parts.len() == 3 {
+                        let c: Result<Vec<Value>, _> = parts.iter().map(|p| num(k, p)).collect();
+                        serde_json::json!({"intensity": 1.0, "color": c?})
+                    } else {
+                        num(k, v)?
+                    };
+                    lights.insert(g.to_string(), val);
+                }
+                None => {
+                    return Err(AppError::BadRequest(format!(
+                        "unknown query parameter '{k}' (camera, w, h, exposure, mode, tonemap, light.<group>)"
+                    )))
+                }
+            },
+        }
+    }
+    body.insert("lights".into(), Value::Object(lights));
+    let lighting = parse_lighting(&body, &ready)?;
+    let o = options(&body, &ready)?;
+    respond(state, ready, lighting, o).await
+}
