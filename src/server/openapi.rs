@@ -42,6 +42,9 @@ pub fn spec() -> Value {
                 "surfaces": {"type": "object", "additionalProperties": {"$ref": "#/components/schemas/SurfaceIlluminance"}},
                 "power": {"$ref": "#/components/schemas/Power"},
                 "radiosity": {"type": "array", "items": {"$ref": "#/components/schemas/Rgb"}}}}}}}}}});
+    let mut render_resp = errors();
+    render_resp["200"] = json!({"description": "The encoded image. Headers: X-Relight-Render-Ms (server time), X-Relight-Exposure (stops used), X-Relight-Falsecolor-Lux (low,high of the log scale).",
+        "content": {"image/png": {}, "image/jpeg": {}, "image/x-exr": {"description": "Linear radiance B/π, lm/(m²·sr), 32-bit float RGB."}}});
     json!({
         "openapi": "3.0.3",
         "info": {
@@ -73,6 +76,18 @@ pub fn spec() -> Value {
                 "parameters": [scene_id()],
                 "requestBody": {"required": false, "content": {"application/json": {"schema": {"$ref": "#/components/schemas/IlluminanceRequest"}}}},
                 "responses": illum_resp}},
+            "/api/scenes/{id}/render": {"post": {"summary": "A relit image from a camera preset or a full camera.",
+                "parameters": [scene_id()],
+                "requestBody": {"required": false, "content": {"application/json": {"schema": {"$ref": "#/components/schemas/RenderRequest"}}}},
+                "responses": render_resp.clone()}},
+            "/api/scenes/{id}/render.png": {"get": {"summary": "A relit PNG for quick use from a browser or curl, e.g. ?camera=front&w=512&h=512&light.ceiling=0.5 (light.ID=r,g,b for a colour; exposure=auto|stops; mode=shaded|falsecolor; tonemap=filmic|clamp).",
+                "parameters": [scene_id(),
+                    {"name": "camera", "in": "query", "schema": {"type": "string"}},
+                    {"name": "w", "in": "query", "schema": {"type": "integer", "maximum": 4096}},
+                    {"name": "h", "in": "query", "schema": {"type": "integer", "maximum": 4096}},
+                    {"name": "exposure", "in": "query", "schema": {"type": "string"}},
+                    {"name": "mode", "in": "query", "schema": {"type": "string", "enum": ["shaded", "falsecolor"]}}],
+                "responses": render_resp}},
             "/api/scenes/{id}/batch": {"post": {"summary": "Up to 1000 lighting states in one request, each with surface illuminance statistics and the power balance.",
                 "parameters": [scene_id()],
                 "requestBody": {"required": true, "content": {"application/json": {"schema": {"type": "object", "required": ["states"], "properties": {
@@ -98,6 +113,16 @@ pub fn spec() -> Value {
             "IlluminanceRequest": {"allOf": [{"$ref": "#/components/schemas/LightingState"}, {"type": "object", "properties": {
                 "surfaces": {"type": "array", "items": {"type": "string"}},
                 "points": {"type": "array", "maxItems": 10000, "items": {"type": "object", "required": ["position", "normal"], "properties": {"position": {"$ref": "#/components/schemas/Rgb"}, "normal": {"$ref": "#/components/schemas/Rgb"}}}}}}]},
+            "RenderRequest": {"allOf": [{"$ref": "#/components/schemas/LightingState"}, {"type": "object", "properties": {
+                "camera": {"oneOf": [{"type": "string", "description": "Preset id from scene.toml."},
+                    {"type": "object", "required": ["position", "target", "fov_deg"], "properties": {"position": {"$ref": "#/components/schemas/Rgb"}, "target": {"$ref": "#/components/schemas/Rgb"}, "up": {"$ref": "#/components/schemas/Rgb"}, "fov_deg": {"type": "number", "description": "Vertical field of view."}}}]},
+                "width": {"type": "integer", "minimum": 1, "maximum": 4096, "default": 512},
+                "height": {"type": "integer", "minimum": 1, "maximum": 4096, "default": 512},
+                "exposure": {"description": "Stops (2^exposure scales radiance), or \"auto\" (default): log-average luminance to middle grey.", "oneOf": [{"type": "number"}, {"type": "string", "enum": ["auto"]}]},
+                "format": {"type": "string", "enum": ["png", "jpeg", "exr"], "default": "png"},
+                "mode": {"type": "string", "enum": ["shaded", "falsecolor"], "default": "shaded", "description": "falsecolor maps illuminance (lux) on a log scale, with a legend bar at the right edge."},
+                "tonemap": {"type": "string", "enum": ["filmic", "clamp"], "default": "filmic"},
+                "range": {"type": "array", "items": {"type": "number"}, "minItems": 2, "maxItems": 2, "description": "False-colour range in lux (default: max/100 to max)."}}}]},
             "Lux": {"type": "object", "properties": {"lux": {"type": "number"}, "rgb": {"$ref": "#/components/schemas/Rgb"}}},
             "SurfaceIlluminance": {"type": "object", "properties": {"area": {"type": "number"}, "avg": {"$ref": "#/components/schemas/Lux"}, "min": {"$ref": "#/components/schemas/Lux"}, "max": {"$ref": "#/components/schemas/Lux"}, "uniformity": {"type": "number", "description": "Emin / Eavg"}}},
             "IlluminanceResponse": {"type": "object", "properties": {"points": {"type": "array", "items": {"$ref": "#/components/schemas/Lux"}},
