@@ -335,18 +335,58 @@ impl ViewBuffer {
         (0..n)
             .into_par_iter()
             .with_min_len(4096)
-            .map(|i| {
-                let mut acc = [0f32; 3];
-                for k in self.start[i] as usize..self.start[i + 1] as usize {
-                    let v = &values[self.sv[k] as usize];
-                    let w = self.weight[k] * scale;
-                    acc[0] += w * v[0];
-                    acc[1] += w * v[1];
-                    acc[2] += w * v[2];
-                }
-                acc
-            })
+            .map(|i| self.pixel(i, values, scale))
             .collect()
+    }
+
+    /// One pixel's value: the weighted sum of its vertices, times `scale`.
+    #[inline]
+    fn pixel(&self, i: usize, values: &[Rgb], scale: f32) -> Rgb {
+        let mut acc = [0f32; 3];
+        for k in self.start[i] as usize..self.start[i + 1] as usize {
+            let v = &values[self.sv[k] as usize];
+            let w = self.weight[k] * scale;
+            acc[0] += w * v[0];
+            acc[1] += w * v[1];
+            acc[2] += w * v[2];
+        }
+        acc
+    }
+
+    /// 8-bit sRGB image in one pass: gather, exposure, tone curve. `exposure` None means
+    /// auto exposure, estimated from every 16th pixel. Returns the pixels and the stops used.
+    pub fn gather_tonemapped(
+        &self,
+        values: &[Rgb],
+        scale: f32,
+        exposure: Option<f32>,
+        tm: ToneMap,
+    ) -> (Vec<u8>, f32) {
+        let n = (self.width * self.height) as usize;
+        let ev = exposure.unwrap_or_else(|| {
+            let sample: Vec<Rgb> = (0..n)
+                .into_par_iter()
+                .step_by(16)
+                .map(|i| self.pixel(i, values, scale))
+                .collect();
+            auto_exposure(&sample)
+        });
+        let lut = tone_lut(tm);
+        let k = ev.exp2() * scale / LUT_MAX;
+        let top = (LUT_SIZE - 1) as f32;
+        let mut out = vec![0u8; 3 * n];
+        out.par_chunks_mut(3 * 4096)
+            .enumerate()
+            .for_each(|(blk, o)| {
+                for (j, o) in o.chunks_exact_mut(3).enumerate() {
+                    let p = self.pixel(blk * 4096 + j, values, 1.0);
+                    for c in 0..3 {
+                        let u = (p[c] * k).clamp(0.0, 1.0).sqrt();
+                        o[c] = lut[(u * top + 0.5) as usize];
+                    }
+                }
+            });
+        (out, ev)
     }
 
     /// Memory held, bytes.
@@ -475,10 +515,9 @@ fn aces(x: f32) -> f32 {
 const LUT_MAX: f32 = 16.0;
 const LUT_SIZE: usize = 16384;
 
-/// 8-bit sRGB pixels from linear values, scaled by 2^exposure. The whole curve (tone map,
-/// then the sRGB transfer function) is one table indexed by √(v / LUT_MAX), which keeps
-/// the steep dark end finely resolved.
-pub fn tonemap(img: &[Rgb], exposure: f32, tm: ToneMap) -> Vec<u8> {
+/// The tone curve followed by the sRGB transfer function, as 8-bit codes indexed by
+/// √(v / LUT_MAX); built once per curve.
+fn tone_lut(tm: ToneMap) -> &'static [u8] {
     static LUTS: std::sync::OnceLock<[Vec<u8>; 2]> = std::sync::OnceLock::new();
     let luts = LUTS.get_or_init(|| {
         [ToneMap::Clamp, ToneMap::Filmic].map(|tm| {
@@ -495,7 +534,14 @@ pub fn tonemap(img: &[Rgb], exposure: f32, tm: ToneMap) -> Vec<u8> {
                 .collect()
         })
     });
-    let lut = &luts[tm as usize];
+    &luts[tm as usize]
+}
+
+/// 8-bit sRGB pixels from linear values, scaled by 2^exposure. The whole curve (tone map,
+/// then the sRGB transfer function) is one table indexed by √(v / LUT_MAX), which keeps
+/// the steep dark end finely resolved.
+pub fn tonemap(img: &[Rgb], exposure: f32, tm: ToneMap) -> Vec<u8> {
+    let lut = tone_lut(tm);
     let k = exposure.exp2();
     let scale = k / LUT_MAX;
     let top = (LUT_SIZE - 1) as f32;

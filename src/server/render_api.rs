@@ -299,11 +299,10 @@ pub fn render_image(
             exposure: None,
         });
     }
-    let img = view.gather(
-        &shading.vertex_values(&per_patch(false)?),
-        std::f32::consts::FRAC_1_PI,
-    );
+    let values = shading.vertex_values(&per_patch(false)?);
+    let scale = std::f32::consts::FRAC_1_PI;
     if o.format == Format::Exr {
+        let img = view.gather(&values, scale);
         let bytes = render::encode_exr(&img, w, h).map_err(AppError::Internal)?;
         return Ok(Rendered {
             bytes,
@@ -311,9 +310,8 @@ pub fn render_image(
             exposure: None,
         });
     }
-    let ev = o.exposure.unwrap_or_else(|| render::auto_exposure(&img));
-    let bytes = render::encode_8bit(&render::tonemap(&img, ev, o.tonemap), w, h, o.format)
-        .map_err(AppError::Internal)?;
+    let (px, ev) = view.gather_tonemapped(&values, scale, o.exposure, o.tonemap);
+    let bytes = render::encode_8bit(&px, w, h, o.format).map_err(AppError::Internal)?;
     Ok(Rendered {
         bytes,
         range: None,
