@@ -76,33 +76,7 @@ enum Cmd {
     },
     /// Render an image of a scene under a lighting state (format from the extension:
     /// .png, .jpg, .exr or .pfm for linear radiance).
-    Render {
-        scene: PathBuf,
-        /// Camera preset id from scene.toml (default: the first).
-        #[arg(long)]
-        camera: Option<String>,
-        /// Light setting: ID=INTENSITY or ID=R,G,B (repeatable).
-        #[arg(long = "light", value_name = "ID=VALUE")]
-        lights: Vec<String>,
-        #[arg(short, long)]
-        output: PathBuf,
-        #[arg(long, default_value_t = 512)]
-        width: u32,
-        #[arg(long, default_value_t = 512)]
-        height: u32,
-        /// Exposure in stops (the image is scaled by 2^exposure before tone mapping);
-        /// default: auto (log-average luminance to middle grey).
-        #[arg(long)]
-        exposure: Option<f32>,
-        /// Tone mapping: clamp or filmic.
-        #[arg(long, default_value = "filmic")]
-        tonemap: String,
-        /// Show illuminance (lux) in false colour instead of the shaded image.
-        #[arg(long)]
-        falsecolor: bool,
-        #[arg(long, env = "RELIGHT_CACHE")]
-        cache: Option<PathBuf>,
-    },
+    Render(RenderArgs),
     /// List the scenes under a folder with their patch counts and light groups.
     Info {
         #[arg(long, env = "RELIGHT_SCENES", default_value = "scenes")]
@@ -210,29 +184,7 @@ fn run(cli: Cli) -> Result<()> {
             max_edge,
         } => radiosity(&scene, &lights, json, cache, max_edge),
         Cmd::Info { scenes } => info(&scenes),
-        Cmd::Render {
-            scene,
-            camera,
-            lights,
-            output,
-            width,
-            height,
-            exposure,
-            tonemap,
-            falsecolor,
-            cache,
-        } => render(RenderArgs {
-            scene,
-            camera,
-            lights,
-            output,
-            width,
-            height,
-            exposure,
-            tonemap,
-            falsecolor,
-            cache,
-        }),
+        Cmd::Render(a) => render(a),
         Cmd::Bench {
             make_scene: Some(dir),
             ..
@@ -496,16 +448,32 @@ fn bench(case: Option<String>, scenes: &Path, json: bool) -> Result<()> {
     Ok(())
 }
 
+#[derive(clap::Args)]
 struct RenderArgs {
     scene: PathBuf,
+    /// Camera preset id from scene.toml (default: the first).
+    #[arg(long)]
     camera: Option<String>,
+    /// Light setting: ID=INTENSITY or ID=R,G,B (repeatable).
+    #[arg(long = "light", value_name = "ID=VALUE")]
     lights: Vec<String>,
+    #[arg(short, long)]
     output: PathBuf,
+    #[arg(long, default_value_t = 512)]
     width: u32,
+    #[arg(long, default_value_t = 512)]
     height: u32,
+    /// Exposure in stops (the image is scaled by 2^exposure before tone mapping);
+    /// default: auto (log-average luminance to middle grey).
+    #[arg(long)]
     exposure: Option<f32>,
+    /// Tone mapping: clamp or filmic.
+    #[arg(long, default_value = "filmic")]
     tonemap: String,
+    /// Show illuminance (lux) in false colour instead of the shaded image.
+    #[arg(long)]
     falsecolor: bool,
+    #[arg(long, env = "RELIGHT_CACHE")]
     cache: Option<PathBuf>,
 }
 

@@ -461,6 +461,21 @@ fn surface_stats(
         .collect()
 }
 
+/// The common start of a POST handler: the ready scene and the parsed body, whose
+/// top-level fields must be among `allowed`.
+pub fn begin(
+    state: &AppState,
+    id: &str,
+    headers: &HeaderMap,
+    body: Result<Bytes, BytesRejection>,
+    allowed: &[&str],
+) -> Result<(Arc<Ready>, Map<String, Value>), AppError> {
+    let ready = state.slot(id)?.ready()?;
+    let body = parse_body(headers, body)?;
+    check_keys(&body, allowed)?;
+    Ok((ready, body))
+}
+
 // ---------------------------------------------------------------------------- endpoints
 
 pub async fn radiosity(
@@ -469,9 +484,13 @@ pub async fn radiosity(
     headers: HeaderMap,
     body: Result<Bytes, BytesRejection>,
 ) -> ApiResult {
-    let ready = state.slot(&id)?.ready()?;
-    let body = parse_body(&headers, body)?;
-    check_keys(&body, &["lights", "emission", "surfaces"])?;
+    let (ready, body) = begin(
+        &state,
+        &id,
+        &headers,
+        body,
+        &["lights", "emission", "surfaces"],
+    )?;
     let want_surfaces = match body.get("surfaces") {
         None => false,
         Some(Value::Bool(b)) => *b,
@@ -593,9 +612,13 @@ pub async fn illuminance(
     headers: HeaderMap,
     body: Result<Bytes, BytesRejection>,
 ) -> ApiResult {
-    let ready = state.slot(&id)?.ready()?;
-    let body = parse_body(&headers, body)?;
-    check_keys(&body, &["lights", "emission", "surfaces", "points"])?;
+    let (ready, body) = begin(
+        &state,
+        &id,
+        &headers,
+        body,
+        &["lights", "emission", "surfaces", "points"],
+    )?;
     let lighting = parse_lighting(&body, &ready)?;
     let mut surfaces = surface_list(body.get("surfaces"), &ready)?;
     let points = body
@@ -643,9 +666,13 @@ pub async fn batch(
     headers: HeaderMap,
     body: Result<Bytes, BytesRejection>,
 ) -> ApiResult {
-    let ready = state.slot(&id)?.ready()?;
-    let body = parse_body(&headers, body)?;
-    check_keys(&body, &["states", "surfaces", "radiosity"])?;
+    let (ready, body) = begin(
+        &state,
+        &id,
+        &headers,
+        body,
+        &["states", "surfaces", "radiosity"],
+    )?;
     let states = body
         .get("states")
         .and_then(Value::as_array)

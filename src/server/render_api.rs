@@ -15,7 +15,7 @@ use axum::http::{header, HeaderMap};
 use axum::response::{IntoResponse, Response};
 use serde_json::{Map, Value};
 
-use super::api::{blocking, number, parse_body, parse_lighting, solve_for, triple, Lighting};
+use super::api::{blocking, number, parse_lighting, solve_for, triple, Lighting};
 use super::{AppError, AppState, Ready};
 use crate::render::{self, Camera, Format, ToneMap, ViewBuffer, MAX_SIDE};
 
@@ -356,10 +356,11 @@ pub async fn render_post(
     headers: HeaderMap,
     body: Result<Bytes, BytesRejection>,
 ) -> Result<Response, AppError> {
-    let ready = state.slot(&id)?.ready()?;
-    let body = parse_body(&headers, body)?;
-    super::api::check_keys(
-        &body,
+    let (ready, body) = super::api::begin(
+        &state,
+        &id,
+        &headers,
+        body,
         &[
             "lights", "emission", "camera", "width", "height", "exposure", "format", "mode",
             "tonemap", "range",
