@@ -461,6 +461,17 @@ fn surface_stats(
         .collect()
 }
 
+/// An optional boolean field (absent = false).
+fn flag(body: &Map<String, Value>, key: &str) -> Result<bool, AppError> {
+    match body.get(key) {
+        None => Ok(false),
+        Some(Value::Bool(b)) => Ok(*b),
+        Some(v) => Err(AppError::Invalid(format!(
+            "'{key}' must be true or false, got {v}"
+        ))),
+    }
+}
+
 /// The common start of a POST handler: the ready scene and the parsed body, whose
 /// top-level fields must be among `allowed`.
 pub fn begin(
@@ -491,15 +502,7 @@ pub async fn radiosity(
         body,
         &["lights", "emission", "surfaces"],
     )?;
-    let want_surfaces = match body.get("surfaces") {
-        None => false,
-        Some(Value::Bool(b)) => *b,
-        Some(v) => {
-            return Err(AppError::Invalid(format!(
-                "'surfaces' must be true or false, got {v}"
-            )))
-        }
-    };
+    let want_surfaces = flag(&body, "surfaces")?;
     let lighting = parse_lighting(&body, &ready)?;
     let n = ready.baked.transfer.n;
     // The hot path: group weights and binary out, no surfaces: one weighted sum.
@@ -683,15 +686,7 @@ pub async fn batch(
             states.len()
         )));
     }
-    let with_radiosity = match body.get("radiosity") {
-        None => false,
-        Some(Value::Bool(b)) => *b,
-        Some(v) => {
-            return Err(AppError::Invalid(format!(
-                "'radiosity' must be true or false, got {v}"
-            )))
-        }
-    };
+    let with_radiosity = flag(&body, "radiosity")?;
     let mut surfaces = surface_list(body.get("surfaces"), &ready)?;
     if body.get("surfaces").is_none() {
         surfaces = (0..ready.baked.scene.surfaces.len()).collect();
