@@ -362,37 +362,128 @@ impl ViewBuffer {
         exposure: Option<f32>,
         tm: ToneMap,
     ) -> (Vec<u8>, f32) {
-        let n = (self.width * self.height) as usize;
-        let ev = exposure.unwrap_or_else(|| {
-            let sample: Vec<Rgb> = (0..n)
-                .into_par_iter()
-                .step_by(16)
-                .map(|i| self.pixel(i, values, scale))
-                .collect();
-            auto_exposure(&sample)
-        });
-        let lut = tone_lut(tm);
-        let k = ev.exp2() * scale / LUT_MAX;
-        let top = (LUT_SIZE - 1) as f32;
-        let mut out = vec![0u8; 3 * n];
-        out.par_chunks_mut(3 * 4096)
-            .enumerate()
-            .for_each(|(blk, o)| {
-                for (j, o) in o.chunks_exact_mut(3).enumerate() {
-                    let p = self.pixel(blk * 4096 + j, values, 1.0);
-                    for c in 0..3 {
-                        let u = (p[c] * k).clamp(0.0, 1.0).sqrt();
-                        o[c] = lut[(u * top + 0.5) as usize];
-                    }
-                }
-            });
-        (out, ev)
+        tonemap_pixels(
+            self.pixels(),
+            |i| self.pixel(i, values, scale),
+            exposure,
+            tm,
+        )
+    }
+
+    /// Number of pixels.
+    pub fn pixels(&self) -> usize {
+        self.width as usize * self.height as usize
     }
 
     /// Memory held, bytes.
     pub fn bytes(&self) -> usize {
         4 * (self.start.len() + self.sv.len() + self.weight.len() + self.center_patch.len())
     }
+}
+
+/// Linear images of one view, one per light group at unit weight (radiance,
+/// lm/(m²·sr)), stored pixel-major. The image for group weights `w` is `Σ_g w_g ⊙ I_g`:
+/// with few groups that streams far less memory than a gather over the view buffer.
+pub struct GroupImages {
+    pub width: u32,
+    pub height: u32,
+    groups: usize,
+    /// `[pixel][group][rgb]`.
+    data: Vec<f32>,
+}
+
+impl GroupImages {
+    /// Whether per-group images are smaller than the view buffer they replace.
+    pub fn worthwhile(view: &ViewBuffer, groups: usize) -> bool {
+        groups > 0 && groups * 12 * view.pixels() <= view.bytes()
+    }
+
+    /// Gathers one image per group from per-group shading-vertex values, times `scale`.
+    pub fn build(view: &ViewBuffer, vertex_values: &[Vec<Rgb>], scale: f32) -> GroupImages {
+        let g = vertex_values.len();
+        let images: Vec<Vec<Rgb>> = vertex_values
+            .iter()
+            .map(|v| view.gather(v, scale))
+            .collect();
+        let mut data = vec![0f32; 3 * g * view.pixels()];
+        data.par_chunks_mut(3 * g).enumerate().for_each(|(i, px)| {
+            for (k, img) in images.iter().enumerate() {
+                px[3 * k..3 * k + 3].copy_from_slice(&img[i]);
+            }
+        });
+        GroupImages {
+            width: view.width,
+            height: view.height,
+            groups: g,
+            data,
+        }
+    }
+
+    #[inline]
+    fn pixel(&self, i: usize, weights: &[Rgb]) -> Rgb {
+        let px = &self.data[3 * self.groups * i..3 * self.groups * (i + 1)];
+        let mut acc = [0f32; 3];
+        for (v, w) in px.chunks_exact(3).zip(weights) {
+            acc[0] += w[0] * v[0];
+            acc[1] += w[1] * v[1];
+            acc[2] += w[2] * v[2];
+        }
+        acc
+    }
+
+    /// Linear image (row 0 at the top) for per-group RGB weights.
+    pub fn linear(&self, weights: &[Rgb]) -> Vec<Rgb> {
+        let n = self.width as usize * self.height as usize;
+        (0..n)
+            .into_par_iter()
+            .with_min_len(4096)
+            .map(|i| self.pixel(i, weights))
+            .collect()
+    }
+
+    /// 8-bit sRGB image for per-group RGB weights, as [`ViewBuffer::gather_tonemapped`].
+    pub fn tonemapped(
+        &self,
+        weights: &[Rgb],
+        exposure: Option<f32>,
+        tm: ToneMap,
+    ) -> (Vec<u8>, f32) {
+        let n = self.width as usize * self.height as usize;
+        tonemap_pixels(n, |i| self.pixel(i, weights), exposure, tm)
+    }
+
+    /// Memory held, bytes.
+    pub fn bytes(&self) -> usize {
+        4 * self.data.len()
+    }
+}
+
+/// 8-bit sRGB pixels `0..n` from a linear pixel source, in one pass: exposure (auto from
+/// every 16th pixel when None), tone curve, sRGB. Returns the pixels and the stops used.
+fn tonemap_pixels(
+    n: usize,
+    pixel: impl Fn(usize) -> Rgb + Sync,
+    exposure: Option<f32>,
+    tm: ToneMap,
+) -> (Vec<u8>, f32) {
+    let ev = exposure.unwrap_or_else(|| {
+        let sample: Vec<Rgb> = (0..n).into_par_iter().step_by(16).map(&pixel).collect();
+        auto_exposure(&sample)
+    });
+    let lut = tone_lut(tm);
+    let k = ev.exp2();
+    let mut out = vec![0u8; 3 * n];
+    out.par_chunks_mut(3 * 4096)
+        .enumerate()
+        .for_each(|(blk, o)| {
+            for (j, o) in o.chunks_exact_mut(3).enumerate() {
+                let p = pixel(blk * 4096 + j);
+                for c in 0..3 {
+                    o[c] = lut[lut_index(p[c] * k)];
+                }
+            }
+        });
+    (out, ev)
 }
 
 #[allow(clippy::too_many_arguments)]
@@ -511,20 +602,35 @@ fn aces(x: f32) -> f32 {
     ((x * (a * x + b)) / (x * (c * x + d) + e)).clamp(0.0, 1.0)
 }
 
-/// Values above this (after exposure) map to white in every tone curve.
-const LUT_MAX: f32 = 16.0;
-const LUT_SIZE: usize = 16384;
+/// The tone table covers values (after exposure) from 2^LUT_LO_EXP, below which every
+/// curve gives code 0, to 2^LUT_HI_EXP = 16, above which every curve gives white.
+const LUT_LO_EXP: i32 = -16;
+const LUT_HI_EXP: i32 = 4;
+/// Mantissa bits kept in the index: steps of 2^-10 ≈ 0.1 %, far below one 8-bit code.
+const LUT_MANT_BITS: u32 = 10;
+const LUT_SIZE: usize = ((LUT_HI_EXP - LUT_LO_EXP) as usize) << LUT_MANT_BITS;
+const LUT_SHIFT: u32 = 23 - LUT_MANT_BITS;
+
+/// Index into the tone table: the top bits of the float (exponent and 10 mantissa bits),
+/// i.e. a log-spaced table reached without any arithmetic. Negative and NaN map to 0.
+#[inline]
+fn lut_index(v: f32) -> usize {
+    let lo = 2f32.powi(LUT_LO_EXP).to_bits() >> LUT_SHIFT;
+    let b = v.max(0.0).to_bits() >> LUT_SHIFT;
+    (b.saturating_sub(lo) as usize).min(LUT_SIZE - 1)
+}
 
 /// The tone curve followed by the sRGB transfer function, as 8-bit codes indexed by
-/// √(v / LUT_MAX); built once per curve.
+/// [`lut_index`]; built once per curve.
 fn tone_lut(tm: ToneMap) -> &'static [u8] {
     static LUTS: std::sync::OnceLock<[Vec<u8>; 2]> = std::sync::OnceLock::new();
     let luts = LUTS.get_or_init(|| {
+        let lo = 2f32.powi(LUT_LO_EXP).to_bits() >> LUT_SHIFT;
         [ToneMap::Clamp, ToneMap::Filmic].map(|tm| {
-            (0..LUT_SIZE)
+            (0..LUT_SIZE as u32)
                 .map(|i| {
-                    let u = i as f32 / (LUT_SIZE - 1) as f32;
-                    let v = u * u * LUT_MAX;
+                    // The middle of the bucket.
+                    let v = f32::from_bits(((lo + i) << LUT_SHIFT) | (1 << (LUT_SHIFT - 1)));
                     let t = match tm {
                         ToneMap::Clamp => v.min(1.0),
                         ToneMap::Filmic => aces(v),
@@ -538,29 +644,14 @@ fn tone_lut(tm: ToneMap) -> &'static [u8] {
 }
 
 /// 8-bit sRGB pixels from linear values, scaled by 2^exposure. The whole curve (tone map,
-/// then the sRGB transfer function) is one table indexed by √(v / LUT_MAX), which keeps
-/// the steep dark end finely resolved.
+/// then the sRGB transfer function) is one log-spaced table, which keeps the steep dark
+/// end finely resolved.
 pub fn tonemap(img: &[Rgb], exposure: f32, tm: ToneMap) -> Vec<u8> {
-    let lut = tone_lut(tm);
-    let k = exposure.exp2();
-    let scale = k / LUT_MAX;
-    let top = (LUT_SIZE - 1) as f32;
-    let mut out = vec![0u8; 3 * img.len()];
-    out.par_chunks_mut(3 * 4096)
-        .zip(img.par_chunks(4096))
-        .for_each(|(o, px)| {
-            for (o, p) in o.chunks_exact_mut(3).zip(px) {
-                for c in 0..3 {
-                    let u = (p[c] * scale).clamp(0.0, 1.0).sqrt();
-                    o[c] = lut[(u * top + 0.5) as usize];
-                }
-            }
-        });
-    out
+    tonemap_pixels(img.len(), |i| img[i], Some(exposure), tm).0
 }
 
 /// False colour: a perceptual blue→green→yellow→red scale of luminance over
-/// `[lo, hi]` on a log10 axis, with a legend bar on the right edge.
+/// `[lo, hi]` on a log10 axis, with a legend bar on the right edge labelled in lux.
 pub fn false_color(img: &[Rgb], width: u32, height: u32, lo: f32, hi: f32) -> Vec<u8> {
     let (l0, l1) = (lo.max(1e-9).log10(), hi.max(lo * 1.0001).max(1e-9).log10());
     let mut out: Vec<u8> = img
@@ -575,8 +666,16 @@ pub fn false_color(img: &[Rgb], width: u32, height: u32, lo: f32, hi: f32) -> Ve
             scale_color(t).into_iter()
         })
         .collect();
-    // Legend: a vertical bar 1/24 of the width at the right, high values at the top.
+    legend(&mut out, width, height, lo, hi);
+    out
+}
+
+/// The false-colour legend: a bar 1/24 of the width at the right edge (high values at the
+/// top), with lux labels at round values (1, 2, 5 × 10^k) drawn on dark plates.
+fn legend(out: &mut [u8], width: u32, height: u32, lo: f32, hi: f32) {
     let bar = (width / 24).max(4);
+    let log = |v: f32| v.max(1e-9).log10();
+    let (l0, l1) = (log(lo), log(hi.max(lo * 1.0001)));
     for y in 0..height {
         let t = 1.0 - y as f32 / (height.max(2) - 1) as f32;
         let c = scale_color(t);
@@ -585,7 +684,124 @@ pub fn false_color(img: &[Rgb], width: u32, height: u32, lo: f32, hi: f32) -> Ve
             out[i..i + 3].copy_from_slice(&c);
         }
     }
-    out
+    let px = ((height + 150) / 300).clamp(1, 4);
+    let glyph_h = 7 * px;
+    if height < 4 * glyph_h || width < 16 * bar {
+        return; // too small for labels
+    }
+    // Round values within the range, thinned so labels never overlap.
+    let mut ticks = vec![];
+    for e in (l0.floor() as i32)..=(l1.ceil() as i32) {
+        for m in [1.0f32, 2.0, 5.0] {
+            let v = m * 10f32.powi(e);
+            if log(v) >= l0 - 1e-6 && log(v) <= l1 + 1e-6 {
+                ticks.push(v);
+            }
+        }
+    }
+    let row = |v: f32| ((1.0 - (log(v) - l0) / (l1 - l0)) * (height - 1) as f32) as i64;
+    let mut last: Option<i64> = None;
+    let spacing = 2 * glyph_h as i64;
+    let mut chosen = vec![];
+    for &v in ticks.iter().rev() {
+        let r = row(v);
+        if last.is_none_or(|l| r - l >= spacing) {
+            chosen.push(v);
+            last = Some(r);
+        }
+    }
+    for v in chosen {
+        let text = format!("{} lx", lux_label(v));
+        let tw = text.len() as u32 * 6 * px;
+        let x0 = width.saturating_sub(bar + tw + 3 * px) as i64;
+        let y0 = (row(v) - glyph_h as i64 / 2).clamp(0, (height - glyph_h) as i64);
+        // Dark plate, then the text; a tick mark into the bar.
+        fill(
+            out,
+            width,
+            height,
+            x0 - px as i64,
+            y0 - px as i64,
+            tw + 2 * px,
+            glyph_h + 2 * px,
+            [20, 20, 20],
+        );
+        draw_text(out, width, height, x0, y0, px, &text, [255, 255, 255]);
+        let ty = row(v).clamp(0, height as i64 - 1);
+        fill(
+            out,
+            width,
+            height,
+            (width - bar) as i64,
+            ty,
+            bar / 3,
+            px,
+            [20, 20, 20],
+        );
+    }
+}
+
+/// A lux value as a short label: 0.5, 2, 50, 1k, 20k.
+fn lux_label(v: f32) -> String {
+    if v >= 1000.0 {
+        format!("{}k", trim_number(v / 1000.0))
+    } else {
+        trim_number(v)
+    }
+}
+
+fn trim_number(v: f32) -> String {
+    let s = format!("{v:.3}");
+    let s = s.trim_end_matches('0').trim_end_matches('.');
+    s.to_string()
+}
+
+#[allow(clippy::too_many_arguments)]
+fn fill(out: &mut [u8], w: u32, h: u32, x0: i64, y0: i64, fw: u32, fh: u32, c: [u8; 3]) {
+    for y in y0.max(0)..(y0 + fh as i64).min(h as i64) {
+        for x in x0.max(0)..(x0 + fw as i64).min(w as i64) {
+            let i = 3 * (y as usize * w as usize + x as usize);
+            out[i..i + 3].copy_from_slice(&c);
+        }
+    }
+}
+
+/// 5×7 glyphs (rows top to bottom, bit 4 = left column) for the legend's characters.
+fn glyph(ch: char) -> [u8; 7] {
+    match ch {
+        '0' => [0x0E, 0x11, 0x13, 0x15, 0x19, 0x11, 0x0E],
+        '1' => [0x04, 0x0C, 0x04, 0x04, 0x04, 0x04, 0x0E],
+        '2' => [0x0E, 0x11, 0x01, 0x02, 0x04, 0x08, 0x1F],
+        '3' => [0x1F, 0x02, 0x04, 0x02, 0x01, 0x11, 0x0E],
+        '4' => [0x02, 0x06, 0x0A, 0x12, 0x1F, 0x02, 0x02],
+        '5' => [0x1F, 0x10, 0x1E, 0x01, 0x01, 0x11, 0x0E],
+        '6' => [0x06, 0x08, 0x10, 0x1E, 0x11, 0x11, 0x0E],
+        '7' => [0x1F, 0x01, 0x02, 0x04, 0x08, 0x08, 0x08],
+        '8' => [0x0E, 0x11, 0x11, 0x0E, 0x11, 0x11, 0x0E],
+        '9' => [0x0E, 0x11, 0x11, 0x0F, 0x01, 0x02, 0x0C],
+        '.' => [0x00, 0x00, 0x00, 0x00, 0x00, 0x0C, 0x0C],
+        'k' => [0x10, 0x10, 0x12, 0x14, 0x18, 0x14, 0x12],
+        'l' => [0x0C, 0x04, 0x04, 0x04, 0x04, 0x04, 0x0E],
+        'x' => [0x00, 0x00, 0x11, 0x0A, 0x04, 0x0A, 0x11],
+        _ => [0; 7],
+    }
+}
+
+/// Draws `text` with its top-left corner at (x0, y0), each font pixel `px` × `px`.
+#[allow(clippy::too_many_arguments)]
+fn draw_text(out: &mut [u8], w: u32, h: u32, x0: i64, y0: i64, px: u32, text: &str, c: [u8; 3]) {
+    for (k, ch) in text.chars().enumerate() {
+        let g = glyph(ch);
+        for (r, bits) in g.iter().enumerate() {
+            for col in 0..5 {
+                if bits & (0x10 >> col) != 0 {
+                    let x = x0 + ((k * 6 + col) as u32 * px) as i64;
+                    let y = y0 + (r as u32 * px) as i64;
+                    fill(out, w, h, x, y, px, px, c);
+                }
+            }
+        }
+    }
 }
 
 /// The false-colour scale at t in [0, 1] (0 = `lo`, 1 = `hi`).
@@ -636,17 +852,100 @@ pub fn encode_8bit(rgb: &[u8], w: u32, h: u32, format: Format) -> Result<Vec<u8>
             image::codecs::png::FilterType::Sub,
         )
         .write_image(rgb, w, h, image::ExtendedColorType::Rgb8),
-        Format::Jpeg => {
-            let mut enc = jpeg_encoder::Encoder::new(&mut out, 90);
-            enc.set_sampling_factor(jpeg_encoder::SamplingFactor::F_2_2);
-            enc.encode(rgb, w as u16, h as u16, jpeg_encoder::ColorType::Rgb)
-                .map_err(|e| e.to_string())?;
-            return Ok(out);
-        }
+        Format::Jpeg => return encode_jpeg(rgb, w, h),
         Format::Exr => return Err("EXR is written from linear data".into()),
     }
     .map_err(|e| e.to_string())?;
     Ok(out)
+}
+
+/// JPEG quality of 8-bit answers.
+const JPEG_QUALITY: u8 = 90;
+
+/// Baseline JPEG (quality 90, 4:2:0), encoded in horizontal strips in parallel.
+///
+/// Each strip is a JPEG of its own with a restart marker after every MCU row, so its
+/// entropy-coded data is independent of the others (restarts reset the DC predictors).
+/// The strips share every table, so the first strip's headers (with the full height)
+/// followed by all strips' entropy data, joined and renumbered with RST markers, is one
+/// valid JPEG that decodes to exactly the pixels a single-threaded encode gives.
+pub fn encode_jpeg(rgb: &[u8], w: u32, h: u32) -> Result<Vec<u8>, String> {
+    let mcu_rows = h.div_ceil(16);
+    let strips = (rayon::current_num_threads() as u32)
+        .clamp(1, 8)
+        .min(mcu_rows);
+    let strip_rows = mcu_rows.div_ceil(strips.max(1)) * 16;
+    let encode = |y0: u32, y1: u32, restart: bool| -> Result<Vec<u8>, String> {
+        let mut out = Vec::with_capacity((w * (y1 - y0)) as usize / 4);
+        let mut enc = jpeg_encoder::Encoder::new(&mut out, JPEG_QUALITY);
+        enc.set_sampling_factor(jpeg_encoder::SamplingFactor::F_2_2);
+        if restart {
+            enc.set_restart_interval(w.div_ceil(16) as u16);
+        }
+        let rows = &rgb[(3 * w * y0) as usize..(3 * w * y1) as usize];
+        enc.encode(
+            rows,
+            w as u16,
+            (y1 - y0) as u16,
+            jpeg_encoder::ColorType::Rgb,
+        )
+        .map_err(|e| e.to_string())?;
+        Ok(out)
+    };
+    if strips <= 1 {
+        return encode(0, h, false);
+    }
+    let parts: Vec<Vec<u8>> = (0..strips)
+        .into_par_iter()
+        .map(|s| encode(s * strip_rows, ((s + 1) * strip_rows).min(h), true))
+        .collect::<Result<_, _>>()?;
+    let mut out = Vec::with_capacity(parts.iter().map(Vec::len).sum::<usize>() + 16);
+    for (s, part) in parts.iter().enumerate() {
+        let (sof, data) = jpeg_layout(part).ok_or("JPEG strip without SOF0/SOS")?;
+        let entropy = part
+            .get(data..part.len().saturating_sub(2))
+            .filter(|_| part.ends_with(&[0xFF, 0xD9]))
+            .ok_or("JPEG strip without EOI")?;
+        let first_row = s as u32 * strip_rows / 16;
+        if s == 0 {
+            out.extend_from_slice(&part[..data]);
+            out[sof + 5..sof + 7].copy_from_slice(&(h as u16).to_be_bytes());
+            out.extend_from_slice(entropy);
+        } else {
+            out.extend_from_slice(&[0xFF, 0xD0 + ((first_row - 1) % 8) as u8]);
+            let mut prev_ff = false;
+            for &b in entropy {
+                let b = if prev_ff && (0xD0..=0xD7).contains(&b) {
+                    0xD0 + ((b - 0xD0) as u32 + first_row) as u8 % 8
+                } else {
+                    b
+                };
+                out.push(b);
+                prev_ff = b == 0xFF;
+            }
+        }
+    }
+    out.extend_from_slice(&[0xFF, 0xD9]);
+    Ok(out)
+}
+
+/// Offsets of the SOF0 marker and of the first entropy-coded byte after SOS.
+fn jpeg_layout(j: &[u8]) -> Option<(usize, usize)> {
+    let mut i = 2; // after SOI
+    let mut sof = None;
+    while i + 4 <= j.len() {
+        if j[i] != 0xFF {
+            return None;
+        }
+        let len = u16::from_be_bytes([j[i + 2], j[i + 3]]) as usize;
+        match j[i + 1] {
+            0xC0 => sof = Some(i),
+            0xDA => return Some((sof?, i + 2 + len)),
+            _ => {}
+        }
+        i += 2 + len;
+    }
+    None
 }
 
 /// Encodes linear RGB as OpenEXR (32-bit float).
@@ -676,4 +975,85 @@ pub fn encode_pfm(img: &[Rgb], w: u32, h: u32) -> Vec<u8> {
         }
     }
     out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn lux_labels_are_short_and_round() {
+        assert_eq!(lux_label(0.5), "0.5");
+        assert_eq!(lux_label(2.0), "2");
+        assert_eq!(lux_label(500.0), "500");
+        assert_eq!(lux_label(1000.0), "1k");
+        assert_eq!(lux_label(20000.0), "20k");
+    }
+
+    #[test]
+    fn legend_labels_are_drawn_in_white_beside_the_bar() {
+        let (w, h) = (400u32, 300u32);
+        let img = vec![[0.0f32; 3]; (w * h) as usize];
+        let out = false_color(&img, w, h, 1.0, 100.0);
+        let bar = w / 24;
+        let white = |x: u32, y: u32| {
+            let i = 3 * (y * w + x) as usize;
+            out[i..i + 3] == [255, 255, 255]
+        };
+        // Labels at 1, 2, 5, 10, 20, 50 and 100 lx fit at this height: white text left of
+        // the bar near the top (100 lx) and the bottom (1 lx), none elsewhere in the image.
+        let band =
+            |y0: u32, y1: u32| (y0..y1).any(|y| (w - bar - 60..w - bar).any(|x| white(x, y)));
+        assert!(band(0, 12), "no label at the top");
+        assert!(band(h - 12, h), "no label at the bottom");
+        assert!(!(0..h).any(|y| (0..w / 2).any(|x| white(x, y))));
+    }
+
+    /// The strip-parallel JPEG decodes to exactly the pixels of a one-piece encode.
+    #[test]
+    fn strip_parallel_jpeg_decodes_like_a_single_encode() {
+        for (w, h) in [(1024u32, 768u32), (333, 250), (64, 17)] {
+            let rgb: Vec<u8> = (0..w * h)
+                .flat_map(|i| {
+                    let (x, y) = (i % w, i / w);
+                    let n = (i.wrapping_mul(2_654_435_761) >> 27) as u8;
+                    [
+                        (x * 255 / w) as u8,
+                        (y * 255 / h) as u8 ^ n,
+                        ((x + y) % 256) as u8,
+                    ]
+                })
+                .collect();
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(3)
+                .build()
+                .unwrap();
+            let fast = pool.install(|| encode_jpeg(&rgb, w, h)).unwrap();
+            let mut single = Vec::new();
+            let mut enc = jpeg_encoder::Encoder::new(&mut single, JPEG_QUALITY);
+            enc.set_sampling_factor(jpeg_encoder::SamplingFactor::F_2_2);
+            enc.encode(&rgb, w as u16, h as u16, jpeg_encoder::ColorType::Rgb)
+                .unwrap();
+            let decode = |b: &[u8]| {
+                image::load_from_memory_with_format(b, image::ImageFormat::Jpeg)
+                    .unwrap()
+                    .to_rgb8()
+            };
+            // Restart markers run RST0, RST1, ..., RST7, RST0, ... once per MCU row boundary.
+            let (_, data) = jpeg_layout(&fast).unwrap();
+            let rst: Vec<u8> = fast[data..]
+                .windows(2)
+                .filter(|p| p[0] == 0xFF && (0xD0..=0xD7).contains(&p[1]))
+                .map(|p| p[1] - 0xD0)
+                .collect();
+            assert_eq!(rst.len() as u32, h.div_ceil(16) - 1, "{w}x{h}");
+            assert!(
+                rst.iter().enumerate().all(|(k, &m)| m as usize == k % 8),
+                "{rst:?}"
+            );
+            let (a, b) = (decode(&fast), decode(&single));
+            assert_eq!(a.dimensions(), (w, h));
+            assert!(a.as_raw() == b.as_raw(), "{w}x{h}: pixels differ");
+        }
+    }
 }

@@ -120,7 +120,7 @@ pub fn spec() -> Value {
                 "height": {"type": "integer", "minimum": 1, "maximum": 4096, "default": 512},
                 "exposure": {"description": "Stops (2^exposure scales radiance), or \"auto\" (default): log-average luminance to middle grey.", "oneOf": [{"type": "number"}, {"type": "string", "enum": ["auto"]}]},
                 "format": {"type": "string", "enum": ["png", "jpeg", "exr"], "default": "png"},
-                "mode": {"type": "string", "enum": ["shaded", "falsecolor"], "default": "shaded", "description": "falsecolor maps illuminance (lux) on a log scale, with a legend bar at the right edge."},
+                "mode": {"type": "string", "enum": ["shaded", "falsecolor"], "default": "shaded", "description": "falsecolor maps illuminance (lux) on a log scale, with a legend bar labelled in lux at the right edge; the range is in the X-Relight-Falsecolor-Lux header."},
                 "tonemap": {"type": "string", "enum": ["filmic", "clamp"], "default": "filmic"},
                 "range": {"type": "array", "items": {"type": "number"}, "minItems": 2, "maxItems": 2, "description": "False-colour range in lux (default: max/100 to max)."}}}]},
             "Lux": {"type": "object", "properties": {"lux": {"type": "number"}, "rgb": {"$ref": "#/components/schemas/Rgb"}}},

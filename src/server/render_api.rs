@@ -5,7 +5,7 @@
 //! it runs on the blocking pool.
 
 use std::collections::{HashMap, VecDeque};
-use std::sync::{Arc, Mutex};
+use std::sync::{Arc, Mutex, OnceLock};
 use std::time::Instant;
 
 use axum::body::Bytes;
@@ -17,30 +17,67 @@ use serde_json::{Map, Value};
 
 use super::api::{blocking, number, parse_lighting, solve_for, triple, Lighting};
 use super::{AppError, AppState, Ready};
-use crate::render::{self, Camera, Format, ToneMap, ViewBuffer, MAX_SIDE};
+use crate::render::{self, Camera, Format, GroupImages, ToneMap, ViewBuffer, MAX_SIDE};
 
 /// Most bytes of view buffers kept.
 pub const VIEW_CACHE_BYTES: usize = 1 << 30;
 
 type ViewKey = (String, [u32; 12]);
 
+/// One cached view: its buffer and, made on first use when they are smaller than the
+/// buffer, per-light-group images.
+pub struct View {
+    pub buffer: ViewBuffer,
+    groups: OnceLock<Option<GroupImages>>,
+}
+
+impl View {
+    /// Bytes this entry may hold: the buffer, plus at most as much again in group images.
+    fn bytes(&self) -> usize {
+        2 * self.buffer.bytes()
+    }
+
+    /// Per-group images for `ready`'s light groups, or None when a gather reads less.
+    fn group_images(&self, ready: &Ready) -> Option<&GroupImages> {
+        self.groups
+            .get_or_init(|| {
+                let t = &ready.baked.transfer;
+                if !GroupImages::worthwhile(&self.buffer, t.group_count()) {
+                    return None;
+                }
+                let shading = ready.shading();
+                let values: Vec<_> = t
+                    .groups
+                    .iter()
+                    .map(|g| shading.vertex_values(&g.b))
+                    .collect();
+                Some(GroupImages::build(
+                    &self.buffer,
+                    &values,
+                    std::f32::consts::FRAC_1_PI,
+                ))
+            })
+            .as_ref()
+    }
+}
+
 /// A least-recently-used cache of view buffers, bounded in bytes.
 #[derive(Default)]
 pub struct ViewCache {
-    map: HashMap<ViewKey, Arc<ViewBuffer>>,
+    map: HashMap<ViewKey, Arc<View>>,
     order: VecDeque<ViewKey>,
     bytes: usize,
 }
 
 impl ViewCache {
-    fn get(&mut self, k: &ViewKey) -> Option<Arc<ViewBuffer>> {
+    fn get(&mut self, k: &ViewKey) -> Option<Arc<View>> {
         let v = self.map.get(k)?.clone();
         self.order.retain(|x| x != k);
         self.order.push_back(k.clone());
         Some(v)
     }
 
-    fn put(&mut self, k: ViewKey, v: Arc<ViewBuffer>) {
+    fn put(&mut self, k: ViewKey, v: Arc<View>) {
         self.bytes += v.bytes();
         if let Some(old) = self.map.insert(k.clone(), v) {
             self.bytes -= old.bytes();
@@ -227,12 +264,15 @@ fn options(body: &Map<String, Value>, ready: &Ready) -> Result<RenderOptions, Ap
 }
 
 /// The view buffer for this scene and camera, from the cache or built now.
-pub fn view_for(state: &AppState, ready: &Ready, cam: &Camera) -> Arc<ViewBuffer> {
+pub fn view_for(state: &AppState, ready: &Ready, cam: &Camera) -> Arc<View> {
     let key = (ready.baked.scene.id.clone(), cam.key());
     if let Some(v) = lock(&state.views).get(&key) {
         return v;
     }
-    let v = Arc::new(ViewBuffer::build(&ready.baked.mesh, ready.shading(), cam));
+    let v = Arc::new(View {
+        buffer: ViewBuffer::build(&ready.baked.mesh, ready.shading(), cam),
+        groups: OnceLock::new(),
+    });
     lock(&state.views).put(key, v.clone());
     v
 }
@@ -257,7 +297,8 @@ pub fn render_image(
     lighting: &Lighting,
     o: &RenderOptions,
 ) -> Result<Rendered, AppError> {
-    let view = view_for(state, ready, &o.camera);
+    let entry = view_for(state, ready, &o.camera);
+    let view = &entry.buffer;
     let shading = ready.shading();
     let (w, h) = (o.camera.width, o.camera.height);
     let per_patch = |want_h: bool| -> Result<Vec<f32>, AppError> {
@@ -299,18 +340,38 @@ pub fn render_image(
             exposure: None,
         });
     }
+    if let (Lighting::Groups(wts), Some(gi)) = (lighting, entry.group_images(ready)) {
+        return finish(
+            o,
+            |exposure| gi.tonemapped(wts, exposure, o.tonemap),
+            || gi.linear(wts),
+        );
+    }
     let values = shading.vertex_values(&per_patch(false)?);
     let scale = std::f32::consts::FRAC_1_PI;
+    finish(
+        o,
+        |exposure| view.gather_tonemapped(&values, scale, exposure, o.tonemap),
+        || view.gather(&values, scale),
+    )
+}
+
+/// Encodes a shaded image: linear EXR from `linear`, else 8-bit from `tonemapped`.
+fn finish(
+    o: &RenderOptions,
+    tonemapped: impl FnOnce(Option<f32>) -> (Vec<u8>, f32),
+    linear: impl FnOnce() -> Vec<crate::color::Rgb>,
+) -> Result<Rendered, AppError> {
+    let (w, h) = (o.camera.width, o.camera.height);
     if o.format == Format::Exr {
-        let img = view.gather(&values, scale);
-        let bytes = render::encode_exr(&img, w, h).map_err(AppError::Internal)?;
+        let bytes = render::encode_exr(&linear(), w, h).map_err(AppError::Internal)?;
         return Ok(Rendered {
             bytes,
             range: None,
             exposure: None,
         });
     }
-    let (px, ev) = view.gather_tonemapped(&values, scale, o.exposure, o.tonemap);
+    let (px, ev) = tonemapped(o.exposure);
     let bytes = render::encode_8bit(&px, w, h, o.format).map_err(AppError::Internal)?;
     Ok(Rendered {
         bytes,
