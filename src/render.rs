@@ -91,6 +91,49 @@ impl Shading {
         self.len() == 0
     }
 
+    /// The shading mesh for clients that draw it themselves (the web page's 3D view), in
+    /// one little-endian buffer, every array 4-byte aligned:
+    ///
+    /// ```text
+    /// "RLMESH01"                       8 bytes
+    /// u32 nv, nt, nw                   shading vertices, triangles (= patches), weights
+    /// f32 position[nv][3]              m
+    /// u32 triangle[nt][3]              shading vertices of patch t, counter-clockwise
+    ///                                  seen from its lit (front) side
+    /// u32 surface[nt]                  index into the scene's surfaces
+    /// u32 start[nv + 1]                CSR: vertex v blends patch[start[v]..start[v+1]]
+    /// u32 patch[nw], f32 weight[nw]    with these weights (sum 1 per vertex)
+    /// ```
+    ///
+    /// A vertex colour is `Σ weight · B[patch]` over per-patch radiosity from the radiosity
+    /// endpoint, exactly as the server's renderer shades.
+    pub fn mesh_bytes(&self, mesh: &Mesh) -> Vec<u8> {
+        let (nv, nt, nw) = (self.len(), self.corner.len(), self.patch.len());
+        let mut pos = vec![[0f32; 3]; nv];
+        for (p, c) in mesh.patches.iter().zip(&self.corner) {
+            for k in 0..3 {
+                pos[c[k] as usize] = mesh.vertices[p.v[k] as usize].as_vec3().to_array();
+            }
+        }
+        let mut out = Vec::with_capacity(20 + 12 * nv + 16 * nt + 4 * (nv + 1) + 8 * nw);
+        out.extend_from_slice(b"RLMESH01");
+        for n in [nv, nt, nw] {
+            out.extend_from_slice(&(n as u32).to_le_bytes());
+        }
+        let words = |out: &mut Vec<u8>, it: &mut dyn Iterator<Item = u32>| {
+            for w in it {
+                out.extend_from_slice(&w.to_le_bytes());
+            }
+        };
+        words(&mut out, &mut pos.iter().flatten().map(|v| v.to_bits()));
+        words(&mut out, &mut self.corner.iter().flatten().copied());
+        words(&mut out, &mut mesh.patches.iter().map(|p| p.surface));
+        words(&mut out, &mut self.start.iter().copied());
+        words(&mut out, &mut self.patch.iter().copied());
+        words(&mut out, &mut self.weight.iter().map(|w| w.to_bits()));
+        out
+    }
+
     /// Vertex values from per-patch values (n × 3 interleaved).
     pub fn vertex_values(&self, per_patch: &[f32]) -> Vec<Rgb> {
         (0..self.len())

@@ -713,3 +713,100 @@ async fn render_endpoints_return_images_and_precise_errors() {
     let (s, _, _) = send(app(), req("/api/scenes/cornell-box/render.png?w=big")).await;
     assert_eq!(s, StatusCode::BAD_REQUEST);
 }
+
+#[tokio::test]
+async fn mesh_and_per_patch_illuminance_let_a_client_shade_like_the_server() {
+    let (s, h, b) = send(
+        app(),
+        Request::get("/api/scenes/desk-room/mesh")
+            .body(Body::empty())
+            .unwrap(),
+    )
+    .await;
+    assert_eq!(s, StatusCode::OK);
+    assert_eq!(h[header::CONTENT_TYPE], "application/octet-stream");
+    assert_eq!(&b[..8], b"RLMESH01");
+    let u = |i: usize| u32::from_le_bytes(b[i..i + 4].try_into().unwrap());
+    let (nv, nt, nw) = (u(8) as usize, u(12) as usize, u(16) as usize);
+    let r = ready("desk-room");
+    let mesh = &r.baked.mesh;
+    assert_eq!(nt, mesh.len());
+    assert_eq!(b.len(), 20 + 4 * (3 * nv + 3 * nt + nt + nv + 1 + 2 * nw));
+    let f = |i: usize| f32::from_bits(u(i));
+    let (pos, tri) = (20, 20 + 12 * nv);
+    let (surf, start) = (tri + 12 * nt, tri + 16 * nt);
+    let (patch, weight) = (start + 4 * (nv + 1), start + 4 * (nv + 1) + 4 * nw);
+    for (t, p) in mesh.patches.iter().enumerate() {
+        assert_eq!(u(surf + 4 * t), p.surface);
+        // Each triangle corner sits on the patch's mesh vertex, counter-clockwise.
+        for k in 0..3 {
+            let v = u(tri + 12 * t + 4 * k) as usize;
+            let want = mesh.vertices[p.v[k] as usize].as_vec3();
+            let got = glam::Vec3::new(f(pos + 12 * v), f(pos + 12 * v + 4), f(pos + 12 * v + 8));
+            assert!((got - want).length() < 1e-6);
+        }
+    }
+    // Vertex colours from the CSR weights and the binary radiosity match the renderer's.
+    let req = Request::post("/api/scenes/desk-room/radiosity")
+        .header(header::ACCEPT, "application/octet-stream")
+        .body(Body::from(r#"{"lights": {"lamp": 0.4}}"#))
+        .unwrap();
+    let (_, _, rb) = send(app(), req).await;
+    let rad: &[f32] = bytemuck::cast_slice(&rb);
+    let want = r.shading().vertex_values(rad);
+    for (v, w) in want.iter().enumerate() {
+        let mut acc = [0f32; 3];
+        let mut wsum = 0.0;
+        for k in u(start + 4 * v)..u(start + 4 * v + 4) {
+            let (p, wt) = (
+                u(patch + 4 * k as usize) as usize,
+                f(weight + 4 * k as usize),
+            );
+            wsum += wt;
+            for c in 0..3 {
+                acc[c] += wt * rad[3 * p + c];
+            }
+        }
+        assert!((wsum - 1.0).abs() < 1e-5);
+        for c in 0..3 {
+            assert!((acc[c] - w[c]).abs() <= 1e-4 * w[c].max(1.0));
+        }
+    }
+    // quantity = illuminance gives H (lux), binary and JSON alike.
+    let weights: Vec<[f32; 3]> = r
+        .groups
+        .iter()
+        .map(|g| {
+            let k = if g.id == "lamp" { 0.4 } else { g.intensity };
+            g.color.map(|c| c * k)
+        })
+        .collect();
+    let h_want = r.baked.transfer.relight(&weights).h;
+    let req = Request::post("/api/scenes/desk-room/radiosity")
+        .header(header::ACCEPT, "application/octet-stream")
+        .body(Body::from(
+            r#"{"lights": {"lamp": 0.4}, "quantity": "illuminance"}"#,
+        ))
+        .unwrap();
+    let (s, h, hb) = send(app(), req).await;
+    assert_eq!(s, StatusCode::OK);
+    assert!(h["x-relight-layout"].to_str().unwrap().contains("lx"));
+    assert_eq!(bytemuck::cast_slice::<u8, f32>(&hb), h_want.as_slice());
+    let (s, _, v) = post(
+        app(),
+        "/api/scenes/desk-room/radiosity",
+        r#"{"lights": {"lamp": 0.4}, "quantity": "illuminance"}"#,
+    )
+    .await;
+    assert_eq!(s, StatusCode::OK);
+    assert_eq!(v["unit"], "lx");
+    assert_eq!(floats(&v["illuminance"]).len(), 3 * mesh.len());
+    let (s, _, v) = post(
+        app(),
+        "/api/scenes/desk-room/radiosity",
+        r#"{"quantity": "luminance"}"#,
+    )
+    .await;
+    assert_eq!(s, StatusCode::UNPROCESSABLE_ENTITY);
+    assert!(v["detail"].as_str().unwrap().contains("'quantity'"), "{v}");
+}

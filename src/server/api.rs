@@ -193,6 +193,24 @@ pub async fn patches(
     Ok(Json(json!({ "patches": list })).into_response())
 }
 
+/// The shading mesh (layout in [`crate::render::Shading::mesh_bytes`]).
+pub async fn mesh(State(state): State<Arc<AppState>>, Path(id): Path<String>) -> ApiResult {
+    let r = state.slot(&id)?.ready()?;
+    let bytes = r.mesh_bytes();
+    Ok((
+        [
+            (header::CONTENT_TYPE, "application/octet-stream".to_string()),
+            (
+                header::HeaderName::from_static("x-relight-layout"),
+                "RLMESH01: u32 nv nt nw; f32 pos[nv][3]; u32 tri[nt][3]; u32 surface[nt]; u32 start[nv+1]; u32 patch[nw]; f32 weight[nw]".to_string(),
+            ),
+            (header::CACHE_CONTROL, "no-cache".to_string()),
+        ],
+        bytes,
+    )
+        .into_response())
+}
+
 // ---------------------------------------------------------------------------- parsing
 
 /// Parses a JSON object body; 400 for syntax, 413 for size, 415 for content type.
@@ -500,24 +518,51 @@ pub async fn radiosity(
         &id,
         &headers,
         body,
-        &["lights", "emission", "surfaces"],
+        &["lights", "emission", "surfaces", "quantity"],
     )?;
     let want_surfaces = flag(&body, "surfaces")?;
+    // Per patch: radiosity B (lm/m², leaving) or incident illuminance H (lux, arriving).
+    let illuminance = match body.get("quantity") {
+        None => false,
+        Some(Value::String(q)) if q == "radiosity" => false,
+        Some(Value::String(q)) if q == "illuminance" => true,
+        Some(v) => {
+            return Err(AppError::Invalid(format!(
+                "'quantity' must be \"radiosity\" (lm/m2, leaving) or \"illuminance\" (lux, arriving), got {v}"
+            )))
+        }
+    };
+    let (key, unit, layout) = if illuminance {
+        (
+            "illuminance",
+            "lx",
+            "f32 LE [patch][r,g,b] incident illuminance, lx",
+        )
+    } else {
+        (
+            "radiosity",
+            "lm/m2",
+            "f32 LE [patch][r,g,b] radiosity, lm/m2",
+        )
+    };
     let lighting = parse_lighting(&body, &ready)?;
     let n = ready.baked.transfer.n;
+    let b = &ready.baked;
+    let relight = |w: &[Rgb]| {
+        let mut out = vec![0f32; 3 * n];
+        if illuminance {
+            b.transfer.illuminance_into(w, &mut out);
+        } else {
+            b.transfer.relight_into(w, &mut out);
+        }
+        out
+    };
     // The hot path: group weights and binary out, no surfaces: one weighted sum.
     if let (Lighting::Groups(w), true, false) = (&lighting, wants_binary(&headers), want_surfaces) {
-        let mut out = vec![0f32; 3 * n];
-        ready.baked.transfer.relight_into(w, &mut out);
-        return Ok(binary(out, n, "f32 LE [patch][r,g,b] radiosity, lm/m2"));
+        return Ok(binary(relight(w), n, layout));
     }
-    let b = &ready.baked;
-    let (radiosity, surfaces) = match lighting {
-        Lighting::Groups(w) if !want_surfaces => {
-            let mut out = vec![0f32; 3 * n];
-            b.transfer.relight_into(&w, &mut out);
-            (out, None)
-        }
+    let (values, surfaces) = match lighting {
+        Lighting::Groups(w) if !want_surfaces => (relight(&w), None),
         l => {
             let r2 = ready.clone();
             let sol = match l {
@@ -525,25 +570,21 @@ pub async fn radiosity(
                 l => solve_for(&ready, &l)?,
             };
             let surfaces = want_surfaces.then(|| surface_averages(&b.scene, &b.mesh, &sol));
-            (sol.b, surfaces)
+            (if illuminance { sol.h } else { sol.b }, surfaces)
         }
     };
     if wants_binary(&headers) {
-        return Ok(binary(
-            radiosity,
-            n,
-            "f32 LE [patch][r,g,b] radiosity, lm/m2",
-        ));
+        return Ok(binary(values, n, layout));
     }
     // Written by hand: the float array dominates, and ryu into one buffer is ~2x faster
     // than going through serde for 30,000 numbers.
     let mut out = String::with_capacity(40 * n + 256);
     out.push_str(&format!(
-        "{{\"scene\":{},\"patches\":{n},\"unit\":\"lm/m2\",\"radiosity\":[",
+        "{{\"scene\":{},\"patches\":{n},\"unit\":\"{unit}\",\"{key}\":[",
         Value::from(b.scene.id.as_str())
     ));
     let mut fb = ryu::Buffer::new();
-    for (i, t) in radiosity.chunks_exact(3).enumerate() {
+    for (i, t) in values.chunks_exact(3).enumerate() {
         if i > 0 {
             out.push(',');
         }

@@ -72,6 +72,7 @@ pub struct Ready {
     pub groups: Vec<GroupInfo>,
     pub bake_seconds: f64,
     shading: std::sync::OnceLock<crate::render::Shading>,
+    mesh_bytes: std::sync::OnceLock<axum::body::Bytes>,
 }
 
 impl Ready {
@@ -109,6 +110,7 @@ impl Ready {
             groups,
             bake_seconds,
             shading: std::sync::OnceLock::new(),
+            mesh_bytes: std::sync::OnceLock::new(),
         }
     }
 
@@ -116,6 +118,13 @@ impl Ready {
     pub fn shading(&self) -> &crate::render::Shading {
         self.shading
             .get_or_init(|| crate::render::Shading::new(&self.baked.mesh))
+    }
+
+    /// The shading mesh as served by `GET /api/scenes/{id}/mesh`, built on first use.
+    pub fn mesh_bytes(&self) -> axum::body::Bytes {
+        self.mesh_bytes
+            .get_or_init(|| self.shading().mesh_bytes(&self.baked.mesh).into())
+            .clone()
     }
 }
 
@@ -331,6 +340,7 @@ pub fn router(state: Arc<AppState>) -> Router {
         .route("/api/scenes", get(api::list_scenes))
         .route("/api/scenes/{id}", get(api::scene_details))
         .route("/api/scenes/{id}/patches", get(api::patches))
+        .route("/api/scenes/{id}/mesh", get(api::mesh))
         .route("/api/scenes/{id}/radiosity", post(api::radiosity))
         .route("/api/scenes/{id}/illuminance", post(api::illuminance))
         .route("/api/scenes/{id}/batch", post(api::batch))

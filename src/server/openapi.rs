@@ -25,11 +25,11 @@ fn errors() -> Value {
 pub fn spec() -> Value {
     let mut radiosity_resp = errors();
     radiosity_resp["200"] = json!({
-        "description": "Per-patch radiosity in lm/m², in patch order.",
+        "description": "Per-patch radiosity in lm/m² (or, with quantity = illuminance, incident illuminance in lux), in patch order.",
         "content": {
             "application/json": {"schema": {"$ref": "#/components/schemas/RadiosityResponse"}},
             "application/octet-stream": {"schema": {"type": "string", "format": "binary",
-                "description": "n × 3 little-endian f32: [r, g, b] radiosity (lm/m²) of each patch in patch order. Header X-Relight-Patches gives n."}}
+                "description": "n × 3 little-endian f32: [r, g, b] radiosity (lm/m²) or illuminance (lx) of each patch in patch order. Header X-Relight-Patches gives n."}}
         }
     });
     let mut illum_resp = errors();
@@ -67,6 +67,12 @@ pub fn spec() -> Value {
                     "application/json": {},
                     "application/octet-stream": {"schema": {"type": "string", "format": "binary",
                         "description": "32 bytes per patch, little-endian: u32 surface index, f32 area, f32×3 centroid, f32×3 unit normal."}}}},
+                    "404": problem("Unknown scene."), "503": problem("Baking or failed.")}}},
+            "/api/scenes/{id}/mesh": {"get": {"summary": "The shading mesh for client-side drawing: vertices, triangles (one per patch), surface per triangle, and per-vertex patch weights (vertex colour = Σ weight · B[patch]).",
+                "parameters": [scene_id()],
+                "responses": {"200": {"description": "One binary buffer.", "content": {
+                    "application/octet-stream": {"schema": {"type": "string", "format": "binary",
+                        "description": "Little-endian: \"RLMESH01\"; u32 nv, nt, nw; f32 position[nv][3] (m); u32 triangle[nt][3] (counter-clockwise from the lit side); u32 surface[nt]; u32 start[nv+1]; u32 patch[nw]; f32 weight[nw]."}}}},
                     "404": problem("Unknown scene."), "503": problem("Baking or failed.")}}},
             "/api/scenes/{id}/radiosity": {"post": {"summary": "Per-patch radiosity for a lighting state (group settings, or a per-patch emission in factored mode).",
                 "parameters": [scene_id()],
@@ -106,7 +112,8 @@ pub fn spec() -> Value {
                 "lights": {"type": "object", "additionalProperties": {"$ref": "#/components/schemas/LightSetting"}, "description": "Group id → setting. Groups left out keep their defaults."},
                 "emission": {"description": "Factored mode only: per-patch emitted exitance (lm/m²), dense (one [r,g,b] per patch) or sparse (patch index → [r,g,b]). Replaces the light groups.",
                     "oneOf": [{"type": "array", "items": {"$ref": "#/components/schemas/Rgb"}}, {"type": "object", "additionalProperties": {"$ref": "#/components/schemas/Rgb"}}]}}},
-            "RadiosityRequest": {"allOf": [{"$ref": "#/components/schemas/LightingState"}, {"type": "object", "properties": {"surfaces": {"type": "boolean", "description": "Also return per-surface area-weighted averages."}}}]},
+            "RadiosityRequest": {"allOf": [{"$ref": "#/components/schemas/LightingState"}, {"type": "object", "properties": {"surfaces": {"type": "boolean", "description": "Also return per-surface area-weighted averages."},
+                "quantity": {"type": "string", "enum": ["radiosity", "illuminance"], "default": "radiosity", "description": "radiosity: B, lm/m² leaving each patch; illuminance: H, lux arriving at each patch."}}}]},
             "RadiosityResponse": {"type": "object", "properties": {"scene": {"type": "string"}, "patches": {"type": "integer"}, "unit": {"type": "string"},
                 "radiosity": {"type": "array", "items": {"$ref": "#/components/schemas/Rgb"}},
                 "surfaces": {"type": "object", "additionalProperties": {"type": "object", "properties": {"area": {"type": "number"}, "radiosity": {"$ref": "#/components/schemas/Rgb"}, "illuminance": {"$ref": "#/components/schemas/Rgb"}}}}}},
