@@ -28,6 +28,13 @@ struct Cli {
 enum Cmd {
     /// Serve the scenes and the web page over HTTP (bakes in the background).
     Serve(ServeArgs),
+    /// Exit 0 if the server at --addr answers GET /healthz with 200 (for container
+    /// health checks; needs no curl).
+    Health {
+        /// Server address; an unspecified IP (0.0.0.0, ::) means this host's loopback.
+        #[arg(long, env = "RELIGHT_ADDR", default_value = "127.0.0.1:8080")]
+        addr: std::net::SocketAddr,
+    },
     /// Bake a scene's transfer (form factors, factorization, light-group columns) into the cache.
     Bake {
         /// Scene folder (OBJ + MTL + optional scene.toml). Omit with --all.
@@ -85,6 +92,11 @@ enum Cmd {
 }
 
 #[derive(clap::Parser)]
+#[command(
+    after_help = "Every option also reads the environment variable shown in brackets \
+(flags win). RELIGHT_LOG sets the log filter: error, warn, info (default), debug, or \
+per module, e.g. relight=debug,tower_http=info."
+)]
 struct ServeArgs {
     /// Address to listen on.
     #[arg(long, env = "RELIGHT_ADDR", default_value = "127.0.0.1:8080")]
@@ -129,6 +141,34 @@ fn main() -> ExitCode {
             ExitCode::FAILURE
         }
     }
+}
+
+/// GET /healthz over a plain TCP connection, with a 3 s budget.
+fn health(mut addr: std::net::SocketAddr) -> Result<()> {
+    use std::io::{Read, Write};
+    use std::time::Duration;
+    if addr.ip().is_unspecified() {
+        addr.set_ip(match addr.ip() {
+            std::net::IpAddr::V4(_) => std::net::Ipv4Addr::LOCALHOST.into(),
+            std::net::IpAddr::V6(_) => std::net::Ipv6Addr::LOCALHOST.into(),
+        });
+    }
+    let t = Duration::from_secs(3);
+    let mut s = std::net::TcpStream::connect_timeout(&addr, t)
+        .with_context(|| format!("cannot connect to {addr}"))?;
+    s.set_read_timeout(Some(t))?;
+    s.set_write_timeout(Some(t))?;
+    s.write_all(b"GET /healthz HTTP/1.0\r\nHost: localhost\r\n\r\n")?;
+    let mut head = [0u8; 64];
+    let n = s.read(&mut head)?;
+    let line = String::from_utf8_lossy(&head[..n]);
+    let status = line.lines().next().unwrap_or("");
+    anyhow::ensure!(
+        status.split_whitespace().nth(1) == Some("200"),
+        "{addr}/healthz answered '{status}'"
+    );
+    println!("ok: {addr} healthy");
+    Ok(())
 }
 
 fn run(cli: Cli) -> Result<()> {
@@ -184,6 +224,7 @@ fn run(cli: Cli) -> Result<()> {
             max_edge,
         } => radiosity(&scene, &lights, json, cache, max_edge),
         Cmd::Info { scenes } => info(&scenes),
+        Cmd::Health { addr } => health(addr),
         Cmd::Render(a) => render(a),
         Cmd::Bench {
             make_scene: Some(dir),

@@ -114,3 +114,163 @@ fn info_lists_the_bundled_scenes() {
     );
     assert!(text.contains("ceiling") && text.contains("lamp"));
 }
+
+/// A running `relight serve`, killed on drop.
+struct Server(std::process::Child);
+
+impl Drop for Server {
+    fn drop(&mut self) {
+        let _ = self.0.kill();
+        let _ = self.0.wait();
+    }
+}
+
+fn free_port() -> u16 {
+    std::net::TcpListener::bind("127.0.0.1:0")
+        .unwrap()
+        .local_addr()
+        .unwrap()
+        .port()
+}
+
+/// Polls the scene list until `scene` leaves queued/baking; returns it.
+async fn settled(base: &str, scene: &str) -> serde_json::Value {
+    let c = reqwest::Client::new();
+    for _ in 0..600 {
+        if let Ok(r) = c.get(format!("{base}/api/scenes")).send().await {
+            let v: serde_json::Value = r.json().await.unwrap();
+            let s = v["scenes"]
+                .as_array()
+                .unwrap()
+                .iter()
+                .find(|s| s["id"] == scene)
+                .cloned()
+                .unwrap();
+            if s["status"] == "ready" || s["status"] == "failed" {
+                return s;
+            }
+        }
+        tokio::time::sleep(std::time::Duration::from_millis(50)).await;
+    }
+    panic!("{scene} never settled");
+}
+
+/// Names and modification times of the files in a folder, to show nothing was written.
+fn listing(dir: &std::path::Path) -> Vec<(std::ffi::OsString, std::time::SystemTime)> {
+    let mut v: Vec<_> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| {
+            let e = e.unwrap();
+            (e.file_name(), e.metadata().unwrap().modified().unwrap())
+        })
+        .collect();
+    v.sort();
+    v
+}
+
+#[tokio::test]
+async fn read_only_replicas_serve_a_baked_cache_and_never_bake() {
+    // A scenes folder with one small room.
+    let scenes = tempfile::tempdir().unwrap();
+    let room = scenes.path().join("room");
+    std::fs::create_dir(&room).unwrap();
+    let obj = box_faces("room", "wall", [0., 0., 0.], [2., 2., 2.], true)
+        + &quad(
+            "lamp",
+            "glow",
+            [
+                [0.8, 1.99, 0.8],
+                [1.2, 1.99, 0.8],
+                [1.2, 1.99, 1.2],
+                [0.8, 1.99, 1.2],
+            ],
+            [0., -1., 0.],
+        );
+    std::fs::write(room.join("scene.obj"), format!("mtllib scene.mtl\n{obj}")).unwrap();
+    std::fs::write(
+        room.join("scene.mtl"),
+        "newmtl wall\nKd 0.5 0.5 0.5\nnewmtl glow\nKd 0 0 0\nKe 100 100 100\n",
+    )
+    .unwrap();
+    std::fs::write(room.join("scene.toml"), "[mesh]\nmax_edge = 0.5\n").unwrap();
+    let cache = tempfile::tempdir().unwrap();
+
+    // 1. An empty cache: the replica reports the scene as failed, and writes nothing.
+    let port = free_port();
+    let _a = Server(
+        relight()
+            .args([
+                "serve",
+                "--read-only",
+                "--addr",
+                &format!("127.0.0.1:{port}"),
+            ])
+            .arg("--scenes")
+            .arg(scenes.path())
+            .arg("--cache")
+            .arg(cache.path())
+            .stderr(std::process::Stdio::null())
+            .spawn()
+            .unwrap(),
+    );
+    let s = settled(&format!("http://127.0.0.1:{port}"), "room").await;
+    assert_eq!(s["status"], "failed", "{s}");
+    let err = s["error"].as_str().unwrap();
+    assert!(
+        err.contains("read-only") && err.contains("relight bake"),
+        "{err}"
+    );
+    assert!(
+        listing(cache.path()).is_empty(),
+        "a read-only replica wrote"
+    );
+
+    // 2. Bake on "one machine" …
+    let out = relight()
+        .args(["bake", "--all"])
+        .arg("--scenes")
+        .arg(scenes.path())
+        .arg("--cache")
+        .arg(cache.path())
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let baked = listing(cache.path());
+    assert_eq!(baked.len(), 1, "{baked:?}");
+
+    // 3. … and a replica configured only through the environment serves it, read-only.
+    let port = free_port();
+    let t0 = std::time::Instant::now();
+    let _b = Server(
+        relight()
+            .arg("serve")
+            .env("RELIGHT_ADDR", format!("127.0.0.1:{port}"))
+            .env("RELIGHT_SCENES", scenes.path())
+            .env("RELIGHT_CACHE", cache.path())
+            .env("RELIGHT_READ_ONLY", "true")
+            .stderr(std::process::Stdio::null())
+            .spawn()
+            .unwrap(),
+    );
+    let base = format!("http://127.0.0.1:{port}");
+    let s = settled(&base, "room").await;
+    eprintln!(
+        "read-only replica ready in {:.2} s",
+        t0.elapsed().as_secs_f64()
+    );
+    assert_eq!(s["status"], "ready", "{s}");
+    let r = reqwest::Client::new()
+        .post(format!("{base}/api/scenes/room/illuminance"))
+        .body(r#"{"lights": {"glow": 0.5}, "surfaces": ["room-y"]}"#)
+        .send()
+        .await
+        .unwrap();
+    assert_eq!(r.status(), 200);
+    let v: serde_json::Value = r.json().await.unwrap();
+    assert!(v["surfaces"]["room-y"]["avg"]["lux"].as_f64().unwrap() > 0.0);
+    assert_eq!(listing(cache.path()), baked, "a read-only replica wrote");
+}
