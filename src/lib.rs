@@ -13,6 +13,7 @@ pub mod color;
 pub mod formfactor;
 pub mod lighting;
 pub mod mesh;
+pub mod photometry;
 pub mod probe;
 pub mod render;
 pub mod report;

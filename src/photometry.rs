@@ -1,0 +1,531 @@
+//! Point luminaires and their photometry: isotropic, cosine spots, and IES LM-63 files.
+//!
+//! A luminaire is a point at `position` with a luminous intensity distribution I(ω) in
+//! candela, oriented by `aim` (the photometric axis: nadir for type C, the beam axis for
+//! spots and type B) and `c0` (the direction of the C = 0° half-plane, perpendicular to the
+//! aim). Its direct illuminance at a point x on a receiver with normal n is
+//! `E = I(ω) · cos θ / d²` (lux), ω the direction from the luminaire to x.
+//!
+//! IES LM-63 (1986, 1991, 1995, 2002 and 2019 headers; TILT=NONE or INCLUDE) is parsed
+//! here; types C and B are supported:
+//! - **Type C**: vertical angle γ from the nadir (0°) to the zenith (180°), horizontal
+//!   angle C about the axis from `c0` towards `c90 = aim × c0`. Symmetric files (last C of
+//!   0°, 90° or 180°) are unfolded.
+//! - **Type B**: the polar axis is the luminaire's lateral axis `r = aim × c0`. The
+//!   vertical angle V is the elevation of the plane through that axis, measured from the
+//!   aim towards `c0`, and the horizontal angle H is the angle within that plane towards
+//!   `r`. A file with H from 0° only is mirrored.
+
+use glam::DVec3;
+
+use crate::color::Rgb;
+
+/// Photometric type of an IES file.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum PhotometricType {
+    C,
+    B,
+}
+
+/// Candela table of an IES file, already multiplied by the candela multiplier and the
+/// ballast factors.
+#[derive(Debug, Clone)]
+pub struct IesData {
+    pub kind: PhotometricType,
+    /// Vertical angles, degrees, ascending.
+    pub vertical: Vec<f64>,
+    /// Horizontal angles, degrees, ascending.
+    pub horizontal: Vec<f64>,
+    /// `candela[h][v]`.
+    pub candela: Vec<Vec<f64>>,
+    /// Rated lamp lumens (lamps × lumens per lamp); None for absolute photometry (-1).
+    pub lamp_lumens: Option<f64>,
+    /// Input watts from the file.
+    pub input_watts: f64,
+}
+
+impl IesData {
+    /// Parses the text of an LM-63 file. Errors name what is wrong.
+    pub fn parse(text: &str) -> Result<IesData, String> {
+        let mut lines = text.lines();
+        let mut tilt = None;
+        for line in lines.by_ref() {
+            let t = line.trim();
+            if let Some(rest) = t.strip_prefix("TILT=") {
+                tilt = Some(rest.trim().to_string());
+                break;
+            }
+        }
+        let tilt = tilt.ok_or("no TILT= line: not an IES LM-63 file")?;
+        let rest: Vec<&str> = lines.collect();
+        let mut nums = rest
+            .iter()
+            .flat_map(|l| l.split(|c: char| c.is_whitespace() || c == ','))
+            .filter(|s| !s.is_empty());
+        let mut next = |what: &str| -> Result<f64, String> {
+            let s = nums
+                .next()
+                .ok_or_else(|| format!("file ends before {what}"))?;
+            let v: f64 = s
+                .parse()
+                .map_err(|_| format!("'{s}' is not a number ({what})"))?;
+            if !v.is_finite() {
+                return Err(format!("{what} is not finite"));
+            }
+            Ok(v)
+        };
+        match tilt.as_str() {
+            "NONE" => {}
+            "INCLUDE" => {
+                // Lamp-to-luminaire geometry, then angle/factor pairs: read and ignore
+                // (relight does not tilt lamps).
+                let _geometry = next("TILT geometry")?;
+                let n = next("TILT pair count")? as usize;
+                for _ in 0..2 * n {
+                    next("TILT values")?;
+                }
+            }
+            other => {
+                return Err(format!(
+                    "TILT={other}: separate tilt files are not supported (use NONE or INCLUDE)"
+                ))
+            }
+        }
+        let lamps = next("number of lamps")?;
+        let lumens_per_lamp = next("lumens per lamp")?;
+        let multiplier = next("candela multiplier")?;
+        let nv = next("number of vertical angles")?;
+        let nh = next("number of horizontal angles")?;
+        let ptype = next("photometric type")?;
+        let _units = next("units type")?;
+        let _w = next("width")?;
+        let _l = next("length")?;
+        let _h = next("height")?;
+        let ballast = next("ballast factor")?;
+        let ballast_lamp = next("ballast-lamp photometric factor")?;
+        let input_watts = next("input watts")?;
+        if !(1.0..=10_000.0).contains(&nv) || !(1.0..=10_000.0).contains(&nh) {
+            return Err(format!("angle counts {nv} × {nh} out of range"));
+        }
+        let (nv, nh) = (nv as usize, nh as usize);
+        let kind = match ptype as i64 {
+            1 => PhotometricType::C,
+            2 => PhotometricType::B,
+            3 => return Err("photometric type A is not supported (use type B or C)".into()),
+            t => return Err(format!("photometric type {t}: must be 1 (C), 2 (B) or 3 (A)")),
+        };
+        let vertical = (0..nv)
+            .map(|_| next("vertical angles"))
+            .collect::<Result<Vec<_>, _>>()?;
+        let horizontal = (0..nh)
+            .map(|_| next("horizontal angles"))
+            .collect::<Result<Vec<_>, _>>()?;
+        for (name, a) in [("vertical", &vertical), ("horizontal", &horizontal)] {
+            if a.windows(2).any(|w| w[1] <= w[0]) {
+                return Err(format!("{name} angles must increase"));
+            }
+        }
+        let scale = multiplier * ballast * ballast_lamp;
+        let mut candela = Vec::with_capacity(nh);
+        for _ in 0..nh {
+            let row = (0..nv)
+                .map(|_| next("candela values").map(|c| c * scale))
+                .collect::<Result<Vec<_>, _>>()?;
+            if row.iter().any(|&c| c < 0.0) {
+                return Err("negative candela value".into());
+            }
+            candela.push(row);
+        }
+        match kind {
+            PhotometricType::C => {
+                if vertical[0] < 0.0 || *vertical.last().unwrap_or(&0.0) > 180.0 {
+                    return Err("type C vertical angles must lie in 0..180".into());
+                }
+                if horizontal[0] < 0.0 || *horizontal.last().unwrap_or(&0.0) > 360.0 {
+                    return Err("type C horizontal angles must lie in 0..360".into());
+                }
+            }
+            PhotometricType::B => {
+                if vertical[0] < -90.0 || *vertical.last().unwrap_or(&0.0) > 90.0 {
+                    return Err("type B vertical angles must lie in -90..90".into());
+                }
+                if horizontal[0] < -90.0 || *horizontal.last().unwrap_or(&0.0) > 90.0 {
+                    return Err("type B horizontal angles must lie in -90..90".into());
+                }
+            }
+        }
+        Ok(IesData {
+            kind,
+            vertical,
+            horizontal,
+            candela,
+            lamp_lumens: (lumens_per_lamp > 0.0).then_some(lamps * lumens_per_lamp),
+            input_watts,
+        })
+    }
+
+    /// Candela at vertical angle `v` and horizontal angle `h` (degrees, in the file's own
+    /// system), with the file's symmetry unfolded. Zero outside the measured vertical range.
+    pub fn candela_at(&self, v: f64, h: f64) -> f64 {
+        let (hs, vs) = (&self.horizontal, &self.vertical);
+        let h = match self.kind {
+            PhotometricType::C => {
+                let first = hs[0];
+                let last = *hs.last().unwrap_or(&0.0);
+                let c = h.rem_euclid(360.0);
+                if hs.len() == 1 {
+                    first
+                } else if first == 0.0 && last == 90.0 {
+                    let c = c % 180.0;
+                    if c > 90.0 {
+                        180.0 - c
+                    } else {
+                        c
+                    }
+                } else if first == 0.0 && last == 180.0 {
+                    if c > 180.0 {
+                        360.0 - c
+                    } else {
+                        c
+                    }
+                } else if first == 90.0 && last == 270.0 {
+                    if c < 90.0 {
+                        180.0 - c
+                    } else if c > 270.0 {
+                        540.0 - c
+                    } else {
+                        c
+                    }
+                } else {
+                    c
+                }
+            }
+            PhotometricType::B => {
+                if hs[0] >= 0.0 {
+                    h.abs()
+                } else {
+                    h
+                }
+            }
+        };
+        if v < vs[0] - 1e-9 || v > vs[vs.len() - 1] + 1e-9 {
+            return 0.0;
+        }
+        let (iv, fv) = bracket(vs, v);
+        // Full-circle type C tables wrap from the last plane back to 0°/360°.
+        let (ih, fh, wrap) = if self.kind == PhotometricType::C
+            && hs.len() > 1
+            && h > hs[hs.len() - 1]
+            && hs[0] == 0.0
+        {
+            let span = 360.0 - hs[hs.len() - 1];
+            (hs.len() - 1, (h - hs[hs.len() - 1]) / span.max(1e-9), true)
+        } else {
+            let (i, f) = bracket(hs, h);
+            (i, f, false)
+        };
+        let row = |i: usize| -> f64 {
+            let r = &self.candela[i];
+            let a = r[iv];
+            let b = r[(iv + 1).min(r.len() - 1)];
+            a + (b - a) * fv
+        };
+        let h1 = if wrap { 0 } else { (ih + 1).min(hs.len() - 1) };
+        row(ih) * (1.0 - fh) + row(h1) * fh
+    }
+}
+
+/// Index i and fraction f with `a[i] + f·(a[i+1] − a[i]) = x`, clamped to the ends.
+fn bracket(a: &[f64], x: f64) -> (usize, f64) {
+    if a.len() == 1 || x <= a[0] {
+        return (0, 0.0);
+    }
+    if x >= a[a.len() - 1] {
+        return (a.len() - 1, 0.0);
+    }
+    let i = a.partition_point(|&v| v <= x) - 1;
+    (i, (x - a[i]) / (a[i + 1] - a[i]))
+}
+
+/// The shape of a luminous intensity distribution.
+#[derive(Debug, Clone)]
+pub enum Distribution {
+    /// The same intensity in every direction.
+    Isotropic,
+    /// A cos^m spot around the aim: 50 % of the peak at half the beam angle, zero beyond
+    /// half the field angle (degrees, full cone angles).
+    Spot { beam_deg: f64, field_deg: f64 },
+    /// An IES LM-63 table.
+    Ies(Box<IesData>),
+}
+
+impl Distribution {
+    /// Relative (Ies: absolute) intensity towards a direction given in the luminaire frame
+    /// as its components along (aim, c0, c90).
+    fn shape(&self, a: f64, c0: f64, c90: f64) -> f64 {
+        match self {
+            Distribution::Isotropic => 1.0,
+            Distribution::Spot {
+                beam_deg,
+                field_deg,
+            } => {
+                let t = a.clamp(-1.0, 1.0).acos();
+                if t > (0.5 * field_deg).to_radians() || a <= 0.0 {
+                    return 0.0;
+                }
+                let m = 0.5f64.ln() / (0.5 * beam_deg).to_radians().cos().ln();
+                a.powf(m)
+            }
+            Distribution::Ies(d) => match d.kind {
+                PhotometricType::C => {
+                    let gamma = a.clamp(-1.0, 1.0).acos().to_degrees();
+                    let c = c90.atan2(c0).to_degrees();
+                    d.candela_at(gamma, c)
+                }
+                PhotometricType::B => {
+                    // Lateral axis r = c90: V is the plane's elevation towards c0, H the
+                    // angle within the plane towards r.
+                    let v = c0.atan2(a).to_degrees();
+                    let h = c90.clamp(-1.0, 1.0).asin().to_degrees();
+                    d.candela_at(v, h)
+                }
+            },
+        }
+    }
+
+    /// ∫ shape dΩ over the sphere (lumens for absolute tables).
+    fn integral(&self) -> f64 {
+        match self {
+            Distribution::Isotropic => 4.0 * std::f64::consts::PI,
+            _ => {
+                // Midpoint rule: 0.25° in θ, 1° in φ, exact enough for tables at 1–5°.
+                let (nt, np) = (720, 360);
+                let (dt, dp) = (
+                    std::f64::consts::PI / nt as f64,
+                    2.0 * std::f64::consts::PI / np as f64,
+                );
+                let mut sum = 0.0;
+                for i in 0..nt {
+                    let t = (i as f64 + 0.5) * dt;
+                    let (st, ct) = t.sin_cos();
+                    let mut ring = 0.0;
+                    for j in 0..np {
+                        let p = (j as f64 + 0.5) * dp;
+                        ring += self.shape(ct, st * p.cos(), st * p.sin());
+                    }
+                    sum += ring * st * dt * dp;
+                }
+                sum
+            }
+        }
+    }
+}
+
+/// A point luminaire, in metres.
+#[derive(Debug, Clone)]
+pub struct Luminaire {
+    pub id: String,
+    pub position: DVec3,
+    /// Unit photometric axis.
+    pub aim: DVec3,
+    /// Unit direction of C = 0°, perpendicular to `aim`.
+    pub c0: DVec3,
+    pub distribution: Distribution,
+    /// Candela per unit of `distribution.shape`.
+    scale: f64,
+    /// Total luminous flux, lm.
+    pub lumens: f64,
+    /// Linear RGB colour with luminance 1 (so lumens stay lumens).
+    pub color: Rgb,
+    /// Electrical power, W, when known.
+    pub watts: Option<f64>,
+}
+
+impl Luminaire {
+    /// Builds a luminaire. `lumens` None takes the flux from an absolute or rated IES file.
+    #[allow(clippy::too_many_arguments)]
+    pub fn new(
+        id: &str,
+        position: DVec3,
+        aim: DVec3,
+        c0: Option<DVec3>,
+        distribution: Distribution,
+        lumens: Option<f64>,
+        color: Rgb,
+        watts: Option<f64>,
+    ) -> Result<Luminaire, String> {
+        let aim = aim.try_normalize().ok_or("aim must be a non-zero vector")?;
+        let c0 = match c0 {
+            Some(c) => (c - aim * c.dot(aim))
+                .try_normalize()
+                .ok_or("c0 must not be parallel to aim")?,
+            None => {
+                // Default: world X projected, or Z when aiming along X.
+                let guess = if aim.x.abs() < 0.9 { DVec3::X } else { DVec3::Z };
+                (guess - aim * guess.dot(aim)).normalize()
+            }
+        };
+        let integral = distribution.integral();
+        if integral <= 0.0 {
+            return Err("the distribution emits no light".into());
+        }
+        let lumens = match (lumens, &distribution) {
+            (Some(l), _) if l.is_finite() && l >= 0.0 => l,
+            (Some(l), _) => return Err(format!("lumens = {l}: must be non-negative")),
+            // The table is in absolute candela (rated or measured): its integral is the flux.
+            (None, Distribution::Ies(_)) => integral,
+            (None, _) => return Err("lumens is required for isotropic and spot luminaires".into()),
+        };
+        let y = crate::color::luminance(color);
+        if !(y > 0.0) || color.iter().any(|c| !c.is_finite() || *c < 0.0) {
+            return Err("color must be non-negative with a positive luminance".into());
+        }
+        Ok(Luminaire {
+            id: id.to_string(),
+            position,
+            aim,
+            c0,
+            distribution,
+            scale: lumens / integral,
+            lumens,
+            color: color.map(|c| c / y),
+            watts,
+        })
+    }
+
+    /// Luminous intensity (cd) towards the unit world direction `d`.
+    pub fn intensity(&self, d: DVec3) -> f64 {
+        let c90 = self.aim.cross(self.c0);
+        self.scale
+            * self
+                .distribution
+                .shape(d.dot(self.aim), d.dot(self.c0), d.dot(c90))
+    }
+
+    /// Unoccluded illuminance (lux) at `x` on a receiver facing `n` (unit).
+    pub fn illuminance(&self, x: DVec3, n: DVec3) -> f64 {
+        let v = x - self.position;
+        let d2 = v.length_squared();
+        if d2 <= 0.0 {
+            return 0.0;
+        }
+        let d = v / d2.sqrt();
+        let cos = -n.dot(d);
+        if cos <= 0.0 {
+            return 0.0;
+        }
+        self.intensity(d) * cos / d2
+    }
+}
+
+/// Linear sRGB colour of a blackbody at `kelvin` (1000–40000 K), with luminance 1.
+///
+/// Planck's law integrated against the CIE 1931 2° colour-matching functions (the
+/// analytic multi-lobe fit of Wyman, Sloan and Shirley, 2013) at 5 nm, then XYZ → linear
+/// sRGB. Negative components (very low CCTs are outside sRGB) are clipped.
+pub fn cct_to_rgb(kelvin: f64) -> Rgb {
+    let g = |x: f64, mu: f64, s1: f64, s2: f64| {
+        let t = (x - mu) / if x < mu { s1 } else { s2 };
+        (-0.5 * t * t).exp()
+    };
+    let (mut xx, mut yy, mut zz) = (0.0, 0.0, 0.0);
+    let mut nm = 380.0f64;
+    while nm <= 780.0 {
+        let l = nm * 1e-9;
+        let planck = 1.0 / (l.powi(5) * ((1.438_776_9e-2 / (l * kelvin)).exp() - 1.0));
+        let x = 1.056 * g(nm, 599.8, 37.9, 31.0) + 0.362 * g(nm, 442.0, 16.0, 26.7)
+            - 0.065 * g(nm, 501.1, 20.4, 26.2);
+        let y = 0.821 * g(nm, 568.8, 46.9, 40.5) + 0.286 * g(nm, 530.9, 16.3, 31.1);
+        let z = 1.217 * g(nm, 437.0, 11.8, 36.0) + 0.681 * g(nm, 459.0, 26.0, 13.8);
+        xx += planck * x;
+        yy += planck * y;
+        zz += planck * z;
+        nm += 5.0;
+    }
+    let (x, y, z) = (xx / yy, 1.0, zz / yy);
+    let r = 3.2406 * x - 1.5372 * y - 0.4986 * z;
+    let gg = -0.9689 * x + 1.8758 * y + 0.0415 * z;
+    let b = 0.0557 * x - 0.2040 * y + 1.0570 * z;
+    let rgb = [r.max(0.0), gg.max(0.0), b.max(0.0)];
+    let lum = 0.2126 * rgb[0] + 0.7152 * rgb[1] + 0.0722 * rgb[2];
+    rgb.map(|c| (c / lum) as f32)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const TYPE_C: &str = "IESNA:LM-63-2002
+[TEST] cosine downlight
+TILT=NONE
+1 1000 1 3 1 1 2 0.1 0.1 0
+1 1 20
+0 45 90
+0
+1000 707.1 0
+";
+
+    #[test]
+    fn parses_and_interpolates_a_type_c_file() {
+        let d = IesData::parse(TYPE_C).unwrap();
+        assert_eq!(d.kind, PhotometricType::C);
+        assert_eq!(d.lamp_lumens, Some(1000.0));
+        assert!((d.candela_at(0.0, 123.0) - 1000.0).abs() < 1e-9);
+        assert!((d.candela_at(22.5, 0.0) - 853.55).abs() < 1e-9);
+        assert_eq!(d.candela_at(120.0, 0.0), 0.0);
+    }
+
+    #[test]
+    fn bad_files_get_clear_errors() {
+        assert!(IesData::parse("hello").unwrap_err().contains("TILT"));
+        let e = IesData::parse(&TYPE_C.replace("1000 707.1 0", "1000 x 0")).unwrap_err();
+        assert!(e.contains("'x'"), "{e}");
+        let e = IesData::parse(&TYPE_C.replace("1000 707.1 0\n", "1000\n")).unwrap_err();
+        assert!(e.contains("ends"), "{e}");
+        let e = IesData::parse(&TYPE_C.replace("1 1 2 0.1", "1 3 2 0.1")).unwrap_err();
+        assert!(e.contains("type A"), "{e}");
+    }
+
+    #[test]
+    fn flux_of_known_distributions() {
+        // Isotropic: I = Φ / 4π.
+        let l = Luminaire::new(
+            "a",
+            DVec3::ZERO,
+            -DVec3::Y,
+            None,
+            Distribution::Isotropic,
+            Some(1000.0),
+            [1.0; 3],
+            None,
+        )
+        .unwrap();
+        let i = l.intensity(DVec3::X);
+        assert!((i - 1000.0 / (4.0 * std::f64::consts::PI)).abs() < 1e-9);
+        // A Lambertian downward hemisphere, I = I0 cos γ: Φ = π I0.
+        let d = Distribution::Ies(Box::new(IesData {
+            kind: PhotometricType::C,
+            vertical: (0..=90).map(|g| g as f64).collect(),
+            horizontal: vec![0.0],
+            candela: vec![(0..=90).map(|g| 1000.0 * (g as f64).to_radians().cos()).collect()],
+            lamp_lumens: None,
+            input_watts: 0.0,
+        }));
+        let phi = d.integral();
+        assert!((phi / (std::f64::consts::PI * 1000.0) - 1.0).abs() < 1e-3, "{phi}");
+    }
+
+    #[test]
+    fn blackbody_colours_have_unit_luminance_and_warm_to_cool_order() {
+        let warm = cct_to_rgb(2700.0);
+        let d65 = cct_to_rgb(6504.0);
+        assert!(warm[0] > warm[2]);
+        assert!((luminance_of(warm) - 1.0).abs() < 1e-5);
+        // 6504 K is close to the sRGB white point: near-equal channels.
+        assert!((d65[0] / d65[2] - 1.0).abs() < 0.12, "{d65:?}");
+    }
+
+    fn luminance_of(c: Rgb) -> f32 {
+        0.2126 * c[0] + 0.7152 * c[1] + 0.0722 * c[2]
+    }
+}
