@@ -240,7 +240,10 @@ pub fn load_or_bake(
         .mode
         .unwrap_or_else(|| TransferMode::resolve(scene.transfer, n));
     let t1 = Instant::now();
-    let transfer = Transfer::build(&scene, &mesh, f, mode, &|x| progress(Stage::Solving, x));
+    let direct = crate::direct::group_direct(&scene, &mesh, &bvh);
+    let transfer = Transfer::build(&scene, &mesh, f, &direct, mode, &|x| {
+        progress(Stage::Solving, x)
+    });
     stats.solve_s = t1.elapsed().as_secs_f64();
     stats.residual = transfer.info.residual;
 

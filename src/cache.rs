@@ -31,7 +31,7 @@ use crate::transfer::{Factored, GroupColumns, SolveInfo, Transfer, TransferMode}
 
 pub const MAGIC: &[u8; 8] = b"RLTRANS\0";
 /// Bump when the file layout changes.
-pub const FORMAT_VERSION: u32 = 1;
+pub const FORMAT_VERSION: u32 = 2;
 /// Bump when the numbers a bake produces change (meshing, form factors, solver).
 pub const ALGORITHM_VERSION: u32 = 1;
 
@@ -72,6 +72,9 @@ pub struct Header {
     pub mesh_fingerprint: String,
     pub mode: TransferMode,
     pub groups: usize,
+    /// Per group: luminaire flux and its part landing on patches, lm per channel.
+    #[serde(default)]
+    pub group_flux: Vec<[[f64; 3]; 2]>,
     pub channel_lu: Option<[u8; 3]>,
     pub lu_count: usize,
     pub info: SolveInfo,
@@ -171,6 +174,7 @@ pub fn write(
         mesh_fingerprint: format!("{mesh_fingerprint:016x}"),
         mode: t.mode,
         groups: t.groups.len(),
+        group_flux: t.groups.iter().map(|g| [g.flux, g.landed]).collect(),
         channel_lu: t.factored.as_ref().map(|f| f.channel_lu),
         lu_count: t.factored.as_ref().map_or(0, |f| f.lus.len()),
         info: t.info,
@@ -318,6 +322,8 @@ pub fn read(
             e: take(&format!("e{g}"), 3 * n)?,
             b: take(&format!("b{g}"), 3 * n)?,
             h: take(&format!("h{g}"), 3 * n)?,
+            flux: h.group_flux.get(g).map_or([0.0; 3], |f| f[0]),
+            landed: h.group_flux.get(g).map_or([0.0; 3], |f| f[1]),
         });
     }
     let factored = match h.mode {

@@ -22,11 +22,31 @@ const RAYS_PER_SHARE: f64 = 4096.0;
 
 /// Illuminance (lux per channel) at `x` on a receiver facing `n`, for per-patch radiosity
 /// `b` (n × 3 interleaved, lm/m²).
-///
-/// Pass 1 finds every patch that can contribute and its unoccluded contribution; pass 2
-/// traces visibility, giving a partly hidden patch rays in proportion to its share of the
-/// total, so penumbrae of bright sources are resolved finely.
 pub fn illuminance_at(mesh: &Mesh, bvh: &Bvh, b: &[f32], x: DVec3, n: DVec3) -> [f64; 3] {
+    let mut e = [0.0; 3];
+    for (j, w) in gather_weights(mesh, bvh, b, x, n) {
+        for c in 0..3 {
+            e[c] += w * b[3 * j as usize + c] as f64;
+        }
+    }
+    e
+}
+
+/// The gather as weights: `E(x) = Σ_j w_j · B_j` for every radiosity that is zero where
+/// `importance` (n × 3) is zero. `w_j` is the point-to-patch factor times the visible
+/// fraction of patch j.
+///
+/// Pass 1 finds every patch that can contribute and its unoccluded share of
+/// `importance`; pass 2 traces visibility, giving a partly hidden patch rays in proportion
+/// to its share, so penumbrae of bright sources are resolved finely.
+pub fn gather_weights(
+    mesh: &Mesh,
+    bvh: &Bvh,
+    importance: &[f32],
+    x: DVec3,
+    n: DVec3,
+) -> Vec<(u32, f64)> {
+    let b = importance;
     let n = n.normalize();
     let lift = 1e-6 * (1.0 + x.abs().max_element());
     let o = Vec3A::from((x + n * lift).as_vec3());
@@ -53,7 +73,7 @@ pub fn illuminance_at(mesh: &Mesh, bvh: &Bvh, b: &[f32], x: DVec3, n: DVec3) -> 
     candidates
         .par_iter()
         .with_min_len(64)
-        .map(|&(j, ff, bj)| {
+        .filter_map(|&(j, ff, bj)| {
             let p = &mesh.patches[j];
             let c = mesh.corners(j);
             let mut state = (j as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15) | 1;
@@ -90,8 +110,7 @@ pub fn illuminance_at(mesh: &Mesh, bvh: &Bvh, b: &[f32], x: DVec3, n: DVec3) -> 
                 free += cast(want - PROBE_RAYS);
                 rays = want;
             }
-            let w = ff * free as f64 / rays as f64;
-            bj.map(|v| w * v)
+            (free > 0).then(|| (j as u32, ff * free as f64 / rays as f64))
         })
-        .reduce(|| [0.0; 3], |a, b| [a[0] + b[0], a[1] + b[1], a[2] + b[2]])
+        .collect()
 }

@@ -92,6 +92,12 @@ pub struct SceneToml {
     pub lights: Vec<LightToml>,
     #[serde(default)]
     pub cameras: Vec<CameraToml>,
+    /// Point luminaires (IES, spot or isotropic), each in a light group.
+    #[serde(default)]
+    pub luminaires: Vec<LuminaireToml>,
+    /// Calculation grids: work planes or point lists.
+    #[serde(default)]
+    pub grids: Vec<GridToml>,
     /// Per-surface options, keyed by OBJ object/group name.
     #[serde(default)]
     pub surface: BTreeMap<String, FaceOptions>,
@@ -134,6 +140,59 @@ pub struct LightToml {
     pub intensity: Option<f32>,
     /// Default colour filter (linear RGB multipliers).
     pub color: Option<Rgb>,
+}
+
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct LuminaireToml {
+    pub id: String,
+    /// Light group to join (created when no `[[lights]]` entry has this id); default `id`.
+    pub group: Option<String>,
+    /// Position, scene units.
+    pub position: [f64; 3],
+    /// Photometric axis (nadir for type C); default straight down.
+    #[serde(default = "default_aim")]
+    pub aim: [f64; 3],
+    /// Direction of the C = 0° plane (type C) / the luminaire's length axis.
+    pub c0: Option<[f64; 3]>,
+    /// Total flux, lm; default: the IES file's (absolute) candela integral.
+    pub lumens: Option<f64>,
+    /// "isotropic", "spot" or "ies"; default "ies" when `ies` is given, else "isotropic".
+    pub distribution: Option<String>,
+    /// IES LM-63 file, relative to the scene folder.
+    pub ies: Option<String>,
+    /// Spot beam angle (50 % of peak) and field angle (cut-off), full cone, degrees.
+    pub beam_deg: Option<f64>,
+    pub field_deg: Option<f64>,
+    /// Linear RGB colour, or a colour temperature in kelvin (blackbody).
+    pub color: Option<Rgb>,
+    pub cct: Option<f64>,
+    /// Electrical power (W), or luminous efficacy (lm/W) to derive it.
+    pub watts: Option<f64>,
+    pub efficacy: Option<f64>,
+}
+
+fn default_aim() -> [f64; 3] {
+    [0.0, -1.0, 0.0]
+}
+
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct GridToml {
+    pub id: String,
+    pub name: Option<String>,
+    /// Work plane: horizontal rectangle from `min` = [x, z] to `max` = [x, z] (scene
+    /// units) at `height` above the floor (the scene's lowest point), points at the centres
+    /// of cells about `spacing` wide.
+    pub min: Option<[f64; 2]>,
+    pub max: Option<[f64; 2]>,
+    pub height: Option<f64>,
+    pub spacing: Option<f64>,
+    /// Or explicit points (scene units).
+    pub points: Option<Vec<[f64; 3]>>,
+    /// Receiver normal; default up.
+    #[serde(default = "default_up")]
+    pub normal: [f64; 3],
 }
 
 #[derive(Debug, Clone, Deserialize)]
@@ -201,7 +260,24 @@ pub struct LightGroup {
     pub intensity: f32,
     /// Default colour filter.
     pub color: Rgb,
+    /// Point luminaires of the group (empty for emissive-surface groups).
+    #[serde(skip)]
+    pub luminaires: Vec<crate::photometry::Luminaire>,
 }
+
+/// A calculation grid: points (metres) with one receiver normal.
+#[derive(Debug, Clone, Serialize)]
+pub struct Grid {
+    pub id: String,
+    pub name: String,
+    pub points: Vec<[f64; 3]>,
+    pub normal: [f64; 3],
+    /// Work-plane layout (columns × rows), when the grid is a rectangle.
+    pub layout: Option<[usize; 2]>,
+}
+
+/// Most points in one grid.
+pub const MAX_GRID_POINTS: usize = 20_000;
 
 /// A camera preset, in metres.
 #[derive(Debug, Clone, Serialize)]
@@ -237,6 +313,7 @@ pub struct Scene {
     pub triangles: Vec<Triangle>,
     pub lights: Vec<LightGroup>,
     pub cameras: Vec<CameraDef>,
+    pub grids: Vec<Grid>,
     pub mesh: MeshSettings,
     pub transfer: TransferChoice,
     /// Non-fatal problems (skipped degenerate triangles, defaulted materials).
@@ -419,7 +496,7 @@ impl Scene {
             }
         }
 
-        let lights = assign_lights(
+        let mut lights = assign_lights(
             &cfg,
             &toml_path,
             &materials,
@@ -449,6 +526,9 @@ impl Scene {
                 })
             })
             .collect::<Result<Vec<_>, _>>()?;
+
+        add_luminaires(&cfg, &dir, &toml_path, scale, &mut lights, &mut files)?;
+        let grids = build_grids(&cfg, &toml_path, scale, &triangles)?;
 
         let total_area: f64 = triangles
             .iter()
@@ -488,6 +568,7 @@ impl Scene {
             triangles,
             lights,
             cameras,
+            grids,
             mesh: MeshSettings { max_edge },
             transfer: cfg.transfer.unwrap_or_default(),
             warnings,
@@ -780,10 +861,17 @@ fn assign_lights(
                     })?,
             );
         }
-        if mats.is_empty() && surfs.is_empty() {
+        let has_luminaires = cfg
+            .luminaires
+            .iter()
+            .any(|m| m.group.as_deref().unwrap_or(&m.id) == l.id);
+        if mats.is_empty() && surfs.is_empty() && !has_luminaires {
             return Err(SceneError::Invalid {
                 path: toml_path.into(),
-                message: format!("light '{}' names no materials or surfaces", l.id),
+                message: format!(
+                    "light '{}' names no materials or surfaces, and no luminaire joins it",
+                    l.id
+                ),
             });
         }
         if let Some(c) = l.color {
@@ -807,6 +895,7 @@ fn assign_lights(
             ke_scale: 1.0,
             intensity,
             color: l.color.unwrap_or([1.0; 3]),
+            luminaires: vec![],
         });
         members.push((mats, surfs));
     }
@@ -846,6 +935,7 @@ fn assign_lights(
                             ke_scale: 1.0,
                             intensity: 1.0,
                             color: [1.0; 3],
+                            luminaires: vec![],
                         });
                         members.push((vec![t.material], vec![]));
                         (groups.len() - 1) as u32
@@ -889,4 +979,198 @@ fn assign_lights(
         groups[g].ke_scale = lm / flux;
     }
     Ok(groups)
+}
+
+/// Builds the `[[luminaires]]` and attaches each to its light group (creating groups that
+/// `[[lights]]` does not define). IES files join `files` for the cache key.
+fn add_luminaires(
+    cfg: &SceneToml,
+    dir: &Path,
+    toml_path: &Path,
+    scale: f64,
+    lights: &mut Vec<LightGroup>,
+    files: &mut Vec<PathBuf>,
+) -> Result<(), SceneError> {
+    use crate::photometry::{cct_to_rgb, Distribution, IesData, Luminaire};
+    let bad = |id: &str, m: String| SceneError::Invalid {
+        path: toml_path.into(),
+        message: format!("luminaire '{id}': {m}"),
+    };
+    let mut seen = std::collections::HashSet::new();
+    for l in &cfg.luminaires {
+        if l.id.is_empty() || !seen.insert(l.id.clone()) {
+            return Err(bad(&l.id, "id is empty or used twice".into()));
+        }
+        let finite3 = |v: [f64; 3]| v.iter().all(|x| x.is_finite());
+        if !finite3(l.position) || !finite3(l.aim) || l.c0.is_some_and(|c| !finite3(c)) {
+            return Err(bad(&l.id, "position, aim and c0 must be finite".into()));
+        }
+        let kind = l
+            .distribution
+            .clone()
+            .unwrap_or_else(|| if l.ies.is_some() { "ies" } else { "isotropic" }.into());
+        let distribution = match kind.as_str() {
+            "isotropic" => Distribution::Isotropic,
+            "spot" => {
+                let beam = l.beam_deg.unwrap_or(30.0);
+                let field = l.field_deg.unwrap_or(2.0 * beam);
+                if !(beam > 0.0 && beam < 180.0 && field >= beam && field <= 180.0) {
+                    return Err(bad(
+                        &l.id,
+                        format!("spot needs 0 < beam_deg ({beam}) < 180 and beam_deg ≤ field_deg ({field}) ≤ 180"),
+                    ));
+                }
+                Distribution::Spot {
+                    beam_deg: beam,
+                    field_deg: field,
+                }
+            }
+            "ies" => {
+                let name = l
+                    .ies
+                    .as_ref()
+                    .ok_or_else(|| bad(&l.id, "distribution \"ies\" needs ies = \"file.ies\"".into()))?;
+                let path = dir.join(name);
+                let text = std::fs::read(&path)
+                    .map_err(|e| bad(&l.id, format!("cannot read {}: {e}", path.display())))?;
+                let data = IesData::parse(&String::from_utf8_lossy(&text))
+                    .map_err(|e| bad(&l.id, format!("{}: {e}", path.display())))?;
+                if !files.contains(&path) {
+                    files.push(path);
+                }
+                Distribution::Ies(Box::new(data))
+            }
+            other => {
+                return Err(bad(
+                    &l.id,
+                    format!("distribution '{other}': use isotropic, spot or ies"),
+                ))
+            }
+        };
+        let color = match (l.color, l.cct) {
+            (Some(_), Some(_)) => return Err(bad(&l.id, "give color or cct, not both".into())),
+            (Some(c), None) => c,
+            (None, Some(k)) if (1000.0..=40000.0).contains(&k) => cct_to_rgb(k),
+            (None, Some(k)) => return Err(bad(&l.id, format!("cct = {k}: must be 1000..40000 K"))),
+            (None, None) => [1.0; 3],
+        };
+        let v = |a: [f64; 3]| DVec3::from_array(a);
+        let mut lum = Luminaire::new(
+            &l.id,
+            v(l.position) * scale,
+            v(l.aim),
+            l.c0.map(v),
+            distribution,
+            l.lumens,
+            color,
+            None,
+        )
+        .map_err(|e| bad(&l.id, e))?;
+        lum.watts = match (l.watts, l.efficacy) {
+            (Some(w), _) if w.is_finite() && w >= 0.0 => Some(w),
+            (None, Some(e)) if e.is_finite() && e > 0.0 => Some(lum.lumens / e),
+            (None, None) => None,
+            _ => return Err(bad(&l.id, "watts must be ≥ 0 and efficacy > 0".into())),
+        };
+        let gid = l.group.clone().unwrap_or_else(|| l.id.clone());
+        let g = match lights.iter().position(|g| g.id == gid) {
+            Some(g) => g,
+            None => {
+                lights.push(LightGroup {
+                    id: gid.clone(),
+                    name: gid.clone(),
+                    ke_scale: 1.0,
+                    intensity: 1.0,
+                    color: [1.0; 3],
+                    luminaires: vec![],
+                });
+                lights.len() - 1
+            }
+        };
+        lights[g].luminaires.push(lum);
+    }
+    Ok(())
+}
+
+/// Resolves `[[grids]]` to points in metres.
+fn build_grids(
+    cfg: &SceneToml,
+    toml_path: &Path,
+    scale: f64,
+    triangles: &[Triangle],
+) -> Result<Vec<Grid>, SceneError> {
+    let floor = triangles
+        .iter()
+        .flat_map(|t| t.p.iter().map(|p| p.y))
+        .fold(f64::INFINITY, f64::min);
+    let mut out: Vec<Grid> = Vec::new();
+    for g in &cfg.grids {
+        let bad = |m: String| SceneError::Invalid {
+            path: toml_path.into(),
+            message: format!("grid '{}': {m}", g.id),
+        };
+        if g.id.is_empty() || out.iter().any(|o| o.id == g.id) {
+            return Err(bad("id is empty or used twice".into()));
+        }
+        let n = DVec3::from_array(g.normal)
+            .try_normalize()
+            .ok_or_else(|| bad("normal must be a non-zero vector".into()))?;
+        let (points, layout) = match (&g.points, g.min, g.max) {
+            (Some(p), None, None) => {
+                if p.iter().flatten().any(|x| !x.is_finite()) {
+                    return Err(bad("points must be finite".into()));
+                }
+                (p.iter().map(|q| q.map(|x| x * scale)).collect::<Vec<_>>(), None)
+            }
+            (None, Some(lo), Some(hi)) => {
+                let h = g.height.unwrap_or(0.75 / scale);
+                let sp = g.spacing.unwrap_or(0.25 / scale);
+                if !(sp > 0.0 && sp.is_finite() && h.is_finite()) {
+                    return Err(bad("spacing must be positive and height finite".into()));
+                }
+                if !(hi[0] > lo[0] && hi[1] > lo[1]) {
+                    return Err(bad("max must exceed min in x and z".into()));
+                }
+                let nx = ((hi[0] - lo[0]) / sp).ceil().max(1.0) as usize;
+                let nz = ((hi[1] - lo[1]) / sp).ceil().max(1.0) as usize;
+                if nx.saturating_mul(nz) > MAX_GRID_POINTS {
+                    return Err(bad(format!(
+                        "{nx} × {nz} points; the limit is {MAX_GRID_POINTS}"
+                    )));
+                }
+                let (dx, dz) = ((hi[0] - lo[0]) / nx as f64, (hi[1] - lo[1]) / nz as f64);
+                let y = floor + h * scale;
+                let mut pts = Vec::with_capacity(nx * nz);
+                for k in 0..nz {
+                    for i in 0..nx {
+                        pts.push([
+                            (lo[0] + (i as f64 + 0.5) * dx) * scale,
+                            y,
+                            (lo[1] + (k as f64 + 0.5) * dz) * scale,
+                        ]);
+                    }
+                }
+                (pts, Some([nx, nz]))
+            }
+            _ => {
+                return Err(bad(
+                    "give either points = [[x, y, z], ...] or min = [x, z], max = [x, z] (with height, spacing)".into(),
+                ))
+            }
+        };
+        if points.is_empty() || points.len() > MAX_GRID_POINTS {
+            return Err(bad(format!(
+                "{} points: need 1..{MAX_GRID_POINTS}",
+                points.len()
+            )));
+        }
+        out.push(Grid {
+            id: g.id.clone(),
+            name: g.name.clone().unwrap_or_else(|| g.id.clone()),
+            points,
+            normal: n.to_array(),
+            layout,
+        });
+    }
+    Ok(out)
 }

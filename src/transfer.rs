@@ -52,8 +52,13 @@ pub struct GroupColumns {
     pub e: Vec<f32>,
     /// Radiosity, lm/m².
     pub b: Vec<f32>,
-    /// Incident illuminance, lux.
+    /// Incident illuminance, lux (direct light from luminaires included).
     pub h: Vec<f32>,
+    /// Luminous flux of the group's point luminaires, lm per channel (zero for
+    /// emissive-surface groups).
+    pub flux: [f64; 3],
+    /// The part of `flux` that lands directly on patches (Σ A·D), lm per channel.
+    pub landed: [f64; 3],
 }
 
 /// Factored-mode data.
@@ -101,16 +106,21 @@ pub struct Solution {
     pub b: Vec<f32>,
     /// Incident illuminance, lux.
     pub h: Vec<f32>,
+    /// Flux of point luminaires in this state, lm per channel.
+    pub luminaire_flux: [f64; 3],
+    /// Luminaire flux that hits no patch and leaves the scene directly, lm per channel.
+    pub direct_escaped: [f64; 3],
 }
 
 /// Power balance of a solution, lumens per channel.
 #[derive(Debug, Clone, Copy, Serialize)]
 pub struct Power {
-    /// Σ A·E.
+    /// Σ A·E plus the flux of point luminaires.
     pub emitted: [f64; 3],
     /// Σ A·(1 − ρ)·H.
     pub absorbed: [f64; 3],
-    /// Σ A·B·(1 − Σ_j F_ij): light that leaves through openings.
+    /// Σ A·B·(1 − Σ_j F_ij), light that leaves through openings, plus luminaire light
+    /// that hits nothing.
     pub escaped: [f64; 3],
 }
 
@@ -132,10 +142,14 @@ pub fn group_emission(scene: &Scene, mesh: &Mesh) -> Vec<Vec<f32>> {
 
 impl Transfer {
     /// Solves the scene for its light groups (and factors it in factored mode).
+    /// `direct[g]` is the direct illuminance of group g's point luminaires (lux, n × 3 at
+    /// unit weight; None without luminaires). It enters as the first reflection: the
+    /// group's source is `E + ρ D`, and its incident illuminance `H = D + F B`.
     pub fn build(
         scene: &Scene,
         mesh: &Mesh,
         f: Vec<f32>,
+        direct: &[Option<Vec<f32>>],
         mode: TransferMode,
         progress: &(dyn Fn(f64) + Sync),
     ) -> Transfer {
@@ -156,9 +170,11 @@ impl Transfer {
         // E as an n × 3G matrix, column 3g + c.
         let mut e = Mat::<f32>::zeros(n, 3 * g);
         for (gi, col) in emission.iter().enumerate() {
+            let d = direct.get(gi).and_then(|d| d.as_deref());
             for i in 0..n {
                 for c in 0..3 {
-                    e[(i, 3 * gi + c)] = col[3 * i + c];
+                    let first = d.map_or(0.0, |d| rho[i][c] * d[3 * i + c]);
+                    e[(i, 3 * gi + c)] = col[3 * i + c] + first;
                 }
             }
         }
@@ -204,10 +220,22 @@ impl Transfer {
             ));
         }
         let groups = (0..g)
-            .map(|gi| GroupColumns {
-                e: emission[gi].clone(),
-                b: solve::interleave(b.as_ref(), [3 * gi, 3 * gi + 1, 3 * gi + 2]),
-                h: solve::interleave(h.as_ref(), [3 * gi, 3 * gi + 1, 3 * gi + 2]),
+            .map(|gi| {
+                let d = direct.get(gi).and_then(|d| d.as_deref());
+                let mut hcol = solve::interleave(h.as_ref(), [3 * gi, 3 * gi + 1, 3 * gi + 2]);
+                if let Some(d) = d {
+                    for (hv, dv) in hcol.iter_mut().zip(d) {
+                        *hv += dv;
+                    }
+                }
+                let (flux, landed) = crate::direct::group_flux(&scene.lights[gi], &area, d);
+                GroupColumns {
+                    e: emission[gi].clone(),
+                    b: solve::interleave(b.as_ref(), [3 * gi, 3 * gi + 1, 3 * gi + 2]),
+                    h: hcol,
+                    flux,
+                    landed,
+                }
             })
             .collect();
         let factored = lus.map(|(lus, channel_lu)| Factored { lus, channel_lu, f });
@@ -247,7 +275,15 @@ impl Transfer {
             e: vec![0.0; len],
             b: vec![0.0; len],
             h: vec![0.0; len],
+            luminaire_flux: [0.0; 3],
+            direct_escaped: [0.0; 3],
         };
+        for (g, w) in self.groups.iter().zip(weights) {
+            for c in 0..3 {
+                s.luminaire_flux[c] += w[c] as f64 * g.flux[c];
+                s.direct_escaped[c] += w[c] as f64 * (g.flux[c] - g.landed[c]).max(0.0);
+            }
+        }
         weighted_sum(
             self.groups.iter().map(|g| g.e.as_slice()),
             weights,
@@ -286,15 +322,17 @@ impl Transfer {
             e: emission.to_vec(),
             b: solve::interleave(x.as_ref(), [0, 1, 2]),
             h: solve::interleave(h.as_ref(), [0, 1, 2]),
+            luminaire_flux: [0.0; 3],
+            direct_escaped: [0.0; 3],
         })
     }
 
     /// Power balance of a solution, lumens per channel.
     pub fn power(&self, s: &Solution) -> Power {
         let mut p = Power {
-            emitted: [0.0; 3],
+            emitted: s.luminaire_flux,
             absorbed: [0.0; 3],
-            escaped: [0.0; 3],
+            escaped: s.direct_escaped,
         };
         for i in 0..self.n {
             let a = self.area[i] as f64;

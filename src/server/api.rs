@@ -124,6 +124,19 @@ pub async fn scene_details(
         "bounds": {"min": lo.to_array(), "max": hi.to_array()},
         "lights": r.groups,
         "cameras": b.scene.cameras,
+        "luminaires": b.scene.lights.iter().flat_map(|g| g.luminaires.iter().map(move |l| json!({
+            "id": l.id, "group": g.id, "position": l.position.to_array(), "aim": l.aim.to_array(),
+            "lumens": l.lumens, "watts": l.watts,
+            "distribution": match &l.distribution {
+                crate::photometry::Distribution::Isotropic => "isotropic",
+                crate::photometry::Distribution::Spot { .. } => "spot",
+                crate::photometry::Distribution::Ies(_) => "ies",
+            },
+        }))).collect::<Vec<_>>(),
+        "grids": r.grids.iter().map(|g| json!({
+            "id": g.grid.id, "name": g.grid.name, "count": g.len(), "layout": g.grid.layout,
+            "normal": g.grid.normal, "points": g.grid.points,
+        })).collect::<Vec<_>>(),
         "surfaces": surfaces,
         "bake": {"seconds": r.bake_seconds, "from_cache": b.stats.from_cache, "residual": b.transfer.info.residual},
     }))
@@ -661,47 +674,144 @@ pub async fn illuminance(
         &id,
         &headers,
         body,
-        &["lights", "emission", "surfaces", "points"],
+        &["lights", "emission", "surfaces", "points", "grids"],
     )?;
     let lighting = parse_lighting(&body, &ready)?;
     let mut surfaces = surface_list(body.get("surfaces"), &ready)?;
+    let grids = grid_list(body.get("grids"), &ready)?;
     let points = body
         .get("points")
         .map(parse_points)
         .transpose()?
         .unwrap_or_default();
-    if surfaces.is_empty() && points.is_empty() && body.get("surfaces").is_none() {
+    if surfaces.is_empty()
+        && points.is_empty()
+        && grids.is_empty()
+        && body.get("surfaces").is_none()
+    {
         surfaces = (0..ready.baked.scene.surfaces.len()).collect();
     }
-    // Group lighting and no points: the statistics need only H, one weighted sum.
+    // Group lighting and no points: everything is a weighted sum of precomputed columns.
     if let (Lighting::Groups(w), true) = (&lighting, points.is_empty()) {
         let mut h = vec![0f32; 3 * ready.baked.transfer.n];
         ready.baked.transfer.illuminance_into(w, &mut h);
         let stats = surface_stats(&ready, &surfaces, &h);
-        return Ok(Json(json!({ "unit": "lx", "points": [], "surfaces": stats })).into_response());
+        let g = grid_answers(&ready, &grids, w);
+        return Ok(Json(json!({
+            "unit": "lx", "points": [], "surfaces": stats, "grids": g,
+            "power": luminaire_power(&ready, w),
+        }))
+        .into_response());
     }
-    let heavy = !points.is_empty() || matches!(lighting, Lighting::Emission(_));
     let work = move |ready: Arc<Ready>| -> Result<Value, AppError> {
         let sol = solve_for(&ready, &lighting)?;
         let stats = surface_stats(&ready, &surfaces, &sol.h);
         let b = &ready.baked;
-        let pts: Vec<Lux> = points
-            .iter()
-            .map(|(x, n)| {
-                Lux::new(crate::probe::illuminance_at(
-                    &b.mesh, &b.bvh, &sol.b, *x, *n,
-                ))
-            })
-            .collect();
-        Ok(json!({ "unit": "lx", "points": pts, "surfaces": stats }))
+        let weights = match &lighting {
+            Lighting::Groups(w) => Some(w.as_slice()),
+            Lighting::Emission(_) => None,
+        };
+        let at = |x: DVec3, n: DVec3| -> [f64; 3] {
+            let mut e = crate::probe::illuminance_at(&b.mesh, &b.bvh, &sol.b, x, n);
+            // Direct light of point luminaires, exact per point.
+            for (g, w) in b.scene.lights.iter().zip(weights.unwrap_or(&[])) {
+                if g.luminaires.is_empty() || w.iter().all(|&c| c == 0.0) {
+                    continue;
+                }
+                let d = crate::direct::point_illuminance(&b.bvh, &g.luminaires, x, n);
+                for c in 0..3 {
+                    e[c] += w[c] as f64 * d[c];
+                }
+            }
+            e
+        };
+        let pts: Vec<Lux> = points.iter().map(|(x, n)| Lux::new(at(*x, *n))).collect();
+        let grids: Map<String, Value> = match weights {
+            Some(w) => grid_answers(&ready, &grids, w),
+            None => grids
+                .iter()
+                .map(|&gi| {
+                    let g = &ready.grids[gi].grid;
+                    let n = DVec3::from_array(g.normal);
+                    let values: Vec<f32> = g
+                        .points
+                        .iter()
+                        .map(|p| crate::color::luminance64(at(DVec3::from_array(*p), n)) as f32)
+                        .collect();
+                    (g.id.clone(), grid_json(g, crate::grid::stats(values)))
+                })
+                .collect(),
+        };
+        let power = weights.map(|w| luminaire_power(&ready, w));
+        Ok(json!({ "unit": "lx", "points": pts, "surfaces": stats, "grids": grids, "power": power }))
     };
-    let v = if heavy {
-        let r = ready.clone();
-        blocking(move || work(r)).await?
-    } else {
-        work(ready)?
-    };
-    Ok(Json(v).into_response())
+    let r = ready.clone();
+    Ok(Json(blocking(move || work(r)).await?).into_response())
+}
+
+/// Grid indices from a list of grid ids.
+fn grid_list(v: Option<&Value>, ready: &Ready) -> Result<Vec<usize>, AppError> {
+    let Some(v) = v else { return Ok(vec![]) };
+    let arr = v.as_array().ok_or_else(|| {
+        AppError::Invalid(format!("'grids' must be an array of grid ids, got {}", kind(v)))
+    })?;
+    arr.iter()
+        .map(|g| {
+            let id = g
+                .as_str()
+                .ok_or_else(|| AppError::Invalid(format!("grid ids must be strings, got {g}")))?;
+            ready
+                .grids
+                .iter()
+                .position(|r| r.grid.id == id)
+                .ok_or_else(|| {
+                    let known: Vec<&str> = ready.grids.iter().map(|r| r.grid.id.as_str()).collect();
+                    AppError::Invalid(format!(
+                        "unknown grid '{id}' (known: {})",
+                        if known.is_empty() { "none".to_string() } else { known.join(", ") }
+                    ))
+                })
+        })
+        .collect()
+}
+
+fn grid_json(g: &crate::scene::Grid, s: crate::grid::GridStats) -> Value {
+    json!({
+        "name": g.name, "unit": "lx", "count": g.points.len(), "layout": g.layout,
+        "avg": s.avg, "min": s.min, "max": s.max, "u0": s.u0, "min_max": s.min_max,
+        "values": s.values,
+    })
+}
+
+/// Grid statistics for group weights, keyed by grid id.
+pub fn grid_answers(ready: &Ready, grids: &[usize], w: &[Rgb]) -> Map<String, Value> {
+    grids
+        .iter()
+        .map(|&gi| {
+            let g = &ready.grids[gi];
+            (g.grid.id.clone(), grid_json(&g.grid, g.stats(w)))
+        })
+        .collect()
+}
+
+/// Flux (lm) and power (W) of the point luminaires in a lighting state. Watts scale with
+/// the luminous level of each group (dimming assumed proportional).
+pub fn luminaire_power(ready: &Ready, w: &[Rgb]) -> Value {
+    let mut lumens = 0.0;
+    let mut watts = 0.0;
+    let mut watts_known = true;
+    for ((g, info), wt) in ready.baked.transfer.groups.iter().zip(&ready.groups).zip(w) {
+        if info.luminaires == 0 {
+            continue;
+        }
+        let lm = crate::color::luminance64([0, 1, 2].map(|c| wt[c] as f64 * g.flux[c]));
+        lumens += lm;
+        match info.watts {
+            Some(full) if info.lumens > 0.0 => watts += full * lm / crate::color::luminance64(g.flux),
+            _ => watts_known = false,
+        }
+    }
+    json!({"luminaire_lumens": lumens, "luminaire_watts": if watts_known { Some(watts) } else { None }})
 }
 
 pub async fn batch(

@@ -62,8 +62,12 @@ pub struct GroupInfo {
     pub color: [f32; 3],
     /// Area of the emitting patches, m².
     pub emitting_area: f64,
-    /// Luminous flux at intensity 1, colour white, lm.
+    /// Luminous flux at intensity 1, colour white, lm (emissive surfaces and luminaires).
     pub lumens: f64,
+    /// Point luminaires in the group.
+    pub luminaires: usize,
+    /// Electrical power of the luminaires at intensity 1, W, when every one gives it.
+    pub watts: Option<f64>,
 }
 
 /// A scene ready to answer.
@@ -71,6 +75,8 @@ pub struct Ready {
     pub baked: Baked,
     pub groups: Vec<GroupInfo>,
     pub bake_seconds: f64,
+    /// Calculation grids with per-group responses, built when the scene becomes ready.
+    pub grids: Vec<crate::grid::GridResponse>,
     shading: std::sync::OnceLock<crate::render::Shading>,
     mesh_bytes: std::sync::OnceLock<axum::body::Bytes>,
 }
@@ -95,20 +101,30 @@ impl Ready {
                         }
                     }
                 }
+                let watts: Option<f64> = l.luminaires.iter().map(|m| m.watts).sum();
                 GroupInfo {
                     id: l.id.clone(),
                     name: l.name.clone(),
                     intensity: l.intensity,
                     color: l.color,
                     emitting_area: area,
-                    lumens: luminance64(flux),
+                    lumens: luminance64(flux) + luminance64(g.flux),
+                    luminaires: l.luminaires.len(),
+                    watts: if l.luminaires.is_empty() { None } else { watts },
                 }
             })
             .collect();
+        let grids = crate::grid::GridResponse::build_all(
+            &baked.scene,
+            &baked.mesh,
+            &baked.bvh,
+            &baked.transfer,
+        );
         Ready {
             baked,
             groups,
             bake_seconds,
+            grids,
             shading: std::sync::OnceLock::new(),
             mesh_bytes: std::sync::OnceLock::new(),
         }

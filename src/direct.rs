@@ -1,0 +1,168 @@
+//! Direct light from point luminaires, with shadows.
+//!
+//! Per patch, the direct illuminance is the average of `I(ω) cos θ / d² · V` over points
+//! spread evenly over the triangle: the centroids of its 4^k congruent sub-triangles.
+//! Every patch starts at k = 1 (4 points). A patch whose points disagree on visibility
+//! (a shadow edge crosses it) is refined to k = 3 (64 points), so penumbra-free point
+//! shadows are resolved to 1/64 of a patch. The shadow ray runs from the point, lifted a
+//! hair off its surface, to the luminaire; the patch's own input triangle is skipped.
+//!
+//! That direct illuminance `D` becomes the first reflection `ρ D` in the transfer, which
+//! carries it through every further bounce (see [`crate::transfer`]).
+
+use glam::{DVec3, Vec3A};
+use rayon::prelude::*;
+
+use crate::bvh::Bvh;
+use crate::mesh::Mesh;
+use crate::photometry::Luminaire;
+use crate::scene::Scene;
+
+/// Barycentric (u, v) of the centroids of the 4^level sub-triangles of a triangle.
+fn sub_centroids(level: u32) -> Vec<(f64, f64)> {
+    // Sub-triangles in barycentric space, starting from the whole triangle.
+    let mut tris = vec![[(0.0, 0.0), (1.0, 0.0), (0.0, 1.0)]];
+    for _ in 0..level {
+        let mut next = Vec::with_capacity(tris.len() * 4);
+        for [a, b, c] in tris {
+            let m = |p: (f64, f64), q: (f64, f64)| ((p.0 + q.0) / 2.0, (p.1 + q.1) / 2.0);
+            let (ab, bc, ca) = (m(a, b), m(b, c), m(c, a));
+            next.extend([[a, ab, ca], [ab, b, bc], [ca, bc, c], [ab, bc, ca]]);
+        }
+        tris = next;
+    }
+    tris.iter()
+        .map(|[a, b, c]| ((a.0 + b.0 + c.0) / 3.0, (a.1 + b.1 + c.1) / 3.0))
+        .collect()
+}
+
+/// Whether the segment from `x` (on a surface with normal `n`) to the luminaire is free.
+fn visible(bvh: &Bvh, x: DVec3, n: DVec3, l: &Luminaire, skip: u32) -> bool {
+    let lift = 1e-6 * (1.0 + x.abs().max_element());
+    let o = Vec3A::from((x + n * lift).as_vec3());
+    !bvh.occluded(o, Vec3A::from(l.position.as_vec3()), [skip, u32::MAX])
+}
+
+/// Direct illuminance (lux, luminous) of one luminaire on patch `j`, averaged over the patch.
+fn patch_illuminance(mesh: &Mesh, bvh: &Bvh, l: &Luminaire, j: usize, coarse: &[(f64, f64)], fine: &[(f64, f64)]) -> f64 {
+    let p = &mesh.patches[j];
+    if p.normal.dot(l.position - p.centroid) <= 0.0 {
+        // The luminaire is behind the patch plane; a patch is never partly in front for
+        // a point source (it is planar).
+        return 0.0;
+    }
+    let c = mesh.corners(j);
+    let at = |&(u, v): &(f64, f64)| c[0] + (c[1] - c[0]) * u + (c[2] - c[0]) * v;
+    let sample = |pts: &[(f64, f64)]| -> (f64, usize) {
+        let mut sum = 0.0;
+        let mut free = 0;
+        for q in pts {
+            let x = at(q);
+            let e = l.illuminance(x, p.normal);
+            if e > 0.0 && visible(bvh, x, p.normal, l, p.source) {
+                sum += e;
+                free += 1;
+            }
+        }
+        (sum / pts.len() as f64, free)
+    };
+    let (e, free) = sample(coarse);
+    if free == 0 || free == coarse.len() {
+        // All lit or all shadowed: refine only the irradiance gradient, cheaply, when the
+        // luminaire is close compared with the patch (no rays needed beyond the coarse ones).
+        if free == 0 {
+            return 0.0;
+        }
+        let d = (l.position - p.centroid).length();
+        let size = (c[1] - c[0]).length().max((c[2] - c[0]).length());
+        if size < 0.25 * d {
+            return e;
+        }
+    }
+    sample(fine).0
+}
+
+/// Per light group, the direct illuminance of its luminaires on every patch at unit weight
+/// (lux, n × 3 interleaved, coloured by each luminaire's colour); None for groups without
+/// luminaires.
+pub fn group_direct(scene: &Scene, mesh: &Mesh, bvh: &Bvh) -> Vec<Option<Vec<f32>>> {
+    let coarse = sub_centroids(1);
+    let fine = sub_centroids(3);
+    scene
+        .lights
+        .iter()
+        .map(|g| {
+            if g.luminaires.is_empty() {
+                return None;
+            }
+            let per_patch: Vec<[f64; 3]> = (0..mesh.len())
+                .into_par_iter()
+                .with_min_len(64)
+                .map(|j| {
+                    let mut acc = [0.0; 3];
+                    for l in &g.luminaires {
+                        let e = patch_illuminance(mesh, bvh, l, j, &coarse, &fine);
+                        for c in 0..3 {
+                            acc[c] += e * l.color[c] as f64;
+                        }
+                    }
+                    acc
+                })
+                .collect();
+            Some(per_patch.iter().flat_map(|a| a.map(|v| v as f32)).collect())
+        })
+        .collect()
+}
+
+/// Direct illuminance (lux per channel) of `luminaires` at point `x` on a receiver facing
+/// `n`, exact per point, with shadows.
+pub fn point_illuminance(bvh: &Bvh, luminaires: &[Luminaire], x: DVec3, n: DVec3) -> [f64; 3] {
+    let mut acc = [0.0; 3];
+    for l in luminaires {
+        let e = l.illuminance(x, n);
+        if e > 0.0 && visible(bvh, x, n, l, u32::MAX) {
+            for c in 0..3 {
+                acc[c] += e * l.color[c] as f64;
+            }
+        }
+    }
+    acc
+}
+
+/// Σ over the group's luminaires of lumens × colour, and of A·D (the direct flux landing
+/// on patches), per channel, at unit weight.
+pub fn group_flux(g: &crate::scene::LightGroup, area: &[f32], direct: Option<&[f32]>) -> ([f64; 3], [f64; 3]) {
+    let mut emitted = [0.0; 3];
+    for l in &g.luminaires {
+        for c in 0..3 {
+            emitted[c] += l.lumens * l.color[c] as f64;
+        }
+    }
+    let mut landed = [0.0; 3];
+    if let Some(d) = direct {
+        for (i, a) in area.iter().enumerate() {
+            for c in 0..3 {
+                landed[c] += *a as f64 * d[3 * i + c] as f64;
+            }
+        }
+    }
+    (emitted, landed)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn sub_centroids_cover_the_triangle_evenly() {
+        for level in 0..4 {
+            let pts = sub_centroids(level);
+            assert_eq!(pts.len(), 4usize.pow(level));
+            // Their mean is the triangle's centroid.
+            let (su, sv) = pts.iter().fold((0.0, 0.0), |a, p| (a.0 + p.0, a.1 + p.1));
+            let n = pts.len() as f64;
+            assert!((su / n - 1.0 / 3.0).abs() < 1e-12 && (sv / n - 1.0 / 3.0).abs() < 1e-12);
+            assert!(pts.iter().all(|&(u, v)| u > 0.0 && v > 0.0 && u + v < 1.0));
+        }
+    }
+}
