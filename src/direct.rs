@@ -44,7 +44,14 @@ fn visible(bvh: &Bvh, x: DVec3, n: DVec3, l: &Luminaire, skip: u32) -> bool {
 }
 
 /// Direct illuminance (lux, luminous) of one luminaire on patch `j`, averaged over the patch.
-fn patch_illuminance(mesh: &Mesh, bvh: &Bvh, l: &Luminaire, j: usize, coarse: &[(f64, f64)], fine: &[(f64, f64)]) -> f64 {
+fn patch_illuminance(
+    mesh: &Mesh,
+    bvh: &Bvh,
+    l: &Luminaire,
+    j: usize,
+    coarse: &[(f64, f64)],
+    fine: &[(f64, f64)],
+) -> f64 {
     let p = &mesh.patches[j];
     if p.normal.dot(l.position - p.centroid) <= 0.0 {
         // The luminaire is behind the patch plane; a patch is never partly in front for
@@ -131,7 +138,11 @@ pub fn point_illuminance(bvh: &Bvh, luminaires: &[Luminaire], x: DVec3, n: DVec3
 
 /// Σ over the group's luminaires of lumens × colour, and of A·D (the direct flux landing
 /// on patches), per channel, at unit weight.
-pub fn group_flux(g: &crate::scene::LightGroup, area: &[f32], direct: Option<&[f32]>) -> ([f64; 3], [f64; 3]) {
+pub fn group_flux(
+    g: &crate::scene::LightGroup,
+    area: &[f32],
+    direct: Option<&[f32]>,
+) -> ([f64; 3], [f64; 3]) {
     let mut emitted = [0.0; 3];
     for l in &g.luminaires {
         for c in 0..3 {

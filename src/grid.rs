@@ -66,12 +66,8 @@ impl GridResponse {
                             .iter()
                             .zip(&t.groups)
                             .map(|(light, g)| {
-                                let mut e = crate::direct::point_illuminance(
-                                    bvh,
-                                    &light.luminaires,
-                                    x,
-                                    n,
-                                );
+                                let mut e =
+                                    crate::direct::point_illuminance(bvh, &light.luminaires, x, n);
                                 for &(j, wj) in &w {
                                     for c in 0..3 {
                                         e[c] += wj * g.b[3 * j as usize + c] as f64;
@@ -106,7 +102,11 @@ impl GridResponse {
     /// Luminous illuminance (lx) at every point for per-group RGB weights.
     pub fn values(&self, weights: &[Rgb]) -> Vec<f32> {
         let mut rgb = vec![0f32; 3 * self.len()];
-        crate::transfer::weighted_sum(self.per_group.iter().map(|c| c.as_slice()), weights, &mut rgb);
+        crate::transfer::weighted_sum(
+            self.per_group.iter().map(|c| c.as_slice()),
+            weights,
+            &mut rgb,
+        );
         rgb.chunks_exact(3)
             .map(|c| luminance([c[0], c[1], c[2]]))
             .collect()

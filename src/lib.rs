@@ -15,6 +15,7 @@ pub mod formfactor;
 pub mod grid;
 pub mod lighting;
 pub mod mesh;
+pub mod optimize;
 pub mod photometry;
 pub mod probe;
 pub mod render;

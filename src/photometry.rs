@@ -112,7 +112,11 @@ impl IesData {
             1 => PhotometricType::C,
             2 => PhotometricType::B,
             3 => return Err("photometric type A is not supported (use type B or C)".into()),
-            t => return Err(format!("photometric type {t}: must be 1 (C), 2 (B) or 3 (A)")),
+            t => {
+                return Err(format!(
+                    "photometric type {t}: must be 1 (C), 2 (B) or 3 (A)"
+                ))
+            }
         };
         let vertical = (0..nv)
             .map(|_| next("vertical angles"))
@@ -361,7 +365,11 @@ impl Luminaire {
                 .ok_or("c0 must not be parallel to aim")?,
             None => {
                 // Default: world X projected, or Z when aiming along X.
-                let guess = if aim.x.abs() < 0.9 { DVec3::X } else { DVec3::Z };
+                let guess = if aim.x.abs() < 0.9 {
+                    DVec3::X
+                } else {
+                    DVec3::Z
+                };
                 (guess - aim * guess.dot(aim)).normalize()
             }
         };
@@ -507,12 +515,17 @@ TILT=NONE
             kind: PhotometricType::C,
             vertical: (0..=90).map(|g| g as f64).collect(),
             horizontal: vec![0.0],
-            candela: vec![(0..=90).map(|g| 1000.0 * (g as f64).to_radians().cos()).collect()],
+            candela: vec![(0..=90)
+                .map(|g| 1000.0 * (g as f64).to_radians().cos())
+                .collect()],
             lamp_lumens: None,
             input_watts: 0.0,
         }));
         let phi = d.integral();
-        assert!((phi / (std::f64::consts::PI * 1000.0) - 1.0).abs() < 1e-3, "{phi}");
+        assert!(
+            (phi / (std::f64::consts::PI * 1000.0) - 1.0).abs() < 1e-3,
+            "{phi}"
+        );
     }
 
     #[test]

@@ -1026,10 +1026,12 @@ fn add_luminaires(
                 }
             }
             "ies" => {
-                let name = l
-                    .ies
-                    .as_ref()
-                    .ok_or_else(|| bad(&l.id, "distribution \"ies\" needs ies = \"file.ies\"".into()))?;
+                let name = l.ies.as_ref().ok_or_else(|| {
+                    bad(
+                        &l.id,
+                        "distribution \"ies\" needs ies = \"file.ies\"".into(),
+                    )
+                })?;
                 let path = dir.join(name);
                 let text = std::fs::read(&path)
                     .map_err(|e| bad(&l.id, format!("cannot read {}: {e}", path.display())))?;

@@ -743,17 +743,187 @@ pub async fn illuminance(
                 .collect(),
         };
         let power = weights.map(|w| luminaire_power(&ready, w));
-        Ok(json!({ "unit": "lx", "points": pts, "surfaces": stats, "grids": grids, "power": power }))
+        Ok(
+            json!({ "unit": "lx", "points": pts, "surfaces": stats, "grids": grids, "power": power }),
+        )
     };
     let r = ready.clone();
     Ok(Json(blocking(move || work(r)).await?).into_response())
+}
+
+pub async fn optimize(
+    State(state): State<Arc<AppState>>,
+    Path(id): Path<String>,
+    headers: HeaderMap,
+    body: Result<Bytes, BytesRejection>,
+) -> ApiResult {
+    let (ready, body) = begin(
+        &state,
+        &id,
+        &headers,
+        body,
+        &["targets", "groups", "lights"],
+    )?;
+    let base = parse_lights(body.get("lights"), &ready)?;
+    let scene = &ready.baked.scene;
+    // Free groups: the listed ones, else every group.
+    let free: Vec<usize> = match body.get("groups") {
+        None => (0..scene.lights.len()).collect(),
+        Some(Value::Array(a)) if !a.is_empty() => a
+            .iter()
+            .map(|v| {
+                let id = v.as_str().ok_or_else(|| {
+                    AppError::Invalid(format!("'groups' holds light group ids, got {v}"))
+                })?;
+                scene.light_index(id).ok_or_else(|| {
+                    AppError::Invalid(format!(
+                        "unknown light group '{id}' (known: {})",
+                        known_ids(scene)
+                    ))
+                })
+            })
+            .collect::<Result<_, _>>()?,
+        Some(v) => {
+            return Err(AppError::Invalid(format!(
+                "'groups' must be a non-empty array of light group ids, got {v}"
+            )))
+        }
+    };
+    let targets = body
+        .get("targets")
+        .and_then(Value::as_array)
+        .filter(|a| !a.is_empty())
+        .ok_or_else(|| {
+            AppError::Invalid(
+                "'targets' must be a non-empty array like [{\"grid\": \"desk\", \"eavg_min\": 500, \"u0_min\": 0.6}]".into(),
+            )
+        })?;
+    let mut parsed = Vec::new();
+    let mut grid_ix = Vec::new();
+    for (k, t) in targets.iter().enumerate() {
+        let o = t
+            .as_object()
+            .ok_or_else(|| AppError::Invalid(format!("targets[{k}] must be an object")))?;
+        check_keys(o, &["grid", "eavg_min", "emin_min", "u0_min"])
+            .map_err(|e| AppError::Invalid(format!("targets[{k}]: {e}")))?;
+        let gi = grid_list(
+            Some(&json!([o.get("grid").cloned().unwrap_or(Value::Null)])),
+            &ready,
+        )?[0];
+        let bound = |key: &str, max: f64| -> Result<Option<f64>, AppError> {
+            o.get(key)
+                .map(|v| {
+                    let x = number(v, &format!("targets[{k}].{key}"))?;
+                    if !(0.0..=max).contains(&x) {
+                        return Err(AppError::Invalid(format!(
+                            "targets[{k}].{key} = {x}: must be in 0..{max}"
+                        )));
+                    }
+                    Ok(x)
+                })
+                .transpose()
+        };
+        let t = crate::optimize::Target {
+            grid: ready.grids[gi].grid.id.clone(),
+            eavg_min: bound("eavg_min", 1e6)?,
+            emin_min: bound("emin_min", 1e6)?,
+            u0_min: bound("u0_min", 1.0)?,
+        };
+        if t.eavg_min.is_none() && t.emin_min.is_none() && t.u0_min.is_none() {
+            return Err(AppError::Invalid(format!(
+                "targets[{k}] sets no bound: give eavg_min, emin_min or u0_min"
+            )));
+        }
+        parsed.push(t);
+        grid_ix.push(gi);
+    }
+    let r = ready.clone();
+    blocking(move || {
+        let t0 = std::time::Instant::now();
+        let scene = &r.baked.scene;
+        let is_free = |g: usize| free.contains(&g);
+        // Fixed groups keep the given state; free ones are 0 in the fixed part.
+        let fixed_w: Vec<Rgb> = (0..scene.lights.len())
+            .map(|g| if is_free(g) { [0.0; 3] } else { base[g] })
+            .collect();
+        let terms: Vec<_> = grid_ix
+            .iter()
+            .map(|&gi| {
+                let gr = &r.grids[gi];
+                crate::optimize::GridTerms {
+                    free: free
+                        .iter()
+                        .map(|&g| gr.group_values(g, scene.lights[g].color))
+                        .collect(),
+                    fixed: gr.values(&fixed_w).iter().map(|&v| v as f64).collect(),
+                }
+            })
+            .collect();
+        let flux: Vec<f64> = free
+            .iter()
+            .map(|&g| r.groups[g].lumens * crate::color::luminance(scene.lights[g].color) as f64)
+            .collect();
+        let levels = crate::optimize::optimize(&flux, &parsed, &terms)
+            .map_err(|e| AppError::Invalid(e.to_string()))?;
+        let mut w = fixed_w.clone();
+        for (&g, &x) in free.iter().zip(&levels) {
+            w[g] = scene.lights[g].color.map(|c| c * x as f32);
+        }
+        let solve_ms = t0.elapsed().as_secs_f64() * 1e3;
+        let grids = grid_answers(&r, &grid_ix, &w);
+        let lights: Map<String, Value> = scene
+            .lights
+            .iter()
+            .enumerate()
+            .map(|(g, l)| {
+                let wt = w[g];
+                let intensity = if is_free(g) {
+                    levels[free.iter().position(|&f| f == g).unwrap_or(0)]
+                } else {
+                    let y = crate::color::luminance(l.color) as f64;
+                    if y > 0.0 { crate::color::luminance(wt) as f64 / y } else { 0.0 }
+                };
+                (l.id.clone(), json!({"intensity": intensity, "color": l.color, "free": is_free(g)}))
+            })
+            .collect();
+        let targets: Vec<Value> = parsed
+            .iter()
+            .map(|t| {
+                let s = &grids[&t.grid];
+                let (avg, min, u0) = (s["avg"].as_f64().unwrap_or(0.0), s["min"].as_f64().unwrap_or(0.0), s["u0"].as_f64().unwrap_or(0.0));
+                let tol = 1e-6;
+                let met = t.eavg_min.is_none_or(|e| avg >= e * (1.0 - tol))
+                    && t.emin_min.is_none_or(|e| min >= e * (1.0 - tol))
+                    && t.u0_min.is_none_or(|u| u0 >= u - tol);
+                json!({"grid": t.grid, "eavg_min": t.eavg_min, "emin_min": t.emin_min, "u0_min": t.u0_min,
+                       "achieved": {"avg": avg, "min": min, "u0": u0}, "met": met})
+            })
+            .collect();
+        let total: f64 = (0..scene.lights.len())
+            .map(|g| crate::color::luminance64([0, 1, 2].map(|c| w[g][c] as f64))
+                * r.groups[g].lumens)
+            .sum();
+        Ok(Json(json!({
+            "lights": lights,
+            "lumens": total,
+            "power": luminaire_power(&r, &w),
+            "targets": targets,
+            "grids": grids,
+            "solve_ms": solve_ms,
+        }))
+        .into_response())
+    })
+    .await
 }
 
 /// Grid indices from a list of grid ids.
 fn grid_list(v: Option<&Value>, ready: &Ready) -> Result<Vec<usize>, AppError> {
     let Some(v) = v else { return Ok(vec![]) };
     let arr = v.as_array().ok_or_else(|| {
-        AppError::Invalid(format!("'grids' must be an array of grid ids, got {}", kind(v)))
+        AppError::Invalid(format!(
+            "'grids' must be an array of grid ids, got {}",
+            kind(v)
+        ))
     })?;
     arr.iter()
         .map(|g| {
@@ -768,7 +938,11 @@ fn grid_list(v: Option<&Value>, ready: &Ready) -> Result<Vec<usize>, AppError> {
                     let known: Vec<&str> = ready.grids.iter().map(|r| r.grid.id.as_str()).collect();
                     AppError::Invalid(format!(
                         "unknown grid '{id}' (known: {})",
-                        if known.is_empty() { "none".to_string() } else { known.join(", ") }
+                        if known.is_empty() {
+                            "none".to_string()
+                        } else {
+                            known.join(", ")
+                        }
                     ))
                 })
         })
@@ -807,7 +981,9 @@ pub fn luminaire_power(ready: &Ready, w: &[Rgb]) -> Value {
         let lm = crate::color::luminance64([0, 1, 2].map(|c| wt[c] as f64 * g.flux[c]));
         lumens += lm;
         match info.watts {
-            Some(full) if info.lumens > 0.0 => watts += full * lm / crate::color::luminance64(g.flux),
+            Some(full) if info.lumens > 0.0 => {
+                watts += full * lm / crate::color::luminance64(g.flux)
+            }
             _ => watts_known = false,
         }
     }

@@ -360,6 +360,7 @@ pub fn router(state: Arc<AppState>) -> Router {
         .route("/api/scenes/{id}/radiosity", post(api::radiosity))
         .route("/api/scenes/{id}/illuminance", post(api::illuminance))
         .route("/api/scenes/{id}/batch", post(api::batch))
+        .route("/api/scenes/{id}/optimize", post(api::optimize))
         .route("/api/scenes/{id}/render", post(render_api::render_post))
         .route("/api/scenes/{id}/render.png", get(render_api::render_get))
         .route("/api/{*rest}", axum::routing::any(api::not_found))
