@@ -103,7 +103,7 @@ async fn health_ready_and_scene_list() {
     assert_eq!(s, StatusCode::OK);
     let scenes = v["scenes"].as_array().unwrap();
     let ids: Vec<&str> = scenes.iter().map(|s| s["id"].as_str().unwrap()).collect();
-    assert_eq!(ids, ["cornell-box", "desk-room"]);
+    assert_eq!(ids, ["cornell-box", "desk-room", "office"]);
     assert!(scenes
         .iter()
         .all(|s| s["status"] == "ready" && s["patches"].as_u64().unwrap() > 1000));
@@ -809,4 +809,115 @@ async fn mesh_and_per_patch_illuminance_let_a_client_shade_like_the_server() {
     .await;
     assert_eq!(s, StatusCode::UNPROCESSABLE_ENTITY);
     assert!(v["detail"].as_str().unwrap().contains("'quantity'"), "{v}");
+}
+
+#[tokio::test]
+async fn grids_answer_with_statistics_and_luminaire_power() {
+    let (s, _, v) = post(
+        app(),
+        "/api/scenes/office/illuminance",
+        r#"{"lights": {"window_row": 0.5}, "grids": ["desk", "workplane"], "surfaces": []}"#,
+    )
+    .await;
+    assert_eq!(s, StatusCode::OK, "{v}");
+    let r = ready("office");
+    for id in ["desk", "workplane"] {
+        let g = &v["grids"][id];
+        let values: Vec<f64> = g["values"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|x| x.as_f64().unwrap())
+            .collect();
+        let gr = r.grids.iter().find(|x| x.grid.id == id).unwrap();
+        assert_eq!(values.len(), gr.len());
+        let avg = values.iter().sum::<f64>() / values.len() as f64;
+        let min = values.iter().copied().fold(f64::INFINITY, f64::min);
+        let max = values.iter().copied().fold(0.0, f64::max);
+        assert!((g["avg"].as_f64().unwrap() - avg).abs() < 1e-6 * avg);
+        assert!((g["u0"].as_f64().unwrap() - min / avg).abs() < 1e-6);
+        assert!((g["min_max"].as_f64().unwrap() - min / max).abs() < 1e-6);
+        // Linear in the weights: the half-dimmed window row equals the weighted sum.
+        let full = gr.values(&[[0.5; 3], [1.0; 3]]);
+        for (a, b) in values.iter().zip(&full) {
+            assert!((a - *b as f64).abs() <= 1e-4 * a.max(1.0));
+        }
+    }
+    // 3 × 2500 lm at half plus 3 × 2500 lm at full (the table integrates to 2495 lm each).
+    let lm = v["power"]["luminaire_lumens"].as_f64().unwrap();
+    assert!((lm / 11250.0 - 1.0).abs() < 0.005, "{lm}");
+    let w = v["power"]["luminaire_watts"].as_f64().unwrap();
+    assert!((w / (lm / 113.6) - 1.0).abs() < 1e-6, "{w}");
+    // Unknown grids are precise 422s.
+    let (s, _, v) = post(
+        app(),
+        "/api/scenes/office/illuminance",
+        r#"{"grids": ["kitchen"]}"#,
+    )
+    .await;
+    assert_eq!(s, StatusCode::UNPROCESSABLE_ENTITY);
+    assert!(
+        v["detail"].as_str().unwrap().contains("desk, workplane"),
+        "{v}"
+    );
+}
+
+#[tokio::test]
+async fn optimize_finds_the_least_flux_levels_that_meet_the_targets() {
+    let body = r#"{"targets": [{"grid": "desk", "eavg_min": 500, "u0_min": 0.6}]}"#;
+    let (s, _, v) = post(app(), "/api/scenes/office/optimize", body).await;
+    assert_eq!(s, StatusCode::OK, "{v}");
+    assert_eq!(v["targets"][0]["met"], true, "{v}");
+    let lv = |id: &str| v["lights"][id]["intensity"].as_f64().unwrap();
+    let (a, b) = (lv("window_row"), lv("corridor_row"));
+    let r = ready("office");
+    let desk = r.grids.iter().find(|g| g.grid.id == "desk").unwrap();
+    let meets = |x: f64, y: f64| {
+        let s = desk.stats(&[[x as f32; 3], [y as f32; 3]]);
+        s.avg >= 500.0 * (1.0 - 1e-4) && s.u0 >= 0.6 - 1e-4
+    };
+    assert!(meets(a, b), "levels {a} {b}");
+    // Brute force over a 1 % grid of levels: nothing feasible uses less flux (both rows
+    // have the same lumens, so flux ∝ a + b).
+    let best = (0..=100)
+        .flat_map(|i| (0..=100).map(move |j| (i as f64 / 100.0, j as f64 / 100.0)))
+        .filter(|&(x, y)| meets(x, y))
+        .map(|(x, y)| x + y)
+        .fold(f64::INFINITY, f64::min);
+    assert!(a + b <= best + 1e-6, "LP {a} + {b} vs brute force {best}");
+    // Out of reach: a clear reason with the best achievable value.
+    let (s, _, v) = post(
+        app(),
+        "/api/scenes/office/optimize",
+        r#"{"targets": [{"grid": "desk", "eavg_min": 5000}]}"#,
+    )
+    .await;
+    assert_eq!(s, StatusCode::UNPROCESSABLE_ENTITY);
+    let d = v["detail"].as_str().unwrap();
+    assert!(d.contains("out of reach") && d.contains("100 %"), "{d}");
+    // Bad targets are precise 422s.
+    for (body, needle) in [
+        (r#"{"targets": []}"#, "non-empty"),
+        (r#"{"targets": [{"grid": "desk"}]}"#, "sets no bound"),
+        (r#"{"targets": [{"grid": "desk", "u0_min": 2}]}"#, "u0_min"),
+        (
+            r#"{"targets": [{"grid": "desk", "eavg": 5}]}"#,
+            "unknown field",
+        ),
+        (
+            r#"{"targets": [{"grid": "nope", "eavg_min": 5}]}"#,
+            "unknown grid",
+        ),
+        (
+            r#"{"targets": [{"grid": "desk", "eavg_min": 5}], "groups": ["x"]}"#,
+            "unknown light group",
+        ),
+    ] {
+        let (s, _, v) = post(app(), "/api/scenes/office/optimize", body).await;
+        assert_eq!(s, StatusCode::UNPROCESSABLE_ENTITY, "{body}");
+        assert!(
+            v["detail"].as_str().unwrap().contains(needle),
+            "{body}: {v}"
+        );
+    }
 }

@@ -1,0 +1,291 @@
+//! Point luminaires, IES photometry, calculation grids and energy balance, checked against
+//! closed forms in the style of CIE 171:2006 (test cases for lighting programs).
+
+mod common;
+
+use common::*;
+use relight::bake::{load_or_bake, BakeOptions, Baked, CachePolicy};
+use relight::color::luminance64;
+use relight::grid::GridResponse;
+
+fn bake(s: &TempScene) -> Baked {
+    load_or_bake(
+        s.path(),
+        CachePolicy::Off,
+        &BakeOptions::default(),
+        &|_, _| {},
+    )
+    .unwrap()
+}
+
+fn grid_values(b: &Baked, id: &str) -> Vec<f32> {
+    let grids = GridResponse::build_all(&b.scene, &b.mesh, &b.bvh, &b.transfer);
+    let g = grids.iter().find(|g| g.grid.id == id).unwrap();
+    g.values(&vec![[1.0; 3]; b.scene.lights.len()])
+}
+
+const BLACK: &str = "newmtl black\nKd 0 0 0\n";
+
+fn floor(size: f64) -> String {
+    quad(
+        "floor",
+        "black",
+        [
+            [-size, 0., -size],
+            [size, 0., -size],
+            [size, 0., size],
+            [-size, 0., size],
+        ],
+        [0., 1., 0.],
+    )
+}
+
+/// CIE 171 §5.2 style: a point source over a black plane, E = I cos θ / d².
+#[test]
+fn point_source_over_a_plane_follows_the_inverse_square_cosine_law() {
+    let toml = r#"
+transfer = "columns"
+[mesh]
+max_edge = 4.0
+[[luminaires]]
+id = "p"
+position = [0, 2, 0]
+lumens = 1000
+[[grids]]
+id = "line"
+points = [[0, 0, 0], [1, 0, 0], [2, 0, 0], [4, 0, 0], [0, 0, 3], [-2.5, 0, 1.5]]
+"#;
+    let s = write_scene(&floor(10.0), BLACK, Some(toml));
+    let b = bake(&s);
+    let got = grid_values(&b, "line");
+    let i = 1000.0 / (4.0 * std::f64::consts::PI);
+    let mut worst = 0f64;
+    for (p, e) in [
+        [0f64, 0.],
+        [1., 0.],
+        [2., 0.],
+        [4., 0.],
+        [0., 3.],
+        [-2.5, 1.5],
+    ]
+    .iter()
+    .zip(&got)
+    {
+        let d2 = p[0] * p[0] + p[1] * p[1] + 4.0;
+        let want = i * 2.0 / d2.powf(1.5);
+        let err = (*e as f64 / want - 1.0).abs();
+        worst = worst.max(err);
+        assert!(err < 0.01, "at {p:?}: {e} lx, want {want}");
+    }
+    eprintln!(
+        "point source, E = I cos θ / d²: worst error {:.4} %",
+        100.0 * worst
+    );
+}
+
+/// An IES type C file with a known, C-dependent table: the illuminance it produces gives
+/// back its candela values (I = E d² / cos θ), in the documented orientation (C = 0° along
+/// `c0` = +x, C = 90° along aim × c0 = +z).
+#[test]
+fn an_ies_file_reproduces_its_candela_values() {
+    let ies = "IESNA:LM-63-2002\n[TEST] bilateral table\nTILT=NONE\n\
+        1 -1 2 4 3 1 2 0 0 0\n1 1 10\n0 30 60 90\n0 90 180\n\
+        500 450 300 100\n\
+        500 400 250 50\n\
+        500 350 200 25\n";
+    let toml = r#"
+transfer = "columns"
+[mesh]
+max_edge = 8.0
+[[luminaires]]
+id = "l"
+position = [0, 3, 0]
+ies = "lamp.ies"
+[[grids]]
+id = "probe"
+points = [POINTS]
+"#;
+    // Directions (γ, C) on the table's nodes; C = 270° mirrors C = 90° (bilateral file).
+    let dirs = [
+        (0.0, 0.0, 500.0),
+        (30.0, 0.0, 450.0),
+        (60.0, 0.0, 300.0),
+        (30.0, 90.0, 400.0),
+        (60.0, 90.0, 250.0),
+        (30.0, 180.0, 350.0),
+        (60.0, 180.0, 200.0),
+        (60.0, 270.0, 250.0),
+    ];
+    let h = 3.0f64;
+    let pts: Vec<[f64; 3]> = dirs
+        .iter()
+        .map(|&(g, c, _)| {
+            let r = h * (g as f64).to_radians().tan();
+            let c = (c as f64).to_radians();
+            [r * c.cos(), 0.0, r * c.sin()]
+        })
+        .collect();
+    let list = pts
+        .iter()
+        .map(|p| format!("[{}, {}, {}]", p[0], p[1], p[2]))
+        .collect::<Vec<_>>()
+        .join(", ");
+    let s = write_scene(&floor(12.0), BLACK, Some(&toml.replace("POINTS", &list)));
+    // The multiplier (2) scales the table: candela = 2 × the values above.
+    std::fs::write(s.path().join("lamp.ies"), ies).unwrap();
+    let b = bake(&s);
+    let got = grid_values(&b, "probe");
+    for ((g, c, cd), e) in dirs.iter().zip(&got) {
+        let cos = (*g as f64).to_radians().cos();
+        let d2 = (h / cos).powi(2);
+        let i = *e as f64 * d2 / cos;
+        assert!(
+            (i / (2.0 * cd) - 1.0).abs() < 0.005,
+            "γ {g}° C {c}°: {i:.1} cd from the illuminance, table {}",
+            2.0 * cd
+        );
+    }
+}
+
+/// CIE 171 §5.5 style: a diffuse square area source over a black plane; E = M · F with the
+/// closed-form point-to-rectangle configuration factor.
+#[test]
+fn diffuse_area_source_gives_the_closed_form_illuminance() {
+    let c = 2.0;
+    let obj = floor(6.0)
+        + &quad(
+            "panel",
+            "glow",
+            [
+                [-0.5, c, -0.5],
+                [0.5, c, -0.5],
+                [0.5, c, 0.5],
+                [-0.5, c, 0.5],
+            ],
+            [0., -1., 0.],
+        );
+    let toml = r#"
+transfer = "columns"
+[mesh]
+max_edge = 0.5
+[[grids]]
+id = "p"
+points = [[0, 0, 0], [0.5, 0, 0.5], [1.5, 0, 0]]
+"#;
+    let m = 1000.0;
+    let s = write_scene(
+        &obj,
+        &format!("{BLACK}newmtl glow\nKd 0 0 0\nKe {m} {m} {m}\n"),
+        Some(toml),
+    );
+    let b = bake(&s);
+    let got = grid_values(&b, "p");
+    // Factor from a point below one corner of an a × b rectangle at distance c.
+    let corner = |a: f64, b: f64| {
+        let (x, y) = (a / c, b / c);
+        let (sx, sy) = ((1.0 + x * x).sqrt(), (1.0 + y * y).sqrt());
+        (x / sx * (y / sx).atan() + y / sy * (x / sy).atan()) / (2.0 * std::f64::consts::PI)
+    };
+    // Under the centre: four 0.5 × 0.5 quarters. Under a corner: one 1 × 1. Off to the
+    // side at x = 1.5: the 2 × 1 rectangle from x = -0.5..1.5 minus the 1 × 1 from 0.5..1.5,
+    // each split at z = 0 into two halves.
+    let want = [
+        4.0 * corner(0.5, 0.5),
+        corner(1.0, 1.0),
+        2.0 * (corner(2.0, 0.5) - corner(1.0, 0.5)),
+    ];
+    let mut worst = 0f64;
+    for (k, (e, f)) in got.iter().zip(want).enumerate() {
+        let err = (*e as f64 / (m * f) - 1.0).abs();
+        worst = worst.max(err);
+        assert!(err < 0.01, "point {k}: {e} lx, want {}", m * f);
+    }
+    eprintln!(
+        "diffuse area source, E = M·F: worst error {:.4} %",
+        100.0 * worst
+    );
+}
+
+/// CIE 171 §5.13 style: inter-reflection in an empty cube with uniform reflectance ρ and
+/// a point source. Flux balance makes the area-weighted mean illuminance exactly
+/// Φ / (A (1 − ρ)); the direct part alone averages Φ / A.
+#[test]
+fn interreflection_in_an_empty_cube_meets_the_flux_balance() {
+    let rho = 0.5;
+    let toml = r#"
+transfer = "factored"
+[mesh]
+target_patches = 1500
+[[luminaires]]
+id = "bulb"
+position = [2, 2, 2]
+lumens = 10000
+[[grids]]
+id = "floor_centre"
+points = [[2, 0, 2]]
+"#;
+    let s = write_scene(
+        &box_faces("cube", "wall", [0., 0., 0.], [4., 4., 4.], true),
+        &format!("newmtl wall\nKd {rho} {rho} {rho}\n"),
+        Some(toml),
+    );
+    let b = bake(&s);
+    let t = &b.transfer;
+    let sol = t.relight(&[[1.0; 3]]);
+    let area: f64 = t.area.iter().map(|&a| a as f64).sum();
+    let mean_h: f64 = (0..t.n)
+        .map(|i| t.area[i] as f64 * luminance64([0, 1, 2].map(|c| sol.h[3 * i + c] as f64)))
+        .sum::<f64>()
+        / area;
+    let want = 10000.0 / (area * (1.0 - rho));
+    let err = (mean_h / want - 1.0).abs();
+    eprintln!(
+        "empty cube, ρ = {rho}: mean E {mean_h:.2} lx, Φ/(A(1−ρ)) = {want:.2} lx, error {:.4} %",
+        100.0 * err
+    );
+    assert!(err < 0.01, "mean {mean_h}, want {want}");
+    // The direct flux lands entirely on the walls.
+    let g = &t.groups[0];
+    let landed = luminance64(g.landed) / luminance64(g.flux);
+    assert!((landed - 1.0).abs() < 0.01, "direct flux landing: {landed}");
+    // Floor centre: direct I/h² plus an indirect part close to the room's mean indirect
+    // ρΦ/(A(1−ρ)) (reported; the closed form holds for the mean, not per point).
+    let e = grid_values(&b, "floor_centre")[0] as f64;
+    let direct = 10000.0 / (4.0 * std::f64::consts::PI) / 4.0;
+    let indirect_mean = rho * 10000.0 / (area * (1.0 - rho));
+    eprintln!(
+        "empty cube floor centre: {e:.2} lx = direct {direct:.2} + indirect {:.2} (room mean indirect {indirect_mean:.2})",
+        e - direct
+    );
+    assert!(e > direct && (e - direct - indirect_mean).abs() < 0.25 * indirect_mean);
+}
+
+/// Lumens in = lumens absorbed + lumens escaping, for luminaires (direct light that misses
+/// every surface included) in the bundled office with its open window.
+#[test]
+fn office_lumens_in_equal_absorbed_plus_escaped() {
+    let dir = scenes_dir().join("office");
+    let b = load_or_bake(&dir, CachePolicy::Off, &BakeOptions::default(), &|_, _| {}).unwrap();
+    for w in [[[1.0; 3], [1.0; 3]], [[0.3, 0.3, 0.3], [1.0, 0.8, 0.6]]] {
+        let sol = b.transfer.relight(&w);
+        let p = b.transfer.power(&sol);
+        let (e, a, x) = (
+            luminance64(p.emitted),
+            luminance64(p.absorbed),
+            luminance64(p.escaped),
+        );
+        assert!(e > 1000.0);
+        assert!(x > 0.01 * e, "the window lets light out: {x} of {e}");
+        assert!(
+            ((a + x) / e - 1.0).abs() < 1e-3,
+            "in {e}, absorbed {a}, escaped {x}"
+        );
+    }
+    // At full power the six 2500 lm downlights emit their rated flux (the table's own
+    // integral, within the 5° sampling of the file).
+    let p = b.transfer.power(&b.transfer.relight(&[[1.0; 3], [1.0; 3]]));
+    assert!(
+        (luminance64(p.emitted) / 15000.0 - 1.0).abs() < 0.005,
+        "{p:?}"
+    );
+}
