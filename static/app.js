@@ -128,6 +128,7 @@ function changed() {
   writeHash();
   imageFlight();
   glFlight();
+  if (state.details && state.details.grids && state.details.grids.length) gridFlight();
 }
 
 // ------------------------------------------------------------------ URL state
@@ -229,6 +230,8 @@ async function selectScene(id, hash = {}) {
   buildLightControls();
   buildCameraSelect();
   $("#falsecolor").checked = state.falsecolor;
+  state.gridStats = null;
+  setupGrids();
   showExposure();
   viewer.setMesh(mesh);
   viewer.cam = initialViewerCamera(hash.v);
@@ -495,6 +498,136 @@ function drawLegend() {
   }
 }
 
+// ------------------------------------------------------------------ calculation grids
+
+function setupGrids() {
+  const grids = state.details.grids || [];
+  $("#grids-section").hidden = grids.length === 0;
+  const sel = $("#opt-grid");
+  sel.replaceChildren(...grids.map((g) => new Option(g.name, g.id)));
+  $("#grid-stats tbody").replaceChildren();
+  $("#luminaire-power").textContent = "";
+  $("#opt-out").textContent = "";
+  drawOverlay();
+}
+
+const gridFlight = singleFlight(async (signal) => {
+  if (!state.details) return;
+  const version = state.version;
+  const r = await fetch(api("/illuminance"), {
+    method: "POST",
+    headers: { "content-type": "application/json" },
+    body: JSON.stringify({ lights: lightingJson(), grids: state.details.grids.map((g) => g.id), surfaces: [] }),
+    signal,
+  });
+  if (!r.ok) throw new Error(await problem(r));
+  const v = await r.json();
+  if (signal.aborted) return;
+  state.gridStats = v.grids;
+  const rows = state.details.grids.map((g) => {
+    const s = v.grids[g.id];
+    const tr = document.createElement("tr");
+    for (const t of [g.name, fmtLux(s.avg), fmtLux(s.min), fmtLux(s.max), s.u0.toFixed(2)]) {
+      const td = document.createElement("td");
+      td.textContent = t;
+      tr.append(td);
+    }
+    tr.title = `${g.count} points; Emin/Emax ${s.min_max.toFixed(2)} (lux)`;
+    return tr;
+  });
+  $("#grid-stats tbody").replaceChildren(...rows);
+  const p = v.power || {};
+  $("#luminaire-power").textContent = p.luminaire_lumens
+    ? `Luminaires: ${Math.round(p.luminaire_lumens).toLocaleString()} lm` +
+      (p.luminaire_watts != null ? `, ${p.luminaire_watts.toFixed(1)} W` : "")
+    : "";
+  window.relight.stats.gridVersion = version;
+  drawOverlay();
+});
+
+/** Grid points in the 3D view: coloured by lux (the false-colour scale), with values
+ *  where labels do not overlap. */
+function drawOverlay() {
+  const c = $("#overlay");
+  const dpr = window.devicePixelRatio || 1;
+  const w = c.clientWidth, h = c.clientHeight;
+  if (c.width !== Math.round(w * dpr) || c.height !== Math.round(h * dpr)) {
+    c.width = Math.round(w * dpr);
+    c.height = Math.round(h * dpr);
+  }
+  const g2 = c.getContext("2d");
+  g2.setTransform(dpr, 0, 0, dpr, 0, 0);
+  g2.clearRect(0, 0, w, h);
+  if (!state.details || !state.gridStats || !$("#grid-overlay").checked || !viewer) return;
+  const stops = [[13, 13, 89], [0, 89, 230], [0, 191, 140], [140, 217, 26], [255, 204, 0], [217, 26, 13]];
+  const all = Object.values(state.gridStats).flatMap((s) => s.values);
+  const hi = Math.max(...all, 1e-6), lo = hi / 100;
+  const color = (v) => {
+    const t = Math.max(0, Math.min(1, (Math.log10(Math.max(v, 1e-9)) - Math.log10(lo)) / 2)) * 5;
+    const i = Math.min(4, Math.floor(t)), f = t - i;
+    return `rgb(${stops[i].map((a, k) => Math.round(a + (stops[i + 1][k] - a) * f)).join(",")})`;
+  };
+  const taken = new Set();
+  g2.font = "11px system-ui, sans-serif";
+  g2.textAlign = "center";
+  let drawn = 0;
+  for (const g of state.details.grids) {
+    const s = state.gridStats[g.id];
+    if (!s) continue;
+    g.points.forEach((p, i) => {
+      const q = viewer.project(p);
+      if (!q || q[0] < 0 || q[1] < 0 || q[0] > w || q[1] > h) return;
+      g2.fillStyle = color(s.values[i]);
+      g2.beginPath();
+      g2.arc(q[0], q[1], 2.5, 0, 2 * Math.PI);
+      g2.fill();
+      drawn++;
+      const key = `${Math.floor(q[0] / 40)},${Math.floor(q[1] / 18)}`;
+      if (taken.has(key)) return;
+      taken.add(key);
+      const text = fmtLux(s.values[i]);
+      g2.fillStyle = "rgba(0,0,0,0.65)";
+      g2.fillRect(q[0] - 15, q[1] - 16, 30, 13);
+      g2.fillStyle = "#fff";
+      g2.fillText(text, q[0], q[1] - 6);
+    });
+  }
+  window.relight.stats.overlayPoints = drawn;
+}
+
+async function runOptimizer() {
+  const out = $("#opt-out");
+  const grid = $("#opt-grid").value;
+  const target = { grid };
+  const e = Number($("#opt-eavg").value), u = Number($("#opt-u0").value);
+  if ($("#opt-eavg").value !== "") target.eavg_min = e;
+  if ($("#opt-u0").value !== "") target.u0_min = u;
+  out.textContent = "…";
+  const r = await fetch(api("/optimize"), {
+    method: "POST",
+    headers: { "content-type": "application/json" },
+    body: JSON.stringify({ targets: [target] }),
+  });
+  if (!r.ok) {
+    out.textContent = await problem(r);
+    return;
+  }
+  const v = await r.json();
+  for (const g of state.details.lights) {
+    const l = state.lights[g.id];
+    const level = v.lights[g.id].intensity;
+    l.pct = Math.max(0, Math.min(200, Math.round((100 * level) / (g.intensity || 1))));
+    l.on = true;
+    l.color = linearToSrgbHex(g.color);
+  }
+  buildLightControls();
+  changed();
+  const t = v.targets[0];
+  out.textContent = `${Math.round(v.lumens).toLocaleString()} lm` +
+    (v.power.luminaire_watts != null ? `, ${v.power.luminaire_watts.toFixed(1)} W` : "") +
+    ` → ${grid}: Eavg ${fmtLux(t.achieved.avg)} lx, U₀ ${t.achieved.u0.toFixed(2)} (solved in ${v.solve_ms.toFixed(1)} ms)`;
+}
+
 // ------------------------------------------------------------------ hover: surface and lux
 
 async function surfaceStats() {
@@ -577,6 +710,9 @@ async function main() {
     return;
   }
   viewer.attachControls();
+  viewer.afterDraw = drawOverlay;
+  $("#grid-overlay").addEventListener("change", drawOverlay);
+  $("#opt-run").addEventListener("click", () => runOptimizer().catch((e) => ($("#opt-out").textContent = String(e))));
   let hashTimer = null;
   viewer.onchange = () => {
     clearTimeout(hashTimer);

@@ -285,13 +285,27 @@ export class Viewer {
     gl.frontFace(gl.CCW);
     gl.useProgram(this.prog);
     const d = this.mesh.diag;
-    gl.uniformMatrix4fv(this.u.u_vp, false, viewProj(this.cam, w / h, d * 1e-3, d * 20));
+    this.vp = viewProj(this.cam, w / h, d * 1e-3, d * 20);
+    gl.uniformMatrix4fv(this.u.u_vp, false, this.vp);
     gl.uniform1i(this.u.u_mode, this.mode);
     gl.uniform1f(this.u.u_k, Math.pow(2, this.exposure) / Math.PI);
     gl.uniform2f(this.u.u_log, this.logRange[0], this.logRange[1]);
     gl.bindVertexArray(this.vao);
     gl.drawElements(gl.TRIANGLES, 3 * this.mesh.nt, gl.UNSIGNED_INT, 0);
     gl.bindVertexArray(null);
+    if (this.afterDraw) this.afterDraw();
+  }
+
+  /** CSS-pixel position of a world point in the last frame, or null behind the camera. */
+  project(p) {
+    const m = this.vp;
+    if (!m) return null;
+    const x = m[0] * p[0] + m[4] * p[1] + m[8] * p[2] + m[12];
+    const y = m[1] * p[0] + m[5] * p[1] + m[9] * p[2] + m[13];
+    const w = m[3] * p[0] + m[7] * p[1] + m[11] * p[2] + m[15];
+    if (w <= 1e-9) return null;
+    const c = this.canvas;
+    return [((x / w + 1) / 2) * c.clientWidth, ((1 - y / w) / 2) * c.clientHeight];
   }
 
   get aspect() {

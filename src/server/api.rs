@@ -1001,8 +1001,9 @@ pub async fn batch(
         &id,
         &headers,
         body,
-        &["states", "surfaces", "radiosity"],
+        &["states", "surfaces", "radiosity", "grids"],
     )?;
+    let grids = grid_list(body.get("grids"), &ready)?;
     let states = body
         .get("states")
         .and_then(Value::as_array)
@@ -1043,6 +1044,14 @@ pub async fn batch(
                 if with_radiosity {
                     let rgb: &[[f32; 3]] = bytemuck::cast_slice(&sol.b);
                     v["radiosity"] = json!(rgb);
+                }
+                if !grids.is_empty() {
+                    let Lighting::Groups(w) = l else {
+                        return Err(AppError::Invalid(
+                            "grids need light-group states (per-patch emission has no grid columns)".into(),
+                        ));
+                    };
+                    v["grids"] = Value::Object(grid_answers(&r, &grids, w));
                 }
                 Ok(v)
             })
