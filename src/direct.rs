@@ -109,8 +109,8 @@ pub fn group_direct(scene: &Scene, mesh: &Mesh, bvh: &Bvh) -> Vec<Option<Vec<f32
                     let mut acc = [0.0; 3];
                     for l in &g.luminaires {
                         let e = patch_illuminance(mesh, bvh, l, j, &coarse, &fine);
-                        for c in 0..3 {
-                            acc[c] += e * l.color[c] as f64;
+                        for (a, &k) in acc.iter_mut().zip(&l.color) {
+                            *a += e * k as f64;
                         }
                     }
                     acc
@@ -128,8 +128,8 @@ pub fn point_illuminance(bvh: &Bvh, luminaires: &[Luminaire], x: DVec3, n: DVec3
     for l in luminaires {
         let e = l.illuminance(x, n);
         if e > 0.0 && visible(bvh, x, n, l, u32::MAX) {
-            for c in 0..3 {
-                acc[c] += e * l.color[c] as f64;
+            for (a, &k) in acc.iter_mut().zip(&l.color) {
+                *a += e * k as f64;
             }
         }
     }
@@ -145,8 +145,8 @@ pub fn group_flux(
 ) -> ([f64; 3], [f64; 3]) {
     let mut emitted = [0.0; 3];
     for l in &g.luminaires {
-        for c in 0..3 {
-            emitted[c] += l.lumens * l.color[c] as f64;
+        for (a, &k) in emitted.iter_mut().zip(&l.color) {
+            *a += l.lumens * k as f64;
         }
     }
     let mut landed = [0.0; 3];

@@ -69,8 +69,9 @@ impl GridResponse {
                                 let mut e =
                                     crate::direct::point_illuminance(bvh, &light.luminaires, x, n);
                                 for &(j, wj) in &w {
-                                    for c in 0..3 {
-                                        e[c] += wj * g.b[3 * j as usize + c] as f64;
+                                    let bj = &g.b[3 * j as usize..3 * j as usize + 3];
+                                    for (ec, &b) in e.iter_mut().zip(bj) {
+                                        *ec += wj * b as f64;
                                     }
                                 }
                                 e.map(|v| v as f32)

@@ -1,9 +1,13 @@
 //! relight: relights static 3D scenes in milliseconds from a precomputed radiosity
 //! transfer. See `ARCHITECTURE.md` for the map of the crate.
 //!
-//! Data path: [`scene`] → [`mesh`] → [`bvh`] → [`formfactor`] → [`solve`]/[`transfer`]
+//! Data path: [`scene`] → [`mesh`] → [`bvh`] → [`formfactor`] (+ [`direct`] light of
+//! [`photometry`] luminaires) → [`solve`]/[`transfer`]
 //! → [`cache`], orchestrated by [`bake`]; [`report`] turns solutions into per-surface
 //! answers.
+
+// The OpenAPI document is one large json! literal.
+#![recursion_limit = "256"]
 
 pub mod bake;
 pub mod bench;

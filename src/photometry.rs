@@ -385,7 +385,7 @@ impl Luminaire {
             (None, _) => return Err("lumens is required for isotropic and spot luminaires".into()),
         };
         let y = crate::color::luminance(color);
-        if !(y > 0.0) || color.iter().any(|c| !c.is_finite() || *c < 0.0) {
+        if y.is_nan() || y <= 0.0 || color.iter().any(|c| !c.is_finite() || *c < 0.0) {
             return Err("color must be non-negative with a positive luminance".into());
         }
         Ok(Luminaire {

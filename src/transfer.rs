@@ -279,10 +279,11 @@ impl Transfer {
             direct_escaped: [0.0; 3],
         };
         for (g, w) in self.groups.iter().zip(weights) {
-            for c in 0..3 {
-                s.luminaire_flux[c] += w[c] as f64 * g.flux[c];
-                s.direct_escaped[c] += w[c] as f64 * (g.flux[c] - g.landed[c]).max(0.0);
-            }
+            let w = w.map(|x| x as f64);
+            s.luminaire_flux = std::array::from_fn(|c| s.luminaire_flux[c] + w[c] * g.flux[c]);
+            s.direct_escaped = std::array::from_fn(|c| {
+                s.direct_escaped[c] + w[c] * (g.flux[c] - g.landed[c]).max(0.0)
+            });
         }
         weighted_sum(
             self.groups.iter().map(|g| g.e.as_slice()),

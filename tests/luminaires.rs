@@ -106,7 +106,7 @@ id = "probe"
 points = [POINTS]
 "#;
     // Directions (γ, C) on the table's nodes; C = 270° mirrors C = 90° (bilateral file).
-    let dirs = [
+    let dirs: [(f64, f64, f64); 8] = [
         (0.0, 0.0, 500.0),
         (30.0, 0.0, 450.0),
         (60.0, 0.0, 300.0),
@@ -120,8 +120,8 @@ points = [POINTS]
     let pts: Vec<[f64; 3]> = dirs
         .iter()
         .map(|&(g, c, _)| {
-            let r = h * (g as f64).to_radians().tan();
-            let c = (c as f64).to_radians();
+            let r = h * g.to_radians().tan();
+            let c = c.to_radians();
             [r * c.cos(), 0.0, r * c.sin()]
         })
         .collect();
@@ -136,7 +136,7 @@ points = [POINTS]
     let b = bake(&s);
     let got = grid_values(&b, "probe");
     for ((g, c, cd), e) in dirs.iter().zip(&got) {
-        let cos = (*g as f64).to_radians().cos();
+        let cos = g.to_radians().cos();
         let d2 = (h / cos).powi(2);
         let i = *e as f64 * d2 / cos;
         assert!(

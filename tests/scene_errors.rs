@@ -139,3 +139,56 @@ fn millimetre_models_are_scaled_to_metres() {
     let max_x = scene.triangles[0].p.iter().map(|p| p.x).fold(0.0, f64::max);
     assert!((max_x - 0.001).abs() < 1e-12, "{max_x}");
 }
+
+#[test]
+fn bad_luminaires_and_grids_get_precise_errors() {
+    let lum = |extra: &str| format!("[[luminaires]]\nid = \"l\"\nposition = [0, 2, 0]\n{extra}\n");
+    let cases: Vec<(String, &str)> = vec![
+        (lum("lumens = 100\nies = \"missing.ies\""), "missing.ies"),
+        (lum(""), "lumens is required"),
+        (
+            lum("lumens = 100\ndistribution = \"spot\"\nbeam_deg = 60\nfield_deg = 30"),
+            "beam_deg",
+        ),
+        (
+            lum("lumens = 100\ndistribution = \"laser\""),
+            "distribution 'laser'",
+        ),
+        (lum("lumens = 100\ncct = 200"), "cct = 200"),
+        (lum("lumens = 100\naim = [0, 0, 0]"), "aim"),
+        (lum("lumens = -5"), "lumens = -5"),
+        (
+            lum("lumens = 100\ncolor = [1, 1, 1]\ncct = 3000"),
+            "color or cct",
+        ),
+        (
+            "[[grids]]\nid = \"g\"\nspacing = 0.1\n".into(),
+            "give either points",
+        ),
+        (
+            "[[grids]]\nid = \"g\"\nmin = [0, 0]\nmax = [100, 100]\nspacing = 0.01\n".into(),
+            "the limit is",
+        ),
+        (
+            "[[grids]]\nid = \"g\"\nmin = [1, 0]\nmax = [0, 1]\n".into(),
+            "max must exceed min",
+        ),
+        (
+            "[[lights]]\nid = \"empty\"\n".into(),
+            "names no materials or surfaces, and no luminaire joins it",
+        ),
+    ];
+    for (toml, needle) in cases {
+        let e = load_err(TRI, GREY_MTL, Some(&toml));
+        assert!(e.contains(needle), "{toml}\n→ {e}");
+    }
+    // A broken IES file names the file and what is wrong.
+    let s = write_scene(TRI, GREY_MTL, Some(&lum("ies = \"bad.ies\"")));
+    std::fs::write(
+        s.path().join("bad.ies"),
+        "IESNA:LM-63-2002\nTILT=NONE\n1 1000 1 3 1 1\n",
+    )
+    .unwrap();
+    let e = Scene::load(s.path()).unwrap_err().to_string();
+    assert!(e.contains("bad.ies") && e.contains("ends before"), "{e}");
+}

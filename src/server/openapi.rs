@@ -78,7 +78,7 @@ pub fn spec() -> Value {
                 "parameters": [scene_id()],
                 "requestBody": {"required": false, "content": {"application/json": {"schema": {"$ref": "#/components/schemas/RadiosityRequest"}}}},
                 "responses": radiosity_resp}},
-            "/api/scenes/{id}/illuminance": {"post": {"summary": "Illuminance per surface (avg, min, max, uniformity) and at points (gathered from the solved patches with occlusion).",
+            "/api/scenes/{id}/illuminance": {"post": {"summary": "Illuminance per surface (avg, min, max, uniformity), at points (direct light of the luminaires plus light gathered from the solved patches, with occlusion), and on calculation grids (Eavg, Emin, Emax, U0, Emin/Emax), with the luminaires' lumens and watts.",
                 "parameters": [scene_id()],
                 "requestBody": {"required": false, "content": {"application/json": {"schema": {"$ref": "#/components/schemas/IlluminanceRequest"}}}},
                 "responses": illum_resp}},
@@ -99,8 +99,18 @@ pub fn spec() -> Value {
                 "requestBody": {"required": true, "content": {"application/json": {"schema": {"type": "object", "required": ["states"], "properties": {
                     "states": {"type": "array", "maxItems": 1000, "items": {"$ref": "#/components/schemas/LightingState"}},
                     "surfaces": {"type": "array", "items": {"type": "string"}, "description": "Surfaces to report (default: all)."},
-                    "radiosity": {"type": "boolean", "description": "Also return per-patch radiosity for each state."}}}}}},
-                "responses": batch_resp}}
+                    "radiosity": {"type": "boolean", "description": "Also return per-patch radiosity for each state."},
+                    "grids": {"type": "array", "items": {"type": "string"}, "description": "Grid ids: also return grid statistics for each state (light-group states only)."}}}}}},
+                "responses": batch_resp}},
+            "/api/scenes/{id}/optimize": {"post": {"summary": "Dimming levels (0..1 per free group, modelled colours) that meet grid targets with the least emitted flux: a linear program over the precomputed grid responses. 422 explains unreachable targets.",
+                "parameters": [scene_id()],
+                "requestBody": {"required": true, "content": {"application/json": {"schema": {"type": "object", "required": ["targets"], "properties": {
+                    "targets": {"type": "array", "minItems": 1, "items": {"type": "object", "required": ["grid"], "additionalProperties": false, "properties": {
+                        "grid": {"type": "string"}, "eavg_min": {"type": "number", "description": "lx"}, "emin_min": {"type": "number", "description": "lx"}, "u0_min": {"type": "number", "minimum": 0, "maximum": 1, "description": "Emin/Eavg"}}}},
+                    "groups": {"type": "array", "items": {"type": "string"}, "description": "Groups the optimizer may dim (default: all)."},
+                    "lights": {"type": "object", "additionalProperties": {"$ref": "#/components/schemas/LightSetting"}, "description": "State of the groups that are not free."}}}}}},
+                "responses": {"200": {"description": "Levels as a lights object (intensity, color, free), total lumens, luminaire power (lm, W), per target the achieved avg/min/u0 and met, grid statistics, solve_ms.", "content": {"application/json": {}}},
+                    "404": problem("Unknown scene."), "422": problem("Invalid targets, or targets out of reach (with the reason)."), "503": problem("Baking or failed.")}}}
         },
         "components": {"schemas": {
             "Rgb": {"type": "array", "items": {"type": "number"}, "minItems": 3, "maxItems": 3},
@@ -119,7 +129,8 @@ pub fn spec() -> Value {
                 "surfaces": {"type": "object", "additionalProperties": {"type": "object", "properties": {"area": {"type": "number"}, "radiosity": {"$ref": "#/components/schemas/Rgb"}, "illuminance": {"$ref": "#/components/schemas/Rgb"}}}}}},
             "IlluminanceRequest": {"allOf": [{"$ref": "#/components/schemas/LightingState"}, {"type": "object", "properties": {
                 "surfaces": {"type": "array", "items": {"type": "string"}},
-                "points": {"type": "array", "maxItems": 10000, "items": {"type": "object", "required": ["position", "normal"], "properties": {"position": {"$ref": "#/components/schemas/Rgb"}, "normal": {"$ref": "#/components/schemas/Rgb"}}}}}}]},
+                "points": {"type": "array", "maxItems": 10000, "items": {"type": "object", "required": ["position", "normal"], "properties": {"position": {"$ref": "#/components/schemas/Rgb"}, "normal": {"$ref": "#/components/schemas/Rgb"}}}},
+                "grids": {"type": "array", "items": {"type": "string"}, "description": "Calculation grid ids from scene.toml."}}}]},
             "RenderRequest": {"allOf": [{"$ref": "#/components/schemas/LightingState"}, {"type": "object", "properties": {
                 "camera": {"oneOf": [{"type": "string", "description": "Preset id from scene.toml."},
                     {"type": "object", "required": ["position", "target", "fov_deg"], "properties": {"position": {"$ref": "#/components/schemas/Rgb"}, "target": {"$ref": "#/components/schemas/Rgb"}, "up": {"$ref": "#/components/schemas/Rgb"}, "fov_deg": {"type": "number", "description": "Vertical field of view."}}}]},
@@ -133,7 +144,11 @@ pub fn spec() -> Value {
             "Lux": {"type": "object", "properties": {"lux": {"type": "number"}, "rgb": {"$ref": "#/components/schemas/Rgb"}}},
             "SurfaceIlluminance": {"type": "object", "properties": {"area": {"type": "number"}, "avg": {"$ref": "#/components/schemas/Lux"}, "min": {"$ref": "#/components/schemas/Lux"}, "max": {"$ref": "#/components/schemas/Lux"}, "uniformity": {"type": "number", "description": "Emin / Eavg"}}},
             "IlluminanceResponse": {"type": "object", "properties": {"points": {"type": "array", "items": {"$ref": "#/components/schemas/Lux"}},
-                "surfaces": {"type": "object", "additionalProperties": {"$ref": "#/components/schemas/SurfaceIlluminance"}}}},
+                "surfaces": {"type": "object", "additionalProperties": {"$ref": "#/components/schemas/SurfaceIlluminance"}},
+                "grids": {"type": "object", "additionalProperties": {"$ref": "#/components/schemas/GridStats"}},
+                "power": {"type": "object", "properties": {"luminaire_lumens": {"type": "number"}, "luminaire_watts": {"type": "number", "nullable": true}}}}},
+            "GridStats": {"type": "object", "description": "Illuminance on a grid, lux.", "properties": {"name": {"type": "string"}, "count": {"type": "integer"}, "layout": {"type": "array", "items": {"type": "integer"}, "description": "[columns, rows] of a work plane (x fastest)."},
+                "values": {"type": "array", "items": {"type": "number"}}, "avg": {"type": "number"}, "min": {"type": "number"}, "max": {"type": "number"}, "u0": {"type": "number", "description": "Emin/Eavg"}, "min_max": {"type": "number", "description": "Emin/Emax"}}},
             "Power": {"type": "object", "description": "Lumens per channel and luminous totals.", "properties": {"emitted": {"$ref": "#/components/schemas/Rgb"}, "absorbed": {"$ref": "#/components/schemas/Rgb"}, "escaped": {"$ref": "#/components/schemas/Rgb"}, "emitted_lm": {"type": "number"}, "absorbed_lm": {"type": "number"}, "escaped_lm": {"type": "number"}, "imbalance": {"type": "number"}}},
             "SceneSummary": {"type": "object", "properties": {"id": {"type": "string"}, "name": {"type": "string"}, "status": {"type": "string", "enum": ["queued", "baking", "ready", "failed"]}, "progress": {"type": "number"}, "patches": {"type": "integer"}, "error": {"type": "string"}, "lights": {"type": "array", "items": {"type": "object"}}}}
         }}
