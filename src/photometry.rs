@@ -289,7 +289,12 @@ impl Distribution {
                 PhotometricType::B => {
                     // Lateral axis r = c90: V is the plane's elevation towards c0, H the
                     // angle within the plane towards r.
-                    let v = c0.atan2(a).to_degrees();
+                    // At the poles (±r) every plane meets: take V = 0.
+                    let v = if a.abs() < 1e-12 && c0.abs() < 1e-12 {
+                        0.0
+                    } else {
+                        c0.atan2(a).to_degrees()
+                    };
                     let h = c90.clamp(-1.0, 1.0).asin().to_degrees();
                     d.candela_at(v, h)
                 }
@@ -526,6 +531,40 @@ TILT=NONE
             (phi / (std::f64::consts::PI * 1000.0) - 1.0).abs() < 1e-3,
             "{phi}"
         );
+    }
+
+    /// Type B orientation: V is the elevation towards c0, H the angle towards aim × c0,
+    /// and a table from H = 0 is mirrored.
+    #[test]
+    fn type_b_tables_follow_the_documented_axes() {
+        let text = "IESNA:LM-63-2002\nTILT=NONE\n1 -1 1 3 2 2 2 0 0 0\n1 1 0\n\
+                    -90 0 90\n0 90\n10 1000 20\n30 40 50\n";
+        let data = IesData::parse(text).unwrap();
+        assert_eq!(data.kind, PhotometricType::B);
+        let l = Luminaire::new(
+            "b",
+            DVec3::ZERO,
+            DVec3::X,
+            Some(DVec3::Y),
+            Distribution::Ies(Box::new(data)),
+            None,
+            [1.0; 3],
+            None,
+        )
+        .unwrap();
+        for (d, cd) in [
+            (DVec3::X, 1000.0),
+            (DVec3::Y, 20.0),
+            (-DVec3::Y, 10.0),
+            (DVec3::Z, 40.0),
+            (-DVec3::Z, 40.0),
+        ] {
+            assert!(
+                (l.intensity(d) - cd).abs() < 1e-6,
+                "{d}: {}",
+                l.intensity(d)
+            );
+        }
     }
 
     #[test]

@@ -175,7 +175,7 @@ fn free_port() -> u16 {
 fn scenes() -> (PathBuf, PathBuf) {
     let root = Path::new(env!("CARGO_TARGET_TMPDIR")).join("browser");
     let scenes = root.join("scenes");
-    for id in ["cornell-box", "desk-room"] {
+    for id in ["cornell-box", "desk-room", "office"] {
         let dst = scenes.join(id);
         std::fs::create_dir_all(&dst).unwrap();
         for f in std::fs::read_dir(common::scenes_dir().join(id)).unwrap() {
@@ -435,6 +435,47 @@ async fn the_page_relights_live_in_headless_chromium() {
         .await;
     let shot = Path::new(env!("CARGO_TARGET_TMPDIR")).join("browser-page.png");
     std::fs::write(&shot, base64_decode(png.as_str().unwrap())).unwrap();
+
+    // ---- Office: grid statistics, the grid overlay, and the optimizer applied to sliders.
+    s.js(
+        "const e = document.querySelector('#scene'); e.value = 'office';
+          e.dispatchEvent(new Event('change'));",
+    )
+    .await;
+    s.wait_for(
+        "window.relight.state.details && window.relight.state.details.id === 'office' \
+         && window.relight.stats.gridVersion === window.relight.state.version \
+         && window.relight.stats.glVersion === window.relight.state.version",
+        "the office with its grids",
+    )
+    .await;
+    let rows = s
+        .js("return document.querySelectorAll('#grid-stats tbody tr').length;")
+        .await;
+    assert_eq!(rows, 2, "grid rows");
+    let shown = s.js("return window.relight.stats.overlayPoints;").await;
+    assert!(shown.as_u64().unwrap() > 100, "overlay points: {shown}");
+    s.click("#optimizer summary").await;
+    s.click("#opt-run").await;
+    s.wait_for(
+        "document.querySelector('#opt-out').textContent.includes('lm')",
+        "the optimizer's answer",
+    )
+    .await;
+    let out = s
+        .js("return document.querySelector('#opt-out').textContent;")
+        .await;
+    assert!(out.as_str().unwrap().contains("Eavg 500"), "{out}");
+    let pcts = s
+        .js("return [...document.querySelectorAll('.light .pct')].map(e => Number(e.value));")
+        .await;
+    let pcts: Vec<f64> = pcts
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|v| v.as_f64().unwrap())
+        .collect();
+    assert!(pcts.iter().any(|&p| p < 100.0), "levels applied: {pcts:?}");
 
     // ---- Frame rate while orbiting the ~10k-patch room.
     s.js(
