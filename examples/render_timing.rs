@@ -77,13 +77,8 @@ fn main() {
         );
         // Light-group states: a weighted sum of per-group images instead of the gather.
         let t = Instant::now();
-        let values: Vec<_> = b
-            .transfer
-            .groups
-            .iter()
-            .map(|g| shading.vertex_values(&g.b))
-            .collect();
-        let gi = GroupImages::build(&view, &values, std::f32::consts::FRAC_1_PI);
+        let gi = GroupImages::radiance(&view, &shading, &b.transfer);
+        let groups = b.transfer.group_count();
         let t_gi = t.elapsed().as_secs_f64() * 1e3;
         let m = medians(|| {
             let t0 = Instant::now();
@@ -95,7 +90,7 @@ fn main() {
         });
         println!(
             "  group-image path ({} groups, {} KB, built in {t_gi:.1} ms, server uses it: {}): sum+exposure+tonemap {:.2} ms, encode {:.2} ms, total {:.2} ms",
-            values.len(), gi.bytes() / 1024, GroupImages::worthwhile(&view, values.len()), m[0], m[1], m[2]
+            groups, gi.bytes() / 1024, GroupImages::worthwhile(&view, groups), m[0], m[1], m[2]
         );
     }
 }

@@ -441,6 +441,20 @@ impl GroupImages {
         groups > 0 && groups * 12 * view.pixels() <= view.bytes()
     }
 
+    /// Radiance images (B/π) of every light group of `transfer` at unit weight.
+    pub fn radiance(
+        view: &ViewBuffer,
+        shading: &Shading,
+        transfer: &crate::transfer::Transfer,
+    ) -> GroupImages {
+        let values: Vec<Vec<Rgb>> = transfer
+            .groups
+            .iter()
+            .map(|g| shading.vertex_values(&g.b))
+            .collect();
+        GroupImages::build(view, &values, std::f32::consts::FRAC_1_PI)
+    }
+
     /// Gathers one image per group from per-group shading-vertex values, times `scale`.
     pub fn build(view: &ViewBuffer, vertex_values: &[Vec<Rgb>], scale: f32) -> GroupImages {
         let g = vertex_values.len();

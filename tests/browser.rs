@@ -152,6 +152,24 @@ async fn image_for(s: &Session, version: u64) {
     .await;
 }
 
+/// Picks `scene` in the page's scene picker and waits until it is loaded, the 3D view
+/// shows the current state, and `also` (a JS expression) holds.
+async fn switch_scene(s: &Session, scene: &str, also: &str) {
+    s.js(&format!(
+        "const e = document.querySelector('#scene'); e.value = '{scene}';
+         e.dispatchEvent(new Event('change'));"
+    ))
+    .await;
+    s.wait_for(
+        &format!(
+            "window.relight.state.details && window.relight.state.details.id === '{scene}' \
+             && window.relight.stats.glVersion === window.relight.state.version && ({also})"
+        ),
+        scene,
+    )
+    .await;
+}
+
 fn find_driver() -> Option<(PathBuf, PathBuf)> {
     let driver = std::env::var_os("RELIGHT_CHROMEDRIVER")
         .map(PathBuf::from)
@@ -160,14 +178,6 @@ fn find_driver() -> Option<(PathBuf, PathBuf)> {
         .map(PathBuf::from)
         .unwrap_or_else(|| "/usr/bin/chromium".into());
     (driver.exists() && browser.exists()).then_some((driver, browser))
-}
-
-fn free_port() -> u16 {
-    std::net::TcpListener::bind("127.0.0.1:0")
-        .unwrap()
-        .local_addr()
-        .unwrap()
-        .port()
 }
 
 /// Bundled Cornell box and desk room plus an 8-group room of ~10k patches for the frame
@@ -223,7 +233,7 @@ async fn the_page_relights_live_in_headless_chromium() {
     let server = tokio::spawn(async move { axum::serve(listener, router(state)).await });
 
     // chromedriver and a headless Chromium session.
-    let port = free_port();
+    let port = common::free_port();
     let _driver = Driver(
         Command::new(&driver_bin)
             .arg(format!("--port={port}"))
@@ -355,17 +365,11 @@ async fn the_page_relights_live_in_headless_chromium() {
     );
 
     // ---- Desk room: toggle the lamp off; the 3D view still draws the ceiling panel's light.
-    s.js(
-        "const e = document.querySelector('#scene'); e.value = 'desk-room';
-          e.dispatchEvent(new Event('change'));",
-    )
-    .await;
-    s.wait_for(
-        "window.relight.state.details && window.relight.state.details.id === 'desk-room' \
-         && window.relight.stats.glVersion === window.relight.state.version \
-         && window.relight.stats.imageVersion === window.relight.state.version \
+    switch_scene(
+        &s,
+        "desk-room",
+        "window.relight.stats.imageVersion === window.relight.state.version \
          && window.relight.state.exposure !== null",
-        "the desk room",
     )
     .await;
     let v = s
@@ -437,16 +441,10 @@ async fn the_page_relights_live_in_headless_chromium() {
     std::fs::write(&shot, base64_decode(png.as_str().unwrap())).unwrap();
 
     // ---- Office: grid statistics, the grid overlay, and the optimizer applied to sliders.
-    s.js(
-        "const e = document.querySelector('#scene'); e.value = 'office';
-          e.dispatchEvent(new Event('change'));",
-    )
-    .await;
-    s.wait_for(
-        "window.relight.state.details && window.relight.state.details.id === 'office' \
-         && window.relight.stats.gridVersion === window.relight.state.version \
-         && window.relight.stats.glVersion === window.relight.state.version",
-        "the office with its grids",
+    switch_scene(
+        &s,
+        "office",
+        "window.relight.stats.gridVersion === window.relight.state.version",
     )
     .await;
     let rows = s
@@ -478,17 +476,7 @@ async fn the_page_relights_live_in_headless_chromium() {
     assert!(pcts.iter().any(|&p| p < 100.0), "levels applied: {pcts:?}");
 
     // ---- Frame rate while orbiting the ~10k-patch room.
-    s.js(
-        "const e = document.querySelector('#scene'); e.value = 'room-10k';
-          e.dispatchEvent(new Event('change'));",
-    )
-    .await;
-    s.wait_for(
-        "window.relight.state.details && window.relight.state.details.id === 'room-10k' \
-         && window.relight.stats.glVersion === window.relight.state.version",
-        "the 10k room",
-    )
-    .await;
+    switch_scene(&s, "room-10k", "true").await;
     let fps = s
         .js_async("const done = arguments[arguments.length - 1]; window.relight.measureFps(180).then(done);")
         .await;

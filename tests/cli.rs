@@ -10,9 +10,11 @@ fn relight() -> Command {
     Command::new(env!("CARGO_BIN_EXE_relight"))
 }
 
-#[test]
-fn radiosity_json_on_a_bare_obj_and_mtl_folder() {
-    let obj = box_faces("room", "wall", [0., 0., 0.], [2., 2., 2.], true)
+/// A closed 2 m room (ρ = 0.5) with a 0.4 m square lamp (100 lm/m²) under its ceiling.
+const ROOM_MTL: &str = "newmtl wall\nKd 0.5 0.5 0.5\nnewmtl glow\nKd 0 0 0\nKe 100 100 100\n";
+
+fn room_obj() -> String {
+    box_faces("room", "wall", [0., 0., 0.], [2., 2., 2.], true)
         + &quad(
             "lamp",
             "glow",
@@ -23,12 +25,12 @@ fn radiosity_json_on_a_bare_obj_and_mtl_folder() {
                 [0.8, 1.99, 1.2],
             ],
             [0., -1., 0.],
-        );
-    let s = write_scene(
-        &obj,
-        "newmtl wall\nKd 0.5 0.5 0.5\nnewmtl glow\nKd 0 0 0\nKe 100 100 100\n",
-        None,
-    );
+        )
+}
+
+#[test]
+fn radiosity_json_on_a_bare_obj_and_mtl_folder() {
+    let s = write_scene(&room_obj(), ROOM_MTL, None);
     let cache = tempfile::tempdir().unwrap();
     let out = relight()
         .args([
@@ -125,14 +127,6 @@ impl Drop for Server {
     }
 }
 
-fn free_port() -> u16 {
-    std::net::TcpListener::bind("127.0.0.1:0")
-        .unwrap()
-        .local_addr()
-        .unwrap()
-        .port()
-}
-
 /// Polls the scene list until `scene` leaves queued/baking; returns it.
 async fn settled(base: &str, scene: &str) -> serde_json::Value {
     let c = reqwest::Client::new();
@@ -174,24 +168,12 @@ async fn read_only_replicas_serve_a_baked_cache_and_never_bake() {
     let scenes = tempfile::tempdir().unwrap();
     let room = scenes.path().join("room");
     std::fs::create_dir(&room).unwrap();
-    let obj = box_faces("room", "wall", [0., 0., 0.], [2., 2., 2.], true)
-        + &quad(
-            "lamp",
-            "glow",
-            [
-                [0.8, 1.99, 0.8],
-                [1.2, 1.99, 0.8],
-                [1.2, 1.99, 1.2],
-                [0.8, 1.99, 1.2],
-            ],
-            [0., -1., 0.],
-        );
-    std::fs::write(room.join("scene.obj"), format!("mtllib scene.mtl\n{obj}")).unwrap();
     std::fs::write(
-        room.join("scene.mtl"),
-        "newmtl wall\nKd 0.5 0.5 0.5\nnewmtl glow\nKd 0 0 0\nKe 100 100 100\n",
+        room.join("scene.obj"),
+        format!("mtllib scene.mtl\n{}", room_obj()),
     )
     .unwrap();
+    std::fs::write(room.join("scene.mtl"), ROOM_MTL).unwrap();
     std::fs::write(room.join("scene.toml"), "[mesh]\nmax_edge = 0.5\n").unwrap();
     let cache = tempfile::tempdir().unwrap();
 

@@ -905,6 +905,10 @@ async fn optimize_finds_the_least_flux_levels_that_meet_the_targets() {
             "unknown field",
         ),
         (
+            r#"{"targets": [{"grid": "desk", "u0_min": 0.9}]}"#,
+            "u0_min needs",
+        ),
+        (
             r#"{"targets": [{"grid": "nope", "eavg_min": 5}]}"#,
             "unknown grid",
         ),

@@ -128,13 +128,7 @@ fn cornell_box_image_matches_the_path_traced_reference() {
     let img = view.gather(&shading.vertex_values(&sol.b), std::f32::consts::FRAC_1_PI);
     // The fast path for light-group states, a weighted sum of per-group images, gives the
     // same image as the gather, for any RGB weight.
-    let per_group: Vec<_> = b
-        .transfer
-        .groups
-        .iter()
-        .map(|g| shading.vertex_values(&g.b))
-        .collect();
-    let gi = GroupImages::build(&view, &per_group, std::f32::consts::FRAC_1_PI);
+    let gi = GroupImages::radiance(&view, &shading, &b.transfer);
     let wt = [[0.3f32, 0.6, 0.9]];
     let tinted = view.gather(
         &shading.vertex_values(&b.transfer.relight(&wt).b),

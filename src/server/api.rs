@@ -806,10 +806,7 @@ pub async fn optimize(
             .ok_or_else(|| AppError::Invalid(format!("targets[{k}] must be an object")))?;
         check_keys(o, &["grid", "eavg_min", "emin_min", "u0_min"])
             .map_err(|e| AppError::Invalid(format!("targets[{k}]: {e}")))?;
-        let gi = grid_list(
-            Some(&json!([o.get("grid").cloned().unwrap_or(Value::Null)])),
-            &ready,
-        )?[0];
+        let gi = grid_index(o.get("grid").unwrap_or(&Value::Null), &ready)?;
         let bound = |key: &str, max: f64| -> Result<Option<f64>, AppError> {
             o.get(key)
                 .map(|v| {
@@ -832,6 +829,11 @@ pub async fn optimize(
         if t.eavg_min.is_none() && t.emin_min.is_none() && t.u0_min.is_none() {
             return Err(AppError::Invalid(format!(
                 "targets[{k}] sets no bound: give eavg_min, emin_min or u0_min"
+            )));
+        }
+        if t.u0_min.is_some() && !(t.eavg_min > Some(0.0) || t.emin_min > Some(0.0)) {
+            return Err(AppError::Invalid(format!(
+                "targets[{k}]: u0_min needs a positive eavg_min or emin_min as well: a ratio alone sets no light level, and all lights off would use the least flux"
             )));
         }
         parsed.push(t);
@@ -925,28 +927,29 @@ fn grid_list(v: Option<&Value>, ready: &Ready) -> Result<Vec<usize>, AppError> {
             kind(v)
         ))
     })?;
-    arr.iter()
-        .map(|g| {
-            let id = g
-                .as_str()
-                .ok_or_else(|| AppError::Invalid(format!("grid ids must be strings, got {g}")))?;
-            ready
-                .grids
-                .iter()
-                .position(|r| r.grid.id == id)
-                .ok_or_else(|| {
-                    let known: Vec<&str> = ready.grids.iter().map(|r| r.grid.id.as_str()).collect();
-                    AppError::Invalid(format!(
-                        "unknown grid '{id}' (known: {})",
-                        if known.is_empty() {
-                            "none".to_string()
-                        } else {
-                            known.join(", ")
-                        }
-                    ))
-                })
+    arr.iter().map(|g| grid_index(g, ready)).collect()
+}
+
+/// The index of the grid named by `g` (a string id).
+fn grid_index(g: &Value, ready: &Ready) -> Result<usize, AppError> {
+    let id = g
+        .as_str()
+        .ok_or_else(|| AppError::Invalid(format!("grid ids must be strings, got {g}")))?;
+    ready
+        .grids
+        .iter()
+        .position(|r| r.grid.id == id)
+        .ok_or_else(|| {
+            let known: Vec<&str> = ready.grids.iter().map(|r| r.grid.id.as_str()).collect();
+            AppError::Invalid(format!(
+                "unknown grid '{id}' (known: {})",
+                if known.is_empty() {
+                    "none".to_string()
+                } else {
+                    known.join(", ")
+                }
+            ))
         })
-        .collect()
 }
 
 fn grid_json(g: &crate::scene::Grid, s: crate::grid::GridStats) -> Value {

@@ -45,17 +45,7 @@ impl View {
                 if !GroupImages::worthwhile(&self.buffer, t.group_count()) {
                     return None;
                 }
-                let shading = ready.shading();
-                let values: Vec<_> = t
-                    .groups
-                    .iter()
-                    .map(|g| shading.vertex_values(&g.b))
-                    .collect();
-                Some(GroupImages::build(
-                    &self.buffer,
-                    &values,
-                    std::f32::consts::FRAC_1_PI,
-                ))
+                Some(GroupImages::radiance(&self.buffer, ready.shading(), t))
             })
             .as_ref()
     }
