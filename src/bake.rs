@@ -69,6 +69,8 @@ pub struct BakeOptions {
     pub max_edge: Option<f64>,
     /// Overrides the scene's transfer mode.
     pub mode: Option<TransferMode>,
+    /// Refuse a bake estimated to need more bytes than this.
+    pub memory_budget: Option<u64>,
 }
 
 impl Default for BakeOptions {
@@ -78,6 +80,7 @@ impl Default for BakeOptions {
             max_patches: DEFAULT_MAX_PATCHES,
             max_edge: None,
             mode: None,
+            memory_budget: None,
         }
     }
 }

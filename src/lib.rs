@@ -11,6 +11,7 @@
 
 pub mod bake;
 pub mod bench;
+pub mod budget;
 pub mod bvh;
 pub mod cache;
 pub mod color;

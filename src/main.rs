@@ -12,6 +12,21 @@ use relight::color::luminance64;
 use relight::lighting::LightState;
 use relight::report::Report;
 
+/// `println!` that ends the program quietly when stdout is a closed pipe
+/// (`relight radiosity … --json | head`), as command-line tools do.
+macro_rules! outln {
+    ($($t:tt)*) => {{
+        use std::io::Write as _;
+        if let Err(e) = writeln!(std::io::stdout().lock(), $($t)*) {
+            if e.kind() == std::io::ErrorKind::BrokenPipe {
+                std::process::exit(0);
+            }
+            eprintln!("error: cannot write to stdout: {e}");
+            std::process::exit(1);
+        }
+    }};
+}
+
 #[derive(Parser)]
 #[command(
     name = "relight",
@@ -51,6 +66,15 @@ enum Cmd {
         /// Bake even if a valid cache entry exists.
         #[arg(long)]
         force: bool,
+        /// Memory budget: refuse a scene whose bake is estimated to need more (bytes with
+        /// an optional unit such as 4G, or a percentage of memory such as 50%)
+        /// [default: half of the machine's or the container's memory].
+        #[arg(long, env = "RELIGHT_MEMORY_BUDGET", value_parser = relight::budget::parse_budget)]
+        memory_budget: Option<u64>,
+        /// Report progress as JSON lines on stdout (used by `relight serve`, which bakes in
+        /// a child process).
+        #[arg(long, hide = true)]
+        progress_json: bool,
     },
     /// Print per-surface radiosity and illuminance and the power balance for a lighting state.
     Radiosity {
@@ -123,6 +147,35 @@ struct ServeArgs {
     /// Largest request body in bytes.
     #[arg(long, env = "RELIGHT_BODY_LIMIT", default_value_t = relight::server::DEFAULT_BODY_LIMIT)]
     body_limit: usize,
+    /// Memory budget for requests and bakes: bytes with an optional unit (4G, 512M) or a
+    /// percentage of the machine's or the container's memory (50%) [default: 50%].
+    #[arg(long, env = "RELIGHT_MEMORY_BUDGET", value_parser = relight::budget::parse_budget)]
+    memory_budget: Option<u64>,
+    /// Heavy requests (renders, batches, point gathers, solves) running at once; more
+    /// wait briefly, then get 503 [default: the number of cores].
+    #[arg(long, env = "RELIGHT_MAX_CONCURRENT")]
+    max_concurrent: Option<usize>,
+    /// Longest time for one request, seconds (503 after that).
+    #[arg(long, env = "RELIGHT_REQUEST_TIMEOUT", default_value_t = 60.0)]
+    request_timeout: f64,
+    /// Longest time a client may take to send its request headers, seconds.
+    #[arg(long, env = "RELIGHT_HEADER_TIMEOUT", default_value_t = 10.0)]
+    header_timeout: f64,
+    /// Most open connections.
+    #[arg(long, env = "RELIGHT_MAX_CONNECTIONS", default_value_t = relight::server::DEFAULT_MAX_CONNECTIONS)]
+    max_connections: usize,
+    /// Bake in this process instead of a child `relight bake` process.
+    #[arg(long, env = "RELIGHT_BAKE_IN_PROCESS")]
+    bake_in_process: bool,
+}
+
+/// Seconds from the command line as a Duration (finite, positive, at most a day).
+fn seconds(what: &str, s: f64) -> Result<std::time::Duration> {
+    anyhow::ensure!(
+        s.is_finite() && s > 0.0 && s <= 86_400.0,
+        "--{what} {s}: give seconds in (0, 86400]"
+    );
+    Ok(std::time::Duration::from_secs_f64(s))
 }
 
 fn main() -> ExitCode {
@@ -167,7 +220,7 @@ fn health(mut addr: std::net::SocketAddr) -> Result<()> {
         status.split_whitespace().nth(1) == Some("200"),
         "{addr}/healthz answered '{status}'"
     );
-    println!("ok: {addr} healthy");
+    outln!("ok: {addr} healthy");
     Ok(())
 }
 
@@ -178,6 +231,12 @@ fn run(cli: Cli) -> Result<()> {
     };
     match cmd {
         Cmd::Serve(a) => {
+            let defaults = relight::server::ServerConfig::default();
+            let bake_command = if a.bake_in_process {
+                None
+            } else {
+                std::env::current_exe().ok()
+            };
             let config = relight::server::ServerConfig {
                 addr: a.addr,
                 scenes: a.scenes,
@@ -186,6 +245,13 @@ fn run(cli: Cli) -> Result<()> {
                 static_dir: a.static_dir,
                 cors_origins: a.cors_origins,
                 body_limit: a.body_limit,
+                memory_budget: a.memory_budget.unwrap_or(defaults.memory_budget),
+                max_concurrent: a.max_concurrent.unwrap_or(defaults.max_concurrent).max(1),
+                request_timeout: seconds("request-timeout", a.request_timeout)?,
+                header_timeout: seconds("header-timeout", a.header_timeout)?,
+                max_connections: a.max_connections.max(1),
+                bake_command,
+                ..defaults
             };
             let rt = tokio::runtime::Runtime::new()?;
             rt.block_on(relight::server::serve(config))
@@ -196,8 +262,26 @@ fn run(cli: Cli) -> Result<()> {
             scenes,
             cache,
             force,
+            memory_budget,
+            progress_json,
         } => {
             let cache = cache.unwrap_or_else(bake::default_cache_dir);
+            let budget = memory_budget.unwrap_or_else(relight::budget::default_budget);
+            if progress_json {
+                // The server's child: the kernel's OOM killer should pick this process
+                // before the server.
+                let _ = std::fs::write("/proc/self/oom_score_adj", "1000");
+                let Some(dir) = scene else {
+                    anyhow::bail!("--progress-json bakes one scene folder");
+                };
+                return match bake_child(&dir, &cache, budget) {
+                    Ok(()) => Ok(()),
+                    Err(e) => {
+                        outln!("{}", serde_json::json!({ "error": format!("{e:#}") }));
+                        std::process::exit(2);
+                    }
+                };
+            }
             let dirs = match (scene, all) {
                 (Some(s), false) => vec![s],
                 (None, true) => bake::scene_dirs(&scenes)
@@ -206,7 +290,7 @@ fn run(cli: Cli) -> Result<()> {
             };
             let mut failed = 0;
             for d in dirs {
-                if let Err(e) = bake_one(&d, &cache, force) {
+                if let Err(e) = bake_one(&d, &cache, force, budget) {
                     eprintln!("error: {e:#}");
                     failed += 1;
                 }
@@ -231,7 +315,7 @@ fn run(cli: Cli) -> Result<()> {
             ..
         } => {
             relight::bench::write_group_room(&dir, 8, BENCH_ROOM_TARGET)?;
-            println!("wrote {}", dir.display());
+            outln!("wrote {}", dir.display());
             Ok(())
         }
         Cmd::Bench {
@@ -251,7 +335,28 @@ fn progress_bar(label: &str) -> ProgressBar {
     pb
 }
 
-fn bake_one(dir: &Path, cache: &Path, force: bool) -> Result<()> {
+/// `relight bake DIR --progress-json`: bakes into the cache, reporting progress as JSON
+/// lines (`{"progress": 0.42}`) for the server that started this process.
+fn bake_child(dir: &Path, cache: &Path, budget: u64) -> Result<()> {
+    let opts = BakeOptions {
+        memory_budget: Some(budget),
+        ..Default::default()
+    };
+    use std::sync::atomic::{AtomicU64, Ordering};
+    let last = AtomicU64::new((-1.0f64).to_bits());
+    let progress = |stage: Stage, f: f64| {
+        let p = stage.overall(f);
+        if p - f64::from_bits(last.load(Ordering::Relaxed)) >= 0.005 {
+            last.store(p.to_bits(), Ordering::Relaxed);
+            outln!("{}", serde_json::json!({ "progress": p }));
+        }
+    };
+    bake::load_or_bake(dir, CachePolicy::ReadWrite(cache), &opts, &progress)?;
+    outln!("{}", serde_json::json!({ "progress": 1.0, "done": true }));
+    Ok(())
+}
+
+fn bake_one(dir: &Path, cache: &Path, force: bool, budget: u64) -> Result<()> {
     let label = dir
         .file_name()
         .map(|s| s.to_string_lossy().into_owned())
@@ -266,7 +371,11 @@ fn bake_one(dir: &Path, cache: &Path, force: bool) -> Result<()> {
         pb.set_message(format!("{stage:?}"));
         pb.set_position((stage.overall(f) * 1000.0) as u64);
     };
-    let mut baked = bake::load_or_bake(dir, policy, &BakeOptions::default(), &progress)?;
+    let opts = BakeOptions {
+        memory_budget: Some(budget),
+        ..Default::default()
+    };
+    let mut baked = bake::load_or_bake(dir, policy, &opts, &progress)?;
     if force {
         // Baked without reading the cache: write the fresh entry now.
         let settings = bake::settings_json(
@@ -292,17 +401,17 @@ fn bake_one(dir: &Path, cache: &Path, force: bool) -> Result<()> {
     for w in &baked.scene.warnings {
         eprintln!("warning: {}: {w}", baked.scene.id);
     }
-    println!("scene          {}  ({})", baked.scene.id, baked.scene.name);
-    println!("patches        {}", s.patches);
-    println!("mode           {:?}", baked.transfer.mode);
+    outln!("scene          {}  ({})", baked.scene.id, baked.scene.name);
+    outln!("patches        {}", s.patches);
+    outln!("mode           {:?}", baked.transfer.mode);
     if s.from_cache {
-        println!("loaded from    cache in {:.3} s", s.load_s);
+        outln!("loaded from    cache in {:.3} s", s.load_s);
     } else {
-        println!("form factors   {:.2} s", s.form_factor_s);
-        println!("solve          {:.2} s", s.solve_s);
+        outln!("form factors   {:.2} s", s.form_factor_s);
+        outln!("solve          {:.2} s", s.solve_s);
     }
-    println!("residual       {:.2e}", s.residual);
-    println!(
+    outln!("residual       {:.2e}", s.residual);
+    outln!(
         "cache          {:.1} MB  {}",
         s.cache_bytes as f64 / 1e6,
         s.cache_path
@@ -337,20 +446,26 @@ fn radiosity(
     let sol = baked.transfer.relight(&weights);
     let report = Report::new(&baked.scene, &baked.mesh, &baked.transfer, &sol);
     if json {
-        println!("{}", serde_json::to_string_pretty(&report)?);
+        outln!("{}", serde_json::to_string_pretty(&report)?);
         return Ok(());
     }
-    println!(
+    outln!(
         "{} — {} patches; radiosity B in lm/m², illuminance E in lux (area-weighted means)",
-        baked.scene.name, baked.stats.patches
+        baked.scene.name,
+        baked.stats.patches
     );
-    println!(
+    outln!(
         "{:<20} {:>9}  {:>28} {:>9}  {:>28} {:>9}",
-        "surface", "area m²", "B (R G B)", "B lum", "E (R G B)", "E lux"
+        "surface",
+        "area m²",
+        "B (R G B)",
+        "B lum",
+        "E (R G B)",
+        "E lux"
     );
     for (name, s) in &report.surfaces {
         let rgb = |v: [f64; 3]| format!("{:>9.4} {:>9.4} {:>9.4}", v[0], v[1], v[2]);
-        println!(
+        outln!(
             "{:<20} {:>9.4}  {} {:>9.4}  {} {:>9.4}",
             name,
             s.area,
@@ -361,12 +476,15 @@ fn radiosity(
         );
     }
     let p = &report.power;
-    println!();
-    println!(
+    outln!();
+    outln!(
         "power (lm)   emitted {:.4}   absorbed {:.4}   escaped {:.4}   imbalance {:+.2e}",
-        p.emitted_lm, p.absorbed_lm, p.escaped_lm, p.imbalance
+        p.emitted_lm,
+        p.absorbed_lm,
+        p.escaped_lm,
+        p.imbalance
     );
-    println!(
+    outln!(
         "  per channel emitted {:.4}/{:.4}/{:.4}  absorbed {:.4}/{:.4}/{:.4}  escaped {:.4}/{:.4}/{:.4}",
         p.emitted[0], p.emitted[1], p.emitted[2], p.absorbed[0], p.absorbed[1], p.absorbed[2],
         p.escaped[0], p.escaped[1], p.escaped[2]
@@ -378,7 +496,7 @@ fn radiosity(
 fn info(root: &Path) -> Result<()> {
     let dirs = bake::scene_dirs(root).with_context(|| format!("reading {}", root.display()))?;
     if dirs.is_empty() {
-        println!("no scenes under {}", root.display());
+        outln!("no scenes under {}", root.display());
     }
     for d in dirs {
         match relight::scene::Scene::load(&d) {
@@ -386,7 +504,7 @@ fn info(root: &Path) -> Result<()> {
                 let mesh = relight::mesh::Mesh::build(&s);
                 let groups: Vec<String> = s.lights.iter().map(|l| l.id.clone()).collect();
                 let cams: Vec<String> = s.cameras.iter().map(|c| c.id.clone()).collect();
-                println!(
+                outln!(
                     "{:<16} {:<28} {:>6} patches  surfaces {:<3} lights [{}]  cameras [{}]",
                     s.id,
                     s.name,
@@ -396,7 +514,7 @@ fn info(root: &Path) -> Result<()> {
                     cams.join(", ")
                 );
             }
-            Err(e) => println!(
+            Err(e) => outln!(
                 "{:<16} FAILED: {e}",
                 d.file_name().unwrap_or_default().to_string_lossy()
             ),
@@ -412,7 +530,7 @@ const BENCH_CASES: [&str; 3] = ["cornell", "cornell-10k", "groups-10k"];
 
 fn bench(case: Option<String>, scenes: &Path, json: bool) -> Result<()> {
     let Some(case) = case else {
-        println!(
+        outln!(
             "{:<12} {:>7} {:>3} {:>9} {:>8} {:>8} {:>9} {:>9} {:>9} {:>10} {:>10} {:>9}",
             "case",
             "patches",
@@ -439,7 +557,7 @@ fn bench(case: Option<String>, scenes: &Path, json: bool) -> Result<()> {
             );
             let r: serde_json::Value = serde_json::from_slice(&out.stdout)?;
             let f = |k: &str| r[k].as_f64().unwrap_or(f64::NAN);
-            println!(
+            outln!(
                 "{:<12} {:>7} {:>3} {:>9} {:>8.2} {:>8.2} {:>9.2} {:>9.3} {:>9.1} {:>10.1} {:>10} {:>9.0}",
                 c,
                 r["patches"],
@@ -482,9 +600,9 @@ fn bench(case: Option<String>, scenes: &Path, json: bool) -> Result<()> {
     };
     let r = relight::bench::run_case(&case, &dir, &opts)?;
     if json {
-        println!("{}", serde_json::to_string(&r)?);
+        outln!("{}", serde_json::to_string(&r)?);
     } else {
-        println!("{}", serde_json::to_string_pretty(&r)?);
+        outln!("{}", serde_json::to_string_pretty(&r)?);
     }
     Ok(())
 }
@@ -616,7 +734,7 @@ fn render(a: RenderArgs) -> Result<()> {
     };
     let t_img = t1.elapsed();
     std::fs::write(&a.output, &bytes).with_context(|| format!("writing {}", a.output.display()))?;
-    println!(
+    outln!(
         "{} {}×{}: view buffer {:.1} ms, relit image {:.1} ms, {} bytes",
         a.output.display(),
         a.width,

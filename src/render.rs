@@ -249,6 +249,16 @@ fn samples_per_side(cam: &Camera) -> u32 {
 }
 
 impl ViewBuffer {
+    /// Peak bytes that [`ViewBuffer::build`] may allocate for `cam`, an upper bound: the
+    /// supersampled depth and sample buffers (16 bytes per sample) plus the resolved
+    /// rows, with at most 3 vertices per sample (8 bytes each) and 8 bytes per pixel of
+    /// offsets and picking ids, twice while rows are joined.
+    pub fn estimate_bytes(cam: &Camera) -> u64 {
+        let s = samples_per_side(cam) as u64;
+        let px = cam.width as u64 * cam.height as u64;
+        px * (16 * s * s + 2 * (3 * s * s * 8 + 8))
+    }
+
     /// Rasterizes `mesh` seen by `cam`.
     pub fn build(mesh: &Mesh, shading: &Shading, cam: &Camera) -> ViewBuffer {
         let s = samples_per_side(cam);
@@ -349,10 +359,15 @@ impl ViewBuffer {
                 (counts, svs, wts, centre)
             })
             .collect();
+        // The samples are resolved: free them before the rows are joined, and join into
+        // buffers of the exact size (no doubling).
+        drop(depth);
+        drop(sample);
+        let entries: usize = rows.iter().map(|r| r.1.len()).sum();
         let mut start = Vec::with_capacity(w * h + 1);
         start.push(0u32);
-        let mut sv = Vec::new();
-        let mut weight = Vec::new();
+        let mut sv = Vec::with_capacity(entries);
+        let mut weight = Vec::with_capacity(entries);
         let mut center_patch = Vec::with_capacity(w * h);
         for (counts, s, wt, c) in rows {
             for n in counts {
@@ -418,9 +433,12 @@ impl ViewBuffer {
         self.width as usize * self.height as usize
     }
 
-    /// Memory held, bytes.
+    /// Memory held, bytes (allocated capacity, not length).
     pub fn bytes(&self) -> usize {
-        4 * (self.start.len() + self.sv.len() + self.weight.len() + self.center_patch.len())
+        4 * (self.start.capacity()
+            + self.sv.capacity()
+            + self.weight.capacity()
+            + self.center_patch.capacity())
     }
 }
 
@@ -509,9 +527,15 @@ impl GroupImages {
         tonemap_pixels(n, |i| self.pixel(i, weights), exposure, tm)
     }
 
-    /// Memory held, bytes.
+    /// Memory held, bytes (allocated capacity).
     pub fn bytes(&self) -> usize {
-        4 * self.data.len()
+        4 * self.data.capacity()
+    }
+
+    /// Peak bytes [`GroupImages::build`] allocates for `groups` groups on `view`: one
+    /// linear image per group, then the interleaved copy.
+    pub fn estimate_bytes(view: &ViewBuffer, groups: usize) -> u64 {
+        2 * 12 * groups as u64 * view.pixels() as u64
     }
 }
 
@@ -710,7 +734,8 @@ pub fn tonemap(img: &[Rgb], exposure: f32, tm: ToneMap) -> Vec<u8> {
 /// False colour: a perceptual blue→green→yellow→red scale of luminance over
 /// `[lo, hi]` on a log10 axis, with a legend bar on the right edge labelled in lux.
 pub fn false_color(img: &[Rgb], width: u32, height: u32, lo: f32, hi: f32) -> Vec<u8> {
-    let (l0, l1) = (lo.max(1e-9).log10(), hi.max(lo * 1.0001).max(1e-9).log10());
+    let (lo, hi) = false_color_range(lo, hi);
+    let (l0, l1) = (lo.log10(), hi.log10());
     let mut out: Vec<u8> = img
         .par_iter()
         .flat_map_iter(|p| {
@@ -727,12 +752,34 @@ pub fn false_color(img: &[Rgb], width: u32, height: u32, lo: f32, hi: f32) -> Ve
     out
 }
 
+/// Smallest and largest lux values the false-colour scale shows.
+pub const FALSE_COLOR_MIN_LUX: f32 = 1e-6;
+pub const FALSE_COLOR_MAX_LUX: f32 = 1e12;
+
+/// A usable false-colour range: both ends clamped to
+/// [`FALSE_COLOR_MIN_LUX`]..[`FALSE_COLOR_MAX_LUX`] (NaN counts as the low end), and the high
+/// end above the low one.
+pub fn false_color_range(lo: f32, hi: f32) -> (f32, f32) {
+    let clamp = |v: f32| {
+        if v.is_nan() {
+            FALSE_COLOR_MIN_LUX
+        } else {
+            v.clamp(FALSE_COLOR_MIN_LUX, FALSE_COLOR_MAX_LUX)
+        }
+    };
+    let lo = clamp(lo).min(FALSE_COLOR_MAX_LUX / 1.01);
+    let hi = clamp(hi).max(lo * 1.01);
+    (lo, hi)
+}
+
 /// The false-colour legend: a bar 1/24 of the width at the right edge (high values at the
 /// top), with lux labels at round values (1, 2, 5 × 10^k) drawn on dark plates.
 fn legend(out: &mut [u8], width: u32, height: u32, lo: f32, hi: f32) {
     let bar = (width / 24).max(4);
     let log = |v: f32| v.max(1e-9).log10();
-    let (l0, l1) = (log(lo), log(hi.max(lo * 1.0001)));
+    // Within the clamped range the tick loop runs over at most 19 decades.
+    let (lo, hi) = false_color_range(lo, hi);
+    let (l0, l1) = (log(lo), log(hi));
     for y in 0..height {
         let t = 1.0 - y as f32 / (height.max(2) - 1) as f32;
         let c = scale_color(t);
@@ -927,11 +974,7 @@ const JPEG_QUALITY: u8 = 90;
 /// followed by all strips' entropy data, joined and renumbered with RST markers, is one
 /// valid JPEG that decodes to exactly the pixels a single-threaded encode gives.
 pub fn encode_jpeg(rgb: &[u8], w: u32, h: u32) -> Result<Vec<u8>, String> {
-    let mcu_rows = h.div_ceil(16);
-    let strips = (rayon::current_num_threads() as u32)
-        .clamp(1, 8)
-        .min(mcu_rows);
-    let strip_rows = mcu_rows.div_ceil(strips.max(1)) * 16;
+    let (strips, strip_rows) = jpeg_strips(h, rayon::current_num_threads());
     let encode = |y0: u32, y1: u32, restart: bool| -> Result<Vec<u8>, String> {
         let mut out = Vec::with_capacity((w * (y1 - y0)) as usize / 4);
         let mut enc = jpeg_encoder::Encoder::new(&mut out, JPEG_QUALITY);
@@ -984,6 +1027,16 @@ pub fn encode_jpeg(rgb: &[u8], w: u32, h: u32) -> Result<Vec<u8>, String> {
     }
     out.extend_from_slice(&[0xFF, 0xD9]);
     Ok(out)
+}
+
+/// How to cut an image of height `h` into strips for `threads` threads: the number of
+/// strips and the rows per strip (a multiple of the 16-row MCU). Every strip is non-empty:
+/// `(strips − 1) · rows < h ≤ strips · rows`.
+pub fn jpeg_strips(h: u32, threads: usize) -> (u32, u32) {
+    let mcu_rows = h.div_ceil(16).max(1);
+    let wanted = (threads.clamp(1, 8) as u32).min(mcu_rows);
+    let per = mcu_rows.div_ceil(wanted);
+    (mcu_rows.div_ceil(per), per * 16)
 }
 
 /// Offsets of the SOF0 marker and of the first entropy-coded byte after SOS.
@@ -1112,5 +1165,73 @@ mod tests {
             assert_eq!(a.dimensions(), (w, h));
             assert!(a.as_raw() == b.as_raw(), "{w}x{h}: pixels differ");
         }
+    }
+
+    #[test]
+    fn jpeg_strip_split_panicked_with_more_threads_than_strips() {
+        // Every height and thread count: strips are non-empty and cover the image.
+        for threads in 1..=16 {
+            for h in 1..=600u32 {
+                let (strips, rows) = jpeg_strips(h, threads);
+                assert!(strips >= 1 && rows % 16 == 0, "h {h} threads {threads}");
+                assert!(
+                    (strips - 1) * rows < h && h <= strips * rows,
+                    "h {h} threads {threads}"
+                );
+            }
+        }
+        // The heights of the report, encoded for real on 1..16 threads.
+        for threads in 1..=16 {
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap();
+            for h in [1u32, 15, 17, 130, 150, 200] {
+                let w = 40;
+                let rgb: Vec<u8> = (0..3 * w * h).map(|i| (i % 251) as u8).collect();
+                let jpeg = pool.install(|| encode_jpeg(&rgb, w, h)).unwrap();
+                let img = image::load_from_memory_with_format(&jpeg, image::ImageFormat::Jpeg)
+                    .unwrap()
+                    .to_rgb8();
+                assert_eq!(img.dimensions(), (w, h), "threads {threads}");
+            }
+        }
+    }
+
+    #[test]
+    fn false_color_range_to_1e39_allocated_until_abort() {
+        // 1e39 lux is +inf as f32: the legend's tick loop ran over 2^31 decades.
+        let img = vec![[1.0f32; 3]; 64 * 48];
+        for (lo, hi) in [
+            (1.0, f32::INFINITY),
+            (f32::NAN, f32::NAN),
+            (0.0, 0.0),
+            (f32::MAX, f32::MAX),
+            (-5.0, -1.0),
+            (1e-30, 1e30),
+        ] {
+            let out = false_color(&img, 64, 48, lo, hi);
+            assert_eq!(out.len(), 3 * 64 * 48);
+            let (a, b) = false_color_range(lo, hi);
+            assert!(
+                a.is_finite() && b.is_finite() && b > a && a > 0.0,
+                "{lo} {hi}"
+            );
+        }
+    }
+
+    #[test]
+    fn view_buffer_estimate_bounds_the_real_size() {
+        let cam = Camera {
+            position: Vec3::new(0.0, 0.0, 5.0),
+            target: Vec3::ZERO,
+            up: Vec3::Y,
+            fov_deg: 40.0,
+            width: 4096,
+            height: 4096,
+        };
+        // 4096² at 2×2 samples: about 2.7 GB at most.
+        let e = ViewBuffer::estimate_bytes(&cam);
+        assert!(e > 2_000_000_000 && e < 3_500_000_000, "{e}");
     }
 }

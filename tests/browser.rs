@@ -221,6 +221,7 @@ async fn the_page_relights_live_in_headless_chromium() {
         static_dir: Path::new(env!("CARGO_MANIFEST_DIR")).join("static"),
         cors_origins: vec![],
         body_limit: DEFAULT_BODY_LIMIT,
+        ..ServerConfig::default()
     })
     .unwrap();
     let st = state.clone();

@@ -22,6 +22,7 @@ fn config(scenes: std::path::PathBuf, cache: std::path::PathBuf) -> ServerConfig
         static_dir: std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("static"),
         cors_origins: vec![],
         body_limit: DEFAULT_BODY_LIMIT,
+        ..ServerConfig::default()
     }
 }
 
@@ -220,6 +221,7 @@ async fn radiosity_json_equals_the_library() {
 #[tokio::test]
 async fn radiosity_binary_equals_the_library() {
     let req = Request::post("/api/scenes/cornell-box/radiosity")
+        .header(header::CONTENT_TYPE, "application/json")
         .header(header::ACCEPT, "application/octet-stream")
         .body(Body::from(
             r#"{"lights": {"ceiling": {"color": [1, 0.6, 0.3]}}}"#,
@@ -361,14 +363,9 @@ async fn bad_requests_get_precise_problems() {
 #[tokio::test]
 async fn oversized_bodies_get_413() {
     let base = state();
-    let small = Arc::new(AppState {
-        config: ServerConfig {
-            body_limit: 1000,
-            ..base.config.clone()
-        },
-        slots: base.slots.clone(),
-        metrics: Default::default(),
-        views: Default::default(),
+    let small = base.reconfigured(ServerConfig {
+        body_limit: 1000,
+        ..base.config.clone()
     });
     let body = format!(r#"{{"lights": {{}}, "pad": "{}"}}"#, "x".repeat(5000));
     let (s, h, v) = post(router(small), "/api/scenes/cornell-box/radiosity", body).await;
@@ -589,14 +586,9 @@ async fn openapi_metrics_and_cors() {
     let (_, h, _) = send(app(), req).await;
     assert!(h.get(header::ACCESS_CONTROL_ALLOW_ORIGIN).is_none());
     let base = state();
-    let open = Arc::new(AppState {
-        config: ServerConfig {
-            cors_origins: vec!["http://studio.example".into()],
-            ..base.config.clone()
-        },
-        slots: base.slots.clone(),
-        metrics: Default::default(),
-        views: Default::default(),
+    let open = base.reconfigured(ServerConfig {
+        cors_origins: vec!["http://studio.example".into()],
+        ..base.config.clone()
     });
     let req = Request::get("/api/scenes")
         .header(header::ORIGIN, "http://studio.example")
@@ -633,6 +625,7 @@ async fn real_server_on_a_loopback_port_relights_the_cornell_box() {
     let resp = client
         .post(format!("{base}/api/scenes/cornell-box/radiosity"))
         .header("accept", "application/octet-stream")
+        .header("content-type", "application/json")
         .body(r#"{"lights": {"ceiling": 0.7}}"#)
         .send()
         .await
@@ -672,6 +665,7 @@ async fn render_endpoints_return_images_and_precise_errors() {
     for (fmt, ct) in [("jpeg", "image/jpeg"), ("exr", "image/x-exr")] {
         let body = json!({"camera": "front", "width": 32, "height": 32, "format": fmt}).to_string();
         let r = Request::post("/api/scenes/cornell-box/render")
+            .header(header::CONTENT_TYPE, "application/json")
             .body(Body::from(body))
             .unwrap();
         let (s, h, b) = send(app(), r).await;
@@ -686,6 +680,7 @@ async fn render_endpoints_return_images_and_precise_errors() {
     let (s, h, _) = send(
         app(),
         Request::post("/api/scenes/cornell-box/render")
+            .header(header::CONTENT_TYPE, "application/json")
             .body(Body::from(body.to_string()))
             .unwrap(),
     )
@@ -748,6 +743,7 @@ async fn mesh_and_per_patch_illuminance_let_a_client_shade_like_the_server() {
     }
     // Vertex colours from the CSR weights and the binary radiosity match the renderer's.
     let req = Request::post("/api/scenes/desk-room/radiosity")
+        .header(header::CONTENT_TYPE, "application/json")
         .header(header::ACCEPT, "application/octet-stream")
         .body(Body::from(r#"{"lights": {"lamp": 0.4}}"#))
         .unwrap();
@@ -783,6 +779,7 @@ async fn mesh_and_per_patch_illuminance_let_a_client_shade_like_the_server() {
         .collect();
     let h_want = r.baked.transfer.relight(&weights).h;
     let req = Request::post("/api/scenes/desk-room/radiosity")
+        .header(header::CONTENT_TYPE, "application/json")
         .header(header::ACCEPT, "application/octet-stream")
         .body(Body::from(
             r#"{"lights": {"lamp": 0.4}, "quantity": "illuminance"}"#,

@@ -15,7 +15,7 @@ use serde_json::{json, Map, Value};
 
 use super::{AppError, AppState, Ready};
 use crate::color::Rgb;
-use crate::lighting::{known_ids, LightSetting, LightState};
+use crate::lighting::{known_ids, LightSetting, LightState, MAX_INTENSITY};
 use crate::report::{surface_averages, surface_illuminance, Lux, PowerReport, SurfaceIlluminance};
 use crate::transfer::{Solution, TransferMode};
 
@@ -25,6 +25,8 @@ pub const MAX_EMISSION: f64 = 1e9;
 pub const MAX_BATCH: usize = 1000;
 /// Most points in one illuminance request.
 pub const MAX_POINTS: usize = 10_000;
+/// Largest coordinate accepted in a request (points, cameras), metres.
+pub const MAX_COORDINATE: f64 = 1e6;
 
 type ApiResult = Result<Response, AppError>;
 
@@ -226,26 +228,26 @@ pub async fn mesh(State(state): State<Arc<AppState>>, Path(id): Path<String>) ->
 
 // ---------------------------------------------------------------------------- parsing
 
-/// Parses a JSON object body; 400 for syntax, 413 for size, 415 for content type.
-pub fn parse_body(
+/// Bodies above this size are parsed on the blocking pool, under the memory budget.
+pub const INLINE_PARSE_BYTES: usize = 64 << 10;
+/// Bytes of parsed `serde_json::Value` per byte of JSON text, at most (arrays of small
+/// numbers are the worst case).
+const PARSED_BYTES_PER_BYTE: u64 = 12;
+
+/// Parses a JSON object body: 413 for size, 415 for a content type that is not JSON,
+/// 400 for syntax, 422 for a non-object or a repeated key. An empty body is `{}`.
+/// Large bodies are parsed off the async runtime.
+pub async fn parse_body(
+    state: &Arc<AppState>,
     headers: &HeaderMap,
     body: Result<Bytes, BytesRejection>,
 ) -> Result<Map<String, Value>, AppError> {
-    // Multipart bodies are never JSON; anything else (curl's default form type included)
-    // is parsed as JSON and judged by its content.
-    if let Some(ct) = headers
-        .get(header::CONTENT_TYPE)
-        .and_then(|v| v.to_str().ok())
-    {
-        if ct.starts_with("multipart/") {
-            return Err(AppError::UnsupportedMediaType(format!(
-                "content type '{ct}': send application/json"
-            )));
-        }
-    }
     let body = body.map_err(|e| {
         if e.status() == StatusCode::PAYLOAD_TOO_LARGE {
-            AppError::TooLarge(format!("request body exceeds the limit: {}", e.body_text()))
+            AppError::TooLarge(format!(
+                "the request body exceeds the limit of {} bytes (--body-limit)",
+                state.config.body_limit
+            ))
         } else {
             AppError::BadRequest(e.body_text())
         }
@@ -253,14 +255,21 @@ pub fn parse_body(
     if body.is_empty() {
         return Ok(Map::new());
     }
-    match serde_json::from_slice::<Value>(&body) {
-        Ok(Value::Object(m)) => Ok(m),
-        Ok(_) => Err(AppError::Invalid("the body must be a JSON object".into())),
-        Err(e) if e.is_syntax() || e.is_eof() => {
-            Err(AppError::BadRequest(format!("malformed JSON: {e}")))
-        }
-        Err(e) => Err(AppError::Invalid(format!("invalid JSON: {e}"))),
+    super::json::require_json(headers)?;
+    if body.len() <= INLINE_PARSE_BYTES {
+        return super::json::parse_object(&body);
     }
+    let what = format!(
+        "parsing a {} request body",
+        crate::budget::human_bytes(body.len() as u64)
+    );
+    state
+        .heavy(
+            PARSED_BYTES_PER_BYTE * body.len() as u64,
+            &what,
+            move |_| super::json::parse_object(&body),
+        )
+        .await
 }
 
 pub fn check_keys(body: &Map<String, Value>, allowed: &[&str]) -> Result<(), AppError> {
@@ -278,16 +287,92 @@ pub fn check_keys(body: &Map<String, Value>, allowed: &[&str]) -> Result<(), App
 pub fn number(v: &Value, what: &str) -> Result<f64, AppError> {
     let x = v
         .as_f64()
-        .ok_or_else(|| AppError::Invalid(format!("{what} must be a number, got {v}")))?;
-    if !x.is_finite() {
-        return Err(AppError::Invalid(format!("{what} must be finite")));
+        .ok_or_else(|| AppError::Invalid(format!("{what} must be a number, got {}", shown(v))))?;
+    // Numbers are computed in f32: anything beyond its range would become infinite.
+    if !x.is_finite() || x.abs() > f32::MAX as f64 {
+        return Err(AppError::Invalid(format!(
+            "{what} must be finite in 32-bit floating point (|x| ≤ 3.4e38), got {}",
+            num(x)
+        )));
     }
     Ok(x)
 }
 
+/// A number for a message: plain when moderate, else in exponent form.
+pub fn num(x: f64) -> String {
+    if x == 0.0 || (1e-4..1e7).contains(&x.abs()) {
+        format!("{x}")
+    } else {
+        format!("{x:e}")
+    }
+}
+
+/// A JSON value for a message, cut short.
+pub fn shown(v: &Value) -> String {
+    shorten(&v.to_string())
+}
+
+/// A number in `[lo, hi]` (both finite, within f32 range).
+pub fn bounded(v: &Value, what: &str, lo: f64, hi: f64) -> Result<f64, AppError> {
+    let x = number(v, what)?;
+    if x > hi {
+        return Err(AppError::Invalid(format!(
+            "{what} = {} exceeds the limit: must be in [{}, {}]",
+            num(x),
+            num(lo),
+            num(hi)
+        )));
+    }
+    if x < lo {
+        return Err(AppError::Invalid(format!(
+            "{what} = {}: must be ≥ {} (the range is [{}, {}])",
+            num(x),
+            num(lo),
+            num(lo),
+            num(hi)
+        )));
+    }
+    Ok(x)
+}
+
+/// Three numbers, each in `[-limit, limit]`.
+pub fn bounded_triple(v: &Value, what: &str, limit: f64) -> Result<[f64; 3], AppError> {
+    let t = triple(v, what)?;
+    if t.iter().any(|x| x.abs() > limit) {
+        return Err(AppError::Invalid(format!(
+            "{what} = [{}, {}, {}]: each coordinate must be within ±{}",
+            num(t[0]),
+            num(t[1]),
+            num(t[2]),
+            num(limit)
+        )));
+    }
+    Ok(t)
+}
+
+/// A direction: three numbers, not all zero, normalised (the scaling keeps huge and tiny
+/// components from overflowing or vanishing).
+pub fn direction(v: &Value, what: &str) -> Result<DVec3, AppError> {
+    let d = DVec3::from_array(triple(v, what)?);
+    let m = d.abs().max_element();
+    if !(m > 0.0 && m.is_finite()) {
+        return Err(AppError::Invalid(format!("{what} must not be zero")));
+    }
+    let u = (d / m).normalize();
+    if !u.is_finite() || u.length() < 0.5 {
+        return Err(AppError::Invalid(format!(
+            "{what} is not a usable direction"
+        )));
+    }
+    Ok(u)
+}
+
 pub fn triple(v: &Value, what: &str) -> Result<[f64; 3], AppError> {
     let arr = v.as_array().filter(|a| a.len() == 3).ok_or_else(|| {
-        AppError::Invalid(format!("{what} must be an array of three numbers, got {v}"))
+        AppError::Invalid(format!(
+            "{what} must be an array of three numbers, got {}",
+            shown(v)
+        ))
     })?;
     Ok([
         number(&arr[0], what)?,
@@ -303,7 +388,8 @@ pub fn parse_lights(v: Option<&Value>, ready: &Ready) -> Result<Vec<Rgb>, AppErr
     if let Some(v) = v {
         let obj = v.as_object().ok_or_else(|| {
             AppError::Invalid(format!(
-                "'lights' must be an object of group settings, got {v}"
+                "'lights' must be an object of group settings, got {}",
+                shown(v)
             ))
         })?;
         for (id, s) in obj {
@@ -328,20 +414,29 @@ pub fn parse_lights(v: Option<&Value>, ready: &Ready) -> Result<Vec<Rgb>, AppErr
                         }
                     }
                     if let Some(i) = o.get("intensity") {
-                        setting.intensity = number(i, &format!("light '{id}' intensity"))? as f32;
+                        setting.intensity = intensity(i, &format!("light '{id}' intensity"))?;
                     }
                     if let Some(c) = o.get("color") {
-                        setting.color =
-                            triple(c, &format!("light '{id}' color"))?.map(|x| x as f32);
+                        let what = format!("light '{id}' color");
+                        let t = triple(c, &what)?;
+                        for x in t {
+                            bounded(&Value::from(x), &what, 0.0, MAX_INTENSITY as f64)?;
+                        }
+                        setting.color = t.map(|x| x as f32);
                     }
                 }
-                other => setting.intensity = number(other, &format!("light '{id}'"))? as f32,
+                other => setting.intensity = intensity(other, &format!("light '{id}'"))?,
             }
             setting.validate(id)?;
             state.lights.insert(id.clone(), setting);
         }
     }
     Ok(state.weights(scene)?)
+}
+
+/// An intensity (dimming factor) in `[0, MAX_INTENSITY]`.
+fn intensity(v: &Value, what: &str) -> Result<f32, AppError> {
+    Ok(bounded(v, what, 0.0, MAX_INTENSITY as f64)? as f32)
 }
 
 /// Per-patch emission, dense `[[r,g,b], …]` or sparse `{"<index>": [r,g,b]}`.
@@ -383,9 +478,17 @@ fn parse_emission(v: &Value, ready: &Ready) -> Result<Vec<f32>, AppError> {
         }
         Value::Object(o) => {
             for (k, val) in o {
-                let i: usize = k.parse().map_err(|_| {
-                    AppError::Invalid(format!("emission key '{k}' is not a patch index"))
-                })?;
+                // Canonical decimal indices only: "+1", "01" or " 1" would alias patch 1.
+                let i: usize = k
+                    .parse()
+                    .ok()
+                    .filter(|i: &usize| i.to_string() == *k)
+                    .ok_or_else(|| {
+                        AppError::Invalid(format!(
+                            "emission key '{}' is not a patch index (a decimal number without sign or leading zeros)",
+                            k.chars().take(40).collect::<String>()
+                        ))
+                    })?;
                 if i >= n {
                     return Err(AppError::Invalid(format!(
                         "emission patch index {i} out of range (the scene has {n} patches)"
@@ -404,16 +507,7 @@ fn parse_emission(v: &Value, ready: &Ready) -> Result<Vec<f32>, AppError> {
     Ok(e)
 }
 
-fn kind(v: &Value) -> &'static str {
-    match v {
-        Value::Null => "null",
-        Value::Bool(_) => "a boolean",
-        Value::Number(_) => "a number",
-        Value::String(_) => "a string",
-        Value::Array(_) => "an array",
-        Value::Object(_) => "an object",
-    }
-}
+use super::json::kind;
 
 /// A lighting request: group settings or a per-patch emission.
 pub enum Lighting {
@@ -443,14 +537,6 @@ pub fn solve_for(ready: &Ready, l: &Lighting) -> Result<Solution, AppError> {
     }
 }
 
-pub async fn blocking<T: Send + 'static>(
-    f: impl FnOnce() -> Result<T, AppError> + Send + 'static,
-) -> Result<T, AppError> {
-    tokio::task::spawn_blocking(f)
-        .await
-        .map_err(|e| AppError::Internal(format!("worker failed: {e}")))?
-}
-
 fn surface_list(v: Option<&Value>, ready: &Ready) -> Result<Vec<usize>, AppError> {
     let scene = &ready.baked.scene;
     let Some(v) = v else { return Ok(vec![]) };
@@ -460,20 +546,43 @@ fn surface_list(v: Option<&Value>, ready: &Ready) -> Result<Vec<usize>, AppError
             kind(v)
         ))
     })?;
-    arr.iter()
-        .map(|s| {
-            let name = s.as_str().ok_or_else(|| {
-                AppError::Invalid(format!("surface names must be strings, got {s}"))
-            })?;
-            scene.surface_index(name).ok_or_else(|| {
-                let known: Vec<&str> = scene.surfaces.iter().map(|s| s.name.as_str()).collect();
-                AppError::Invalid(format!(
-                    "unknown surface '{name}' (known: {})",
-                    known.join(", ")
-                ))
-            })
-        })
-        .collect()
+    let mut out: Vec<usize> = Vec::with_capacity(arr.len().min(scene.surfaces.len()));
+    for s in arr {
+        let name = s.as_str().ok_or_else(|| {
+            AppError::Invalid(format!("surface names must be strings, got {}", kind(s)))
+        })?;
+        let i = scene.surface_index(name).ok_or_else(|| {
+            AppError::Invalid(format!(
+                "unknown surface '{}' (known: {})",
+                shorten(name),
+                shorten(
+                    &scene
+                        .surfaces
+                        .iter()
+                        .map(|s| s.name.as_str())
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                )
+            ))
+        })?;
+        if out.contains(&i) {
+            return Err(AppError::Invalid(format!(
+                "surface '{name}' is listed twice in 'surfaces'"
+            )));
+        }
+        out.push(i);
+    }
+    Ok(out)
+}
+
+/// A client-supplied string cut to a length fit for a message.
+pub fn shorten(s: &str) -> String {
+    const MAX: usize = 200;
+    if s.chars().count() <= MAX {
+        s.to_string()
+    } else {
+        format!("{}…", s.chars().take(MAX).collect::<String>())
+    }
 }
 
 fn surface_stats(
@@ -498,22 +607,23 @@ fn flag(body: &Map<String, Value>, key: &str) -> Result<bool, AppError> {
         None => Ok(false),
         Some(Value::Bool(b)) => Ok(*b),
         Some(v) => Err(AppError::Invalid(format!(
-            "'{key}' must be true or false, got {v}"
+            "'{key}' must be true or false, got {}",
+            shown(v)
         ))),
     }
 }
 
 /// The common start of a POST handler: the ready scene and the parsed body, whose
 /// top-level fields must be among `allowed`.
-pub fn begin(
-    state: &AppState,
+pub async fn begin(
+    state: &Arc<AppState>,
     id: &str,
     headers: &HeaderMap,
     body: Result<Bytes, BytesRejection>,
     allowed: &[&str],
 ) -> Result<(Arc<Ready>, Map<String, Value>), AppError> {
     let ready = state.slot(id)?.ready()?;
-    let body = parse_body(headers, body)?;
+    let body = parse_body(state, headers, body).await?;
     check_keys(&body, allowed)?;
     Ok((ready, body))
 }
@@ -532,7 +642,8 @@ pub async fn radiosity(
         &headers,
         body,
         &["lights", "emission", "surfaces", "quantity"],
-    )?;
+    )
+    .await?;
     let want_surfaces = flag(&body, "surfaces")?;
     // Per patch: radiosity B (lm/m², leaving) or incident illuminance H (lux, arriving).
     let illuminance = match body.get("quantity") {
@@ -541,7 +652,7 @@ pub async fn radiosity(
         Some(Value::String(q)) if q == "illuminance" => true,
         Some(v) => {
             return Err(AppError::Invalid(format!(
-                "'quantity' must be \"radiosity\" (lm/m2, leaving) or \"illuminance\" (lux, arriving), got {v}"
+                "'quantity' must be \"radiosity\" (lm/m2, leaving) or \"illuminance\" (lux, arriving), got {}", shown(v)
             )))
         }
     };
@@ -560,41 +671,53 @@ pub async fn radiosity(
     };
     let lighting = parse_lighting(&body, &ready)?;
     let n = ready.baked.transfer.n;
-    let b = &ready.baked;
-    let relight = |w: &[Rgb]| {
+    let binary_out = wants_binary(&headers);
+    // The hot path: group weights and binary out, no surfaces: one weighted sum (a memory
+    // stream of n × groups floats), answered inline.
+    if let (Lighting::Groups(w), true, false) = (&lighting, binary_out, want_surfaces) {
         let mut out = vec![0f32; 3 * n];
         if illuminance {
-            b.transfer.illuminance_into(w, &mut out);
+            ready.baked.transfer.illuminance_into(w, &mut out);
         } else {
-            b.transfer.relight_into(w, &mut out);
+            ready.baked.transfer.relight_into(w, &mut out);
         }
-        out
-    };
-    // The hot path: group weights and binary out, no surfaces: one weighted sum.
-    if let (Lighting::Groups(w), true, false) = (&lighting, wants_binary(&headers), want_surfaces) {
-        return Ok(binary(relight(w), n, layout));
+        return Ok(binary(out, n, layout));
     }
-    let (values, surfaces) = match lighting {
-        Lighting::Groups(w) if !want_surfaces => (relight(&w), None),
-        l => {
-            let r2 = ready.clone();
-            let sol = match l {
-                l @ Lighting::Emission(_) => blocking(move || solve_for(&r2, &l)).await?,
-                l => solve_for(&ready, &l)?,
-            };
+    // Everything else (exact solves, JSON text of n triples) runs off the runtime.
+    let bytes = BYTES_PER_PATCH_ANSWER * n as u64;
+    let what = format!("the radiosity answer for {n} patches");
+    state
+        .heavy(bytes, &what, move |_| {
+            let b = &ready.baked;
+            let sol = solve_for(&ready, &lighting)?;
             let surfaces = want_surfaces.then(|| surface_averages(&b.scene, &b.mesh, &sol));
-            (if illuminance { sol.h } else { sol.b }, surfaces)
-        }
-    };
-    if wants_binary(&headers) {
-        return Ok(binary(values, n, layout));
-    }
-    // Written by hand: the float array dominates, and ryu into one buffer is ~2x faster
-    // than going through serde for 30,000 numbers.
+            let values = if illuminance { sol.h } else { sol.b };
+            if binary_out {
+                return Ok(binary(values, n, layout));
+            }
+            Ok(radiosity_json(&b.scene.id, unit, key, &values, surfaces))
+        })
+        .await
+}
+
+/// Bytes a per-patch answer may hold per patch: the solution (b, h, e: 36), the values
+/// copied out (12) and JSON text (3 numbers of up to 16 characters, 50).
+pub const BYTES_PER_PATCH_ANSWER: u64 = 100;
+
+/// Written by hand: the float array dominates, and ryu into one buffer is ~2x faster
+/// than going through serde for 30,000 numbers.
+fn radiosity_json(
+    scene: &str,
+    unit: &str,
+    key: &str,
+    values: &[f32],
+    surfaces: Option<BTreeMap<String, crate::report::SurfaceAverage>>,
+) -> Response {
+    let n = values.len() / 3;
     let mut out = String::with_capacity(40 * n + 256);
     out.push_str(&format!(
         "{{\"scene\":{},\"patches\":{n},\"unit\":\"{unit}\",\"{key}\":[",
-        Value::from(b.scene.id.as_str())
+        Value::from(scene)
     ));
     let mut fb = ryu::Buffer::new();
     for (i, t) in values.chunks_exact(3).enumerate() {
@@ -606,17 +729,24 @@ pub async fn radiosity(
             if c > 0 {
                 out.push(',');
             }
-            out.push_str(fb.format_finite(*v));
+            out.push_str(if v.is_finite() {
+                fb.format_finite(*v)
+            } else {
+                "null"
+            });
         }
         out.push(']');
     }
     out.push(']');
     if let Some(s) = surfaces {
         out.push_str(",\"surfaces\":");
-        out.push_str(&serde_json::to_string(&s).map_err(|e| AppError::Internal(e.to_string()))?);
+        match serde_json::to_string(&s) {
+            Ok(text) => out.push_str(&text),
+            Err(e) => return AppError::Internal(e.to_string()).into_response(),
+        }
     }
     out.push('}');
-    Ok(([(header::CONTENT_TYPE, "application/json")], out).into_response())
+    ([(header::CONTENT_TYPE, "application/json")], out).into_response()
 }
 
 fn parse_points(v: &Value) -> Result<Vec<(DVec3, DVec3)>, AppError> {
@@ -644,21 +774,16 @@ fn parse_points(v: &Value) -> Result<Vec<(DVec3, DVec3)>, AppError> {
                     )));
                 }
             }
-            let pos = triple(
+            let pos = bounded_triple(
                 o.get("position").unwrap_or(&Value::Null),
                 &format!("points[{k}].position"),
+                MAX_COORDINATE,
             )?;
-            let nrm = triple(
+            let n = direction(
                 o.get("normal").unwrap_or(&Value::Null),
                 &format!("points[{k}].normal"),
             )?;
-            let n = DVec3::from_array(nrm);
-            if n.length() < 1e-9 {
-                return Err(AppError::Invalid(format!(
-                    "points[{k}].normal must not be zero"
-                )));
-            }
-            Ok((DVec3::from_array(pos), n.normalize()))
+            Ok((DVec3::from_array(pos), n))
         })
         .collect()
 }
@@ -675,7 +800,8 @@ pub async fn illuminance(
         &headers,
         body,
         &["lights", "emission", "surfaces", "points", "grids"],
-    )?;
+    )
+    .await?;
     let lighting = parse_lighting(&body, &ready)?;
     let mut surfaces = surface_list(body.get("surfaces"), &ready)?;
     let grids = grid_list(body.get("grids"), &ready)?;
@@ -703,7 +829,16 @@ pub async fn illuminance(
         }))
         .into_response());
     }
-    let work = move |ready: Arc<Ready>| -> Result<Value, AppError> {
+    let n = ready.baked.transfer.n as u64;
+    let grid_points: u64 = grids.iter().map(|&g| ready.grids[g].len() as u64).sum();
+    let bytes = BYTES_PER_PATCH_ANSWER * n + 400 * (points.len() as u64 + grid_points);
+    let what = format!(
+        "illuminance at {} points and {grid_points} grid points",
+        points.len()
+    );
+    let work = move |ready: Arc<Ready>,
+                     cancel: &super::limits::Cancel|
+          -> Result<Value, AppError> {
         let sol = solve_for(&ready, &lighting)?;
         let stats = surface_stats(&ready, &surfaces, &sol.h);
         let b = &ready.baked;
@@ -725,7 +860,20 @@ pub async fn illuminance(
             }
             e
         };
-        let pts: Vec<Lux> = points.iter().map(|(x, n)| Lux::new(at(*x, *n))).collect();
+        // Points in parallel; each checks whether the client is still there.
+        use rayon::prelude::*;
+        let at_checked = |x: DVec3, n: DVec3| -> [f64; 3] {
+            if cancel.is_cancelled() {
+                [0.0; 3]
+            } else {
+                at(x, n)
+            }
+        };
+        let pts: Vec<Lux> = points
+            .par_iter()
+            .map(|(x, n)| Lux::new(at_checked(*x, *n)))
+            .collect();
+        cancel.check()?;
         let grids: Map<String, Value> = match weights {
             Some(w) => grid_answers(&ready, &grids, w),
             None => grids
@@ -735,20 +883,24 @@ pub async fn illuminance(
                     let n = DVec3::from_array(g.normal);
                     let values: Vec<f32> = g
                         .points
-                        .iter()
-                        .map(|p| crate::color::luminance64(at(DVec3::from_array(*p), n)) as f32)
+                        .par_iter()
+                        .map(|p| {
+                            crate::color::luminance64(at_checked(DVec3::from_array(*p), n)) as f32
+                        })
                         .collect();
                     (g.id.clone(), grid_json(g, crate::grid::stats(values)))
                 })
                 .collect(),
         };
+        cancel.check()?;
         let power = weights.map(|w| luminaire_power(&ready, w));
         Ok(
             json!({ "unit": "lx", "points": pts, "surfaces": stats, "grids": grids, "power": power }),
         )
     };
     let r = ready.clone();
-    Ok(Json(blocking(move || work(r)).await?).into_response())
+    let v = state.heavy(bytes, &what, move |c| work(r, c)).await?;
+    Ok(Json(v).into_response())
 }
 
 pub async fn optimize(
@@ -763,29 +915,39 @@ pub async fn optimize(
         &headers,
         body,
         &["targets", "groups", "lights"],
-    )?;
+    )
+    .await?;
     let base = parse_lights(body.get("lights"), &ready)?;
     let scene = &ready.baked.scene;
     // Free groups: the listed ones, else every group.
     let free: Vec<usize> = match body.get("groups") {
         None => (0..scene.lights.len()).collect(),
-        Some(Value::Array(a)) if !a.is_empty() => a
-            .iter()
-            .map(|v| {
+        Some(Value::Array(a)) if !a.is_empty() => {
+            let mut free = Vec::with_capacity(a.len().min(scene.lights.len()));
+            for v in a {
                 let id = v.as_str().ok_or_else(|| {
-                    AppError::Invalid(format!("'groups' holds light group ids, got {v}"))
+                    AppError::Invalid(format!("'groups' holds light group ids, got {}", kind(v)))
                 })?;
-                scene.light_index(id).ok_or_else(|| {
+                let g = scene.light_index(id).ok_or_else(|| {
                     AppError::Invalid(format!(
-                        "unknown light group '{id}' (known: {})",
+                        "unknown light group '{}' (known: {})",
+                        shorten(id),
                         known_ids(scene)
                     ))
-                })
-            })
-            .collect::<Result<_, _>>()?,
+                })?;
+                if free.contains(&g) {
+                    return Err(AppError::Invalid(format!(
+                        "light group '{id}' is listed twice in 'groups'"
+                    )));
+                }
+                free.push(g);
+            }
+            free
+        }
         Some(v) => {
             return Err(AppError::Invalid(format!(
-                "'groups' must be a non-empty array of light group ids, got {v}"
+                "'groups' must be a non-empty array of light group ids, got {}",
+                shown(v)
             )))
         }
     };
@@ -807,6 +969,12 @@ pub async fn optimize(
         check_keys(o, &["grid", "eavg_min", "emin_min", "u0_min"])
             .map_err(|e| AppError::Invalid(format!("targets[{k}]: {e}")))?;
         let gi = grid_index(o.get("grid").unwrap_or(&Value::Null), &ready)?;
+        if grid_ix.contains(&gi) {
+            return Err(AppError::Invalid(format!(
+                "targets[{k}]: grid '{}' already has a target; give one target per grid with all its bounds",
+                ready.grids[gi].grid.id
+            )));
+        }
         let bound = |key: &str, max: f64| -> Result<Option<f64>, AppError> {
             o.get(key)
                 .map(|v| {
@@ -839,8 +1007,11 @@ pub async fn optimize(
         parsed.push(t);
         grid_ix.push(gi);
     }
+    let rows: u64 = grid_ix.iter().map(|&g| ready.grids[g].len() as u64).sum();
+    let bytes = 2 * rows * (free.len() as u64 + 2) * 64 + (1 << 20);
+    let what = format!("optimizing {} groups over {rows} grid points", free.len());
     let r = ready.clone();
-    blocking(move || {
+    state.heavy(bytes, &what, move |_| {
         let t0 = std::time::Instant::now();
         let scene = &r.baked.scene;
         let is_free = |g: usize| free.contains(&g);
@@ -927,14 +1098,25 @@ fn grid_list(v: Option<&Value>, ready: &Ready) -> Result<Vec<usize>, AppError> {
             kind(v)
         ))
     })?;
-    arr.iter().map(|g| grid_index(g, ready)).collect()
+    let mut out = Vec::with_capacity(arr.len().min(ready.grids.len()));
+    for g in arr {
+        let i = grid_index(g, ready)?;
+        if out.contains(&i) {
+            return Err(AppError::Invalid(format!(
+                "grid '{}' is listed twice in 'grids'",
+                ready.grids[i].grid.id
+            )));
+        }
+        out.push(i);
+    }
+    Ok(out)
 }
 
 /// The index of the grid named by `g` (a string id).
 fn grid_index(g: &Value, ready: &Ready) -> Result<usize, AppError> {
     let id = g
         .as_str()
-        .ok_or_else(|| AppError::Invalid(format!("grid ids must be strings, got {g}")))?;
+        .ok_or_else(|| AppError::Invalid(format!("grid ids must be strings, got {}", kind(g))))?;
     ready
         .grids
         .iter()
@@ -942,7 +1124,8 @@ fn grid_index(g: &Value, ready: &Ready) -> Result<usize, AppError> {
         .ok_or_else(|| {
             let known: Vec<&str> = ready.grids.iter().map(|r| r.grid.id.as_str()).collect();
             AppError::Invalid(format!(
-                "unknown grid '{id}' (known: {})",
+                "unknown grid '{}' (known: {})",
+                shorten(id),
                 if known.is_empty() {
                     "none".to_string()
                 } else {
@@ -1005,7 +1188,8 @@ pub async fn batch(
         &headers,
         body,
         &["states", "surfaces", "radiosity", "grids"],
-    )?;
+    )
+    .await?;
     let grids = grid_list(body.get("grids"), &ready)?;
     let states = body
         .get("states")
@@ -1022,24 +1206,33 @@ pub async fn batch(
     if body.get("surfaces").is_none() {
         surfaces = (0..ready.baked.scene.surfaces.len()).collect();
     }
-    let mut parsed = Vec::with_capacity(states.len());
-    for (k, s) in states.iter().enumerate() {
-        let obj = s
-            .as_object()
-            .ok_or_else(|| AppError::Invalid(format!("states[{k}] must be an object")))?;
-        check_keys(obj, &["lights", "emission"])
-            .map_err(|e| AppError::Invalid(format!("states[{k}]: {e}")))?;
-        parsed.push(
-            parse_lighting(obj, &ready)
-                .map_err(|e| AppError::Invalid(format!("states[{k}]: {e}")))?,
-        );
-    }
+    // Memory: every emission state holds a per-patch vector; every answer holds its
+    // surfaces, grids and (when asked) radiosity as JSON values, then as text.
+    let n = ready.baked.transfer.n as u64;
+    let emission_states = states
+        .iter()
+        .filter(|s| s.get("emission").is_some())
+        .count() as u64;
+    let grid_points: u64 = grids.iter().map(|&g| ready.grids[g].len() as u64).sum();
+    let per_state =
+        400 * surfaces.len() as u64 + 48 * grid_points + if with_radiosity { 150 * n } else { 0 };
+    let bytes =
+        2 * states.len() as u64 * per_state + emission_states * 12 * n + BYTES_PER_PATCH_ANSWER * n;
+    let what = format!("a batch of {} states", states.len());
     let r = ready.clone();
-    let results = blocking(move || {
-        parsed
-            .iter()
-            .map(|l| {
-                let sol = solve_for(&r, l)?;
+    let results = state
+        .heavy(bytes, &what, move |cancel| {
+            let states = body.get("states").and_then(Value::as_array).map_or(&[][..], |v| v);
+            let mut results = Vec::with_capacity(states.len());
+            for (k, s) in states.iter().enumerate() {
+                cancel.check()?;
+                let at = |e: AppError| AppError::Invalid(format!("states[{k}]: {e}"));
+                let obj = s
+                    .as_object()
+                    .ok_or_else(|| AppError::Invalid(format!("states[{k}] must be an object")))?;
+                check_keys(obj, &["lights", "emission"]).map_err(at)?;
+                let l = parse_lighting(obj, &r).map_err(at)?;
+                let sol = solve_for(&r, &l)?;
                 let mut v = json!({
                     "surfaces": surface_stats(&r, &surfaces, &sol.h),
                     "power": PowerReport::new(r.baked.transfer.power(&sol)),
@@ -1050,16 +1243,16 @@ pub async fn batch(
                 }
                 if !grids.is_empty() {
                     let Lighting::Groups(w) = l else {
-                        return Err(AppError::Invalid(
+                        return Err(at(AppError::Invalid(
                             "grids need light-group states (per-patch emission has no grid columns)".into(),
-                        ));
+                        )));
                     };
-                    v["grids"] = Value::Object(grid_answers(&r, &grids, w));
+                    v["grids"] = Value::Object(grid_answers(&r, &grids, &w));
                 }
-                Ok(v)
-            })
-            .collect::<Result<Vec<_>, AppError>>()
-    })
-    .await?;
+                results.push(v);
+            }
+            Ok(results)
+        })
+        .await?;
     Ok(Json(json!({ "unit": {"illuminance": "lx", "radiosity": "lm/m2", "power": "lm"}, "results": results })).into_response())
 }

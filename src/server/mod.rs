@@ -7,9 +7,12 @@
 
 pub mod api;
 pub mod error;
+pub mod json;
+pub mod limits;
 pub mod metrics;
 pub mod openapi;
 pub mod render_api;
+pub mod serve;
 
 use std::net::SocketAddr;
 use std::path::PathBuf;
@@ -50,6 +53,49 @@ pub struct ServerConfig {
     /// Origins allowed by CORS; empty = same origin only. `*` allows any.
     pub cors_origins: Vec<String>,
     pub body_limit: usize,
+    /// Memory budget, bytes (see [`crate::budget`]).
+    pub memory_budget: u64,
+    /// Heavy requests running at once (renders, batches, gathers, solves); more wait.
+    pub max_concurrent: usize,
+    /// How long a heavy request may wait for a slot before it is shed (503).
+    pub queue_wait: Duration,
+    /// Longest time a request may take, from its first byte to its answer.
+    pub request_timeout: Duration,
+    /// Longest time a client may take to send a request's headers.
+    pub header_timeout: Duration,
+    /// Most open connections; more are closed at once.
+    pub max_connections: usize,
+    /// Bake scenes in a child process (`relight bake`), so that a bake that runs out of
+    /// memory cannot take the server down. `None` bakes in this process (tests).
+    pub bake_command: Option<PathBuf>,
+}
+
+/// Default longest request time.
+pub const DEFAULT_REQUEST_TIMEOUT: Duration = Duration::from_secs(60);
+/// Default longest time to send request headers.
+pub const DEFAULT_HEADER_TIMEOUT: Duration = Duration::from_secs(10);
+/// Default most open connections.
+pub const DEFAULT_MAX_CONNECTIONS: usize = 1024;
+
+impl Default for ServerConfig {
+    fn default() -> Self {
+        ServerConfig {
+            addr: SocketAddr::from(([127, 0, 0, 1], 8080)),
+            scenes: PathBuf::from("scenes"),
+            cache: bake::default_cache_dir(),
+            read_only: false,
+            static_dir: PathBuf::from("static"),
+            cors_origins: vec![],
+            body_limit: DEFAULT_BODY_LIMIT,
+            memory_budget: crate::budget::default_budget(),
+            max_concurrent: limits::default_max_concurrent(),
+            queue_wait: limits::DEFAULT_QUEUE_WAIT,
+            request_timeout: DEFAULT_REQUEST_TIMEOUT,
+            header_timeout: DEFAULT_HEADER_TIMEOUT,
+            max_connections: DEFAULT_MAX_CONNECTIONS,
+            bake_command: None,
+        }
+    }
 }
 
 /// Light-group facts shown by the API.
@@ -219,19 +265,13 @@ impl SceneSlot {
     fn bake(&self, cfg: &ServerConfig, metrics: &metrics::Metrics) {
         self.set(SlotState::Baking);
         let t0 = Instant::now();
-        let policy = if cfg.read_only {
-            CachePolicy::ReadOnly(&cfg.cache)
-        } else {
-            CachePolicy::ReadWrite(&cfg.cache)
+        let result = match (&cfg.bake_command, cfg.read_only) {
+            (Some(exe), false) => self.bake_in_child(exe, cfg),
+            _ => self.bake_here(cfg),
         };
-        let result = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
-            bake::load_or_bake(&self.dir, policy, &BakeOptions::default(), &|stage, f| {
-                self.set_progress(stage.overall(f))
-            })
-        }));
         let secs = t0.elapsed().as_secs_f64();
         match result {
-            Ok(Ok(baked)) => {
+            Ok(baked) => {
                 tracing::info!(
                     scene = %self.id,
                     patches = baked.stats.patches,
@@ -243,23 +283,139 @@ impl SceneSlot {
                 self.set_progress(1.0);
                 self.set(SlotState::Ready(Arc::new(Ready::new(baked, secs))));
             }
-            Ok(Err(e)) => {
+            Err(e) => {
                 tracing::error!(scene = %self.id, "scene failed: {e}");
-                self.set(SlotState::Failed(e.to_string()));
+                self.set(SlotState::Failed(scrub_paths(&e, cfg)));
             }
+        }
+    }
+
+    fn options(cfg: &ServerConfig) -> BakeOptions {
+        BakeOptions {
+            memory_budget: Some(cfg.memory_budget),
+            ..BakeOptions::default()
+        }
+    }
+
+    /// Loads (read-only) or bakes the scene in this process; a panic becomes an error.
+    fn bake_here(&self, cfg: &ServerConfig) -> Result<Baked, String> {
+        let policy = if cfg.read_only {
+            CachePolicy::ReadOnly(&cfg.cache)
+        } else {
+            CachePolicy::ReadWrite(&cfg.cache)
+        };
+        let result = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+            bake::load_or_bake(&self.dir, policy, &Self::options(cfg), &|stage, f| {
+                self.set_progress(stage.overall(f))
+            })
+        }));
+        match result {
+            Ok(Ok(baked)) => Ok(baked),
+            Ok(Err(e)) => Err(e.to_string()),
             Err(panic) => {
                 let msg = panic
                     .downcast_ref::<String>()
                     .cloned()
                     .or_else(|| panic.downcast_ref::<&str>().map(|s| s.to_string()))
                     .unwrap_or_else(|| "unknown panic".into());
-                tracing::error!(scene = %self.id, "scene bake panicked: {msg}");
-                self.set(SlotState::Failed(format!(
-                    "internal error while baking: {msg}"
-                )));
+                Err(format!("internal error while baking: {msg}"))
             }
         }
     }
+
+    /// Bakes the scene into the cache in a child `relight bake` process, then loads the
+    /// entry. A bake that exhausts memory kills only the child (which also asks the
+    /// kernel's OOM killer to pick it first).
+    fn bake_in_child(&self, exe: &std::path::Path, cfg: &ServerConfig) -> Result<Baked, String> {
+        use std::io::BufRead;
+        use std::process::{Command, Stdio};
+        // A valid cache entry needs no child at all.
+        if let Ok(baked) = bake::load_or_bake(
+            &self.dir,
+            CachePolicy::ReadOnly(&cfg.cache),
+            &Self::options(cfg),
+            &|_, _| {},
+        ) {
+            return Ok(baked);
+        }
+        let mut child = Command::new(exe)
+            .arg("bake")
+            .arg(&self.dir)
+            .arg("--cache")
+            .arg(&cfg.cache)
+            .arg("--memory-budget")
+            .arg(cfg.memory_budget.to_string())
+            .arg("--progress-json")
+            .stdin(Stdio::null())
+            .stdout(Stdio::piped())
+            .stderr(Stdio::null())
+            .spawn()
+            .map_err(|e| format!("cannot start the bake process: {e}"))?;
+        let mut error = None;
+        if let Some(out) = child.stdout.take() {
+            for line in std::io::BufReader::new(out).lines() {
+                let Ok(line) = line else { break };
+                let Ok(v) = serde_json::from_str::<serde_json::Value>(&line) else {
+                    continue;
+                };
+                if let Some(p) = v.get("progress").and_then(|p| p.as_f64()) {
+                    self.set_progress(p.clamp(0.0, 1.0));
+                }
+                if let Some(e) = v.get("error").and_then(|e| e.as_str()) {
+                    error = Some(e.to_string());
+                }
+            }
+        }
+        let status = child
+            .wait()
+            .map_err(|e| format!("the bake process was lost: {e}"))?;
+        if !status.success() {
+            if let Some(e) = error {
+                return Err(e);
+            }
+            #[cfg(unix)]
+            {
+                use std::os::unix::process::ExitStatusExt;
+                if let Some(sig) = status.signal() {
+                    return Err(format!(
+                        "the bake process was killed by signal {sig}{}",
+                        if sig == 9 {
+                            " (most likely out of memory: lower the scene's patch count or raise the memory limit)"
+                        } else {
+                            ""
+                        }
+                    ));
+                }
+            }
+            return Err(format!("the bake process failed ({status})"));
+        }
+        bake::load_or_bake(
+            &self.dir,
+            CachePolicy::ReadOnly(&cfg.cache),
+            &Self::options(cfg),
+            &|_, _| {},
+        )
+        .map_err(|e| format!("the bake process finished but its cache entry does not load: {e}"))
+    }
+}
+
+/// Removes the server's own absolute paths (scenes and cache folders) from a message that
+/// is shown to clients.
+fn scrub_paths(msg: &str, cfg: &ServerConfig) -> String {
+    let mut out = msg.to_string();
+    for dir in [&cfg.scenes, &cfg.cache] {
+        let mut forms = vec![dir.display().to_string()];
+        if let Ok(c) = dir.canonicalize() {
+            forms.push(c.display().to_string());
+        }
+        forms.sort_by_key(|f| std::cmp::Reverse(f.len()));
+        for f in forms {
+            if f.len() > 1 {
+                out = out.replace(&format!("{f}/"), "").replace(&f, ".");
+            }
+        }
+    }
+    out
 }
 
 /// Shared state of the server.
@@ -267,8 +423,12 @@ pub struct AppState {
     pub config: ServerConfig,
     pub slots: Vec<Arc<SceneSlot>>,
     pub metrics: metrics::Metrics,
-    /// View buffers per (scene, camera, size), bounded LRU.
+    /// View buffers per (scene, camera, size), an LRU bounded in bytes.
     pub views: std::sync::Mutex<render_api::ViewCache>,
+    /// The memory budget every heavy request reserves from.
+    pub budget: Arc<crate::budget::MemoryBudget>,
+    heavy_permits: Arc<tokio::sync::Semaphore>,
+    heavy_waiting: std::sync::atomic::AtomicUsize,
 }
 
 impl AppState {
@@ -278,12 +438,31 @@ impl AppState {
             .into_iter()
             .map(|d| Arc::new(SceneSlot::new(d)))
             .collect();
+        let budget = crate::budget::MemoryBudget::new(config.memory_budget);
         Ok(Arc::new(AppState {
-            config,
             slots,
             metrics: metrics::Metrics::default(),
-            views: Default::default(),
+            views: std::sync::Mutex::new(render_api::ViewCache::new(budget.view_cache_max())),
+            budget,
+            heavy_permits: Arc::new(tokio::sync::Semaphore::new(config.max_concurrent.max(1))),
+            heavy_waiting: Default::default(),
+            config,
         }))
+    }
+
+    /// A state with another configuration over the same scene slots (tests, and replicas
+    /// that share baked scenes). Caches, metrics and the budget start afresh.
+    pub fn reconfigured(&self, config: ServerConfig) -> Arc<AppState> {
+        let budget = crate::budget::MemoryBudget::new(config.memory_budget);
+        Arc::new(AppState {
+            slots: self.slots.clone(),
+            metrics: metrics::Metrics::default(),
+            views: std::sync::Mutex::new(render_api::ViewCache::new(budget.view_cache_max())),
+            budget,
+            heavy_permits: Arc::new(tokio::sync::Semaphore::new(config.max_concurrent.max(1))),
+            heavy_waiting: Default::default(),
+            config,
+        })
     }
 
     /// Bakes every scene on a background thread, one after another.
@@ -331,16 +510,32 @@ async fn track(State(state): State<Arc<AppState>>, req: Request, next: Next) -> 
         .get::<MatchedPath>()
         .map(|m| m.as_str().to_string())
         .unwrap_or_else(|| "unmatched".into());
-    let method = req.method().to_string();
+    let method = metrics::method_label(req.method());
     let t0 = Instant::now();
     let resp = next.run(req).await;
     state.metrics.observe(
-        &method,
+        method,
         &route,
         resp.status().as_u16(),
         t0.elapsed().as_secs_f64(),
     );
     resp
+}
+
+/// Answers 503 when a request takes longer than the configured limit. Dropping the
+/// handler's future cancels its blocking work (see [`limits::Cancel`]).
+async fn timeout(State(state): State<Arc<AppState>>, req: Request, next: Next) -> Response {
+    let limit = state.config.request_timeout;
+    match tokio::time::timeout(limit, next.run(req)).await {
+        Ok(resp) => resp,
+        Err(_) => axum::response::IntoResponse::into_response(AppError::Unavailable {
+            detail: format!(
+                "the request did not finish within the {} s limit (--request-timeout)",
+                limit.as_secs_f64()
+            ),
+            progress: None,
+        }),
+    }
 }
 
 /// The full application: API, metrics, health, the web page.
@@ -368,6 +563,7 @@ pub fn router(state: Arc<AppState>) -> Router {
         .layer(axum::extract::DefaultBodyLimit::max(
             state.config.body_limit,
         ))
+        .layer(middleware::from_fn_with_state(state.clone(), timeout))
         .layer(middleware::from_fn_with_state(state.clone(), track))
         .with_state(state);
     let app = match cors {
@@ -429,9 +625,14 @@ pub async fn serve(config: ServerConfig) -> anyhow::Result<()> {
         if config.read_only { ", read-only" } else { "" }
     );
     state.spawn_bakes();
-    axum::serve(listener, router(state))
-        .with_graceful_shutdown(shutdown_signal())
-        .await?;
+    serve::serve_with_limits(
+        listener,
+        router(state),
+        config.header_timeout,
+        config.max_connections,
+        shutdown_signal(),
+    )
+    .await;
     tracing::info!("shut down");
     Ok(())
 }

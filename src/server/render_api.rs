@@ -15,12 +15,17 @@ use axum::http::{header, HeaderMap};
 use axum::response::{IntoResponse, Response};
 use serde_json::{Map, Value};
 
-use super::api::{blocking, number, parse_lighting, solve_for, triple, Lighting};
+use super::api::{
+    bounded, bounded_triple, direction, number, parse_lighting, shown, solve_for, Lighting,
+    MAX_COORDINATE,
+};
+use crate::budget::human_bytes;
+
+/// Narrowest and widest vertical field of view accepted, degrees.
+pub const MIN_FOV_DEG: f64 = 1.0;
+pub const MAX_FOV_DEG: f64 = 170.0;
 use super::{AppError, AppState, Ready};
 use crate::render::{self, Camera, Format, GroupImages, ToneMap, ViewBuffer, MAX_SIDE};
-
-/// Most bytes of view buffers kept.
-pub const VIEW_CACHE_BYTES: usize = 1 << 30;
 
 type ViewKey = (String, [u32; 12]);
 
@@ -32,9 +37,19 @@ pub struct View {
 }
 
 impl View {
-    /// Bytes this entry may hold: the buffer, plus at most as much again in group images.
+    /// Bytes this entry holds now: the buffer, plus its group images once made.
     fn bytes(&self) -> usize {
-        2 * self.buffer.bytes()
+        self.buffer.bytes()
+            + self
+                .groups
+                .get()
+                .and_then(|g| g.as_ref())
+                .map_or(0, GroupImages::bytes)
+    }
+
+    /// Whether group images for `groups` light groups would still have to be made.
+    fn group_images_pending(&self, groups: usize) -> bool {
+        self.groups.get().is_none() && GroupImages::worthwhile(&self.buffer, groups)
     }
 
     /// Per-group images for `ready`'s light groups, or None when a gather reads less.
@@ -51,44 +66,89 @@ impl View {
     }
 }
 
-/// A least-recently-used cache of view buffers, bounded in bytes.
+/// A cache slot: filled once by the first request for its key; concurrent requests for
+/// the same key wait for that build instead of building their own.
 #[derive(Default)]
+struct Slot {
+    view: OnceLock<Arc<View>>,
+    building: Mutex<()>,
+}
+
+/// A least-recently-used cache of views, bounded by the bytes its entries really hold
+/// (buffers and group images, measured by allocated capacity).
 pub struct ViewCache {
-    map: HashMap<ViewKey, Arc<View>>,
+    map: HashMap<ViewKey, Arc<Slot>>,
     order: VecDeque<ViewKey>,
-    bytes: usize,
+    max_bytes: usize,
 }
 
 impl ViewCache {
-    fn get(&mut self, k: &ViewKey) -> Option<Arc<View>> {
-        let v = self.map.get(k)?.clone();
-        self.order.retain(|x| x != k);
-        self.order.push_back(k.clone());
-        Some(v)
+    pub fn new(max_bytes: u64) -> ViewCache {
+        ViewCache {
+            map: HashMap::new(),
+            order: VecDeque::new(),
+            max_bytes: max_bytes.min(usize::MAX as u64) as usize,
+        }
     }
 
-    fn put(&mut self, k: ViewKey, v: Arc<View>) {
-        self.bytes += v.bytes();
-        if let Some(old) = self.map.insert(k.clone(), v) {
-            self.bytes -= old.bytes();
-            self.order.retain(|x| x != &k);
-        }
-        self.order.push_back(k);
-        while self.bytes > VIEW_CACHE_BYTES && self.order.len() > 1 {
-            if let Some(old) = self.order.pop_front() {
-                if let Some(v) = self.map.remove(&old) {
-                    self.bytes -= v.bytes();
+    /// The slot for `k`, made empty if new; marks it most recently used.
+    fn slot(&mut self, k: &ViewKey) -> Arc<Slot> {
+        self.order.retain(|x| x != k);
+        self.order.push_back(k.clone());
+        self.map.entry(k.clone()).or_default().clone()
+    }
+
+    /// The finished view for `k`, if cached.
+    fn peek(&self, k: &ViewKey) -> Option<Arc<View>> {
+        self.map.get(k).and_then(|s| s.view.get().cloned())
+    }
+
+    /// Bytes held by finished entries.
+    pub fn bytes(&self) -> usize {
+        self.map
+            .values()
+            .filter_map(|s| s.view.get())
+            .map(|v| v.bytes())
+            .sum()
+    }
+
+    /// Evicts least recently used finished entries until the cache fits its bound.
+    /// Entries still being built are left alone (their builders hold a reservation).
+    fn trim(&mut self) {
+        let mut total = self.bytes();
+        let mut k = 0;
+        while total > self.max_bytes && k < self.order.len() {
+            let key = self.order[k].clone();
+            let done = self
+                .map
+                .get(&key)
+                .and_then(|s| s.view.get().map(|v| v.bytes()));
+            match done {
+                Some(b) => {
+                    self.map.remove(&key);
+                    self.order.remove(k);
+                    total -= b;
                 }
+                None => k += 1,
             }
         }
     }
 
+    /// Drops a slot whose build failed, so that the next request tries again.
+    fn forget_empty(&mut self, k: &ViewKey) {
+        if self.map.get(k).is_some_and(|s| s.view.get().is_none()) {
+            self.map.remove(k);
+            self.order.retain(|x| x != k);
+        }
+    }
+
+    /// Finished views cached.
     pub fn len(&self) -> usize {
-        self.map.len()
+        self.map.values().filter(|s| s.view.get().is_some()).count()
     }
 
     pub fn is_empty(&self) -> bool {
-        self.map.is_empty()
+        self.len() == 0
     }
 }
 
@@ -130,13 +190,22 @@ fn camera_from(v: Option<&Value>, ready: &Ready, w: u32, h: u32) -> Result<Camer
                 }
             }
             let get = |k: &str| -> Result<[f64; 3], AppError> {
-                triple(o.get(k).unwrap_or(&Value::Null), &format!("camera.{k}"))
+                bounded_triple(
+                    o.get(k).unwrap_or(&Value::Null),
+                    &format!("camera.{k}"),
+                    MAX_COORDINATE,
+                )
             };
             let up = match o.get("up") {
-                Some(_) => get("up")?,
+                Some(u) => direction(u, "camera.up")?.to_array(),
                 None => [0.0, 1.0, 0.0],
             };
-            let fov = number(o.get("fov_deg").unwrap_or(&Value::Null), "camera.fov_deg")?;
+            let fov = bounded(
+                o.get("fov_deg").unwrap_or(&Value::Null),
+                "camera.fov_deg",
+                MIN_FOV_DEG,
+                MAX_FOV_DEG,
+            )?;
             let v3 = |a: [f64; 3]| glam::Vec3::new(a[0] as f32, a[1] as f32, a[2] as f32);
             Camera {
                 position: v3(get("position")?),
@@ -149,7 +218,8 @@ fn camera_from(v: Option<&Value>, ready: &Ready, w: u32, h: u32) -> Result<Camer
         }
         Some(other) => {
             return Err(AppError::Invalid(format!(
-                "camera must be a preset id or {{position, target, up, fov_deg}}, got {other}"
+                "camera must be a preset id or {{position, target, up, fov_deg}}, got {}",
+                shown(other)
             )))
         }
     };
@@ -193,7 +263,10 @@ fn options(body: &Map<String, Value>, ready: &Ready) -> Result<RenderOptions, Ap
         match body.get(k) {
             None => Ok(default.into()),
             Some(Value::String(s)) => Ok(s.clone()),
-            Some(v) => Err(AppError::Invalid(format!("{k} must be a string, got {v}"))),
+            Some(v) => Err(AppError::Invalid(format!(
+                "{k} must be a string, got {}",
+                shown(v)
+            ))),
         }
     };
     let format = match pick("format", "png")?.as_str() {
@@ -231,9 +304,16 @@ fn options(body: &Map<String, Value>, ready: &Ready) -> Result<RenderOptions, Ap
                 .as_array()
                 .filter(|a| a.len() == 2)
                 .ok_or_else(|| AppError::Invalid("range must be [low, high] in lux".into()))?;
-            let (lo, hi) = (number(&a[0], "range[0]")?, number(&a[1], "range[1]")?);
-            if !(lo > 0.0 && hi > lo) {
-                return Err(AppError::Invalid("range needs 0 < low < high (lux)".into()));
+            let (min, max) = (
+                render::FALSE_COLOR_MIN_LUX as f64,
+                render::FALSE_COLOR_MAX_LUX as f64,
+            );
+            let lo = bounded(&a[0], "range[0] (lux)", min, max)?;
+            let hi = bounded(&a[1], "range[1] (lux)", min, max)?;
+            if hi < lo * 1.01 {
+                return Err(AppError::Invalid(format!(
+                    "range [{lo}, {hi}]: the high end must exceed the low end by at least 1 %"
+                )));
             }
             Some((lo as f32, hi as f32))
         }
@@ -253,18 +333,59 @@ fn options(body: &Map<String, Value>, ready: &Ready) -> Result<RenderOptions, Ap
     })
 }
 
-/// The view buffer for this scene and camera, from the cache or built now.
+fn view_key(ready: &Ready, cam: &Camera) -> ViewKey {
+    (ready.baked.scene.id.clone(), cam.key())
+}
+
+/// The view buffer for this scene and camera, from the cache or built now. Concurrent
+/// requests for the same view wait for one build. The caller has reserved the build's
+/// memory (see [`render_estimate`]).
 pub fn view_for(state: &AppState, ready: &Ready, cam: &Camera) -> Arc<View> {
-    let key = (ready.baked.scene.id.clone(), cam.key());
-    if let Some(v) = lock(&state.views).get(&key) {
-        return v;
+    let key = view_key(ready, cam);
+    let slot = lock(&state.views).slot(&key);
+    if let Some(v) = slot.view.get() {
+        return v.clone();
     }
-    let v = Arc::new(View {
-        buffer: ViewBuffer::build(&ready.baked.mesh, ready.shading(), cam),
-        groups: OnceLock::new(),
-    });
-    lock(&state.views).put(key, v.clone());
-    v
+    let _building = lock(&slot.building);
+    if let Some(v) = slot.view.get() {
+        return v.clone();
+    }
+    let built = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+        Arc::new(View {
+            buffer: ViewBuffer::build(&ready.baked.mesh, ready.shading(), cam),
+            groups: OnceLock::new(),
+        })
+    }));
+    match built {
+        Ok(v) => {
+            let v = slot.view.get_or_init(|| v).clone();
+            lock(&state.views).trim();
+            v
+        }
+        Err(p) => {
+            lock(&state.views).forget_empty(&key);
+            std::panic::resume_unwind(p)
+        }
+    }
+}
+
+/// Peak bytes a render may allocate beyond what is cached: the view buffer and group
+/// images when not cached yet, the linear and 8-bit images, and the encoded file.
+pub fn render_estimate(state: &AppState, ready: &Ready, o: &RenderOptions) -> u64 {
+    let px = o.camera.width as u64 * o.camera.height as u64;
+    let groups = ready.baked.transfer.group_count();
+    let n = ready.baked.transfer.n as u64;
+    let images = px * (12 + 3 + 4) + 12 * n * 3;
+    let view = match lock(&state.views).peek(&view_key(ready, &o.camera)) {
+        Some(v) if v.group_images_pending(groups) => GroupImages::estimate_bytes(&v.buffer, groups),
+        Some(_) => 0,
+        None => {
+            ViewBuffer::estimate_bytes(&o.camera)
+                // Group images are at most the size of the buffer (else not made).
+                + 2 * (ViewBuffer::estimate_bytes(&o.camera)).min(24 * groups as u64 * px)
+        }
+    };
+    images + view
 }
 
 fn lock<T>(m: &Mutex<T>) -> std::sync::MutexGuard<'_, T> {
@@ -331,6 +452,8 @@ pub fn render_image(
         });
     }
     if let (Lighting::Groups(wts), Some(gi)) = (lighting, entry.group_images(ready)) {
+        // The entry may have grown by its group images: keep the cache within bounds.
+        lock(&state.views).trim();
         return finish(
             o,
             |exposure| gi.tonemapped(wts, exposure, o.tonemap),
@@ -378,7 +501,19 @@ async fn respond(
 ) -> Result<Response, AppError> {
     let t0 = Instant::now();
     let format = o.format;
-    let r = blocking(move || render_image(&state, &ready, &lighting, &o)).await?;
+    let bytes = render_estimate(&state, &ready, &o);
+    let what = format!(
+        "a {}×{} render (view buffer up to {})",
+        o.camera.width,
+        o.camera.height,
+        human_bytes(ViewBuffer::estimate_bytes(&o.camera))
+    );
+    let st = state.clone();
+    let r = state
+        .heavy(bytes, &what, move |_| {
+            render_image(&st, &ready, &lighting, &o)
+        })
+        .await?;
     let mut resp = ([(header::CONTENT_TYPE, format.content_type())], r.bytes).into_response();
     let hd = resp.headers_mut();
     if let Ok(v) = format!("{:.3}", t0.elapsed().as_secs_f64() * 1e3).parse() {
@@ -416,7 +551,8 @@ pub async fn render_post(
             "lights", "emission", "camera", "width", "height", "exposure", "format", "mode",
             "tonemap", "range",
         ],
-    )?;
+    )
+    .await?;
     let lighting = parse_lighting(&body, &ready)?;
     let o = options(&body, &ready)?;
     respond(state, ready, lighting, o).await
@@ -433,11 +569,30 @@ pub async fn render_get(
     let mut lights = Map::new();
     body.insert("format".into(), Value::from("png"));
     let num = |k: &str, v: &str| -> Result<Value, AppError> {
-        v.parse::<f64>()
-            .map(Value::from)
-            .map_err(|_| AppError::BadRequest(format!("query parameter {k}={v}: not a number")))
+        v.parse::<f64>().map(Value::from).map_err(|_| {
+            AppError::BadRequest(format!(
+                "query parameter {}={}: not a number",
+                super::api::shorten(k),
+                super::api::shorten(v)
+            ))
+        })
     };
+    let mut seen: Vec<&str> = Vec::with_capacity(q.len());
     for (k, v) in &q {
+        let key = if k == "w" {
+            "width"
+        } else if k == "h" {
+            "height"
+        } else {
+            k.as_str()
+        };
+        if seen.contains(&key) {
+            return Err(AppError::BadRequest(format!(
+                "query parameter '{}' is given twice",
+                super::api::shorten(k)
+            )));
+        }
+        seen.push(key);
         match k.as_str() {
             "camera" => {
                 body.insert("camera".into(), Value::from(v.as_str()));
@@ -469,7 +624,7 @@ pub async fn render_get(
                 }
                 None => {
                     return Err(AppError::BadRequest(format!(
-                        "unknown query parameter '{k}' (camera, w, h, exposure, mode, tonemap, light.<group>)"
+                        "unknown query parameter '{}' (camera, w, h, exposure, mode, tonemap, light.<group>)", super::api::shorten(k)
                     )))
                 }
             },
