@@ -385,3 +385,9 @@ pub fn prune(dir: &Path, scene_id: &str, keep: &Path) {
 
 #[cfg(not(target_endian = "little"))]
 compile_error!("the relight cache format is little-endian; this target is not");
+
+/// Removes temporary files of dead writers from a cache folder; returns how many.
+/// (Placeholder until the cache hardening lands.)
+pub fn remove_stale_temps(_dir: &Path) -> usize {
+    0
+}

@@ -624,17 +624,35 @@ pub async fn serve(config: ServerConfig) -> anyhow::Result<()> {
         config.cache.display(),
         if config.read_only { ", read-only" } else { "" }
     );
+    if !config.read_only {
+        let removed = crate::cache::remove_stale_temps(&config.cache);
+        if removed > 0 {
+            tracing::info!("removed {removed} stale temporary file(s) from the cache");
+        }
+    }
     state.spawn_bakes();
+    run(listener, state, shutdown_signal()).await;
+    tracing::info!("shut down");
+    Ok(())
+}
+
+/// Serves `state` on `listener`, with its configured header timeout and connection cap,
+/// until `shutdown` completes; in-flight requests then finish.
+pub async fn run(
+    listener: tokio::net::TcpListener,
+    state: Arc<AppState>,
+    shutdown: impl std::future::Future<Output = ()> + Send,
+) {
+    let (header_timeout, max_connections) =
+        (state.config.header_timeout, state.config.max_connections);
     serve::serve_with_limits(
         listener,
         router(state),
-        config.header_timeout,
-        config.max_connections,
-        shutdown_signal(),
+        header_timeout,
+        max_connections,
+        shutdown,
     )
     .await;
-    tracing::info!("shut down");
-    Ok(())
 }
 
 async fn shutdown_signal() {
