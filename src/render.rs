@@ -256,8 +256,8 @@ impl ViewBuffer {
     /// supersampled depth and sample buffers (16 bytes per sample, exact) while the rows
     /// are resolved, plus the rows and the joined buffer (8 bytes per shading-vertex weight,
     /// twice, and 8 bytes per pixel of offsets and picking ids). Pixels blend
-    /// [`EST_WEIGHTS_PER_PIXEL`] vertex weights on average in this estimate; views of the
-    /// bundled scenes average 3 to 5.
+    /// [`EST_WEIGHTS_PER_PIXEL`] vertex weights on average in this estimate; a view of the
+    /// Cornell box averages 2.9 (`tests/hardening.rs` checks the bound).
     pub fn estimate_bytes(cam: &Camera) -> u64 {
         let s = samples_per_side(cam) as u64;
         let px = cam.width as u64 * cam.height as u64;
