@@ -394,15 +394,12 @@ fn endpoint_body(ep: &'static str, scene: &'static str) -> BoxedStrategy<Value> 
             }
             if ep == "render" {
                 // Keep renders small: a fuzz case is not a benchmark.
+                // Sizes that would render (absent, or 129..=4096) become 48.
                 for k in ["width", "height"] {
-                    if !m.get(k).and_then(Value::as_f64).is_some_and(|x| x <= 128.0) {
-                        if m.get(k)
-                            .and_then(Value::as_f64)
-                            .is_some_and(|x| x <= 4096.0)
-                            || !m.contains_key(k)
-                        {
-                            m.insert(k.into(), Value::from(48));
-                        }
+                    let x = m.get(k).and_then(Value::as_f64);
+                    let big = x.is_some_and(|x| x > 128.0 && x <= 4096.0);
+                    if big || !m.contains_key(k) {
+                        m.insert(k.into(), Value::from(48));
                     }
                 }
             }
