@@ -28,7 +28,7 @@ pub const MIN_BUDGET: u64 = 64 << 20;
 pub enum BudgetError {
     #[error(
         "{what} needs about {need} of memory; one request may use at most {limit} \
-         (half of the memory budget, --memory-budget)",
+         (half of the memory budget less the loaded scenes and the view cache; --memory-budget)",
         need = human_bytes(*need), limit = human_bytes(*limit)
     )]
     TooLarge { what: String, need: u64, limit: u64 },
@@ -40,11 +40,28 @@ pub enum BudgetError {
     Busy { what: String, need: u64, free: u64 },
 }
 
-/// A byte budget shared by every request of a process.
+/// A byte budget shared by every request of a process. Three things draw on it:
+/// - *pinned* bytes: data held for the process's life (the loaded scenes);
+/// - the view cache's allowance ([`VIEW_CACHE_SHARE`]), kept aside whole;
+/// - *reserved* bytes: the estimated peaks of requests in flight.
 #[derive(Debug)]
 pub struct MemoryBudget {
     total: u64,
     used: AtomicU64,
+    pinned: AtomicU64,
+}
+
+/// Bytes pinned against a [`MemoryBudget`] (a loaded scene); released on drop.
+#[derive(Debug)]
+pub struct Pin {
+    budget: Arc<MemoryBudget>,
+    bytes: u64,
+}
+
+impl Drop for Pin {
+    fn drop(&mut self) {
+        self.budget.pinned.fetch_sub(self.bytes, Ordering::AcqRel);
+    }
 }
 
 /// Bytes held against a [`MemoryBudget`]; released on drop.
@@ -71,7 +88,30 @@ impl MemoryBudget {
         Arc::new(MemoryBudget {
             total: total.max(MIN_BUDGET),
             used: AtomicU64::new(0),
+            pinned: AtomicU64::new(0),
         })
+    }
+
+    /// Pins `bytes` for as long as the returned guard lives (data that stays loaded).
+    pub fn pin(self: &Arc<Self>, bytes: u64) -> Pin {
+        self.pinned.fetch_add(bytes, Ordering::AcqRel);
+        Pin {
+            budget: self.clone(),
+            bytes,
+        }
+    }
+
+    /// Bytes pinned by loaded data.
+    pub fn pinned(&self) -> u64 {
+        self.pinned.load(Ordering::Acquire)
+    }
+
+    /// Bytes that requests may reserve in all: the budget less the pinned data and the
+    /// view cache's allowance.
+    fn for_requests(&self) -> u64 {
+        self.total
+            .saturating_sub(self.pinned())
+            .saturating_sub(self.view_cache_max())
     }
 
     /// The budget in bytes.
@@ -79,9 +119,10 @@ impl MemoryBudget {
         self.total
     }
 
-    /// The most one request may reserve, bytes.
+    /// The most one request may reserve, bytes: [`REQUEST_SHARE`] of the budget, and no
+    /// more than what the loaded scenes and the view cache leave.
     pub fn request_max(&self) -> u64 {
-        (self.total as f64 * REQUEST_SHARE) as u64
+        ((self.total as f64 * REQUEST_SHARE) as u64).min(self.for_requests())
     }
 
     /// The most the view cache may keep, bytes.
@@ -104,9 +145,10 @@ impl MemoryBudget {
                 limit,
             });
         }
+        let room = self.for_requests();
         let mut cur = self.used.load(Ordering::Acquire);
         loop {
-            let free = self.total.saturating_sub(cur);
+            let free = room.saturating_sub(cur);
             if bytes > free {
                 return Err(BudgetError::Busy {
                     what: what.into(),
@@ -234,18 +276,34 @@ mod tests {
 
     #[test]
     fn reservations_add_up_and_are_returned_on_drop() {
+        // 1000 MB: 250 MB kept for the view cache, 750 MB for requests.
         let b = MemoryBudget::new(1000 << 20);
-        let r1 = b.reserve(400 << 20, "a").unwrap();
-        let r2 = b.reserve(400 << 20, "b").unwrap();
-        assert_eq!(b.used(), 800 << 20);
-        match b.reserve(300 << 20, "c") {
-            Err(BudgetError::Busy { free, .. }) => assert_eq!(free, 200 << 20),
+        let r1 = b.reserve(300 << 20, "a").unwrap();
+        let r2 = b.reserve(300 << 20, "b").unwrap();
+        assert_eq!(b.used(), 600 << 20);
+        match b.reserve(200 << 20, "c") {
+            Err(BudgetError::Busy { free, .. }) => assert_eq!(free, 150 << 20),
             other => panic!("expected Busy, got {other:?}"),
         }
         drop(r1);
-        let _r3 = b.reserve(300 << 20, "c").unwrap();
+        let _r3 = b.reserve(200 << 20, "c").unwrap();
         drop(r2);
-        assert_eq!(b.used(), 300 << 20);
+        assert_eq!(b.used(), 200 << 20);
+    }
+
+    #[test]
+    fn loaded_scenes_shrink_what_requests_may_take() {
+        let b = MemoryBudget::new(1000 << 20);
+        assert_eq!(b.request_max(), 500 << 20);
+        let pin = b.pin(600 << 20);
+        // 1000 − 600 (scenes) − 250 (view cache) = 150 MB left for requests.
+        assert_eq!(b.request_max(), 150 << 20);
+        assert!(matches!(
+            b.reserve(200 << 20, "x"),
+            Err(BudgetError::TooLarge { .. })
+        ));
+        drop(pin);
+        assert!(b.reserve(200 << 20, "x").is_ok());
     }
 
     #[test]

@@ -97,6 +97,25 @@ pub struct Transfer {
     pub info: SolveInfo,
 }
 
+impl Transfer {
+    /// Bytes held (allocated capacity of every array).
+    pub fn bytes(&self) -> u64 {
+        let f32s = |v: &Vec<f32>| 4 * v.capacity() as u64;
+        let mut b = 12 * self.rho.capacity() as u64 + f32s(&self.area) + f32s(&self.escape);
+        for g in &self.groups {
+            b += f32s(&g.e) + f32s(&g.b) + f32s(&g.h);
+        }
+        if let Some(f) = &self.factored {
+            b += f32s(&f.f);
+            for lu in &f.lus {
+                b += 4 * (lu.lu.nrows() * lu.lu.ncols()) as u64
+                    + 8 * (lu.perm.capacity() + lu.perm_inv.capacity()) as u64;
+            }
+        }
+        b
+    }
+}
+
 /// A full solution: per patch RGB emission, radiosity and incident illuminance.
 #[derive(Debug, Clone)]
 pub struct Solution {

@@ -313,8 +313,9 @@ async fn render_memory_is_estimated_and_budgeted() {
     );
     // Budget momentarily full: 503 with Retry-After.
     let hold = (
-        small.budget.reserve(120 << 20, "a test").unwrap(),
-        small.budget.reserve(120 << 20, "a test").unwrap(),
+        // 256 MB less 64 MB for the view cache leaves 192 MB; keep 185 MB of it.
+        small.budget.reserve(100 << 20, "a test").unwrap(),
+        small.budget.reserve(85 << 20, "a test").unwrap(),
     );
     let (s, h, v) = post_to(
         router(small.clone()),

@@ -125,10 +125,19 @@ pub struct Ready {
     pub grids: Vec<crate::grid::GridResponse>,
     shading: std::sync::OnceLock<crate::render::Shading>,
     mesh_bytes: std::sync::OnceLock<axum::body::Bytes>,
+    /// This scene's share of the memory budget, held while it is loaded.
+    _pin: Option<crate::budget::Pin>,
 }
 
+/// Bytes per patch held besides the transfer: mesh, BVH, shading vertices, mesh bytes.
+const SCENE_BYTES_PER_PATCH: u64 = 400;
+
 impl Ready {
-    fn new(baked: Baked, bake_seconds: f64) -> Ready {
+    fn new(
+        baked: Baked,
+        bake_seconds: f64,
+        budget: Option<&Arc<crate::budget::MemoryBudget>>,
+    ) -> Ready {
         let t = &baked.transfer;
         let groups = baked
             .scene
@@ -166,7 +175,14 @@ impl Ready {
             &baked.bvh,
             &baked.transfer,
         );
+        let grid_bytes: u64 = grids
+            .iter()
+            .map(|g| 16 * g.len() as u64 * (1 + 3 * t.group_count() as u64))
+            .sum();
+        let bytes = t.bytes() + SCENE_BYTES_PER_PATCH * t.n as u64 + grid_bytes;
+        let _pin = budget.map(|b| b.pin(bytes));
         Ready {
+            _pin,
             baked,
             groups,
             bake_seconds,
@@ -262,7 +278,12 @@ impl SceneSlot {
     }
 
     /// Bakes or loads the scene; never panics.
-    fn bake(&self, cfg: &ServerConfig, metrics: &metrics::Metrics) {
+    fn bake(
+        &self,
+        cfg: &ServerConfig,
+        metrics: &metrics::Metrics,
+        budget: &Arc<crate::budget::MemoryBudget>,
+    ) {
         self.set(SlotState::Baking);
         let t0 = Instant::now();
         let result = match (&cfg.bake_command, cfg.read_only) {
@@ -281,7 +302,11 @@ impl SceneSlot {
                 );
                 metrics.bake_done(&self.id, secs, baked.stats.from_cache);
                 self.set_progress(1.0);
-                self.set(SlotState::Ready(Arc::new(Ready::new(baked, secs))));
+                self.set(SlotState::Ready(Arc::new(Ready::new(
+                    baked,
+                    secs,
+                    Some(budget),
+                ))));
             }
             Err(e) => {
                 tracing::error!(scene = %self.id, "scene failed: {e}");
@@ -478,7 +503,7 @@ impl AppState {
     /// be ready before listening).
     pub fn bake_all(&self) {
         for slot in &self.slots {
-            slot.bake(&self.config, &self.metrics);
+            slot.bake(&self.config, &self.metrics, &self.budget);
         }
     }
 
