@@ -44,9 +44,25 @@ pub async fn metrics(State(state): State<Arc<AppState>>) -> Response {
             header::CONTENT_TYPE,
             "text/plain; version=0.0.4; charset=utf-8",
         )],
-        state.metrics.render(),
+        state.metrics.render() + &memory_metrics(&state),
     )
         .into_response()
+}
+
+/// Gauges of the memory budget and the view cache, bytes.
+fn memory_metrics(state: &AppState) -> String {
+    let b = &state.budget;
+    let views = state.views.lock().map(|v| v.bytes()).unwrap_or(0);
+    let mut out = String::new();
+    for (name, help, v) in [
+        ("relight_memory_budget_bytes", "The memory budget.", b.total()),
+        ("relight_memory_pinned_bytes", "Bytes held by loaded scenes.", b.pinned()),
+        ("relight_memory_reserved_bytes", "Bytes reserved by requests in flight.", b.used()),
+        ("relight_view_cache_bytes", "Bytes held by cached view buffers and group images.", views as u64),
+    ] {
+        out += &format!("# HELP {name} {help}\n# TYPE {name} gauge\n{name} {v}\n");
+    }
+    out
 }
 
 pub async fn openapi() -> Response {
