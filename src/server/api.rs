@@ -55,10 +55,26 @@ fn memory_metrics(state: &AppState) -> String {
     let views = state.views.lock().map(|v| v.bytes()).unwrap_or(0);
     let mut out = String::new();
     for (name, help, v) in [
-        ("relight_memory_budget_bytes", "The memory budget.", b.total()),
-        ("relight_memory_pinned_bytes", "Bytes held by loaded scenes.", b.pinned()),
-        ("relight_memory_reserved_bytes", "Bytes reserved by requests in flight.", b.used()),
-        ("relight_view_cache_bytes", "Bytes held by cached view buffers and group images.", views as u64),
+        (
+            "relight_memory_budget_bytes",
+            "The memory budget.",
+            b.total(),
+        ),
+        (
+            "relight_memory_pinned_bytes",
+            "Bytes held by loaded scenes.",
+            b.pinned(),
+        ),
+        (
+            "relight_memory_reserved_bytes",
+            "Bytes reserved by requests in flight.",
+            b.used(),
+        ),
+        (
+            "relight_view_cache_bytes",
+            "Bytes held by cached view buffers and group images.",
+            views as u64,
+        ),
     ] {
         out += &format!("# HELP {name} {help}\n# TYPE {name} gauge\n{name} {v}\n");
     }
@@ -193,8 +209,18 @@ pub async fn patches(
     headers: HeaderMap,
 ) -> ApiResult {
     let r = state.slot(&id)?.ready()?;
+    let binary_out = wants_binary(&headers);
+    let n = r.baked.mesh.len() as u64;
+    let bytes = if binary_out { 64 * n } else { 800 * n };
+    let what = format!("the list of {n} patches");
+    state
+        .heavy(bytes, &what, move |_| Ok(patch_list(&r, binary_out)))
+        .await
+}
+
+fn patch_list(r: &Ready, binary_out: bool) -> Response {
     let m = &r.baked.mesh;
-    if wants_binary(&headers) {
+    if binary_out {
         let mut out = Vec::with_capacity(8 * m.len());
         for p in &m.patches {
             out.push(f32::from_bits(p.surface));
@@ -202,11 +228,11 @@ pub async fn patches(
             out.extend(p.centroid.as_vec3().to_array());
             out.extend(p.normal.as_vec3().to_array());
         }
-        return Ok(binary(
+        return binary(
             out,
             m.len(),
             "per patch 32 bytes LE: u32 surface, f32 area m2, f32x3 centroid m, f32x3 normal",
-        ));
+        );
     }
     let names = &r.baked.scene.surfaces;
     let list: Vec<Value> = m
@@ -221,13 +247,17 @@ pub async fn patches(
             })
         })
         .collect();
-    Ok(Json(json!({ "patches": list })).into_response())
+    Json(json!({ "patches": list })).into_response()
 }
 
 /// The shading mesh (layout in [`crate::render::Shading::mesh_bytes`]).
 pub async fn mesh(State(state): State<Arc<AppState>>, Path(id): Path<String>) -> ApiResult {
     let r = state.slot(&id)?.ready()?;
-    let bytes = r.mesh_bytes();
+    // Built once per scene, off the runtime; then a cheap clone of shared bytes.
+    let n = r.baked.mesh.len() as u64;
+    let bytes = state
+        .heavy(200 * n, "the shading mesh", move |_| Ok(r.mesh_bytes()))
+        .await?;
     Ok((
         [
             (header::CONTENT_TYPE, "application/octet-stream".to_string()),
