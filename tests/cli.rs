@@ -247,6 +247,7 @@ async fn read_only_replicas_serve_a_baked_cache_and_never_bake() {
     assert_eq!(s["status"], "ready", "{s}");
     let r = reqwest::Client::new()
         .post(format!("{base}/api/scenes/room/illuminance"))
+        .header("content-type", "application/json")
         .body(r#"{"lights": {"glow": 0.5}, "surfaces": ["room-y"]}"#)
         .send()
         .await
