@@ -12,6 +12,7 @@
 //! as `<scene id>/<path in the folder>`, never by their absolute path.
 
 mod files;
+pub(crate) use files::read_regular_file;
 pub mod mtl;
 pub mod obj;
 
