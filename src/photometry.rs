@@ -114,7 +114,10 @@ impl IesData {
         let mut field = |what: &str, lo: f64, hi: f64| -> Result<(usize, f64), (Option<usize>, String)> {
             let (line, v) = next(what)?;
             if !(lo..=hi).contains(&v) {
-                return Err((Some(line), format!("{what} = {v}: must be in {lo}..={hi:e}")));
+                return Err((
+                    Some(line),
+                    format!("{what} = {}: must be in {lo}..={hi:e}", crate::scene::num(v)),
+                ));
             }
             Ok((line, v))
         };
@@ -208,7 +211,10 @@ impl IesData {
                 if !(c.is_finite() && c <= MAX_CANDELA) {
                     return Err((
                         Some(line),
-                        format!("candela value {c} (after the multiplier) exceeds {MAX_CANDELA:e} cd"),
+                        format!(
+                            "candela value {} (after the multiplier) exceeds {MAX_CANDELA:e} cd",
+                            crate::scene::num(c)
+                        ),
                     ));
                 }
                 row.push(c);

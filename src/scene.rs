@@ -626,12 +626,22 @@ fn parse_toml(path: &Path, text: &str) -> Result<SceneToml, SceneError> {
     Ok(cfg)
 }
 
+/// A number for a message: plain when moderate, else in exponent form (`1e300`, `1e-9`).
+pub(crate) fn num(v: f64) -> String {
+    let a = v.abs();
+    if v == 0.0 || !v.is_finite() || (1e-4..1e15).contains(&a) {
+        format!("{v}")
+    } else {
+        format!("{v:e}")
+    }
+}
+
 /// `lo ≤ v ≤ hi` and finite, else an error naming `what` and the range.
 fn in_range(what: &str, v: f64, lo: f64, hi: f64) -> Result<(), String> {
     if v.is_finite() && v >= lo && v <= hi {
         Ok(())
     } else {
-        Err(format!("{what} = {v}: must be in {lo}..={hi:e}"))
+        Err(format!("{what} = {}: must be in {lo}..={hi:e}", num(v)))
     }
 }
 
@@ -641,7 +651,8 @@ fn position(what: &str, v: &[f64], scale: f64) -> Result<(), String> {
         let m = x * scale;
         if !(x.is_finite() && m.is_finite() && m.abs() <= MAX_COORD_M) {
             return Err(format!(
-                "{what}: coordinate {x} is outside ±{MAX_COORD_M:e} m (after scaling)"
+                "{what}: coordinate {} is outside ±{MAX_COORD_M:e} m (after scaling)",
+                num(x)
             ));
         }
     }
@@ -695,8 +706,9 @@ fn validate_toml(cfg: &SceneToml, path: &Path) -> Result<(), SceneError> {
         let m = e * scale;
         if !(e.is_finite() && (MIN_MAX_EDGE_M..=MAX_MAX_EDGE_M).contains(&m)) {
             return Err(inv(format!(
-                "[mesh] max_edge = {e}: must be a length between {MIN_MAX_EDGE_M} m and \
-                 {MAX_MAX_EDGE_M:e} m (after scaling)"
+                "[mesh] max_edge = {}: must be a length between {MIN_MAX_EDGE_M} m and \
+                 {MAX_MAX_EDGE_M:e} m (after scaling)",
+                num(e)
             )));
         }
     }
@@ -732,14 +744,15 @@ fn validate_toml(cfg: &SceneToml, path: &Path) -> Result<(), SceneError> {
         for (what, v) in [("beam_deg", l.beam_deg), ("field_deg", l.field_deg)] {
             if let Some(v) = v {
                 if !(v.is_finite() && v > 0.0 && v <= 180.0) {
-                    return Err(ctx(format!("{what} = {v}: must be in (0, 180]")));
+                    return Err(ctx(format!("{what} = {}: must be in (0, 180]", num(v))));
                 }
             }
         }
         if let Some(k) = l.cct {
             if !(k.is_finite() && (MIN_CCT..=MAX_CCT).contains(&k)) {
                 return Err(ctx(format!(
-                    "cct = {k}: must be {MIN_CCT}..{MAX_CCT} K"
+                    "cct = {}: must be {MIN_CCT}..{MAX_CCT} K",
+                    num(k)
                 )));
             }
         }
@@ -752,7 +765,8 @@ fn validate_toml(cfg: &SceneToml, path: &Path) -> Result<(), SceneError> {
         if let Some(e) = l.efficacy {
             if !(e.is_finite() && e > 0.0 && e <= MAX_EFFICACY) {
                 return Err(ctx(format!(
-                    "efficacy = {e}: must be in (0, {MAX_EFFICACY}] lm/W"
+                    "efficacy = {}: must be in (0, {MAX_EFFICACY}] lm/W",
+                    num(e)
                 )));
             }
         }
@@ -763,7 +777,10 @@ fn validate_toml(cfg: &SceneToml, path: &Path) -> Result<(), SceneError> {
         position("target", &c.target, scale).map_err(ctx)?;
         direction("up", &c.up).map_err(ctx)?;
         if !(c.fov_deg > 0.0 && c.fov_deg < 180.0) {
-            return Err(ctx(format!("fov_deg = {}: must be in (0, 180)", c.fov_deg)));
+            return Err(ctx(format!(
+                "fov_deg = {}: must be in (0, 180)",
+                num(c.fov_deg)
+            )));
         }
     }
     for g in &cfg.grids {
@@ -792,7 +809,8 @@ fn validate_toml(cfg: &SceneToml, path: &Path) -> Result<(), SceneError> {
             let m = sp * scale;
             if !(sp.is_finite() && m.is_finite() && m >= MIN_GRID_SPACING_M) {
                 return Err(ctx(format!(
-                    "spacing = {sp}: must be at least {MIN_GRID_SPACING_M} m (after scaling)"
+                    "spacing = {}: must be at least {MIN_GRID_SPACING_M} m (after scaling)",
+                    num(sp)
                 )));
             }
         }
@@ -803,7 +821,9 @@ fn validate_toml(cfg: &SceneToml, path: &Path) -> Result<(), SceneError> {
             let nz = ((hi[1] - lo[1]) / sp).ceil().max(1.0);
             if nx * nz > MAX_GRID_POINTS as f64 {
                 return Err(ctx(format!(
-                    "{nx} × {nz} points; the limit is {MAX_GRID_POINTS}"
+                    "{} × {} points; the limit is {MAX_GRID_POINTS}",
+                    num(nx),
+                    num(nz)
                 )));
             }
         }
@@ -817,7 +837,8 @@ fn resolve_units(cfg: &SceneToml, toml_path: &Path) -> Result<(String, f64), Sce
             return Err(SceneError::Invalid {
                 path: toml_path.into(),
                 message: format!(
-                    "scale = {s}: must be a factor to metres in {MIN_SCALE:e}..={MAX_SCALE:e}"
+                    "scale = {}: must be a factor to metres in {MIN_SCALE:e}..={MAX_SCALE:e}",
+                    num(s)
                 ),
             });
         }

@@ -32,9 +32,18 @@ impl SceneDir {
             .map(|s| s.to_string_lossy().into_owned())
             .filter(|s| !s.is_empty() && s != "." && s != "..");
         let fallback = given_label.clone().unwrap_or_else(|| "scene".into());
-        let root = std::fs::canonicalize(dir).map_err(|source| SceneError::Io {
-            path: PathBuf::from(&fallback),
-            source,
+        let root = std::fs::canonicalize(dir).map_err(|source| {
+            if source.kind() == std::io::ErrorKind::NotFound {
+                SceneError::Invalid {
+                    path: PathBuf::from(&fallback),
+                    message: "scene folder not found".into(),
+                }
+            } else {
+                SceneError::Io {
+                    path: PathBuf::from(&fallback),
+                    source,
+                }
+            }
         })?;
         let label = given_label
             .or_else(|| root.file_name().map(|s| s.to_string_lossy().into_owned()))
