@@ -53,7 +53,10 @@ pub enum CacheError {
     },
     #[error("{}: not a relight cache file (bad magic)", short(path))]
     Foreign { path: PathBuf },
-    #[error("{}: cache format version {found}, this build reads {FORMAT_VERSION}", short(path))]
+    #[error(
+        "{}: cache format version {found}, this build reads {FORMAT_VERSION}",
+        short(path)
+    )]
     Version { path: PathBuf, found: u32 },
     #[error("{}: {message}", short(path))]
     Corrupt { path: PathBuf, message: String },
@@ -88,8 +91,8 @@ pub fn remove_stale_temps(dir: &Path) -> usize {
     for e in rd.flatten() {
         let name = e.file_name();
         let name = name.to_string_lossy();
-        let ours = name.starts_with(TEMP_PREFIX)
-            || (name.starts_with('.') && name.contains(".rlt.tmp-"));
+        let ours =
+            name.starts_with(TEMP_PREFIX) || (name.starts_with('.') && name.contains(".rlt.tmp-"));
         if !ours {
             continue;
         }
@@ -221,7 +224,10 @@ pub fn write(
     // little-endian machines, checked at compile time below).
     let mut all: Vec<(String, Data)> = Vec::new();
     let rho: Vec<f32> = t.rho.iter().flatten().copied().collect();
-    all.push(("rho".into(), Data::Bytes(bytemuck::cast_slice(&rho).to_vec())));
+    all.push((
+        "rho".into(),
+        Data::Bytes(bytemuck::cast_slice(&rho).to_vec()),
+    ));
     if let Some(f) = &t.factored {
         for (k, lu) in f.lus.iter().enumerate() {
             all.push((format!("lu{k}"), Data::Lu(lu)));
@@ -233,7 +239,10 @@ pub fn write(
         }
     }
     all.push(("area".into(), Data::Slice(bytemuck::cast_slice(&t.area))));
-    all.push(("escape".into(), Data::Slice(bytemuck::cast_slice(&t.escape))));
+    all.push((
+        "escape".into(),
+        Data::Slice(bytemuck::cast_slice(&t.escape)),
+    ));
     for (g, col) in t.groups.iter().enumerate() {
         all.push((format!("e{g}"), Data::Slice(bytemuck::cast_slice(&col.e))));
         all.push((format!("b{g}"), Data::Slice(bytemuck::cast_slice(&col.b))));

@@ -223,17 +223,18 @@ pub fn estimate_patches(scene: &Scene, max_edge: f64) -> u64 {
     for t in &scene.triangles {
         let [a, b, c] = t.p;
         let area = 0.5 * (b - a).cross(c - a).length();
-        let longest = (b - a)
-            .length()
-            .max((c - b).length())
-            .max((a - c).length());
+        let longest = (b - a).length().max((c - b).length()).max((a - c).length());
         let n = (area / tri_area).ceil().max((longest / h).ceil()).max(1.0);
         let sides = if is_two_sided(t, &scene.materials, &scene.surfaces) {
             2.0
         } else {
             1.0
         };
-        total += if n.is_finite() { n * sides } else { f64::INFINITY };
+        total += if n.is_finite() {
+            n * sides
+        } else {
+            f64::INFINITY
+        };
     }
     if total >= u64::MAX as f64 || total.is_nan() {
         u64::MAX

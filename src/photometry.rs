@@ -111,22 +111,27 @@ impl IesData {
             Ok((line, v))
         };
         // A value that must lie in lo..=hi.
-        let mut field = |what: &str, lo: f64, hi: f64| -> Result<(usize, f64), (Option<usize>, String)> {
-            let (line, v) = next(what)?;
-            if !(lo..=hi).contains(&v) {
-                return Err((
-                    Some(line),
-                    format!("{what} = {}: must be in {lo}..={hi:e}", crate::scene::num(v)),
-                ));
-            }
-            Ok((line, v))
-        };
-        let integer = |(line, v): (usize, f64), what: &str| -> Result<usize, (Option<usize>, String)> {
-            if v.fract() != 0.0 {
-                return Err((Some(line), format!("{what} = {v}: must be a whole number")));
-            }
-            Ok(v as usize)
-        };
+        let mut field =
+            |what: &str, lo: f64, hi: f64| -> Result<(usize, f64), (Option<usize>, String)> {
+                let (line, v) = next(what)?;
+                if !(lo..=hi).contains(&v) {
+                    return Err((
+                        Some(line),
+                        format!(
+                            "{what} = {}: must be in {lo}..={hi:e}",
+                            crate::scene::num(v)
+                        ),
+                    ));
+                }
+                Ok((line, v))
+            };
+        let integer =
+            |(line, v): (usize, f64), what: &str| -> Result<usize, (Option<usize>, String)> {
+                if v.fract() != 0.0 {
+                    return Err((Some(line), format!("{what} = {v}: must be a whole number")));
+                }
+                Ok(v as usize)
+            };
         match tilt.as_str() {
             "NONE" => {}
             "INCLUDE" => {

@@ -23,8 +23,8 @@ use glam::DVec3;
 use serde::{Deserialize, Serialize};
 
 use crate::color::{luminance, Rgb};
-use crate::limits::*;
 pub use crate::limits::MAX_GRID_POINTS;
+use crate::limits::*;
 pub use mtl::{parse_mtl_str, MtlLibrary, MtlMaterial};
 pub use obj::{parse_obj_str, ObjPart, ObjScan};
 
@@ -287,7 +287,6 @@ pub struct Grid {
     /// Work-plane layout (columns × rows), when the grid is a rectangle.
     pub layout: Option<[usize; 2]>,
 }
-
 
 /// A camera preset, in metres.
 #[derive(Debug, Clone, Serialize)]
@@ -579,7 +578,6 @@ impl Scene {
         })
     }
 
-
     /// Scene bounds in metres (min, max).
     pub fn bounds(&self) -> (DVec3, DVec3) {
         let mut lo = DVec3::splat(f64::INFINITY);
@@ -608,7 +606,6 @@ impl Scene {
 pub fn is_two_sided(t: &Triangle, materials: &[Material], surfaces: &[Surface]) -> bool {
     materials[t.material as usize].two_sided || surfaces[t.surface as usize].two_sided
 }
-
 
 /// Parses the text of a `scene.toml` and checks every number in it against
 /// [`crate::limits`] (what needs the geometry, such as material names, is checked by
@@ -670,8 +667,7 @@ fn direction(what: &str, v: &[f64; 3]) -> Result<(), String> {
 
 /// A colour: finite components in 0..=MAX_COLOR.
 fn color_ok(what: &str, c: &Rgb) -> Result<(), String> {
-    if c
-        .iter()
+    if c.iter()
         .all(|&x| x.is_finite() && x >= 0.0 && x as f64 <= MAX_COLOR)
     {
         Ok(())
@@ -911,7 +907,6 @@ fn line_of(text: &str, offset: usize) -> usize {
         .count()
 }
 
-
 fn assign_lights(
     cfg: &SceneToml,
     toml_path: &Path,
@@ -1077,7 +1072,6 @@ fn assign_lights(
     Ok(groups)
 }
 
-
 /// Builds the `[[luminaires]]` and attaches each to its light group (creating groups that
 /// `[[lights]]` does not define). IES files join `files` for the cache key.
 fn add_luminaires(
@@ -1139,7 +1133,8 @@ fn add_luminaires(
                 let shown = toml.dir.display(&path);
                 // IES headers are often Latin-1: only the numbers matter, so decode lossily.
                 let bytes = toml.dir.read(&path, MAX_TEXT_BYTES)?;
-                let data = crate::photometry::parse_ies_file(&shown, &String::from_utf8_lossy(&bytes))?;
+                let data =
+                    crate::photometry::parse_ies_file(&shown, &String::from_utf8_lossy(&bytes))?;
                 if !files.contains(&path) {
                     files.push(path);
                 }

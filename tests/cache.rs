@@ -171,7 +171,11 @@ fn patch_limit_is_checked_before_meshing() {
     // A tiny max_edge override (CLI --max-edge) is refused the same way; a non-positive one
     // is an error of its own.
     let s = small_scene();
-    for (edge, needle) in [(1e-6, "would give at least"), (0.0, "max_edge = 0"), (f64::NAN, "max_edge = NaN")] {
+    for (edge, needle) in [
+        (1e-6, "would give at least"),
+        (0.0, "max_edge = 0"),
+        (f64::NAN, "max_edge = NaN"),
+    ] {
         let opts = BakeOptions {
             max_edge: Some(edge),
             ..Default::default()
@@ -195,10 +199,16 @@ fn meshing_stops_at_the_patch_limit() {
     assert!(bound as usize <= full && bound > 0, "{bound} vs {full}");
     let limit = (bound as usize + full) / 2;
     let e = relight::mesh::Mesh::try_build_with(&scene, scene.mesh.max_edge, limit).unwrap_err();
-    assert!(!e.estimated && e.limit == limit && e.at_least > limit as u64, "{e:?}");
+    assert!(
+        !e.estimated && e.limit == limit && e.at_least > limit as u64,
+        "{e:?}"
+    );
     // Within the limit, the limited mesh is the mesh.
     let m = relight::mesh::Mesh::try_build_with(&scene, scene.mesh.max_edge, full).unwrap();
-    assert_eq!(m.fingerprint(), relight::mesh::Mesh::build(&scene).fingerprint());
+    assert_eq!(
+        m.fingerprint(),
+        relight::mesh::Mesh::build(&scene).fingerprint()
+    );
     // Through the bake: a limit between the bound and the real count.
     let opts = BakeOptions {
         max_patches: limit,
@@ -208,7 +218,10 @@ fn meshing_stops_at_the_patch_limit() {
         .err()
         .unwrap()
         .to_string();
-    assert!(e.contains("meshing gives") && e.contains(&format!("limit of {limit}")), "{e}");
+    assert!(
+        e.contains("meshing gives") && e.contains(&format!("limit of {limit}")),
+        "{e}"
+    );
 }
 
 #[test]
@@ -241,8 +254,14 @@ fn memory_budget_refuses_a_bake_before_allocating() {
     let e = load_or_bake(s.path(), CachePolicy::Off, &opts, &|_, _| {})
         .err()
         .unwrap();
-    assert!(t0.elapsed().as_secs_f64() < 2.0, "refused before the form factors");
-    assert!(matches!(e, BakeError::OverBudget { action: "bake", .. }), "{e}");
+    assert!(
+        t0.elapsed().as_secs_f64() < 2.0,
+        "refused before the form factors"
+    );
+    assert!(
+        matches!(e, BakeError::OverBudget { action: "bake", .. }),
+        "{e}"
+    );
     let msg = e.to_string();
     assert!(
         msg.contains("needs about")
@@ -257,16 +276,27 @@ fn memory_budget_refuses_a_bake_before_allocating() {
         mode: Some(TransferMode::Factored),
         ..Default::default()
     };
-    load_or_bake(s.path(), CachePolicy::ReadWrite(cache.path()), &ok, &|_, _| {}).unwrap();
+    load_or_bake(
+        s.path(),
+        CachePolicy::ReadWrite(cache.path()),
+        &ok,
+        &|_, _| {},
+    )
+    .unwrap();
     let tight = BakeOptions {
         memory_budget: Some(est.load - 1),
         mode: Some(TransferMode::Factored),
         ..Default::default()
     };
-    let e = load_or_bake(s.path(), CachePolicy::ReadOnly(cache.path()), &tight, &|_, _| {})
-        .err()
-        .unwrap()
-        .to_string();
+    let e = load_or_bake(
+        s.path(),
+        CachePolicy::ReadOnly(cache.path()),
+        &tight,
+        &|_, _| {},
+    )
+    .err()
+    .unwrap()
+    .to_string();
     assert!(e.contains("to load"), "{e}");
     // Columns mode: a cached load needs little, whatever the bake needed.
     let est = relight::bake::memory_estimate(&scene, &mesh, TransferMode::Columns);
@@ -306,7 +336,10 @@ fn cache_section_lengths_are_checked_before_allocating() {
                 assert!(m.contains(needle), "{needle}: {m}");
                 // The message names the entry by its file name only.
                 assert!(!m.contains(&*cache.to_string_lossy()), "{m}");
-                assert!(m.starts_with(&*path.file_name().unwrap().to_string_lossy()), "{m}");
+                assert!(
+                    m.starts_with(&*path.file_name().unwrap().to_string_lossy()),
+                    "{m}"
+                );
             }
             other => panic!("{needle}: expected BadCache, got {:?}", other.err()),
         }
@@ -314,7 +347,9 @@ fn cache_section_lengths_are_checked_before_allocating() {
     };
     // A section claiming 1 TB: refused from the table, nothing is allocated.
     let (s, cache, path) = cached();
-    edit_header(&path, |h| h["sections"][0]["len"] = serde_json::json!(1u64 << 40));
+    edit_header(&path, |h| {
+        h["sections"][0]["len"] = serde_json::json!(1u64 << 40)
+    });
     reject(&path, &s, cache.path(), "bad extent");
     // A huge patch count (sizes overflow or exceed the file).
     let (s, cache, path) = cached();
@@ -326,8 +361,15 @@ fn cache_section_lengths_are_checked_before_allocating() {
     reject(&path, &s, cache.path(), "invalid");
     // A section renamed, or listed twice.
     let (s, cache, path) = cached();
-    edit_header(&path, |h| h["sections"][1]["name"] = serde_json::json!("rho"));
-    reject(&path, &s, cache.path(), "unexpected or repeated section 'rho'");
+    edit_header(&path, |h| {
+        h["sections"][1]["name"] = serde_json::json!("rho")
+    });
+    reject(
+        &path,
+        &s,
+        cache.path(),
+        "unexpected or repeated section 'rho'",
+    );
     // Bytes appended after the last section, or missing.
     let (s, cache, path) = cached();
     let mut bytes = std::fs::read(&path).unwrap();
@@ -370,9 +412,15 @@ fn stale_temporary_files_are_removed() {
         }
         p
     };
-    let dead = mk(&format!("{TEMP_PREFIX}123-abc-room-0123456789abcdef.rlt"), true);
+    let dead = mk(
+        &format!("{TEMP_PREFIX}123-abc-room-0123456789abcdef.rlt"),
+        true,
+    );
     let legacy = mk(".room-0123456789abcdef.rlt.tmp-4242", true);
-    let live = mk(&format!("{TEMP_PREFIX}124-abd-room-0123456789abcdef.rlt"), false);
+    let live = mk(
+        &format!("{TEMP_PREFIX}124-abd-room-0123456789abcdef.rlt"),
+        false,
+    );
     let foreign = mk("notes.txt", true);
     let entry = mk("room-0123456789abcdef.rlt", true);
     assert_eq!(remove_stale_temps(cache.path()), 2);
@@ -385,5 +433,8 @@ fn stale_temporary_files_are_removed() {
     let s = small_scene();
     load(s.path(), CachePolicy::ReadWrite(cache.path())).unwrap();
     assert!(!dead.exists());
-    assert!(live.exists(), "a young temporary file may belong to a live writer");
+    assert!(
+        live.exists(),
+        "a young temporary file may belong to a live writer"
+    );
 }

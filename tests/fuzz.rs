@@ -281,7 +281,10 @@ fn apply(mut b: Vec<u8>, ops: &[Op], lines: &[&str]) -> Vec<u8> {
                     b.splice(s..e, NUMBERS[v % NUMBERS.len()].bytes());
                 }
             }
-            Op::DuplicateLine(k) | Op::DeleteLine(k) | Op::SwapLines(k, _) | Op::InsertLine(k, _) => {
+            Op::DuplicateLine(k)
+            | Op::DeleteLine(k)
+            | Op::SwapLines(k, _)
+            | Op::InsertLine(k, _) => {
                 let mut ls: Vec<Vec<u8>> = b.split(|&c| c == b'\n').map(<[u8]>::to_vec).collect();
                 let i = k % ls.len();
                 match op {
@@ -296,7 +299,9 @@ fn apply(mut b: Vec<u8>, ops: &[Op], lines: &[&str]) -> Vec<u8> {
                         let j = j % ls.len();
                         ls.swap(i, j);
                     }
-                    Op::InsertLine(_, w) => ls.insert(i, lines[w % lines.len()].as_bytes().to_vec()),
+                    Op::InsertLine(_, w) => {
+                        ls.insert(i, lines[w % lines.len()].as_bytes().to_vec())
+                    }
                     _ => {}
                 }
                 b = ls.join(&b'\n');
@@ -455,7 +460,10 @@ fn obj_reader_never_panics_and_names_file_and_line() {
     run(
         "obj (line pass + tobj)",
         20_000,
-        (input(seeds("obj"), OBJ_LINES), prop_oneof![Just(1.0), Just(0.001), Just(1e-6)]),
+        (
+            input(seeds("obj"), OBJ_LINES),
+            prop_oneof![Just(1.0), Just(0.001), Just(1e-6)],
+        ),
         |(bytes, scale)| {
             let text = String::from_utf8_lossy(&bytes);
             let path = "fuzz/scene.obj";
@@ -467,7 +475,10 @@ fn obj_reader_never_panics_and_names_file_and_line() {
                             .positions
                             .iter()
                             .all(|&c| (c as f64 * scale).abs() <= relight::limits::MAX_COORD_M));
-                        prop_assert!(p.indices.iter().all(|&k| (k as usize) < p.positions.len() / 3));
+                        prop_assert!(p
+                            .indices
+                            .iter()
+                            .all(|&k| (k as usize) < p.positions.len() / 3));
                     }
                     Ok(true)
                 }
@@ -498,14 +509,19 @@ fn mtl_reader_never_panics_and_names_file_and_line() {
 
 #[test]
 fn scene_toml_reader_never_panics_and_names_the_file() {
-    run("scene.toml", 20_000, input(seeds("toml"), TOML_LINES), |bytes| {
-        let text = String::from_utf8_lossy(&bytes);
-        let path = "fuzz/scene.toml";
-        match parse_scene_toml(path, &text) {
-            Ok(_) => Ok(true),
-            Err(e) => check_rejection(path, &text, &e).map(|_| false),
-        }
-    });
+    run(
+        "scene.toml",
+        20_000,
+        input(seeds("toml"), TOML_LINES),
+        |bytes| {
+            let text = String::from_utf8_lossy(&bytes);
+            let path = "fuzz/scene.toml";
+            match parse_scene_toml(path, &text) {
+                Ok(_) => Ok(true),
+                Err(e) => check_rejection(path, &text, &e).map(|_| false),
+            }
+        },
+    );
 }
 
 #[test]
@@ -515,7 +531,11 @@ fn ies_reader_never_panics_and_names_file_and_line() {
         let path = "fuzz/x.ies";
         match parse_ies(path, &text) {
             Ok(d) => {
-                prop_assert!(d.candela.iter().flatten().all(|c| c.is_finite() && *c >= 0.0));
+                prop_assert!(d
+                    .candela
+                    .iter()
+                    .flatten()
+                    .all(|c| c.is_finite() && *c >= 0.0));
                 prop_assert!(!d.vertical.is_empty() && !d.horizontal.is_empty());
                 // Evaluating the table anywhere must not panic either.
                 for v in [-200.0, -90.0, 0.0, 45.0, 90.0, 180.0, 400.0] {
@@ -558,7 +578,12 @@ fn scene_load_never_panics_and_names_the_scene() {
         |(k, ops)| {
             let bytes = apply(seeds[k].clone(), &ops, vocab[k]);
             let dir = scene_with(&office, files[k], &bytes);
-            let id = dir.path().file_name().unwrap().to_string_lossy().into_owned();
+            let id = dir
+                .path()
+                .file_name()
+                .unwrap()
+                .to_string_lossy()
+                .into_owned();
             match Scene::load(dir.path()) {
                 Ok(_) => Ok(true),
                 Err(e) => {

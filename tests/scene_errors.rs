@@ -267,7 +267,11 @@ fn mtllib_outside_the_scene_folder_is_refused() {
 #[test]
 fn ies_outside_the_scene_folder_is_refused() {
     let outside = tempfile::tempdir().unwrap();
-    std::fs::write(outside.path().join("x.ies"), "IESNA:LM-63-2002\nTILT=NONE\n").unwrap();
+    std::fs::write(
+        outside.path().join("x.ies"),
+        "IESNA:LM-63-2002\nTILT=NONE\n",
+    )
+    .unwrap();
     let name = outside.path().file_name().unwrap().to_string_lossy();
     for ies in [
         "../../x.ies".to_string(),
@@ -275,8 +279,9 @@ fn ies_outside_the_scene_folder_is_refused() {
         outside.path().join("x.ies").to_string_lossy().into_owned(),
     ] {
         // The ies line is line 5 of scene.toml.
-        let toml =
-            format!("[[luminaires]]\nid = \"l\"\nposition = [0, 2, 0]\nlumens = 10\nies = \"{ies}\"\n");
+        let toml = format!(
+            "[[luminaires]]\nid = \"l\"\nposition = [0, 2, 0]\nlumens = 10\nies = \"{ies}\"\n"
+        );
         let s = write_scene(TRI, GREY_MTL, Some(&toml));
         let e = Scene::load(s.path()).unwrap_err().to_string();
         assert!(
@@ -289,7 +294,10 @@ fn ies_outside_the_scene_folder_is_refused() {
 
 #[cfg(unix)]
 fn mkfifo(p: &std::path::Path) {
-    let st = std::process::Command::new("mkfifo").arg(p).status().unwrap();
+    let st = std::process::Command::new("mkfifo")
+        .arg(p)
+        .status()
+        .unwrap();
     assert!(st.success());
 }
 
@@ -302,7 +310,10 @@ fn fifo_as_obj_mtl_or_ies_is_refused_without_blocking() {
     std::fs::remove_file(s.path().join("scene.mtl")).unwrap();
     mkfifo(&s.path().join("scene.mtl"));
     let e = Scene::load(s.path()).unwrap_err().to_string();
-    assert!(e.contains("scene.mtl") && e.contains("not a regular file (a FIFO)"), "{e}");
+    assert!(
+        e.contains("scene.mtl") && e.contains("not a regular file (a FIFO)"),
+        "{e}"
+    );
     // OBJ
     let s = write_scene(TRI, GREY_MTL, None);
     std::fs::remove_file(s.path().join("scene.obj")).unwrap();
@@ -328,7 +339,10 @@ fn directory_named_like_an_obj_is_refused() {
     let dir = tempfile::tempdir().unwrap();
     std::fs::create_dir(dir.path().join("x.obj")).unwrap();
     let e = Scene::load(dir.path()).unwrap_err().to_string();
-    assert!(e.contains("x.obj") && e.contains("not a regular file (a directory)"), "{e}");
+    assert!(
+        e.contains("x.obj") && e.contains("not a regular file (a directory)"),
+        "{e}"
+    );
     // A directory as the MTL.
     let s = write_scene(TRI, GREY_MTL, None);
     std::fs::create_dir(s.path().join("d.mtl")).unwrap();
@@ -345,7 +359,10 @@ fn empty_files_give_clean_errors() {
     assert!(e.contains("no usable triangles"), "{e}");
     // An empty MTL defines no material: the usemtl is unknown.
     let e = load_err(TRI, "", None);
-    assert!(e.contains("scene.obj:3") && e.contains("unknown material 'grey'"), "{e}");
+    assert!(
+        e.contains("scene.obj:3") && e.contains("unknown material 'grey'"),
+        "{e}"
+    );
     // An empty scene.toml is the default configuration.
     let s = write_scene(TRI, GREY_MTL, Some(""));
     assert!(Scene::load(s.path()).is_ok());
@@ -367,7 +384,11 @@ fn non_utf8_bytes_name_the_line() {
     let e = Scene::load(s.path()).unwrap_err().to_string();
     assert!(e.contains("scene.obj:8") && e.contains("not UTF-8"), "{e}");
     let s = write_scene(TRI, GREY_MTL, None);
-    std::fs::write(s.path().join("scene.mtl"), b"newmtl grey\nKd 0.5 0.5 0.5\n# \xff\n").unwrap();
+    std::fs::write(
+        s.path().join("scene.mtl"),
+        b"newmtl grey\nKd 0.5 0.5 0.5\n# \xff\n",
+    )
+    .unwrap();
     let e = Scene::load(s.path()).unwrap_err().to_string();
     assert!(e.contains("scene.mtl:3") && e.contains("not UTF-8"), "{e}");
     let s = write_scene(TRI, GREY_MTL, None);
@@ -409,7 +430,10 @@ fn kd_with_one_value_does_not_panic() {
     // Two values, or four, are errors that name the file and line.
     for bad in ["Kd 0.5 0.5", "Kd 0.1 0.2 0.3 0.4", "Kd", "Ke 1 2"] {
         let e = load_err(TRI, &format!("newmtl grey\n{bad}\n"), None);
-        assert!(e.contains("scene.mtl:2") && e.contains("needs 3 numbers"), "{bad}: {e}");
+        assert!(
+            e.contains("scene.mtl:2") && e.contains("needs 3 numbers"),
+            "{bad}: {e}"
+        );
     }
 }
 
@@ -450,8 +474,15 @@ fn unparsable_mtl_line_is_an_error_not_a_silent_drop() {
         scene.warnings
     );
     // A material defined twice is an error (which one would count?).
-    let e = load_err(TRI, "newmtl grey\nKd 0.5 0.5 0.5\nnewmtl grey\nKd 0.1 0.1 0.1\n", None);
-    assert!(e.contains("scene.mtl:3") && e.contains("defined twice"), "{e}");
+    let e = load_err(
+        TRI,
+        "newmtl grey\nKd 0.5 0.5 0.5\nnewmtl grey\nKd 0.1 0.1 0.1\n",
+        None,
+    );
+    assert!(
+        e.contains("scene.mtl:3") && e.contains("defined twice"),
+        "{e}"
+    );
 }
 
 #[test]
@@ -472,7 +503,10 @@ fn obj_statements_tobj_would_misread_are_refused() {
         ("mtllib", "mtllib needs a file name"),
     ] {
         let e = load_err(&format!("{TRI}{line}\n"), GREY_MTL, None);
-        assert!(e.contains("scene.obj:8") && e.contains(needle), "{line}: {e}");
+        assert!(
+            e.contains("scene.obj:8") && e.contains(needle),
+            "{line}: {e}"
+        );
     }
     // Vertex colours: all or none.
     let e = load_err(
@@ -491,14 +525,24 @@ fn obj_statements_tobj_would_misread_are_refused() {
     );
     let scene = Scene::load(s.path()).unwrap();
     assert_eq!(scene.triangles.len(), 1);
-    assert_eq!(scene.materials[scene.triangles[0].material as usize].name, "grey");
+    assert_eq!(
+        scene.materials[scene.triangles[0].material as usize].name,
+        "grey"
+    );
     assert!((scene.triangles[0].p[1].z - 1.0).abs() < 1e-12, "w divides");
     let s = write_scene(TRI, GREY_MTL, None);
     let p = s.path().join("scene.obj");
     let obj = std::fs::read_to_string(&p).unwrap();
-    std::fs::write(&p, obj.replace("mtllib scene.mtl\n", "") + "mtllib scene.mtl\n").unwrap();
+    std::fs::write(
+        &p,
+        obj.replace("mtllib scene.mtl\n", "") + "mtllib scene.mtl\n",
+    )
+    .unwrap();
     let scene = Scene::load(s.path()).unwrap();
-    assert_eq!(scene.materials[scene.triangles[0].material as usize].name, "grey");
+    assert_eq!(
+        scene.materials[scene.triangles[0].material as usize].name,
+        "grey"
+    );
 }
 
 #[test]
@@ -532,26 +576,60 @@ fn huge_numbers_are_refused_not_turned_into_null() {
 
     let lum = |extra: &str| format!("[[luminaires]]\nid = \"l\"\nposition = [0, 2, 0]\n{extra}\n");
     let cases: Vec<(String, &str)> = vec![
-        ("[[lights]]\nid = \"a\"\nmaterials = [\"grey\"]\nlumens = 1e300\n".into(), "lumens = 1e300"),
-        ("[[lights]]\nid = \"a\"\nmaterials = [\"grey\"]\nintensity = 1e30\n".into(), "intensity"),
-        ("[[lights]]\nid = \"a\"\nmaterials = [\"grey\"]\ncolor = [1, inf, 1]\n".into(), "color"),
+        (
+            "[[lights]]\nid = \"a\"\nmaterials = [\"grey\"]\nlumens = 1e300\n".into(),
+            "lumens = 1e300",
+        ),
+        (
+            "[[lights]]\nid = \"a\"\nmaterials = [\"grey\"]\nintensity = 1e30\n".into(),
+            "intensity",
+        ),
+        (
+            "[[lights]]\nid = \"a\"\nmaterials = [\"grey\"]\ncolor = [1, inf, 1]\n".into(),
+            "color",
+        ),
         (lum("lumens = 1e300"), "lumens = 1e300"),
         (lum("lumens = nan"), "lumens = NaN"),
         (lum("lumens = 10\nwatts = 1e300"), "watts = 1e300"),
         (lum("lumens = 10\nefficacy = 1e9"), "efficacy"),
         (lum("lumens = 10\ncct = inf"), "cct = inf"),
-        (lum("lumens = 10\ndistribution = \"spot\"\nbeam_deg = nan"), "beam_deg"),
-        ("[[luminaires]]\nid = \"l\"\nposition = [0, 3e38, 0]\nlumens = 1\n".into(), "outside ±1e5 m"),
-        ("[[cameras]]\nid = \"c\"\nposition = [0, 1e300, 0]\ntarget = [0, 0, 0]\nfov_deg = 60\n".into(), "camera 'c'"),
-        ("[[grids]]\nid = \"g\"\nmin = [0, 0]\nmax = [1, 1]\nspacing = 1e-9\n".into(), "spacing = 1e-9"),
-        ("[[grids]]\nid = \"g\"\nmin = [-1e300, 0]\nmax = [1e300, 1]\n".into(), "outside ±1e5 m"),
-        ("[[grids]]\nid = \"g\"\nmin = [0, 0]\nmax = [1, 1]\nheight = nan\n".into(), "height"),
-        ("[[grids]]\nid = \"g\"\npoints = [[0, 1e300, 0]]\n".into(), "points"),
+        (
+            lum("lumens = 10\ndistribution = \"spot\"\nbeam_deg = nan"),
+            "beam_deg",
+        ),
+        (
+            "[[luminaires]]\nid = \"l\"\nposition = [0, 3e38, 0]\nlumens = 1\n".into(),
+            "outside ±1e5 m",
+        ),
+        (
+            "[[cameras]]\nid = \"c\"\nposition = [0, 1e300, 0]\ntarget = [0, 0, 0]\nfov_deg = 60\n"
+                .into(),
+            "camera 'c'",
+        ),
+        (
+            "[[grids]]\nid = \"g\"\nmin = [0, 0]\nmax = [1, 1]\nspacing = 1e-9\n".into(),
+            "spacing = 1e-9",
+        ),
+        (
+            "[[grids]]\nid = \"g\"\nmin = [-1e300, 0]\nmax = [1e300, 1]\n".into(),
+            "outside ±1e5 m",
+        ),
+        (
+            "[[grids]]\nid = \"g\"\nmin = [0, 0]\nmax = [1, 1]\nheight = nan\n".into(),
+            "height",
+        ),
+        (
+            "[[grids]]\nid = \"g\"\npoints = [[0, 1e300, 0]]\n".into(),
+            "points",
+        ),
         ("scale = 1e300\n".into(), "scale = 1e300"),
         ("scale = 0\n".into(), "scale = 0"),
         ("[mesh]\nmax_edge = 1e-9\n".into(), "max_edge = 1e-9"),
         ("[mesh]\nmax_edge = inf\n".into(), "max_edge = inf"),
-        ("[mesh]\ntarget_patches = 1000000000\n".into(), "target_patches = 1000000000"),
+        (
+            "[mesh]\ntarget_patches = 1000000000\n".into(),
+            "target_patches = 1000000000",
+        ),
         ("[mesh]\ntarget_patches = 0\n".into(), "target_patches = 0"),
     ];
     for (toml, needle) in cases {
@@ -568,13 +646,50 @@ fn ies_values_and_counts_are_bounded() {
     let ies = |header: &str, rest: &str| format!("IESNA:LM-63-2002\nTILT=NONE\n{header}\n{rest}");
     let ok_rest = "1 1 20\n0 45 90\n0\n1000 707.1 0\n";
     let cases = [
-        (ies("1 1000 1 1000000000 1 1 2 0.1 0.1 0", ok_rest), "number of vertical angles = 1000000000", 3),
-        (ies("1 1000 1 2000 2000 1 2 0.1 0.1 0", ok_rest), "candela values; the limit is", 3),
-        (ies("1 1000 1e300 3 1 1 2 0.1 0.1 0", ok_rest), "candela multiplier", 3),
-        (ies("1 1000 1 3 1 1 2 0.1 0.1 0", "1 1 20\n0 45 90\n0\n1e300 707.1 0\n"), "candela value", 7),
-        (ies("1 1000 1 3 1 1 2 0.1 0.1 0", "1 1 20\n0 45 45\n0\n1000 707.1 0\n"), "must increase", 5),
-        (ies("1 1000 1 3.5 1 1 2 0.1 0.1 0", ok_rest), "whole number", 3),
-        (ies("1 1000 1 3 1 1 2 0.1 0.1 0", "1 1 20\n0 45 90\n0\n1000 -1 0\n"), "candela values = -1", 7),
+        (
+            ies("1 1000 1 1000000000 1 1 2 0.1 0.1 0", ok_rest),
+            "number of vertical angles = 1000000000",
+            3,
+        ),
+        (
+            ies("1 1000 1 2000 2000 1 2 0.1 0.1 0", ok_rest),
+            "candela values; the limit is",
+            3,
+        ),
+        (
+            ies("1 1000 1e300 3 1 1 2 0.1 0.1 0", ok_rest),
+            "candela multiplier",
+            3,
+        ),
+        (
+            ies(
+                "1 1000 1 3 1 1 2 0.1 0.1 0",
+                "1 1 20\n0 45 90\n0\n1e300 707.1 0\n",
+            ),
+            "candela value",
+            7,
+        ),
+        (
+            ies(
+                "1 1000 1 3 1 1 2 0.1 0.1 0",
+                "1 1 20\n0 45 45\n0\n1000 707.1 0\n",
+            ),
+            "must increase",
+            5,
+        ),
+        (
+            ies("1 1000 1 3.5 1 1 2 0.1 0.1 0", ok_rest),
+            "whole number",
+            3,
+        ),
+        (
+            ies(
+                "1 1000 1 3 1 1 2 0.1 0.1 0",
+                "1 1 20\n0 45 90\n0\n1000 -1 0\n",
+            ),
+            "candela values = -1",
+            7,
+        ),
         (
             "TILT=INCLUDE\n1\n1e18\n".to_string(),
             "TILT pair count = 1e18",
@@ -599,13 +714,21 @@ fn errors_name_scene_relative_paths() {
     let cases: Vec<(String, String, Option<String>)> = vec![
         (format!("{TRI}v nan 0 0\n"), GREY_MTL.into(), None),
         (TRI.into(), "newmtl grey\nKd 2 0 0\n".into(), None),
-        (TRI.into(), GREY_MTL.into(), Some("[mesh]\nmax_edg = 1\n".into())),
+        (
+            TRI.into(),
+            GREY_MTL.into(),
+            Some("[mesh]\nmax_edg = 1\n".into()),
+        ),
         (
             TRI.into(),
             GREY_MTL.into(),
             Some("[[luminaires]]\nid = \"l\"\nposition = [0, 2, 0]\nies = \"no.ies\"\n".into()),
         ),
-        (TRI.into(), GREY_MTL.into(), Some("[[lights]]\nid = \"x\"\n".into())),
+        (
+            TRI.into(),
+            GREY_MTL.into(),
+            Some("[[lights]]\nid = \"x\"\n".into()),
+        ),
         ("# nothing\n".into(), GREY_MTL.into(), None),
     ];
     for (obj, mtl, toml) in cases {

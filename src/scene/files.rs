@@ -278,10 +278,11 @@ impl SceneDir {
 pub(crate) fn read_regular_file(path: &Path, limit: u64) -> std::io::Result<Vec<u8>> {
     read_bounded(path, limit).map_err(|e| match e {
         ReadError::Io(e) => e,
-        ReadError::NotRegular(kind) => std::io::Error::other(format!("not a regular file ({kind})")),
-        ReadError::TooLarge(_) => std::io::Error::other(format!(
-            "larger than the limit of {}",
-            human_bytes(limit)
-        )),
+        ReadError::NotRegular(kind) => {
+            std::io::Error::other(format!("not a regular file ({kind})"))
+        }
+        ReadError::TooLarge(_) => {
+            std::io::Error::other(format!("larger than the limit of {}", human_bytes(limit)))
+        }
     })
 }

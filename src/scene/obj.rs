@@ -72,12 +72,7 @@ fn coord(path: &Path, line: usize, w: &str, what: &str) -> Result<f32, SceneErro
 
 /// Checks one face/line vertex reference `w` (`v`, `v/vt`, `v//vn` or `v/vt/vn`) against
 /// the counts defined so far; returns the vertex index as written.
-fn vertex_ref(
-    path: &Path,
-    line: usize,
-    w: &str,
-    counts: [usize; 3],
-) -> Result<i64, SceneError> {
+fn vertex_ref(path: &Path, line: usize, w: &str, counts: [usize; 3]) -> Result<i64, SceneError> {
     let parts: Vec<&str> = w.split('/').collect();
     if parts.len() > 3 || parts[0].is_empty() {
         return Err(syntax(
@@ -249,11 +244,7 @@ pub fn scan_obj(path: &Path, text: &str, scale: f64) -> Result<ObjScan, SceneErr
                     continue;
                 }
                 if refs.len() < 3 {
-                    return Err(syntax(
-                        path,
-                        line,
-                        "face needs at least 3 vertices".into(),
-                    ));
+                    return Err(syntax(path, line, "face needs at least 3 vertices".into()));
                 }
                 s.triangles += refs.len() - 2;
                 if s.triangles > MAX_OBJ_TRIANGLES {
