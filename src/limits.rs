@@ -56,8 +56,15 @@ pub const MAX_CCT: f64 = 40_000.0;
 pub const MIN_GRID_SPACING_M: f64 = 1e-3;
 /// Most points in one grid (work plane or explicit points).
 pub const MAX_GRID_POINTS: usize = 20_000;
-/// Most entries in each of `[[lights]]`, `[[luminaires]]`, `[[grids]]` and `[[cameras]]`.
+/// Most points over all the grids of a scene (each costs a gather over every patch).
+pub const MAX_GRID_POINTS_TOTAL: usize = 50_000;
+/// Most entries in each of `[[lights]]`, `[[grids]]` and `[[cameras]]`.
 pub const MAX_TOML_ENTRIES: usize = 10_000;
+/// Most `[[luminaires]]` (each adds shadow rays to every patch and grid point).
+pub const MAX_LUMINAIRES: usize = 1_000;
+/// Most light groups in a scene (`[[lights]]`, luminaire groups, and one per unclaimed
+/// emissive material): each carries three n × 3 columns.
+pub const MAX_LIGHT_GROUPS: usize = 1_000;
 
 /// Most vertical and most horizontal angles in an IES file.
 pub const MAX_IES_ANGLES: usize = 2_000;

@@ -533,9 +533,24 @@ impl Scene {
         let toml_ref = TomlRef {
             dir: &sd,
             path: &toml_path,
-            text: &toml_text,
+            newlines: toml_text
+                .bytes()
+                .enumerate()
+                .filter(|&(_, b)| b == b'\n')
+                .map(|(i, _)| i)
+                .collect(),
         };
         add_luminaires(&cfg, &toml_ref, scale, &mut lights, &mut files)?;
+        if lights.len() > MAX_LIGHT_GROUPS {
+            return Err(SceneError::Invalid {
+                path: toml_path.clone(),
+                message: format!(
+                    "{} light groups ([[lights]], luminaire groups and unclaimed emissive \
+                     materials); the limit is {MAX_LIGHT_GROUPS}",
+                    lights.len()
+                ),
+            });
+        }
         let grids = build_grids(&cfg, &toml_path, scale, &triangles)?;
 
         let total_area: f64 = triangles
@@ -686,18 +701,17 @@ fn validate_toml(cfg: &SceneToml, path: &Path) -> Result<(), SceneError> {
         message,
     };
     let (_, scale) = resolve_units(cfg, path)?;
-    for (what, n) in [
-        ("[[lights]]", cfg.lights.len()),
-        ("[[luminaires]]", cfg.luminaires.len()),
-        ("[[grids]]", cfg.grids.len()),
-        ("[[cameras]]", cfg.cameras.len()),
+    for (what, n, max) in [
+        ("[[lights]]", cfg.lights.len(), MAX_TOML_ENTRIES),
+        ("[[luminaires]]", cfg.luminaires.len(), MAX_LUMINAIRES),
+        ("[[grids]]", cfg.grids.len(), MAX_TOML_ENTRIES),
+        ("[[cameras]]", cfg.cameras.len(), MAX_TOML_ENTRIES),
     ] {
-        if n > MAX_TOML_ENTRIES {
-            return Err(inv(format!(
-                "{n} {what} entries; the limit is {MAX_TOML_ENTRIES}"
-            )));
+        if n > max {
+            return Err(inv(format!("{n} {what} entries; the limit is {max}")));
         }
     }
+    let mut grid_points = 0f64;
     if let Some(e) = cfg.mesh.max_edge {
         let m = e * scale;
         if !(e.is_finite() && (MIN_MAX_EDGE_M..=MAX_MAX_EDGE_M).contains(&m)) {
@@ -792,6 +806,7 @@ fn validate_toml(cfg: &SceneToml, path: &Path) -> Result<(), SceneError> {
             for q in p {
                 position("points", q, scale).map_err(ctx)?;
             }
+            grid_points += p.len() as f64;
         }
         for (what, v) in [("min", g.min), ("max", g.max)] {
             if let Some(v) = v {
@@ -822,6 +837,13 @@ fn validate_toml(cfg: &SceneToml, path: &Path) -> Result<(), SceneError> {
                     num(nz)
                 )));
             }
+            grid_points += nx * nz;
+        }
+        if grid_points > MAX_GRID_POINTS_TOTAL as f64 {
+            return Err(ctx(format!(
+                "the grids have {} points in all; the limit is {MAX_GRID_POINTS_TOTAL}",
+                num(grid_points)
+            )));
         }
     }
     Ok(())
@@ -894,17 +916,15 @@ fn find_obj(sd: &files::SceneDir) -> Result<PathBuf, SceneError> {
 struct TomlRef<'a> {
     dir: &'a files::SceneDir,
     path: &'a Path,
-    text: &'a str,
+    /// Byte offsets of the text's newlines.
+    newlines: Vec<usize>,
 }
 
-/// 1-based line of byte `offset` in `text`.
-fn line_of(text: &str, offset: usize) -> usize {
-    1 + text
-        .as_bytes()
-        .iter()
-        .take(offset)
-        .filter(|&&b| b == b'\n')
-        .count()
+impl TomlRef<'_> {
+    /// 1-based line of byte `offset` of the text.
+    fn line_of(&self, offset: usize) -> usize {
+        1 + self.newlines.partition_point(|&n| n < offset)
+    }
 }
 
 fn assign_lights(
@@ -1088,7 +1108,11 @@ fn add_luminaires(
         message: format!("luminaire '{id}': {m}"),
     };
     let mut seen = std::collections::HashSet::new();
+    // Luminaires sharing an IES file or a spot shape share its table and its integral.
+    let mut ies_read: HashMap<PathBuf, Box<crate::photometry::IesData>> = HashMap::new();
+    let mut integrals: HashMap<String, f64> = HashMap::new();
     for l in &cfg.luminaires {
+        let mut integral_key: Option<String> = None;
         if l.id.is_empty() || !seen.insert(l.id.clone()) {
             return Err(bad(&l.id, "id is empty or used twice".into()));
         }
@@ -1111,6 +1135,7 @@ fn add_luminaires(
                         format!("spot needs 0 < beam_deg ({beam}) < 180 and beam_deg ≤ field_deg ({field}) ≤ 180"),
                     ));
                 }
+                integral_key = Some(format!("spot:{beam:?}:{field:?}"));
                 Distribution::Spot {
                     beam_deg: beam,
                     field_deg: field,
@@ -1123,22 +1148,30 @@ fn add_luminaires(
                         "distribution \"ies\" needs ies = \"file.ies\"".into(),
                     )
                 })?;
-                let line = line_of(toml.text, name.span().start);
+                let line = toml.line_of(name.span().start);
                 let path = toml.dir.resolve(
                     name.get_ref(),
                     toml_path,
                     line,
                     &format!("luminaire '{}': ies", l.id),
                 )?;
-                let shown = toml.dir.display(&path);
-                // IES headers are often Latin-1: only the numbers matter, so decode lossily.
-                let bytes = toml.dir.read(&path, MAX_TEXT_BYTES)?;
-                let data =
-                    crate::photometry::parse_ies_file(&shown, &String::from_utf8_lossy(&bytes))?;
+                let data = match ies_read.get(&path) {
+                    Some(d) => d.clone(),
+                    None => {
+                        let shown = toml.dir.display(&path);
+                        // IES headers are often Latin-1: only the numbers matter.
+                        let bytes = toml.dir.read(&path, MAX_TEXT_BYTES)?;
+                        let text = String::from_utf8_lossy(&bytes);
+                        let d = Box::new(crate::photometry::parse_ies_file(&shown, &text)?);
+                        ies_read.insert(path.clone(), d.clone());
+                        d
+                    }
+                };
                 if !files.contains(&path) {
-                    files.push(path);
+                    files.push(path.clone());
                 }
-                Distribution::Ies(Box::new(data))
+                integral_key = Some(format!("ies:{}", path.display()));
+                Distribution::Ies(data)
             }
             other => {
                 return Err(bad(
@@ -1155,12 +1188,19 @@ fn add_luminaires(
             (None, None) => [1.0; 3],
         };
         let v = |a: [f64; 3]| DVec3::from_array(a);
-        let mut lum = Luminaire::new(
+        let integral = match integral_key {
+            Some(k) => *integrals
+                .entry(k)
+                .or_insert_with(|| distribution.integral()),
+            None => distribution.integral(),
+        };
+        let mut lum = Luminaire::with_integral(
             &l.id,
             v(l.position) * scale,
             v(l.aim),
             l.c0.map(v),
             distribution,
+            integral,
             l.lumens,
             color,
             None,

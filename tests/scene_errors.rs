@@ -751,3 +751,35 @@ fn errors_name_scene_relative_paths() {
     assert!(e.starts_with(&id_of(&s)), "{e}");
     assert_relative(&e, &s);
 }
+
+#[test]
+fn scene_wide_counts_are_bounded() {
+    // Luminaires: each adds shadow rays to every patch and grid point.
+    let mut toml = String::new();
+    for i in 0..=limits::MAX_LUMINAIRES {
+        toml += &format!("[[luminaires]]\nid = \"l{i}\"\nposition = [0, 2, 0]\nlumens = 1\n");
+    }
+    let e = load_err(TRI, GREY_MTL, Some(&toml));
+    assert!(
+        e.contains("1001 [[luminaires]] entries; the limit is 1000"),
+        "{e}"
+    );
+    // Grid points over all grids.
+    let grid = |i: usize| {
+        format!("[[grids]]\nid = \"g{i}\"\nmin = [0, 0]\nmax = [14, 14]\nspacing = 0.1\n")
+    };
+    let e = load_err(TRI, GREY_MTL, Some(&(0..3).map(grid).collect::<String>()));
+    assert!(e.contains("points in all; the limit is 50000"), "{e}");
+    // Light groups: one per unclaimed emissive material counts too.
+    let mut mtl = String::from(GREY_MTL);
+    let mut obj = String::from(TRI);
+    for i in 0..=limits::MAX_LIGHT_GROUPS {
+        mtl += &format!("newmtl e{i}\nKe 1 1 1\n");
+        obj += &format!("o lamp{i}\nusemtl e{i}\nf 1 3 2\n");
+    }
+    let e = load_err(&obj, &mtl, None);
+    assert!(
+        e.contains("1001 light groups") && e.contains("the limit is 1000"),
+        "{e}"
+    );
+}
