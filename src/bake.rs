@@ -25,15 +25,43 @@ pub enum BakeError {
     #[error(transparent)]
     Scene(#[from] SceneError),
     #[error(
-        "{scene}: meshing gives {patches} patches, more than the limit of {max}; \
-         raise [mesh] max_edge or lower target_patches in scene.toml"
+        "{scene}: meshing {} {patches} patches, more than the limit of {max}; \
+         raise [mesh] max_edge or lower target_patches in scene.toml",
+        if *estimated { "would give at least" } else { "gives" }
     )]
     TooLarge {
         scene: String,
-        patches: usize,
+        /// The patch count, or a lower bound of it when `estimated`.
+        patches: u64,
         max: usize,
+        /// True when the count is the pre-meshing estimate ([`crate::mesh::estimate_patches`]).
+        estimated: bool,
     },
-    #[error("{scene}: no baked transfer in the cache ({path}) and the server is read-only: run `relight bake` first")]
+    #[error(
+        "{scene}: needs about {} to {action} {} patches in {} mode; the memory budget is {}",
+        human_bytes(*needed),
+        thousands(*patches as u64),
+        mode_name(*mode),
+        human_bytes(*budget)
+    )]
+    OverBudget {
+        scene: String,
+        /// Estimated peak bytes ([`estimate_bake_bytes`] or [`estimate_load_bytes`]).
+        needed: u64,
+        /// [`BakeOptions::memory_budget`].
+        budget: u64,
+        patches: usize,
+        mode: TransferMode,
+        /// "bake" or "load".
+        action: &'static str,
+    },
+    #[error("{scene}: {message}")]
+    BadOption { scene: String, message: String },
+    #[error(
+        "{scene}: no baked transfer in the cache ({}) and the server is read-only: \
+         run `relight bake` first",
+        file_name(path)
+    )]
     NotCached { scene: String, path: PathBuf },
     #[error("{scene}: cache entry rejected in read-only mode: {source}")]
     BadCache {
@@ -41,12 +69,169 @@ pub enum BakeError {
         #[source]
         source: CacheError,
     },
+    /// `path` is the scene id (errors never show absolute paths).
     #[error("{path}: cannot read scene files for the cache key: {source}")]
     Io {
         path: PathBuf,
         #[source]
         source: std::io::Error,
     },
+}
+
+fn file_name(p: &Path) -> String {
+    p.file_name()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_default()
+}
+
+fn mode_name(m: TransferMode) -> &'static str {
+    match m {
+        TransferMode::Factored => "factored",
+        TransferMode::Columns => "columns",
+    }
+}
+
+/// "6.1 GB", "350 MB", "12 kB" (decimal units).
+pub fn human_bytes(b: u64) -> String {
+    let b = b as f64;
+    if b >= 1e9 {
+        format!("{:.1} GB", b / 1e9)
+    } else if b >= 1e6 {
+        format!("{:.0} MB", b / 1e6)
+    } else {
+        format!("{:.0} kB", b / 1e3)
+    }
+}
+
+/// 39000 → "39,000".
+fn thousands(n: u64) -> String {
+    let s = n.to_string();
+    let mut out = String::with_capacity(s.len() + s.len() / 3);
+    for (i, c) in s.chars().enumerate() {
+        if i > 0 && (s.len() - i) % 3 == 0 {
+            out.push(',');
+        }
+        out.push(c);
+    }
+    out
+}
+
+/// Bytes per patch besides the n×n matrices and the group columns: mesh vertices and patch
+/// records, the refinement's edge map, form-factor patch geometry, per-patch arrays (ρ,
+/// area, escape), faer's column padding of each n×n matrix, with headroom.
+pub const BAKE_BYTES_PER_PATCH: u64 = 2048;
+/// Bytes per patch and light group: the n×3 f32 columns alive at once during a solve
+/// (emission, direct light, E, B, F·B, the refinement residual, the interleaved e/b/h of
+/// the result): at most ~100, with headroom.
+pub const BAKE_BYTES_PER_PATCH_GROUP: u64 = 128;
+/// Fixed overhead of a bake (BVH over small scenes, thread stacks, scratch).
+pub const BAKE_BYTES_BASE: u64 = 32 << 20;
+
+/// Estimated peak memory of baking `patches` patches in `mode` with `groups` light groups
+/// and `lu_count` distinct reflectance channels (1–3: channels with identical ρ over all
+/// patches share one factorization; see [`memory_estimate`]).
+///
+/// - **Both modes** hold the dense form factors `F`: 4·n² bytes (f32, n × n).
+/// - **Factored** adds one LU of `(I − ρF)ᵀ` per distinct channel, 4·n² bytes each, all alive
+///   with `F` at the end of the solve (and while the cache entry is written, which streams
+///   them without copies): `4·n²·(1 + lu_count)`.
+/// - **Columns** keeps only `F` (Jacobi needs no factorization): `4·n²`.
+/// - Plus [`BAKE_BYTES_PER_PATCH`]·n, [`BAKE_BYTES_PER_PATCH_GROUP`]·n·groups and
+///   [`BAKE_BYTES_BASE`].
+///
+/// Measured peaks (`benches/sizing.sh`) are within this estimate.
+pub fn estimate_bake_bytes(
+    patches: usize,
+    mode: TransferMode,
+    groups: usize,
+    lu_count: usize,
+) -> u64 {
+    let n = patches as u64;
+    let square = 4u64.saturating_mul(n).saturating_mul(n);
+    let matrices = match mode {
+        TransferMode::Factored => square.saturating_mul(1 + lu_count.clamp(1, 3) as u64),
+        TransferMode::Columns => square,
+    };
+    matrices
+        .saturating_add(n.saturating_mul(BAKE_BYTES_PER_PATCH))
+        .saturating_add(
+            n.saturating_mul(groups.max(1) as u64)
+                .saturating_mul(BAKE_BYTES_PER_PATCH_GROUP),
+        )
+        .saturating_add(BAKE_BYTES_BASE)
+}
+
+/// Estimated peak memory of loading a baked transfer from the cache: in factored mode `F`
+/// and the LUs (read straight into their final buffers), `4·n²·(1 + lu_count)`; in columns
+/// mode only the group columns. Plus the same per-patch, per-group and base terms as
+/// [`estimate_bake_bytes`].
+pub fn estimate_load_bytes(
+    patches: usize,
+    mode: TransferMode,
+    groups: usize,
+    lu_count: usize,
+) -> u64 {
+    match mode {
+        TransferMode::Factored => estimate_bake_bytes(patches, mode, groups, lu_count),
+        TransferMode::Columns => {
+            let n = patches as u64;
+            n.saturating_mul(BAKE_BYTES_PER_PATCH)
+                .saturating_add(
+                    n.saturating_mul(groups.max(1) as u64)
+                        .saturating_mul(BAKE_BYTES_PER_PATCH_GROUP),
+                )
+                .saturating_add(BAKE_BYTES_BASE)
+        }
+    }
+}
+
+/// Memory estimates for one meshed scene.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+pub struct MemoryEstimate {
+    pub patches: usize,
+    pub mode: TransferMode,
+    pub groups: usize,
+    /// Distinct reflectance channels (LU factorizations in factored mode).
+    pub lu_count: usize,
+    /// Peak bytes of a bake ([`estimate_bake_bytes`]).
+    pub bake: u64,
+    /// Peak bytes of a load from the cache ([`estimate_load_bytes`]).
+    pub load: u64,
+}
+
+/// Estimates the memory a scene's bake and cached load need, from its mesh: the patch
+/// count, the light groups, and how many reflectance channels differ (ρ of R, G and B
+/// compared over the materials the patches use, as the solver does).
+pub fn memory_estimate(scene: &Scene, mesh: &Mesh, mode: TransferMode) -> MemoryEstimate {
+    let mut used = vec![false; scene.materials.len()];
+    for p in &mesh.patches {
+        if let Some(u) = used.get_mut(p.material as usize) {
+            *u = true;
+        }
+    }
+    let kd: Vec<[f32; 3]> = scene
+        .materials
+        .iter()
+        .zip(&used)
+        .filter(|(_, &u)| u)
+        .map(|(m, _)| m.kd)
+        .collect();
+    let same = |a: usize, b: usize| kd.iter().all(|k| k[a] == k[b]);
+    let mut distinct: Vec<usize> = Vec::new();
+    for c in 0..3 {
+        if !distinct.iter().any(|&d| same(d, c)) {
+            distinct.push(c);
+        }
+    }
+    let (n, groups, lu_count) = (mesh.len(), scene.lights.len(), distinct.len());
+    MemoryEstimate {
+        patches: n,
+        mode,
+        groups,
+        lu_count,
+        bake: estimate_bake_bytes(n, mode, groups, lu_count),
+        load: estimate_load_bytes(n, mode, groups, lu_count),
+    }
 }
 
 /// Where baked transfers are kept.
@@ -69,7 +254,9 @@ pub struct BakeOptions {
     pub max_edge: Option<f64>,
     /// Overrides the scene's transfer mode.
     pub mode: Option<TransferMode>,
-    /// Refuse a bake estimated to need more bytes than this.
+    /// Most bytes a bake (or a cached load) may need, by [`estimate_bake_bytes`] /
+    /// [`estimate_load_bytes`]; a scene above it fails before the large allocations with
+    /// [`BakeError::OverBudget`]. None: unlimited.
     pub memory_budget: Option<u64>,
 }
 
@@ -165,17 +352,54 @@ pub fn load_or_bake(
     progress: &(dyn Fn(Stage, f64) + Sync),
 ) -> Result<Baked, BakeError> {
     progress(Stage::Loading, 0.0);
+    if let CachePolicy::ReadWrite(d) = cache_policy {
+        cache::remove_stale_temps(d);
+    }
     let scene = Scene::load(dir)?;
-    let max_edge = opts.max_edge.unwrap_or(scene.mesh.max_edge);
-    let mesh = Mesh::build_with(&scene, max_edge);
+    let max_edge = match opts.max_edge {
+        Some(e) if e.is_finite() && e > 0.0 => e,
+        Some(e) => {
+            return Err(BakeError::BadOption {
+                scene: scene.id.clone(),
+                message: format!("max_edge = {e}: must be a positive length in metres"),
+            })
+        }
+        None => scene.mesh.max_edge,
+    };
+    let mesh = Mesh::try_build_with(&scene, max_edge, opts.max_patches).map_err(|e| {
+        BakeError::TooLarge {
+            scene: scene.id.clone(),
+            patches: e.at_least,
+            max: e.limit,
+            estimated: e.estimated,
+        }
+    })?;
     let n = mesh.len();
     if n > opts.max_patches {
         return Err(BakeError::TooLarge {
             scene: scene.id.clone(),
-            patches: n,
+            patches: n as u64,
             max: opts.max_patches,
+            estimated: false,
         });
     }
+    let mode = opts
+        .mode
+        .unwrap_or_else(|| TransferMode::resolve(scene.transfer, n));
+    let memory = memory_estimate(&scene, &mesh, mode);
+    let over_budget = |needed: u64, action: &'static str| -> Result<(), BakeError> {
+        match opts.memory_budget {
+            Some(budget) if needed > budget => Err(BakeError::OverBudget {
+                scene: scene.id.clone(),
+                needed,
+                budget,
+                patches: n,
+                mode,
+                action,
+            }),
+            _ => Ok(()),
+        }
+    };
     let bvh = scene_bvh(&scene);
     let settings = settings_json(&scene, opts, max_edge);
     let fingerprint = mesh.fingerprint();
@@ -189,13 +413,16 @@ pub fn load_or_bake(
         CachePolicy::ReadWrite(d) | CachePolicy::ReadOnly(d) => {
             let key =
                 cache::cache_key(&scene.files, &settings).map_err(|source| BakeError::Io {
-                    path: scene.dir.clone(),
+                    path: PathBuf::from(&scene.id),
                     source,
                 })?;
             Some((cache::entry_path(d, &scene.id, &key), key))
         }
     };
     if let Some((path, key)) = &entry {
+        if path.exists() {
+            over_budget(memory.load, "load")?;
+        }
         let t0 = Instant::now();
         match cache::read(path, key, fingerprint) {
             Ok(transfer) => {
@@ -236,12 +463,10 @@ pub fn load_or_bake(
         }
     }
 
+    over_budget(memory.bake, "bake")?;
     let t0 = Instant::now();
     let f = formfactor::compute(&mesh, &bvh, &opts.ff, &|x| progress(Stage::FormFactors, x));
     stats.form_factor_s = t0.elapsed().as_secs_f64();
-    let mode = opts
-        .mode
-        .unwrap_or_else(|| TransferMode::resolve(scene.transfer, n));
     let t1 = Instant::now();
     let direct = crate::direct::group_direct(&scene, &mesh, &bvh);
     let transfer = Transfer::build(&scene, &mesh, f, &direct, mode, &|x| {

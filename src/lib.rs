@@ -19,6 +19,7 @@ pub mod direct;
 pub mod formfactor;
 pub mod grid;
 pub mod lighting;
+pub mod limits;
 pub mod mesh;
 pub mod optimize;
 pub mod photometry;

@@ -55,18 +55,62 @@ impl Mesh {
 
     /// Meshes `scene` with patches no longer than `max_edge` metres on any edge.
     pub fn build_with(scene: &Scene, max_edge: f64) -> Mesh {
+        match Self::build_limited(scene, max_edge, usize::MAX) {
+            Ok(m) => m,
+            // A live count cannot exceed usize::MAX.
+            Err(e) => unreachable!("unlimited meshing stopped: {e}"),
+        }
+    }
+
+    /// Meshes `scene` like [`Mesh::build_with`], but refuses to produce more than
+    /// `max_patches` patches. The refusal comes before any meshing when
+    /// [`estimate_patches`] already exceeds the limit, else as soon as refinement passes it
+    /// (so the work is bounded by the limit either way).
+    pub fn try_build_with(
+        scene: &Scene,
+        max_edge: f64,
+        max_patches: usize,
+    ) -> Result<Mesh, TooManyPatches> {
+        let at_least = estimate_patches(scene, max_edge);
+        if at_least > max_patches as u64 {
+            return Err(TooManyPatches {
+                at_least,
+                limit: max_patches,
+                estimated: true,
+            });
+        }
+        Self::build_limited(scene, max_edge, max_patches)
+    }
+
+    fn build_limited(
+        scene: &Scene,
+        max_edge: f64,
+        max_patches: usize,
+    ) -> Result<Mesh, TooManyPatches> {
+        let too_many = |n: usize| TooManyPatches {
+            at_least: n as u64,
+            limit: max_patches,
+            estimated: false,
+        };
         let mut vertices = Vec::new();
         let mut patches = Vec::new();
         let mut surface_patches = Vec::with_capacity(scene.surfaces.len());
-        for s in 0..scene.surfaces.len() as u32 {
+        // Triangles of each surface, in scene order.
+        let mut by_surface: Vec<Vec<u32>> = vec![Vec::new(); scene.surfaces.len()];
+        for (t, tri) in scene.triangles.iter().enumerate() {
+            if let Some(list) = by_surface.get_mut(tri.surface as usize) {
+                list.push(t as u32);
+            }
+        }
+        for tris in &by_surface {
             let start = patches.len() as u32;
-            let tris: Vec<u32> = (0..scene.triangles.len() as u32)
-                .filter(|&t| scene.triangles[t as usize].surface == s)
-                .collect();
             if !tris.is_empty() {
-                let mut r = Refiner::new(scene, &tris);
-                r.fix_t_junctions();
-                r.refine(max_edge);
+                let budget = max_patches.saturating_sub(patches.len());
+                let mut r = Refiner::new(scene, tris);
+                r.fix_t_junctions(budget)
+                    .map_err(|n| too_many(patches.len() + n))?;
+                r.refine(max_edge, budget)
+                    .map_err(|n| too_many(patches.len() + n))?;
                 let base = vertices.len() as u32;
                 vertices.extend_from_slice(&r.pos);
                 let front: Vec<usize> = (0..r.tris.len()).filter(|&t| r.alive[t]).collect();
@@ -84,6 +128,9 @@ impl Mesh {
                         is_two_sided(tri, &scene.materials, &scene.surfaces)
                     })
                     .collect();
+                if patches.len().saturating_add(two.len()) > max_patches {
+                    return Err(too_many(patches.len() + two.len()));
+                }
                 for t in two {
                     let src = r.src[t];
                     let tri = &scene.triangles[src as usize];
@@ -93,11 +140,11 @@ impl Mesh {
             }
             surface_patches.push(start..patches.len() as u32);
         }
-        Mesh {
+        Ok(Mesh {
             vertices,
             patches,
             surface_patches,
-        }
+        })
     }
 
     /// Number of patches.
@@ -136,6 +183,66 @@ impl Mesh {
     }
 }
 
+/// Meshing would exceed a patch limit.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+#[error(
+    "meshing {} {at_least} patches, more than the limit of {limit}",
+    if *estimated { "would give at least" } else { "stopped after" }
+)]
+pub struct TooManyPatches {
+    /// A lower bound of the patch count ([`estimate_patches`]), or the count at which
+    /// refinement stopped.
+    pub at_least: u64,
+    pub limit: usize,
+    /// True when the refusal came from the estimate, before any meshing.
+    pub estimated: bool,
+}
+
+/// A lower bound on the number of patches [`Mesh::build_with`] gives for `max_edge`
+/// (metres), computed from the scene's triangles in O(triangles) without allocating.
+///
+/// Refinement stops when no edge is longer than `h = max_edge`, so every patch has area at
+/// most `(√3/4)·h²` (the equilateral triangle is the largest with edges ≤ h), and an input
+/// edge of length `l` ends up split into at least `⌈l/h⌉` pieces, each on a different patch.
+/// Per input triangle of area `A` and longest edge `l`, that is at least
+/// `max(⌈A / ((√3/4)·h²)⌉, ⌈l/h⌉, 1)` patches, doubled for two-sided triangles. T-junction
+/// repair and the longest-edge propagation between neighbours only add patches. Longest-edge
+/// bisection typically leaves triangles of about `h²/5` (right isosceles shapes), so the
+/// real count is usually about 2× this bound; the bound never exceeds it, so a scene refused
+/// on the estimate could never have been meshed within the limit.
+///
+/// Returns `u64::MAX` when `max_edge` is not a positive finite length.
+pub fn estimate_patches(scene: &Scene, max_edge: f64) -> u64 {
+    if !(max_edge.is_finite() && max_edge > 0.0) {
+        return u64::MAX;
+    }
+    // The refinement tolerates edges up to h·√(1 + 1e-9).
+    let h = max_edge * (1.0 + 1e-9);
+    let tri_area = 3f64.sqrt() / 4.0 * h * h;
+    let mut total = 0f64;
+    for t in &scene.triangles {
+        let [a, b, c] = t.p;
+        let area = 0.5 * (b - a).cross(c - a).length();
+        let longest = (b - a).length().max((c - b).length()).max((a - c).length());
+        let n = (area / tri_area).ceil().max((longest / h).ceil()).max(1.0);
+        let sides = if is_two_sided(t, &scene.materials, &scene.surfaces) {
+            2.0
+        } else {
+            1.0
+        };
+        total += if n.is_finite() {
+            n * sides
+        } else {
+            f64::INFINITY
+        };
+    }
+    if total >= u64::MAX as f64 || total.is_nan() {
+        u64::MAX
+    } else {
+        total as u64
+    }
+}
+
 fn make_patch(vertices: &[DVec3], v: [u32; 3], tri: &crate::scene::Triangle, src: u32) -> Patch {
     let [a, b, c] = v.map(|k| vertices[k as usize]);
     let cr = (b - a).cross(c - a);
@@ -168,6 +275,8 @@ struct Refiner {
     src: Vec<u32>,
     alive: Vec<bool>,
     edges: HashMap<EdgeKey, Vec<u32>>,
+    /// Number of alive triangles.
+    live: usize,
 }
 
 impl Refiner {
@@ -179,6 +288,7 @@ impl Refiner {
             src: Vec::new(),
             alive: Vec::new(),
             edges: HashMap::new(),
+            live: 0,
         };
         for &t in tris {
             let tri = &scene.triangles[t as usize];
@@ -202,6 +312,7 @@ impl Refiner {
         self.tris.push(v);
         self.src.push(src);
         self.alive.push(true);
+        self.live += 1;
         for k in 0..3 {
             self.edges
                 .entry(key(v[k], v[(k + 1) % 3]))
@@ -213,6 +324,7 @@ impl Refiner {
 
     fn kill(&mut self, t: u32) {
         self.alive[t as usize] = false;
+        self.live -= 1;
         let v = self.tris[t as usize];
         for k in 0..3 {
             let e = key(v[k], v[(k + 1) % 3]);
@@ -256,7 +368,11 @@ impl Refiner {
     }
 
     /// Splits every triangle whose edge passes through another vertex of the surface.
-    fn fix_t_junctions(&mut self) {
+    /// Stops with the live triangle count as soon as it exceeds `limit`.
+    fn fix_t_junctions(&mut self, limit: usize) -> Result<(), usize> {
+        if self.live > limit {
+            return Err(self.live);
+        }
         // Vertices sorted by x, to find candidates near an edge quickly.
         let mut by_x: Vec<u32> = (0..self.pos.len() as u32).collect();
         by_x.sort_by(|&a, &b| self.pos[a as usize].x.total_cmp(&self.pos[b as usize].x));
@@ -296,15 +412,22 @@ impl Refiner {
                 }
             }
             match split {
-                Some((k, m)) => self.split_at(t, k, m),
+                Some((k, m)) => {
+                    self.split_at(t, k, m);
+                    if self.live > limit {
+                        return Err(self.live);
+                    }
+                }
                 None => t += 1,
             }
         }
+        Ok(())
     }
 
     /// Rivara refinement: bisect longest edges (along the longest-edge propagation path,
-    /// so no hanging vertex is ever created) until every edge is at most `h`.
-    fn refine(&mut self, h: f64) {
+    /// so no hanging vertex is ever created) until every edge is at most `h`. Stops with
+    /// the live triangle count as soon as it exceeds `limit`.
+    fn refine(&mut self, h: f64, limit: usize) -> Result<(), usize> {
         let h2 = h * h * (1.0 + 1e-9);
         let mut t = 0u32;
         while (t as usize) < self.tris.len() {
@@ -320,6 +443,9 @@ impl Refiner {
                         Some(n) => cur = n,
                         None => {
                             self.bisect(e);
+                            if self.live > limit {
+                                return Err(self.live);
+                            }
                             break;
                         }
                     }
@@ -327,6 +453,7 @@ impl Refiner {
             }
             t += 1;
         }
+        Ok(())
     }
 
     /// Splits edge `e` at its midpoint, in every triangle that has it.

@@ -19,6 +19,8 @@
 use glam::DVec3;
 
 use crate::color::Rgb;
+use crate::limits::*;
+use crate::scene::SceneError;
 
 /// Photometric type of an IES file.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -44,119 +46,202 @@ pub struct IesData {
     pub input_watts: f64,
 }
 
+/// Parses the text of an IES LM-63 file; `path` is the display name errors use. Every
+/// rejection is a [`SceneError::Syntax`] naming the line (or [`SceneError::Invalid`] when no
+/// line applies). Counts and values are bounded by [`crate::limits`] before anything is
+/// allocated for them.
+pub fn parse_ies(path: &str, text: &str) -> Result<IesData, SceneError> {
+    parse_ies_file(std::path::Path::new(path), text)
+}
+
+pub(crate) fn parse_ies_file(path: &std::path::Path, text: &str) -> Result<IesData, SceneError> {
+    IesData::parse_lines(text).map_err(|(line, message)| match line {
+        Some(line) => SceneError::Syntax {
+            path: path.to_path_buf(),
+            line,
+            message,
+        },
+        None => SceneError::Invalid {
+            path: path.to_path_buf(),
+            message,
+        },
+    })
+}
+
 impl IesData {
-    /// Parses the text of an LM-63 file. Errors name what is wrong.
+    /// Parses the text of an LM-63 file. Errors name what is wrong, and the line.
     pub fn parse(text: &str) -> Result<IesData, String> {
-        let mut lines = text.lines();
+        Self::parse_lines(text).map_err(|(line, m)| match line {
+            Some(l) => format!("line {l}: {m}"),
+            None => m,
+        })
+    }
+
+    fn parse_lines(text: &str) -> Result<IesData, (Option<usize>, String)> {
+        let mut lines = text.lines().enumerate();
         let mut tilt = None;
-        for line in lines.by_ref() {
+        for (_, line) in lines.by_ref() {
             let t = line.trim();
             if let Some(rest) = t.strip_prefix("TILT=") {
                 tilt = Some(rest.trim().to_string());
                 break;
             }
         }
-        let tilt = tilt.ok_or("no TILT= line: not an IES LM-63 file")?;
-        let rest: Vec<&str> = lines.collect();
-        let mut nums = rest
-            .iter()
-            .flat_map(|l| l.split(|c: char| c.is_whitespace() || c == ','))
-            .filter(|s| !s.is_empty());
-        let mut next = |what: &str| -> Result<f64, String> {
-            let s = nums
-                .next()
-                .ok_or_else(|| format!("file ends before {what}"))?;
+        let tilt = tilt.ok_or((None, "no TILT= line: not an IES LM-63 file".to_string()))?;
+        let mut last_line = 0usize;
+        let mut nums = lines.flat_map(|(i, l)| {
+            l.split(|c: char| c.is_whitespace() || c == ',')
+                .filter(|s| !s.is_empty())
+                .map(move |s| (i + 1, s))
+        });
+        let mut next = |what: &str| -> Result<(usize, f64), (Option<usize>, String)> {
+            let (line, s) = nums.next().ok_or_else(|| {
+                (
+                    (last_line > 0).then_some(last_line),
+                    format!("file ends before {what}"),
+                )
+            })?;
+            last_line = line;
             let v: f64 = s
                 .parse()
-                .map_err(|_| format!("'{s}' is not a number ({what})"))?;
+                .map_err(|_| (Some(line), format!("'{s}' is not a number ({what})")))?;
             if !v.is_finite() {
-                return Err(format!("{what} is not finite"));
+                return Err((Some(line), format!("{what} is not finite")));
             }
-            Ok(v)
+            Ok((line, v))
         };
+        // A value that must lie in lo..=hi.
+        let mut field =
+            |what: &str, lo: f64, hi: f64| -> Result<(usize, f64), (Option<usize>, String)> {
+                let (line, v) = next(what)?;
+                if !(lo..=hi).contains(&v) {
+                    return Err((
+                        Some(line),
+                        format!(
+                            "{what} = {}: must be in {lo}..={hi:e}",
+                            crate::scene::num(v)
+                        ),
+                    ));
+                }
+                Ok((line, v))
+            };
+        let integer =
+            |(line, v): (usize, f64), what: &str| -> Result<usize, (Option<usize>, String)> {
+                if v.fract() != 0.0 {
+                    return Err((Some(line), format!("{what} = {v}: must be a whole number")));
+                }
+                Ok(v as usize)
+            };
         match tilt.as_str() {
             "NONE" => {}
             "INCLUDE" => {
                 // Lamp-to-luminaire geometry, then angle/factor pairs: read and ignore
                 // (relight does not tilt lamps).
-                let _geometry = next("TILT geometry")?;
-                let n = next("TILT pair count")? as usize;
+                field("TILT geometry", 1.0, 3.0)?;
+                let n = field("TILT pair count", 0.0, MAX_IES_TILT_PAIRS as f64)?;
+                let n = integer(n, "TILT pair count")?;
                 for _ in 0..2 * n {
-                    next("TILT values")?;
+                    field("TILT values", -1e6, 1e6)?;
                 }
             }
             other => {
-                return Err(format!(
-                    "TILT={other}: separate tilt files are not supported (use NONE or INCLUDE)"
+                return Err((
+                    None,
+                    format!(
+                        "TILT={other}: separate tilt files are not supported (use NONE or INCLUDE)"
+                    ),
                 ))
             }
         }
-        let lamps = next("number of lamps")?;
-        let lumens_per_lamp = next("lumens per lamp")?;
-        let multiplier = next("candela multiplier")?;
-        let nv = next("number of vertical angles")?;
-        let nh = next("number of horizontal angles")?;
-        let ptype = next("photometric type")?;
-        let _units = next("units type")?;
-        let _w = next("width")?;
-        let _l = next("length")?;
-        let _h = next("height")?;
-        let ballast = next("ballast factor")?;
-        let ballast_lamp = next("ballast-lamp photometric factor")?;
-        let input_watts = next("input watts")?;
-        if !(1.0..=10_000.0).contains(&nv) || !(1.0..=10_000.0).contains(&nh) {
-            return Err(format!("angle counts {nv} × {nh} out of range"));
+        let (_, lamps) = field("number of lamps", 0.0, MAX_IES_LAMPS)?;
+        let (_, lumens_per_lamp) = field("lumens per lamp", -1.0, MAX_LUMENS)?;
+        let (mline, multiplier) = field("candela multiplier", 0.0, MAX_IES_MULTIPLIER)?;
+        let nv = field("number of vertical angles", 1.0, MAX_IES_ANGLES as f64)?;
+        let nv_line = nv.0;
+        let nv = integer(nv, "number of vertical angles")?;
+        let nh = field("number of horizontal angles", 1.0, MAX_IES_ANGLES as f64)?;
+        let nh = integer(nh, "number of horizontal angles")?;
+        if nv * nh > MAX_IES_VALUES {
+            return Err((
+                Some(nv_line),
+                format!("{nv} × {nh} candela values; the limit is {MAX_IES_VALUES}"),
+            ));
         }
-        let (nv, nh) = (nv as usize, nh as usize);
-        let kind = match ptype as i64 {
+        let ptype = field("photometric type", 1.0, 3.0)?;
+        let ptype_line = ptype.0;
+        let ptype = integer(ptype, "photometric type")?;
+        field("units type", 1.0, 2.0)?;
+        field("width", -1e6, 1e6)?;
+        field("length", -1e6, 1e6)?;
+        field("height", -1e6, 1e6)?;
+        let (_, ballast) = field("ballast factor", 0.0, MAX_IES_BALLAST)?;
+        let (_, ballast_lamp) = field("ballast-lamp photometric factor", 0.0, MAX_IES_BALLAST)?;
+        let (_, input_watts) = field("input watts", 0.0, MAX_WATTS)?;
+        let kind = match ptype {
             1 => PhotometricType::C,
             2 => PhotometricType::B,
-            3 => return Err("photometric type A is not supported (use type B or C)".into()),
-            t => {
-                return Err(format!(
-                    "photometric type {t}: must be 1 (C), 2 (B) or 3 (A)"
+            _ => {
+                return Err((
+                    Some(ptype_line),
+                    "photometric type A is not supported (use type B or C)".into(),
                 ))
             }
         };
         let vertical = (0..nv)
-            .map(|_| next("vertical angles"))
+            .map(|_| field("vertical angles", -360.0, 360.0))
             .collect::<Result<Vec<_>, _>>()?;
         let horizontal = (0..nh)
-            .map(|_| next("horizontal angles"))
+            .map(|_| field("horizontal angles", -360.0, 360.0))
             .collect::<Result<Vec<_>, _>>()?;
         for (name, a) in [("vertical", &vertical), ("horizontal", &horizontal)] {
-            if a.windows(2).any(|w| w[1] <= w[0]) {
-                return Err(format!("{name} angles must increase"));
+            if let Some(w) = a.windows(2).find(|w| w[1].1 <= w[0].1) {
+                return Err((Some(w[1].0), format!("{name} angles must increase")));
             }
         }
+        let vertical: Vec<f64> = vertical.into_iter().map(|x| x.1).collect();
+        let horizontal: Vec<f64> = horizontal.into_iter().map(|x| x.1).collect();
         let scale = multiplier * ballast * ballast_lamp;
+        if !(scale > 0.0 && scale.is_finite()) {
+            return Err((
+                Some(mline),
+                "candela multiplier × ballast factors must be positive".into(),
+            ));
+        }
         let mut candela = Vec::with_capacity(nh);
         for _ in 0..nh {
-            let row = (0..nv)
-                .map(|_| next("candela values").map(|c| c * scale))
-                .collect::<Result<Vec<_>, _>>()?;
-            if row.iter().any(|&c| c < 0.0) {
-                return Err("negative candela value".into());
+            let mut row = Vec::with_capacity(nv);
+            for _ in 0..nv {
+                let (line, c) = field("candela values", 0.0, f64::MAX)?;
+                let c = c * scale;
+                if !(c.is_finite() && c <= MAX_CANDELA) {
+                    return Err((
+                        Some(line),
+                        format!(
+                            "candela value {} (after the multiplier) exceeds {MAX_CANDELA:e} cd",
+                            crate::scene::num(c)
+                        ),
+                    ));
+                }
+                row.push(c);
             }
             candela.push(row);
         }
-        match kind {
-            PhotometricType::C => {
-                if vertical[0] < 0.0 || *vertical.last().unwrap_or(&0.0) > 180.0 {
-                    return Err("type C vertical angles must lie in 0..180".into());
-                }
-                if horizontal[0] < 0.0 || *horizontal.last().unwrap_or(&0.0) > 360.0 {
-                    return Err("type C horizontal angles must lie in 0..360".into());
-                }
-            }
-            PhotometricType::B => {
-                if vertical[0] < -90.0 || *vertical.last().unwrap_or(&0.0) > 90.0 {
-                    return Err("type B vertical angles must lie in -90..90".into());
-                }
-                if horizontal[0] < -90.0 || *horizontal.last().unwrap_or(&0.0) > 90.0 {
-                    return Err("type B horizontal angles must lie in -90..90".into());
-                }
-            }
+        let (lo, hi) = match kind {
+            PhotometricType::C => ((0.0, 180.0), (0.0, 360.0)),
+            PhotometricType::B => ((-90.0, 90.0), (-90.0, 90.0)),
+        };
+        let t = if kind == PhotometricType::C { "C" } else { "B" };
+        if vertical[0] < lo.0 || vertical[nv - 1] > lo.1 {
+            return Err((
+                None,
+                format!("type {t} vertical angles must lie in {}..{}", lo.0, lo.1),
+            ));
+        }
+        if horizontal[0] < hi.0 || horizontal[nh - 1] > hi.1 {
+            return Err((
+                None,
+                format!("type {t} horizontal angles must lie in {}..{}", hi.0, hi.1),
+            ));
         }
         Ok(IesData {
             kind,
@@ -302,8 +387,10 @@ impl Distribution {
         }
     }
 
-    /// ∫ shape dΩ over the sphere (lumens for absolute tables).
-    fn integral(&self) -> f64 {
+    /// ∫ shape dΩ over the sphere (lumens for absolute tables). Costs about 260,000
+    /// evaluations for spots and tables: compute it once per distinct distribution
+    /// (see [`Luminaire::with_integral`]).
+    pub fn integral(&self) -> f64 {
         match self {
             Distribution::Isotropic => 4.0 * std::f64::consts::PI,
             _ => {
@@ -363,6 +450,34 @@ impl Luminaire {
         color: Rgb,
         watts: Option<f64>,
     ) -> Result<Luminaire, String> {
+        let integral = distribution.integral();
+        Self::with_integral(
+            id,
+            position,
+            aim,
+            c0,
+            distribution,
+            integral,
+            lumens,
+            color,
+            watts,
+        )
+    }
+
+    /// Like [`Luminaire::new`], with `integral = distribution.integral()` already known
+    /// (luminaires sharing a distribution share it).
+    #[allow(clippy::too_many_arguments)]
+    pub fn with_integral(
+        id: &str,
+        position: DVec3,
+        aim: DVec3,
+        c0: Option<DVec3>,
+        distribution: Distribution,
+        integral: f64,
+        lumens: Option<f64>,
+        color: Rgb,
+        watts: Option<f64>,
+    ) -> Result<Luminaire, String> {
         let aim = aim.try_normalize().ok_or("aim must be a non-zero vector")?;
         let c0 = match c0 {
             Some(c) => (c - aim * c.dot(aim))
@@ -378,8 +493,7 @@ impl Luminaire {
                 (guess - aim * guess.dot(aim)).normalize()
             }
         };
-        let integral = distribution.integral();
-        if integral <= 0.0 {
+        if !(integral > 0.0 && integral.is_finite()) {
             return Err("the distribution emits no light".into());
         }
         let lumens = match (lumens, &distribution) {

@@ -5,16 +5,31 @@
 //! Units: positions are converted to metres on load (`units`/`scale` in `scene.toml`).
 //! `Kd` is diffuse reflectance in [0, 1) per channel; `Ke` is luminous exitance in lm/m²
 //! per channel (see [`crate::color`]).
+//!
+//! Safety of input: every referenced file must resolve inside the scene folder and be a
+//! regular file within a size limit ([`files`]); every number is range-checked in the type
+//! it is computed in, against the bounds of [`crate::limits`]. Error messages name files
+//! as `<scene id>/<path in the folder>`, never by their absolute path.
 
-use std::collections::{BTreeMap, HashMap};
+mod files;
+pub(crate) use files::read_regular_file;
+pub mod mtl;
+pub mod obj;
+
+use std::collections::{BTreeMap, HashMap, HashSet};
 use std::path::{Path, PathBuf};
 
 use glam::DVec3;
 use serde::{Deserialize, Serialize};
 
 use crate::color::{luminance, Rgb};
+pub use crate::limits::MAX_GRID_POINTS;
+use crate::limits::*;
+pub use mtl::{parse_mtl_str, MtlLibrary, MtlMaterial};
+pub use obj::{parse_obj_str, ObjPart, ObjScan};
 
-/// Everything that can be wrong with a scene on disk.
+/// Everything that can be wrong with a scene on disk. Every `path` is shown relative to the
+/// scene folder, prefixed by the scene id (`office/office.mtl`).
 #[derive(Debug, thiserror::Error)]
 pub enum SceneError {
     #[error("{path}: {source}")]
@@ -35,11 +50,15 @@ pub enum SceneError {
         line: usize,
         message: String,
     },
-    #[error("{path}:{line}: material library '{mtl}' not found")]
-    MissingMtl {
+    /// A file reference (`mtllib`, `ies`) that is missing, outside the folder, or not
+    /// readable as a regular file.
+    #[error("{path}:{line}: {what} '{name}' {problem}")]
+    Reference {
         path: PathBuf,
         line: usize,
-        mtl: String,
+        what: String,
+        name: String,
+        problem: String,
     },
     #[error("{path}:{line}: unknown material '{name}' (not defined in any mtllib)")]
     UnknownMaterial {
@@ -65,13 +84,6 @@ pub enum SceneError {
     Invalid { path: PathBuf, message: String },
     #[error("{0}: the scene has no usable triangles")]
     Empty(PathBuf),
-}
-
-fn io_err(path: &Path) -> impl FnOnce(std::io::Error) -> SceneError + '_ {
-    move |source| SceneError::Io {
-        path: path.to_path_buf(),
-        source,
-    }
 }
 
 /// `scene.toml`, as written by the user. Every key is optional.
@@ -159,8 +171,8 @@ pub struct LuminaireToml {
     pub lumens: Option<f64>,
     /// "isotropic", "spot" or "ies"; default "ies" when `ies` is given, else "isotropic".
     pub distribution: Option<String>,
-    /// IES LM-63 file, relative to the scene folder.
-    pub ies: Option<String>,
+    /// IES LM-63 file, relative to the scene folder (with its place in `scene.toml`).
+    pub ies: Option<toml::Spanned<String>>,
     /// Spot beam angle (50 % of peak) and field angle (cut-off), full cone, degrees.
     pub beam_deg: Option<f64>,
     pub field_deg: Option<f64>,
@@ -276,9 +288,6 @@ pub struct Grid {
     pub layout: Option<[usize; 2]>,
 }
 
-/// Most points in one grid.
-pub const MAX_GRID_POINTS: usize = 20_000;
-
 /// A camera preset, in metres.
 #[derive(Debug, Clone, Serialize)]
 pub struct CameraDef {
@@ -326,83 +335,80 @@ pub const DEFAULT_TARGET_PATCHES: usize = 4000;
 impl Scene {
     /// Loads the scene folder `dir`.
     pub fn load(dir: &Path) -> Result<Scene, SceneError> {
-        let dir = dir.to_path_buf();
-        let meta = std::fs::metadata(&dir).map_err(io_err(&dir))?;
-        if !meta.is_dir() {
-            return Err(SceneError::Invalid {
-                path: dir,
-                message: "not a directory".into(),
-            });
-        }
-        let obj_path = find_obj(&dir)?;
-        let toml_path = dir.join("scene.toml");
-        let cfg: SceneToml = if toml_path.exists() {
-            let text = std::fs::read_to_string(&toml_path).map_err(io_err(&toml_path))?;
-            toml::from_str(&text).map_err(|e| SceneError::Toml {
-                path: toml_path.clone(),
-                message: e.to_string().trim_end().replace('\n', " "),
-            })?
-        } else {
-            SceneToml::default()
+        let sd = files::SceneDir::open(dir)?;
+        let id = sd.label.clone();
+        let obj_path = find_obj(&sd)?;
+        let obj_name = sd.display(&obj_path);
+
+        let toml_file = sd.root.join("scene.toml");
+        let toml_path = sd.display(&toml_file);
+        let toml_canon = match std::fs::symlink_metadata(&toml_file) {
+            Ok(_) => Some(sd.resolve_own(&toml_file)?),
+            Err(_) => None,
         };
-        let id = dir
-            .file_name()
-            .map(|s| s.to_string_lossy().into_owned())
-            .unwrap_or_else(|| "scene".into());
+        let (cfg, toml_text) = match &toml_canon {
+            Some(p) => {
+                let text = files::to_text(&toml_path, sd.read(p, MAX_TEXT_BYTES)?)?;
+                (parse_toml(&toml_path, &text)?, text)
+            }
+            None => (SceneToml::default(), String::new()),
+        };
         let (units, scale) = resolve_units(&cfg, &toml_path)?;
 
-        let obj_text = std::fs::read_to_string(&obj_path).map_err(io_err(&obj_path))?;
-        let scan = prescan_obj(&obj_path, &obj_text)?;
+        let scan = {
+            let text = files::to_text(&obj_name, sd.read(&obj_path, MAX_OBJ_BYTES)?)?;
+            obj::scan_obj(&obj_name, &text, scale)?
+        };
+        let mut warnings = scan.warnings.clone();
         let mut files = vec![obj_path.clone()];
-        let mut mtl_defs: Vec<MtlDef> = Vec::new();
-        for mtl in &scan.mtllibs {
-            let defs = parse_mtl(mtl)?;
-            mtl_defs.extend(defs);
-            files.push(mtl.clone());
-        }
-        if toml_path.exists() {
-            files.push(toml_path.clone());
-        }
-        for (name, line) in &scan.usemtl {
-            if !mtl_defs.iter().any(|m| &m.name == name) {
-                return Err(SceneError::UnknownMaterial {
-                    path: obj_path.clone(),
-                    line: *line,
-                    name: name.clone(),
-                });
-            }
-        }
 
-        let (models, _mats) = tobj::load_obj(
-            &obj_path,
-            &tobj::LoadOptions {
-                triangulate: true,
-                single_index: false,
-                ignore_points: true,
-                ignore_lines: true,
-            },
-        )
-        .map_err(|e| SceneError::Invalid {
-            path: obj_path.clone(),
-            message: format!("OBJ parse error: {e}"),
-        })?;
-        // tobj numbers materials in the order of the MTL files it read; we map by name.
-        let tobj_mats = _mats.unwrap_or_default();
-
-        let mut warnings = Vec::new();
+        // Materials, from relight's own MTL reader only, in order of the mtllib statements.
         let mut materials: Vec<Material> = Vec::new();
         let mut mat_index: HashMap<String, u32> = HashMap::new();
-        for d in &mtl_defs {
-            if mat_index.contains_key(&d.name) {
+        let mut defined_in: Vec<(PathBuf, usize)> = Vec::new();
+        let mut libs_read: HashSet<PathBuf> = HashSet::new();
+        for (name, line) in &scan.mtllibs {
+            let p = sd.resolve(name, &obj_name, *line, "mtllib")?;
+            if !libs_read.insert(p.clone()) {
                 continue;
             }
-            mat_index.insert(d.name.clone(), materials.len() as u32);
-            materials.push(Material {
-                name: d.name.clone(),
-                kd: d.kd,
-                ke: d.ke,
-                two_sided: cfg.material.get(&d.name).is_some_and(|o| o.two_sided),
-            });
+            let shown = sd.display(&p);
+            let text = files::to_text(&shown, sd.read(&p, MAX_TEXT_BYTES)?)?;
+            let lib = mtl::parse_mtl(&shown, &text)?;
+            warnings.extend(lib.warnings);
+            for m in lib.materials {
+                if let Some(&k) = mat_index.get(&m.name) {
+                    let (other, other_line) = &defined_in[k as usize];
+                    return Err(SceneError::Syntax {
+                        path: shown,
+                        line: m.line,
+                        message: format!(
+                            "material '{}' is already defined in {}:{other_line}",
+                            m.name,
+                            other.display()
+                        ),
+                    });
+                }
+                if materials.len() >= MAX_MATERIALS {
+                    return Err(SceneError::Syntax {
+                        path: shown,
+                        line: m.line,
+                        message: format!("more than {MAX_MATERIALS} materials in the scene"),
+                    });
+                }
+                mat_index.insert(m.name.clone(), materials.len() as u32);
+                defined_in.push((shown.clone(), m.line));
+                materials.push(Material {
+                    two_sided: cfg.material.get(&m.name).is_some_and(|o| o.two_sided),
+                    name: m.name,
+                    kd: m.kd,
+                    ke: m.ke,
+                });
+            }
+            files.push(p);
+        }
+        if let Some(p) = &toml_canon {
+            files.push(p.clone());
         }
         for name in cfg.material.keys() {
             if !mat_index.contains_key(name) {
@@ -412,20 +418,22 @@ impl Scene {
                 });
             }
         }
+        let names: Vec<String> = materials.iter().map(|m| m.name.clone()).collect();
+        let parts = obj::read_obj(&obj_name, &scan, &names)?;
+        drop(scan);
 
         let mut surfaces: Vec<Surface> = Vec::new();
         let mut surf_index: HashMap<String, u32> = HashMap::new();
         let mut triangles = Vec::new();
         let mut dropped = 0usize;
-        for model in &models {
-            let mesh = &model.mesh;
-            let mat = match mesh.material_id.and_then(|i| tobj_mats.get(i)) {
-                Some(m) => *mat_index.get(&m.name).expect("material scanned"),
+        for part in &parts {
+            let mat = match part.material {
+                Some(i) => i as u32,
                 None => {
                     let idx = *mat_index.entry("__default".into()).or_insert_with(|| {
                         warnings.push(format!(
                             "object '{}' has no material: using grey Kd 0.5",
-                            model.name
+                            part.name
                         ));
                         materials.push(Material {
                             name: "__default".into(),
@@ -438,10 +446,10 @@ impl Scene {
                     idx
                 }
             };
-            let sname = if model.name.is_empty() {
+            let sname = if part.name.is_empty() {
                 "unnamed_object".to_string()
             } else {
-                model.name.clone()
+                part.name.clone()
             };
             let surf = *surf_index.entry(sname.clone()).or_insert_with(|| {
                 surfaces.push(Surface {
@@ -450,12 +458,12 @@ impl Scene {
                 });
                 (surfaces.len() - 1) as u32
             });
-            let pos = &mesh.positions;
+            let pos = &part.positions;
             let vert = |k: u32| -> DVec3 {
                 let k = k as usize * 3;
                 DVec3::new(pos[k] as f64, pos[k + 1] as f64, pos[k + 2] as f64) * scale
             };
-            for (t, idx) in mesh.indices.chunks_exact(3).enumerate() {
+            for (t, idx) in part.indices.chunks_exact(3).enumerate() {
                 let p = [vert(idx[0]), vert(idx[1]), vert(idx[2])];
                 let area2 = (p[1] - p[0]).cross(p[2] - p[0]).length();
                 let longest = (p[1] - p[0])
@@ -468,7 +476,7 @@ impl Scene {
                     if dropped <= 5 {
                         warnings.push(format!(
                             "object '{}': skipped degenerate triangle #{t}",
-                            model.name
+                            part.name
                         ));
                     }
                     continue;
@@ -481,11 +489,12 @@ impl Scene {
                 });
             }
         }
+        drop(parts);
         if dropped > 5 {
             warnings.push(format!("{} degenerate triangles skipped in all", dropped));
         }
         if triangles.is_empty() {
-            return Err(SceneError::Empty(obj_path));
+            return Err(SceneError::Empty(obj_name));
         }
         for name in cfg.surface.keys() {
             if !surf_index.contains_key(name) {
@@ -510,24 +519,38 @@ impl Scene {
             .cameras
             .iter()
             .map(|c| {
-                if !(c.fov_deg > 0.0 && c.fov_deg < 180.0) {
-                    return Err(SceneError::Invalid {
-                        path: toml_path.clone(),
-                        message: format!("camera '{}': fov_deg must be in (0, 180)", c.id),
-                    });
-                }
                 let m = |v: [f64; 3]| [v[0] * scale, v[1] * scale, v[2] * scale];
-                Ok(CameraDef {
+                CameraDef {
                     id: c.id.clone(),
                     position: m(c.position),
                     target: m(c.target),
                     up: c.up,
                     fov_deg: c.fov_deg,
-                })
+                }
             })
-            .collect::<Result<Vec<_>, _>>()?;
+            .collect();
 
-        add_luminaires(&cfg, &dir, &toml_path, scale, &mut lights, &mut files)?;
+        let toml_ref = TomlRef {
+            dir: &sd,
+            path: &toml_path,
+            newlines: toml_text
+                .bytes()
+                .enumerate()
+                .filter(|&(_, b)| b == b'\n')
+                .map(|(i, _)| i)
+                .collect(),
+        };
+        add_luminaires(&cfg, &toml_ref, scale, &mut lights, &mut files)?;
+        if lights.len() > MAX_LIGHT_GROUPS {
+            return Err(SceneError::Invalid {
+                path: toml_path.clone(),
+                message: format!(
+                    "{} light groups ([[lights]], luminaire groups and unclaimed emissive \
+                     materials); the limit is {MAX_LIGHT_GROUPS}",
+                    lights.len()
+                ),
+            });
+        }
         let grids = build_grids(&cfg, &toml_path, scale, &triangles)?;
 
         let total_area: f64 = triangles
@@ -541,14 +564,9 @@ impl Scene {
                 }
             })
             .sum();
+        // Ranges were checked by parse_toml.
         let max_edge = match (cfg.mesh.max_edge, cfg.mesh.target_patches) {
-            (Some(e), _) if e > 0.0 && e.is_finite() => e * scale,
-            (Some(e), _) => {
-                return Err(SceneError::Invalid {
-                    path: toml_path,
-                    message: format!("[mesh] max_edge = {e}: must be a positive length"),
-                })
-            }
+            (Some(e), _) => e * scale,
             (None, t) => {
                 let target = t.unwrap_or(DEFAULT_TARGET_PATCHES).max(1) as f64;
                 // Longest-edge bisection leaves triangles of about max_edge² / 5.
@@ -559,7 +577,7 @@ impl Scene {
         Ok(Scene {
             name: cfg.name.clone().unwrap_or_else(|| id.clone()),
             id,
-            dir,
+            dir: dir.to_path_buf(),
             files,
             units,
             scale,
@@ -604,12 +622,242 @@ pub fn is_two_sided(t: &Triangle, materials: &[Material], surfaces: &[Surface]) 
     materials[t.material as usize].two_sided || surfaces[t.surface as usize].two_sided
 }
 
+/// Parses the text of a `scene.toml` and checks every number in it against
+/// [`crate::limits`] (what needs the geometry, such as material names, is checked by
+/// [`Scene::load`]). `path` is the display name errors use.
+pub fn parse_scene_toml(path: &str, text: &str) -> Result<SceneToml, SceneError> {
+    parse_toml(Path::new(path), text)
+}
+
+fn parse_toml(path: &Path, text: &str) -> Result<SceneToml, SceneError> {
+    let cfg: SceneToml = toml::from_str(text).map_err(|e| SceneError::Toml {
+        path: path.to_path_buf(),
+        message: e.to_string().trim_end().replace('\n', " "),
+    })?;
+    validate_toml(&cfg, path)?;
+    Ok(cfg)
+}
+
+/// A number for a message: plain when moderate, else in exponent form (`1e300`, `1e-9`).
+pub(crate) fn num(v: f64) -> String {
+    let a = v.abs();
+    if v == 0.0 || !v.is_finite() || (1e-4..1e15).contains(&a) {
+        format!("{v}")
+    } else {
+        format!("{v:e}")
+    }
+}
+
+/// `lo ≤ v ≤ hi` and finite, else an error naming `what` and the range.
+fn in_range(what: &str, v: f64, lo: f64, hi: f64) -> Result<(), String> {
+    if v.is_finite() && v >= lo && v <= hi {
+        Ok(())
+    } else {
+        Err(format!("{what} = {}: must be in {lo}..={hi:e}", num(v)))
+    }
+}
+
+/// A position in scene units: finite, within ±MAX_COORD_M metres after scaling.
+fn position(what: &str, v: &[f64], scale: f64) -> Result<(), String> {
+    for &x in v {
+        let m = x * scale;
+        if !(x.is_finite() && m.is_finite() && m.abs() <= MAX_COORD_M) {
+            return Err(format!(
+                "{what}: coordinate {} is outside ±{MAX_COORD_M:e} m (after scaling)",
+                num(x)
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// A direction: finite components.
+fn direction(what: &str, v: &[f64; 3]) -> Result<(), String> {
+    if v.iter().all(|x| x.is_finite()) {
+        Ok(())
+    } else {
+        Err(format!("{what} must be finite"))
+    }
+}
+
+/// A colour: finite components in 0..=MAX_COLOR.
+fn color_ok(what: &str, c: &Rgb) -> Result<(), String> {
+    if c.iter()
+        .all(|&x| x.is_finite() && x >= 0.0 && x as f64 <= MAX_COLOR)
+    {
+        Ok(())
+    } else {
+        Err(format!(
+            "{what} must be 3 numbers in 0..={MAX_COLOR} (got {:?})",
+            c
+        ))
+    }
+}
+
+/// Checks the ranges of every number of a `scene.toml` (see [`crate::limits`]).
+fn validate_toml(cfg: &SceneToml, path: &Path) -> Result<(), SceneError> {
+    let inv = |message: String| SceneError::Invalid {
+        path: path.to_path_buf(),
+        message,
+    };
+    let (_, scale) = resolve_units(cfg, path)?;
+    for (what, n, max) in [
+        ("[[lights]]", cfg.lights.len(), MAX_TOML_ENTRIES),
+        ("[[luminaires]]", cfg.luminaires.len(), MAX_LUMINAIRES),
+        ("[[grids]]", cfg.grids.len(), MAX_TOML_ENTRIES),
+        ("[[cameras]]", cfg.cameras.len(), MAX_TOML_ENTRIES),
+    ] {
+        if n > max {
+            return Err(inv(format!("{n} {what} entries; the limit is {max}")));
+        }
+    }
+    let mut grid_points = 0f64;
+    if let Some(e) = cfg.mesh.max_edge {
+        let m = e * scale;
+        if !(e.is_finite() && (MIN_MAX_EDGE_M..=MAX_MAX_EDGE_M).contains(&m)) {
+            return Err(inv(format!(
+                "[mesh] max_edge = {}: must be a length between {MIN_MAX_EDGE_M} m and \
+                 {MAX_MAX_EDGE_M:e} m (after scaling)",
+                num(e)
+            )));
+        }
+    }
+    if let Some(t) = cfg.mesh.target_patches {
+        if !(1..=MAX_TARGET_PATCHES).contains(&t) {
+            return Err(inv(format!(
+                "[mesh] target_patches = {t}: must be in 1..={MAX_TARGET_PATCHES}"
+            )));
+        }
+    }
+    for l in &cfg.lights {
+        let ctx = |m: String| inv(format!("light '{}': {m}", l.id));
+        if let Some(lm) = l.lumens {
+            in_range("lumens", lm, 0.0, MAX_LUMENS).map_err(ctx)?;
+        }
+        if let Some(i) = l.intensity {
+            in_range("intensity", i as f64, 0.0, MAX_INTENSITY).map_err(ctx)?;
+        }
+        if let Some(c) = &l.color {
+            color_ok("color", c).map_err(ctx)?;
+        }
+    }
+    for l in &cfg.luminaires {
+        let ctx = |m: String| inv(format!("luminaire '{}': {m}", l.id));
+        position("position", &l.position, scale).map_err(ctx)?;
+        direction("aim", &l.aim).map_err(ctx)?;
+        if let Some(c) = &l.c0 {
+            direction("c0", c).map_err(ctx)?;
+        }
+        if let Some(lm) = l.lumens {
+            in_range("lumens", lm, 0.0, MAX_LUMENS).map_err(ctx)?;
+        }
+        for (what, v) in [("beam_deg", l.beam_deg), ("field_deg", l.field_deg)] {
+            if let Some(v) = v {
+                if !(v.is_finite() && v > 0.0 && v <= 180.0) {
+                    return Err(ctx(format!("{what} = {}: must be in (0, 180]", num(v))));
+                }
+            }
+        }
+        if let Some(k) = l.cct {
+            if !(k.is_finite() && (MIN_CCT..=MAX_CCT).contains(&k)) {
+                return Err(ctx(format!(
+                    "cct = {}: must be {MIN_CCT}..{MAX_CCT} K",
+                    num(k)
+                )));
+            }
+        }
+        if let Some(c) = &l.color {
+            color_ok("color", c).map_err(ctx)?;
+        }
+        if let Some(w) = l.watts {
+            in_range("watts", w, 0.0, MAX_WATTS).map_err(ctx)?;
+        }
+        if let Some(e) = l.efficacy {
+            if !(e.is_finite() && e > 0.0 && e <= MAX_EFFICACY) {
+                return Err(ctx(format!(
+                    "efficacy = {}: must be in (0, {MAX_EFFICACY}] lm/W",
+                    num(e)
+                )));
+            }
+        }
+    }
+    for c in &cfg.cameras {
+        let ctx = |m: String| inv(format!("camera '{}': {m}", c.id));
+        position("position", &c.position, scale).map_err(ctx)?;
+        position("target", &c.target, scale).map_err(ctx)?;
+        direction("up", &c.up).map_err(ctx)?;
+        if !(c.fov_deg > 0.0 && c.fov_deg < 180.0) {
+            return Err(ctx(format!(
+                "fov_deg = {}: must be in (0, 180)",
+                num(c.fov_deg)
+            )));
+        }
+    }
+    for g in &cfg.grids {
+        let ctx = |m: String| inv(format!("grid '{}': {m}", g.id));
+        direction("normal", &g.normal).map_err(ctx)?;
+        if let Some(p) = &g.points {
+            if p.len() > MAX_GRID_POINTS {
+                return Err(ctx(format!(
+                    "{} points; the limit is {MAX_GRID_POINTS}",
+                    p.len()
+                )));
+            }
+            for q in p {
+                position("points", q, scale).map_err(ctx)?;
+            }
+            grid_points += p.len() as f64;
+        }
+        for (what, v) in [("min", g.min), ("max", g.max)] {
+            if let Some(v) = v {
+                position(what, &v, scale).map_err(ctx)?;
+            }
+        }
+        if let Some(h) = g.height {
+            position("height", &[h], scale).map_err(ctx)?;
+        }
+        if let Some(sp) = g.spacing {
+            let m = sp * scale;
+            if !(sp.is_finite() && m.is_finite() && m >= MIN_GRID_SPACING_M) {
+                return Err(ctx(format!(
+                    "spacing = {}: must be at least {MIN_GRID_SPACING_M} m (after scaling)",
+                    num(sp)
+                )));
+            }
+        }
+        if let (Some(lo), Some(hi)) = (g.min, g.max) {
+            let sp = g.spacing.unwrap_or(0.25 / scale);
+            // Counted in f64 before anything is allocated.
+            let nx = ((hi[0] - lo[0]) / sp).ceil().max(1.0);
+            let nz = ((hi[1] - lo[1]) / sp).ceil().max(1.0);
+            if nx * nz > MAX_GRID_POINTS as f64 {
+                return Err(ctx(format!(
+                    "{} × {} points; the limit is {MAX_GRID_POINTS}",
+                    num(nx),
+                    num(nz)
+                )));
+            }
+            grid_points += nx * nz;
+        }
+        if grid_points > MAX_GRID_POINTS_TOTAL as f64 {
+            return Err(ctx(format!(
+                "the grids have {} points in all; the limit is {MAX_GRID_POINTS_TOTAL}",
+                num(grid_points)
+            )));
+        }
+    }
+    Ok(())
+}
+
 fn resolve_units(cfg: &SceneToml, toml_path: &Path) -> Result<(String, f64), SceneError> {
     if let Some(s) = cfg.scale {
-        if !(s > 0.0 && s.is_finite()) {
+        if !(s.is_finite() && (MIN_SCALE..=MAX_SCALE).contains(&s)) {
             return Err(SceneError::Invalid {
                 path: toml_path.into(),
-                message: format!("scale = {s}: must be a positive factor to metres"),
+                message: format!(
+                    "scale = {}: must be a factor to metres in {MIN_SCALE:e}..={MAX_SCALE:e}",
+                    num(s)
+                ),
             });
         }
         return Ok((cfg.units.clone().unwrap_or_else(|| format!("{s} m")), s));
@@ -633,18 +881,23 @@ fn resolve_units(cfg: &SceneToml, toml_path: &Path) -> Result<(String, f64), Sce
     Ok((u, s))
 }
 
-fn find_obj(dir: &Path) -> Result<PathBuf, SceneError> {
-    let mut objs: Vec<PathBuf> = std::fs::read_dir(dir)
-        .map_err(io_err(dir))?
+/// The folder's one `.obj` file, canonicalized (it must resolve inside the folder).
+fn find_obj(sd: &files::SceneDir) -> Result<PathBuf, SceneError> {
+    let root = sd.display_root();
+    let mut objs: Vec<PathBuf> = std::fs::read_dir(&sd.root)
+        .map_err(|source| SceneError::Io {
+            path: root.clone(),
+            source,
+        })?
         .filter_map(|e| e.ok().map(|e| e.path()))
         .filter(|p| p.extension().is_some_and(|e| e.eq_ignore_ascii_case("obj")))
         .collect();
     objs.sort();
     match objs.len() {
-        0 => Err(SceneError::NoObj(dir.into())),
-        1 => Ok(objs.remove(0)),
+        0 => Err(SceneError::NoObj(root)),
+        1 => sd.resolve_own(&objs[0]),
         _ => Err(SceneError::ManyObj {
-            dir: dir.into(),
+            dir: root,
             files: objs
                 .iter()
                 .map(|p| {
@@ -659,161 +912,19 @@ fn find_obj(dir: &Path) -> Result<PathBuf, SceneError> {
     }
 }
 
-/// What a line-level pass over the OBJ learns before tobj parses it.
-struct ObjScan {
-    mtllibs: Vec<PathBuf>,
-    usemtl: Vec<(String, usize)>,
+/// `scene.toml` as luminaires see it: to resolve `ies` references with their line.
+struct TomlRef<'a> {
+    dir: &'a files::SceneDir,
+    path: &'a Path,
+    /// Byte offsets of the text's newlines.
+    newlines: Vec<usize>,
 }
 
-/// Checks the OBJ line by line so errors name a line: non-finite or malformed vertices,
-/// face indices out of range, missing material libraries.
-fn prescan_obj(path: &Path, text: &str) -> Result<ObjScan, SceneError> {
-    let dir = path.parent().unwrap_or(Path::new("."));
-    let mut nverts = 0i64;
-    let mut mtllibs = Vec::new();
-    let mut usemtl = Vec::new();
-    let syntax = |line: usize, message: String| SceneError::Syntax {
-        path: path.into(),
-        line,
-        message,
-    };
-    for (i, raw) in text.lines().enumerate() {
-        let line = i + 1;
-        let l = raw.trim();
-        let mut words = l.split_whitespace();
-        match words.next() {
-            Some("v") => {
-                let vals: Vec<&str> = words.collect();
-                if vals.len() < 3 {
-                    return Err(syntax(line, format!("vertex needs 3 coordinates: '{l}'")));
-                }
-                for w in &vals[..3] {
-                    let v: f64 = w
-                        .parse()
-                        .map_err(|_| syntax(line, format!("bad vertex coordinate '{w}'")))?;
-                    if !v.is_finite() {
-                        return Err(syntax(line, format!("vertex coordinate is {w}")));
-                    }
-                }
-                nverts += 1;
-            }
-            Some("f") => {
-                let idx: Vec<&str> = words.collect();
-                if idx.len() < 3 {
-                    return Err(syntax(line, "face needs at least 3 vertices".into()));
-                }
-                for w in idx {
-                    let first = w.split('/').next().unwrap_or("");
-                    let k: i64 = first
-                        .parse()
-                        .map_err(|_| syntax(line, format!("bad face index '{w}'")))?;
-                    let ok = (k > 0 && k <= nverts) || (k < 0 && -k <= nverts);
-                    if !ok {
-                        return Err(syntax(
-                            line,
-                            format!("face index {k} out of range (1..={nverts} defined so far)"),
-                        ));
-                    }
-                }
-            }
-            Some("mtllib") => {
-                let name = l["mtllib".len()..].trim();
-                let p = dir.join(name);
-                if !p.is_file() {
-                    return Err(SceneError::MissingMtl {
-                        path: path.into(),
-                        line,
-                        mtl: name.into(),
-                    });
-                }
-                mtllibs.push(p);
-            }
-            Some("usemtl") => {
-                usemtl.push((l["usemtl".len()..].trim().to_string(), line));
-            }
-            _ => {}
-        }
+impl TomlRef<'_> {
+    /// 1-based line of byte `offset` of the text.
+    fn line_of(&self, offset: usize) -> usize {
+        1 + self.newlines.partition_point(|&n| n < offset)
     }
-    Ok(ObjScan { mtllibs, usemtl })
-}
-
-struct MtlDef {
-    name: String,
-    kd: Rgb,
-    ke: Rgb,
-}
-
-/// Reads the Kd/Ke of each material, validating ranges with line numbers.
-fn parse_mtl(path: &Path) -> Result<Vec<MtlDef>, SceneError> {
-    let text = std::fs::read_to_string(path).map_err(io_err(path))?;
-    let mut out: Vec<MtlDef> = Vec::new();
-    for (i, raw) in text.lines().enumerate() {
-        let line = i + 1;
-        let l = raw.trim();
-        let mut words = l.split_whitespace();
-        let key = words.next();
-        let bad = |material: &str, message: String| SceneError::BadMaterial {
-            path: path.into(),
-            line,
-            material: material.into(),
-            message,
-        };
-        match key {
-            Some("newmtl") => out.push(MtlDef {
-                name: l["newmtl".len()..].trim().to_string(),
-                kd: [0.0; 3],
-                ke: [0.0; 3],
-            }),
-            Some(k @ ("Kd" | "Ke")) => {
-                let Some(cur) = out.last_mut() else {
-                    return Err(SceneError::Syntax {
-                        path: path.into(),
-                        line,
-                        message: format!("{k} before any newmtl"),
-                    });
-                };
-                let vals: Vec<&str> = words.collect();
-                if vals.first() == Some(&"spectral") || vals.first() == Some(&"xyz") {
-                    return Err(bad(
-                        &cur.name,
-                        format!("{k}: only RGB values are supported"),
-                    ));
-                }
-                let mut v = [0f32; 3];
-                let parsed: Result<Vec<f32>, _> = vals.iter().map(|w| w.parse::<f32>()).collect();
-                let parsed =
-                    parsed.map_err(|_| bad(&cur.name, format!("{k}: not numbers: '{l}'")))?;
-                match parsed.len() {
-                    1 => v = [parsed[0]; 3],
-                    3 => v.copy_from_slice(&parsed),
-                    _ => return Err(bad(&cur.name, format!("{k} needs 1 or 3 numbers"))),
-                }
-                if v.iter().any(|x| !x.is_finite()) {
-                    return Err(bad(&cur.name, format!("{k} is not finite")));
-                }
-                if k == "Kd" {
-                    if v.iter().any(|&x| !(0.0..1.0).contains(&x)) {
-                        return Err(bad(
-                            &cur.name,
-                            format!(
-                                "Kd {} {} {}: diffuse reflectance must be in [0, 1) per channel \
-                                 (a surface cannot reflect all the light it receives)",
-                                v[0], v[1], v[2]
-                            ),
-                        ));
-                    }
-                    cur.kd = v;
-                } else {
-                    if v.iter().any(|&x| x < 0.0) {
-                        return Err(bad(&cur.name, "Ke must not be negative".into()));
-                    }
-                    cur.ke = v;
-                }
-            }
-            _ => {}
-        }
-    }
-    Ok(out)
 }
 
 fn assign_lights(
@@ -985,19 +1096,23 @@ fn assign_lights(
 /// `[[lights]]` does not define). IES files join `files` for the cache key.
 fn add_luminaires(
     cfg: &SceneToml,
-    dir: &Path,
-    toml_path: &Path,
+    toml: &TomlRef<'_>,
     scale: f64,
     lights: &mut Vec<LightGroup>,
     files: &mut Vec<PathBuf>,
 ) -> Result<(), SceneError> {
-    use crate::photometry::{cct_to_rgb, Distribution, IesData, Luminaire};
+    let toml_path = toml.path;
+    use crate::photometry::{cct_to_rgb, Distribution, Luminaire};
     let bad = |id: &str, m: String| SceneError::Invalid {
         path: toml_path.into(),
         message: format!("luminaire '{id}': {m}"),
     };
     let mut seen = std::collections::HashSet::new();
+    // Luminaires sharing an IES file or a spot shape share its table and its integral.
+    let mut ies_read: HashMap<PathBuf, Box<crate::photometry::IesData>> = HashMap::new();
+    let mut integrals: HashMap<String, f64> = HashMap::new();
     for l in &cfg.luminaires {
+        let mut integral_key: Option<String> = None;
         if l.id.is_empty() || !seen.insert(l.id.clone()) {
             return Err(bad(&l.id, "id is empty or used twice".into()));
         }
@@ -1020,6 +1135,7 @@ fn add_luminaires(
                         format!("spot needs 0 < beam_deg ({beam}) < 180 and beam_deg ≤ field_deg ({field}) ≤ 180"),
                     ));
                 }
+                integral_key = Some(format!("spot:{beam:?}:{field:?}"));
                 Distribution::Spot {
                     beam_deg: beam,
                     field_deg: field,
@@ -1032,15 +1148,30 @@ fn add_luminaires(
                         "distribution \"ies\" needs ies = \"file.ies\"".into(),
                     )
                 })?;
-                let path = dir.join(name);
-                let text = std::fs::read(&path)
-                    .map_err(|e| bad(&l.id, format!("cannot read {}: {e}", path.display())))?;
-                let data = IesData::parse(&String::from_utf8_lossy(&text))
-                    .map_err(|e| bad(&l.id, format!("{}: {e}", path.display())))?;
+                let line = toml.line_of(name.span().start);
+                let path = toml.dir.resolve(
+                    name.get_ref(),
+                    toml_path,
+                    line,
+                    &format!("luminaire '{}': ies", l.id),
+                )?;
+                let data = match ies_read.get(&path) {
+                    Some(d) => d.clone(),
+                    None => {
+                        let shown = toml.dir.display(&path);
+                        // IES headers are often Latin-1: only the numbers matter.
+                        let bytes = toml.dir.read(&path, MAX_TEXT_BYTES)?;
+                        let text = String::from_utf8_lossy(&bytes);
+                        let d = Box::new(crate::photometry::parse_ies_file(&shown, &text)?);
+                        ies_read.insert(path.clone(), d.clone());
+                        d
+                    }
+                };
                 if !files.contains(&path) {
-                    files.push(path);
+                    files.push(path.clone());
                 }
-                Distribution::Ies(Box::new(data))
+                integral_key = Some(format!("ies:{}", path.display()));
+                Distribution::Ies(data)
             }
             other => {
                 return Err(bad(
@@ -1052,17 +1183,24 @@ fn add_luminaires(
         let color = match (l.color, l.cct) {
             (Some(_), Some(_)) => return Err(bad(&l.id, "give color or cct, not both".into())),
             (Some(c), None) => c,
-            (None, Some(k)) if (1000.0..=40000.0).contains(&k) => cct_to_rgb(k),
+            (None, Some(k)) if (MIN_CCT..=MAX_CCT).contains(&k) => cct_to_rgb(k),
             (None, Some(k)) => return Err(bad(&l.id, format!("cct = {k}: must be 1000..40000 K"))),
             (None, None) => [1.0; 3],
         };
         let v = |a: [f64; 3]| DVec3::from_array(a);
-        let mut lum = Luminaire::new(
+        let integral = match integral_key {
+            Some(k) => *integrals
+                .entry(k)
+                .or_insert_with(|| distribution.integral()),
+            None => distribution.integral(),
+        };
+        let mut lum = Luminaire::with_integral(
             &l.id,
             v(l.position) * scale,
             v(l.aim),
             l.c0.map(v),
             distribution,
+            integral,
             l.lumens,
             color,
             None,

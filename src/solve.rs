@@ -68,17 +68,27 @@ impl ChannelLu {
         if cols.len() != n * n || perm.len() != n {
             return None;
         }
+        let mut lu = Mat::<f32>::zeros(n, n);
+        for j in 0..n {
+            lu.col_as_slice_mut(j)
+                .copy_from_slice(&cols[j * n..(j + 1) * n]);
+        }
+        Self::from_lu(lu, perm)
+    }
+
+    /// A factorization from its n×n L\U matrix and row permutation; None when the
+    /// permutation is not one of 0..n or the matrix is not square of that size.
+    pub fn from_lu(lu: Mat<f32>, perm: Vec<usize>) -> Option<ChannelLu> {
+        let n = perm.len();
+        if lu.nrows() != n || lu.ncols() != n {
+            return None;
+        }
         let mut perm_inv = vec![usize::MAX; n];
         for (i, &p) in perm.iter().enumerate() {
             if p >= n || perm_inv[p] != usize::MAX {
                 return None;
             }
             perm_inv[p] = i;
-        }
-        let mut lu = Mat::<f32>::zeros(n, n);
-        for j in 0..n {
-            lu.col_as_slice_mut(j)
-                .copy_from_slice(&cols[j * n..(j + 1) * n]);
         }
         Some(ChannelLu { lu, perm, perm_inv })
     }

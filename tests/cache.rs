@@ -132,3 +132,309 @@ fn foreign_and_future_files_are_rejected_with_a_clear_message() {
         .to_string();
     assert!(e.contains("not a relight cache"), "{e}");
 }
+
+// ---- Hardening: each test is named after the finding it guards. ----
+
+use relight::transfer::TransferMode;
+
+#[test]
+fn patch_limit_is_checked_before_meshing() {
+    // target_patches = 1,000,000 (the largest scene.toml accepts): refused from the
+    // estimate, in milliseconds, instead of meshing for minutes.
+    let s = write_scene(
+        &box_faces("room", "wall", [0., 0., 0.], [4., 3., 3.], true),
+        "newmtl wall\nKd 0.5 0.5 0.5\n",
+        Some("[mesh]\ntarget_patches = 1000000\n"),
+    );
+    let t0 = std::time::Instant::now();
+    let e = load(s.path(), CachePolicy::Off).err().unwrap();
+    assert!(t0.elapsed().as_secs_f64() < 2.0, "{:?}", t0.elapsed());
+    match &e {
+        BakeError::TooLarge {
+            patches,
+            max,
+            estimated,
+            ..
+        } => {
+            assert!(*estimated);
+            assert_eq!(*max, relight::bake::DEFAULT_MAX_PATCHES);
+            // About 1e6 / 2.2 (the bound is below the real count, never above).
+            assert!(*patches > 300_000 && *patches < 1_000_000, "{patches}");
+        }
+        other => panic!("{other}"),
+    }
+    let msg = e.to_string();
+    assert!(
+        msg.contains("would give at least") && msg.contains("the limit of 30000"),
+        "{msg}"
+    );
+    // A tiny max_edge override (CLI --max-edge) is refused the same way; a non-positive one
+    // is an error of its own.
+    let s = small_scene();
+    for (edge, needle) in [
+        (1e-6, "would give at least"),
+        (0.0, "max_edge = 0"),
+        (f64::NAN, "max_edge = NaN"),
+    ] {
+        let opts = BakeOptions {
+            max_edge: Some(edge),
+            ..Default::default()
+        };
+        let e = load_or_bake(s.path(), CachePolicy::Off, &opts, &|_, _| {})
+            .err()
+            .unwrap()
+            .to_string();
+        assert!(e.contains(needle), "{edge}: {e}");
+    }
+}
+
+#[test]
+fn meshing_stops_at_the_patch_limit() {
+    // The estimate is a lower bound: when it passes but the mesh would not fit, refinement
+    // itself stops as soon as it passes the limit.
+    let s = small_scene();
+    let scene = relight::scene::Scene::load(s.path()).unwrap();
+    let full = relight::mesh::Mesh::build(&scene).len();
+    let bound = relight::mesh::estimate_patches(&scene, scene.mesh.max_edge);
+    assert!(bound as usize <= full && bound > 0, "{bound} vs {full}");
+    let limit = (bound as usize + full) / 2;
+    let e = relight::mesh::Mesh::try_build_with(&scene, scene.mesh.max_edge, limit).unwrap_err();
+    assert!(
+        !e.estimated && e.limit == limit && e.at_least > limit as u64,
+        "{e:?}"
+    );
+    // Within the limit, the limited mesh is the mesh.
+    let m = relight::mesh::Mesh::try_build_with(&scene, scene.mesh.max_edge, full).unwrap();
+    assert_eq!(
+        m.fingerprint(),
+        relight::mesh::Mesh::build(&scene).fingerprint()
+    );
+    // Through the bake: a limit between the bound and the real count.
+    let opts = BakeOptions {
+        max_patches: limit,
+        ..Default::default()
+    };
+    let e = load_or_bake(s.path(), CachePolicy::Off, &opts, &|_, _| {})
+        .err()
+        .unwrap()
+        .to_string();
+    assert!(
+        e.contains("meshing gives") && e.contains(&format!("limit of {limit}")),
+        "{e}"
+    );
+}
+
+#[test]
+fn memory_budget_refuses_a_bake_before_allocating() {
+    use relight::bake::{estimate_bake_bytes, estimate_load_bytes};
+    // The estimate: 4n² for F, plus 4n² per distinct channel LU in factored mode.
+    let n = 39_000usize;
+    let sq = 4 * (n as u64) * (n as u64);
+    let f1 = estimate_bake_bytes(n, TransferMode::Factored, 1, 1);
+    let f3 = estimate_bake_bytes(n, TransferMode::Factored, 1, 3);
+    let c = estimate_bake_bytes(n, TransferMode::Columns, 8, 3);
+    assert!(f1 >= 2 * sq && f1 < 2 * sq + sq / 20, "{f1}");
+    assert!(f3 >= 4 * sq && f3 < 4 * sq + sq / 20, "{f3}");
+    assert!(c >= sq && c < sq + sq / 20, "{c}");
+    assert!(estimate_load_bytes(n, TransferMode::Columns, 8, 3) < 200 << 20);
+    assert_eq!(estimate_load_bytes(n, TransferMode::Factored, 1, 1), f1);
+
+    let s = small_scene();
+    let scene = relight::scene::Scene::load(s.path()).unwrap();
+    let mesh = relight::mesh::Mesh::build(&scene);
+    let est = relight::bake::memory_estimate(&scene, &mesh, TransferMode::Factored);
+    // Two materials with grey and coloured reflectance: three distinct channels.
+    assert_eq!((est.lu_count, est.groups, est.patches), (3, 1, mesh.len()));
+    let opts = BakeOptions {
+        memory_budget: Some(est.bake - 1),
+        mode: Some(TransferMode::Factored),
+        ..Default::default()
+    };
+    let t0 = std::time::Instant::now();
+    let e = load_or_bake(s.path(), CachePolicy::Off, &opts, &|_, _| {})
+        .err()
+        .unwrap();
+    assert!(
+        t0.elapsed().as_secs_f64() < 2.0,
+        "refused before the form factors"
+    );
+    assert!(
+        matches!(e, BakeError::OverBudget { action: "bake", .. }),
+        "{e}"
+    );
+    let msg = e.to_string();
+    assert!(
+        msg.contains("needs about")
+            && msg.contains(&format!("to bake {} patches in factored mode", mesh.len()))
+            && msg.contains("the memory budget is"),
+        "{msg}"
+    );
+    // Within budget, the bake runs; a cached load is checked against the load estimate.
+    let cache = tempfile::tempdir().unwrap();
+    let ok = BakeOptions {
+        memory_budget: Some(est.bake),
+        mode: Some(TransferMode::Factored),
+        ..Default::default()
+    };
+    load_or_bake(
+        s.path(),
+        CachePolicy::ReadWrite(cache.path()),
+        &ok,
+        &|_, _| {},
+    )
+    .unwrap();
+    let tight = BakeOptions {
+        memory_budget: Some(est.load - 1),
+        mode: Some(TransferMode::Factored),
+        ..Default::default()
+    };
+    let e = load_or_bake(
+        s.path(),
+        CachePolicy::ReadOnly(cache.path()),
+        &tight,
+        &|_, _| {},
+    )
+    .err()
+    .unwrap()
+    .to_string();
+    assert!(e.contains("to load"), "{e}");
+    // Columns mode: a cached load needs little, whatever the bake needed.
+    let est = relight::bake::memory_estimate(&scene, &mesh, TransferMode::Columns);
+    assert!(est.load < est.bake);
+}
+
+/// Writes a cache entry for the small scene and returns (scene, cache dir, entry path).
+fn cached() -> (TempScene, tempfile::TempDir, std::path::PathBuf) {
+    let s = small_scene();
+    let cache = tempfile::tempdir().unwrap();
+    let a = load(s.path(), CachePolicy::ReadWrite(cache.path())).unwrap();
+    let path = a.stats.cache_path.unwrap();
+    (s, cache, path)
+}
+
+/// Rewrites the JSON header of a cache file through `edit`.
+fn edit_header(path: &std::path::Path, edit: impl Fn(&mut serde_json::Value)) {
+    let bytes = std::fs::read(path).unwrap();
+    let hlen = u32::from_le_bytes(bytes[12..16].try_into().unwrap()) as usize;
+    let mut h: serde_json::Value = serde_json::from_slice(&bytes[16..16 + hlen]).unwrap();
+    edit(&mut h);
+    let hj = serde_json::to_vec(&h).unwrap();
+    let mut out = bytes[..12].to_vec();
+    out.extend_from_slice(&(hj.len() as u32).to_le_bytes());
+    out.extend_from_slice(&hj);
+    out.extend_from_slice(&bytes[16 + hlen..]);
+    std::fs::write(path, out).unwrap();
+}
+
+#[test]
+fn cache_section_lengths_are_checked_before_allocating() {
+    let reject = |path: &std::path::Path, s: &TempScene, cache: &std::path::Path, needle: &str| {
+        let t0 = std::time::Instant::now();
+        match load(s.path(), CachePolicy::ReadOnly(cache)) {
+            Err(BakeError::BadCache { source, .. }) => {
+                let m = source.to_string();
+                assert!(m.contains(needle), "{needle}: {m}");
+                // The message names the entry by its file name only.
+                assert!(!m.contains(&*cache.to_string_lossy()), "{m}");
+                assert!(
+                    m.starts_with(&*path.file_name().unwrap().to_string_lossy()),
+                    "{m}"
+                );
+            }
+            other => panic!("{needle}: expected BadCache, got {:?}", other.err()),
+        }
+        assert!(t0.elapsed().as_secs_f64() < 2.0);
+    };
+    // A section claiming 1 TB: refused from the table, nothing is allocated.
+    let (s, cache, path) = cached();
+    edit_header(&path, |h| {
+        h["sections"][0]["len"] = serde_json::json!(1u64 << 40)
+    });
+    reject(&path, &s, cache.path(), "bad extent");
+    // A huge patch count (sizes overflow or exceed the file).
+    let (s, cache, path) = cached();
+    edit_header(&path, |h| h["patch_count"] = serde_json::json!(1u64 << 40));
+    reject(&path, &s, cache.path(), "");
+    // Thousands of groups that the section table does not list.
+    let (s, cache, path) = cached();
+    edit_header(&path, |h| h["groups"] = serde_json::json!(1u64 << 50));
+    reject(&path, &s, cache.path(), "invalid");
+    // A section renamed, or listed twice.
+    let (s, cache, path) = cached();
+    edit_header(&path, |h| {
+        h["sections"][1]["name"] = serde_json::json!("rho")
+    });
+    reject(
+        &path,
+        &s,
+        cache.path(),
+        "unexpected or repeated section 'rho'",
+    );
+    // Bytes appended after the last section, or missing.
+    let (s, cache, path) = cached();
+    let mut bytes = std::fs::read(&path).unwrap();
+    bytes.extend_from_slice(&[0; 16]);
+    std::fs::write(&path, &bytes).unwrap();
+    reject(&path, &s, cache.path(), "the sections need");
+    let (s, cache, path) = cached();
+    let bytes = std::fs::read(&path).unwrap();
+    std::fs::write(&path, &bytes[..bytes.len() - 4]).unwrap();
+    reject(&path, &s, cache.path(), "the sections need");
+    // A header length past the end of the file.
+    let (s, cache, path) = cached();
+    let mut bytes = std::fs::read(&path).unwrap();
+    bytes[12..16].copy_from_slice(&(15u32 << 20).to_le_bytes());
+    std::fs::write(&path, &bytes[..4096]).unwrap();
+    reject(&path, &s, cache.path(), "runs past the end");
+    // ... and beyond the header limit.
+    let (s, cache, path) = cached();
+    let mut bytes = std::fs::read(&path).unwrap();
+    bytes[12..16].copy_from_slice(&u32::MAX.to_le_bytes());
+    std::fs::write(&path, &bytes).unwrap();
+    reject(&path, &s, cache.path(), "implausible");
+}
+
+#[test]
+fn stale_temporary_files_are_removed() {
+    use relight::cache::{remove_stale_temps, STALE_TEMP_AGE, TEMP_PREFIX};
+    let cache = tempfile::tempdir().unwrap();
+    let old = std::time::SystemTime::now() - STALE_TEMP_AGE - std::time::Duration::from_secs(5);
+    let mk = |name: &str, aged: bool| {
+        let p = cache.path().join(name);
+        std::fs::write(&p, b"partial").unwrap();
+        if aged {
+            std::fs::File::options()
+                .write(true)
+                .open(&p)
+                .unwrap()
+                .set_modified(old)
+                .unwrap();
+        }
+        p
+    };
+    let dead = mk(
+        &format!("{TEMP_PREFIX}123-abc-room-0123456789abcdef.rlt"),
+        true,
+    );
+    let legacy = mk(".room-0123456789abcdef.rlt.tmp-4242", true);
+    let live = mk(
+        &format!("{TEMP_PREFIX}124-abd-room-0123456789abcdef.rlt"),
+        false,
+    );
+    let foreign = mk("notes.txt", true);
+    let entry = mk("room-0123456789abcdef.rlt", true);
+    assert_eq!(remove_stale_temps(cache.path()), 2);
+    assert!(!dead.exists() && !legacy.exists());
+    assert!(live.exists() && foreign.exists() && entry.exists());
+    assert_eq!(remove_stale_temps(cache.path()), 0);
+    assert_eq!(remove_stale_temps(&cache.path().join("missing")), 0);
+    // The bake pipeline cleans up when it starts using a cache folder.
+    let dead = mk(&format!("{TEMP_PREFIX}125-abe-x.rlt"), true);
+    let s = small_scene();
+    load(s.path(), CachePolicy::ReadWrite(cache.path())).unwrap();
+    assert!(!dead.exists());
+    assert!(
+        live.exists(),
+        "a young temporary file may belong to a live writer"
+    );
+}

@@ -74,8 +74,9 @@ fn bad_input_is_a_clear_error_not_a_panic() {
         .unwrap();
     assert!(!out.status.success());
     let err = String::from_utf8_lossy(&out.stderr);
+    // Library errors name scenes by their id (the folder name), never by an absolute path.
     assert!(
-        err.contains("error:") && err.contains("/nonexistent/scene"),
+        err.contains("error:") && err.contains("scene: scene folder not found"),
         "{err}"
     );
     assert!(!err.contains("panicked"));

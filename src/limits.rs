@@ -1,0 +1,80 @@
+//! Input limits: every size, count and number relight accepts from a scene folder.
+//!
+//! Scenes may come from people other than the operator (a shared `scenes/` folder, an
+//! upload), so loading checks each value *before* it is used to allocate or compute, and
+//! refuses anything outside these bounds with a [`crate::scene::SceneError`] that names the
+//! file and line. The README's "Scene format" section lists the same limits.
+//!
+//! Lengths are checked in metres, after the `units`/`scale` conversion. Numbers are checked
+//! in the type the code computes with (`f32` for OBJ coordinates, `Kd` and `Ke`; `f64`
+//! elsewhere): a value that overflows that type is refused, never turned into `inf`/`NaN`.
+
+/// Largest OBJ file, bytes (256 MiB).
+pub const MAX_OBJ_BYTES: u64 = 256 << 20;
+/// Largest MTL, IES or `scene.toml` file, bytes (16 MiB).
+pub const MAX_TEXT_BYTES: u64 = 16 << 20;
+/// Most `v` lines in an OBJ file.
+pub const MAX_OBJ_VERTICES: usize = 2_000_000;
+/// Most triangles in an OBJ file, after fan triangulation of its polygons.
+pub const MAX_OBJ_TRIANGLES: usize = 1_000_000;
+/// Most `mtllib` statements in an OBJ file.
+pub const MAX_MTLLIBS: usize = 64;
+/// Most materials (`newmtl`) over all the material libraries of a scene.
+pub const MAX_MATERIALS: usize = 10_000;
+
+/// Largest absolute coordinate, metres (after unit scaling): OBJ vertices, luminaire and
+/// camera positions, grid corners and points.
+pub const MAX_COORD_M: f64 = 1e5;
+/// Smallest and largest `scale` (factor from OBJ units to metres).
+pub const MIN_SCALE: f64 = 1e-6;
+pub const MAX_SCALE: f64 = 1e6;
+
+/// Smallest and largest `[mesh] max_edge`, metres (after unit scaling).
+pub const MIN_MAX_EDGE_M: f64 = 1e-4;
+pub const MAX_MAX_EDGE_M: f64 = 1e6;
+/// Largest `[mesh] target_patches` (the bake's own patch limit,
+/// [`crate::bake::DEFAULT_MAX_PATCHES`], is usually lower).
+pub const MAX_TARGET_PATCHES: usize = 1_000_000;
+
+/// Largest luminous exitance `Ke`, lm/m² per channel.
+pub const MAX_EXITANCE: f32 = 1e8;
+/// Largest flux of a light group or luminaire (`lumens`), lm.
+pub const MAX_LUMENS: f64 = 1e9;
+/// Largest default `intensity` of a light group.
+pub const MAX_INTENSITY: f64 = 1e3;
+/// Largest component of a `color` (light groups and luminaires).
+pub const MAX_COLOR: f64 = 1e3;
+/// Largest electrical power of a luminaire (`watts`), W.
+pub const MAX_WATTS: f64 = 1e7;
+/// Largest luminous efficacy (`efficacy`), lm/W (the theoretical maximum is 683).
+pub const MAX_EFFICACY: f64 = 1000.0;
+/// Colour temperature range (`cct`), kelvin.
+pub const MIN_CCT: f64 = 1000.0;
+pub const MAX_CCT: f64 = 40_000.0;
+
+/// Smallest work-plane grid `spacing`, metres (after unit scaling).
+pub const MIN_GRID_SPACING_M: f64 = 1e-3;
+/// Most points in one grid (work plane or explicit points).
+pub const MAX_GRID_POINTS: usize = 20_000;
+/// Most points over all the grids of a scene (each costs a gather over every patch).
+pub const MAX_GRID_POINTS_TOTAL: usize = 50_000;
+/// Most entries in each of `[[lights]]`, `[[grids]]` and `[[cameras]]`.
+pub const MAX_TOML_ENTRIES: usize = 10_000;
+/// Most `[[luminaires]]` (each adds shadow rays to every patch and grid point).
+pub const MAX_LUMINAIRES: usize = 1_000;
+/// Most light groups in a scene (`[[lights]]`, luminaire groups, and one per unclaimed
+/// emissive material): each carries three n × 3 columns.
+pub const MAX_LIGHT_GROUPS: usize = 1_000;
+
+/// Most vertical and most horizontal angles in an IES file.
+pub const MAX_IES_ANGLES: usize = 2_000;
+/// Most candela values in an IES file (vertical × horizontal angles).
+pub const MAX_IES_VALUES: usize = 1_000_000;
+/// Most angle/factor pairs in an IES `TILT=INCLUDE` block.
+pub const MAX_IES_TILT_PAIRS: usize = 10_000;
+/// Largest candela value of an IES file (after the multiplier and ballast factors), cd.
+pub const MAX_CANDELA: f64 = 1e9;
+/// Largest number of lamps, candela multiplier, and ballast factors of an IES file.
+pub const MAX_IES_LAMPS: f64 = 1e4;
+pub const MAX_IES_MULTIPLIER: f64 = 1e6;
+pub const MAX_IES_BALLAST: f64 = 100.0;

@@ -1,0 +1,416 @@
+//! The OBJ reader: one line-level pass that validates every statement relight uses (so
+//! errors name a line) and writes a normalized copy, then tobj on that copy for objects,
+//! materials and triangulation.
+//!
+//! tobj only ever sees the normalized text: `v x y z` (already divided by `w`, colours
+//! dropped), `f a b c …` (vertex indices only, each checked against the vertices defined so
+//! far), `o`/`g` names, `usemtl` names that exist, and one synthetic `mtllib` line whose
+//! loader hands tobj relight's own material table. tobj therefore never reads an MTL file
+//! and never sees a token it could fail (or panic) on. Texture coordinates and normals are
+//! validated but not passed on: relight does not use them, and in tobj's multi-index mode
+//! they do not affect positions or indices.
+
+use std::collections::HashSet;
+use std::fmt::Write as _;
+use std::path::Path;
+
+use super::SceneError;
+use crate::limits::{MAX_COORD_M, MAX_MTLLIBS, MAX_OBJ_TRIANGLES, MAX_OBJ_VERTICES};
+
+/// What the line-level pass learns.
+#[derive(Debug, Clone, Default)]
+pub struct ObjScan {
+    /// `mtllib` statements: (file name as written, line).
+    pub mtllibs: Vec<(String, usize)>,
+    /// `usemtl` statements: (material name, line).
+    pub usemtl: Vec<(String, usize)>,
+    /// Number of `v` statements.
+    pub vertices: usize,
+    /// Number of triangles the faces give (fan triangulation).
+    pub triangles: usize,
+    /// Non-fatal notes (ignored statements).
+    pub warnings: Vec<String>,
+    /// The normalized text handed to tobj.
+    normalized: String,
+}
+
+/// One OBJ object/group with one material, as tobj splits them.
+#[derive(Debug, Clone)]
+pub struct ObjPart {
+    /// Object/group name ("unnamed_object" when the OBJ gives none).
+    pub name: String,
+    /// Index into the material table given to [`read_obj`], None before any `usemtl`.
+    pub material: Option<usize>,
+    /// Positions in OBJ units, xyz per vertex.
+    pub positions: Vec<f32>,
+    /// Triangle corner indices into `positions` (3 per triangle).
+    pub indices: Vec<u32>,
+}
+
+fn syntax(path: &Path, line: usize, message: String) -> SceneError {
+    SceneError::Syntax {
+        path: path.to_path_buf(),
+        line,
+        message,
+    }
+}
+
+/// Parses a number as `f32`, the type tobj stores positions in: it must be finite in f32.
+fn coord(path: &Path, line: usize, w: &str, what: &str) -> Result<f32, SceneError> {
+    let v: f32 = w
+        .parse()
+        .map_err(|_| syntax(path, line, format!("bad {what} '{w}': not a number")))?;
+    if !v.is_finite() {
+        return Err(syntax(
+            path,
+            line,
+            format!("{what} '{w}' is not a finite 32-bit number"),
+        ));
+    }
+    Ok(v)
+}
+
+/// Checks one face/line vertex reference `w` (`v`, `v/vt`, `v//vn` or `v/vt/vn`) against
+/// the counts defined so far; returns the vertex index as written.
+fn vertex_ref(path: &Path, line: usize, w: &str, counts: [usize; 3]) -> Result<i64, SceneError> {
+    let parts: Vec<&str> = w.split('/').collect();
+    if parts.len() > 3 || parts[0].is_empty() {
+        return Err(syntax(
+            path,
+            line,
+            format!("bad face vertex '{w}': use v, v/vt, v//vn or v/vt/vn"),
+        ));
+    }
+    let mut first = 0i64;
+    for (k, (p, what)) in parts
+        .iter()
+        .zip(["vertex", "texture coordinate", "normal"])
+        .enumerate()
+    {
+        if p.is_empty() {
+            continue;
+        }
+        let idx: i64 = p
+            .parse()
+            .map_err(|_| syntax(path, line, format!("bad face index '{w}'")))?;
+        let n = counts[k] as i64;
+        let ok = (idx > 0 && idx <= n) || (idx < 0 && idx >= -n);
+        if !ok {
+            return Err(syntax(
+                path,
+                line,
+                format!("{what} index {idx} out of range (1..={n} defined so far)"),
+            ));
+        }
+        if k == 0 {
+            first = idx;
+        }
+    }
+    Ok(first)
+}
+
+/// The rest of a statement after its keyword, trimmed.
+fn rest<'a>(l: &'a str, keyword: &str) -> &'a str {
+    l[keyword.len()..].trim()
+}
+
+/// Validates the OBJ text line by line. `path` is the display name for errors, `scale`
+/// the factor to metres (coordinates must stay within [`MAX_COORD_M`] after it).
+pub fn scan_obj(path: &Path, text: &str, scale: f64) -> Result<ObjScan, SceneError> {
+    let mut s = ObjScan {
+        normalized: String::with_capacity(text.len() / 2 + 64),
+        ..Default::default()
+    };
+    // One synthetic mtllib, first: its loader returns the whole material table.
+    s.normalized.push_str("mtllib relight\n");
+    let (mut ntex, mut nnorm) = (0usize, 0usize);
+    let mut colored: Option<bool> = None;
+    let mut ignored: Vec<(String, usize)> = Vec::new();
+    let mut ignored_count = 0usize;
+    for (i, raw) in text.lines().enumerate() {
+        let line = i + 1;
+        let l = raw.trim();
+        let mut words = l.split_whitespace();
+        let Some(key) = words.next() else { continue };
+        match key {
+            "v" => {
+                let vals: Vec<&str> = words.collect();
+                if !matches!(vals.len(), 3 | 4 | 6) {
+                    return Err(syntax(
+                        path,
+                        line,
+                        format!(
+                            "vertex needs 3 coordinates (optionally w, or r g b): '{}'",
+                            short(l)
+                        ),
+                    ));
+                }
+                let mut p = [0f32; 3];
+                for (k, w) in vals[..3].iter().enumerate() {
+                    p[k] = coord(path, line, w, "vertex coordinate")?;
+                }
+                if vals.len() == 4 {
+                    let w = coord(path, line, vals[3], "vertex weight w")?;
+                    if w == 0.0 {
+                        return Err(syntax(path, line, "vertex weight w is 0".into()));
+                    }
+                    for c in &mut p {
+                        *c /= w;
+                    }
+                }
+                if vals.len() == 6 {
+                    for w in &vals[3..] {
+                        coord(path, line, w, "vertex colour")?;
+                    }
+                }
+                let has_color = vals.len() == 6;
+                match colored {
+                    None => colored = Some(has_color),
+                    Some(c) if c != has_color => {
+                        return Err(syntax(
+                            path,
+                            line,
+                            "vertex colours must be given for every vertex or for none".into(),
+                        ))
+                    }
+                    _ => {}
+                }
+                for c in p {
+                    let m = c as f64 * scale;
+                    if !(m.is_finite() && m.abs() <= MAX_COORD_M) {
+                        return Err(syntax(
+                            path,
+                            line,
+                            format!(
+                                "vertex coordinate {c} is {m:e} m after scaling; \
+                                 coordinates must lie within ±{MAX_COORD_M:e} m"
+                            ),
+                        ));
+                    }
+                }
+                s.vertices += 1;
+                if s.vertices > MAX_OBJ_VERTICES {
+                    return Err(syntax(
+                        path,
+                        line,
+                        format!("more than {MAX_OBJ_VERTICES} vertices"),
+                    ));
+                }
+                // f32 Display is the shortest text that parses back to the same value.
+                let _ = writeln!(s.normalized, "v {} {} {}", p[0], p[1], p[2]);
+            }
+            "vt" | "vn" => {
+                let need = if key == "vt" { 2 } else { 3 };
+                let vals: Vec<&str> = words.collect();
+                if vals.len() < need {
+                    return Err(syntax(
+                        path,
+                        line,
+                        format!("{key} needs {need} numbers: '{}'", short(l)),
+                    ));
+                }
+                for w in &vals[..need] {
+                    w.parse::<f32>().map_err(|_| {
+                        syntax(path, line, format!("bad {key} value '{w}': not a number"))
+                    })?;
+                }
+                if key == "vt" {
+                    ntex += 1;
+                } else {
+                    nnorm += 1;
+                }
+            }
+            "f" | "l" => {
+                let refs: Vec<&str> = words.collect();
+                let counts = [s.vertices, ntex, nnorm];
+                let mut idx = Vec::with_capacity(refs.len());
+                for w in &refs {
+                    idx.push(vertex_ref(path, line, w, counts)?);
+                }
+                if key == "l" {
+                    if !(1..=2).contains(&refs.len()) {
+                        return Err(syntax(
+                            path,
+                            line,
+                            "line elements ('l') with more than 2 vertices are not supported \
+                             (they would be read as faces); remove them or use 'f'"
+                                .into(),
+                        ));
+                    }
+                    ignored_count += 1;
+                    if ignored.len() < 3 {
+                        ignored.push(("l".into(), line));
+                    }
+                    continue;
+                }
+                if refs.len() < 3 {
+                    return Err(syntax(path, line, "face needs at least 3 vertices".into()));
+                }
+                s.triangles += refs.len() - 2;
+                if s.triangles > MAX_OBJ_TRIANGLES {
+                    return Err(syntax(
+                        path,
+                        line,
+                        format!("more than {MAX_OBJ_TRIANGLES} triangles"),
+                    ));
+                }
+                s.normalized.push('f');
+                for k in idx {
+                    let _ = write!(s.normalized, " {k}");
+                }
+                s.normalized.push('\n');
+            }
+            "o" | "g" => {
+                let name = rest(l, key);
+                let _ = writeln!(s.normalized, "{key} {name}");
+            }
+            "mtllib" => {
+                let name = rest(l, key);
+                if name.is_empty() {
+                    return Err(syntax(path, line, "mtllib needs a file name".into()));
+                }
+                if s.mtllibs.len() >= MAX_MTLLIBS {
+                    return Err(syntax(
+                        path,
+                        line,
+                        format!("more than {MAX_MTLLIBS} mtllib statements"),
+                    ));
+                }
+                s.mtllibs.push((name.to_string(), line));
+            }
+            "usemtl" => {
+                let name = rest(l, key);
+                if name.is_empty() {
+                    return Err(syntax(path, line, "usemtl needs a material name".into()));
+                }
+                s.usemtl.push((name.to_string(), line));
+                let _ = writeln!(s.normalized, "usemtl {name}");
+            }
+            "p" | "curv" | "curv2" | "surf" => {
+                ignored_count += 1;
+                if ignored.len() < 3 {
+                    ignored.push((key.to_string(), line));
+                }
+            }
+            _ => {}
+        }
+    }
+    if ignored_count > 0 {
+        let at: Vec<String> = ignored
+            .iter()
+            .map(|(k, l)| format!("'{k}' on line {l}"))
+            .collect();
+        s.warnings.push(format!(
+            "{}: {ignored_count} point, line or free-form statement(s) ignored ({}{})",
+            path.display(),
+            at.join(", "),
+            if ignored_count > ignored.len() {
+                ", …"
+            } else {
+                ""
+            }
+        ));
+    }
+    Ok(s)
+}
+
+/// Checks that every `usemtl` names a material in `materials`.
+pub fn check_usemtl(path: &Path, scan: &ObjScan, materials: &[String]) -> Result<(), SceneError> {
+    let known: HashSet<&str> = materials.iter().map(String::as_str).collect();
+    for (name, line) in &scan.usemtl {
+        if !known.contains(name.as_str()) {
+            return Err(SceneError::UnknownMaterial {
+                path: path.to_path_buf(),
+                line: *line,
+                name: name.clone(),
+            });
+        }
+    }
+    Ok(())
+}
+
+/// Builds the objects of a scanned OBJ with tobj. `materials` are the material names in
+/// relight's order; every `usemtl` must name one of them (see [`check_usemtl`]).
+pub fn read_obj(
+    path: &Path,
+    scan: &ObjScan,
+    materials: &[String],
+) -> Result<Vec<ObjPart>, SceneError> {
+    check_usemtl(path, scan, materials)?;
+    let table: Vec<tobj::Material> = materials
+        .iter()
+        .map(|n| tobj::Material {
+            name: n.clone(),
+            ..Default::default()
+        })
+        .collect();
+    let (models, _) = tobj::load_obj_buf(
+        &mut scan.normalized.as_bytes(),
+        &tobj::LoadOptions {
+            triangulate: true,
+            single_index: false,
+            ignore_points: true,
+            ignore_lines: true,
+        },
+        |_| {
+            // Called once, for the synthetic mtllib: relight's table, indexed as relight's.
+            Ok((
+                table.clone(),
+                materials
+                    .iter()
+                    .enumerate()
+                    .map(|(i, n)| (n.clone(), i))
+                    .collect(),
+            ))
+        },
+    )
+    .map_err(|e| SceneError::Invalid {
+        path: path.to_path_buf(),
+        message: format!("OBJ parse error: {e}"),
+    })?;
+    let mut parts = Vec::with_capacity(models.len());
+    for m in models {
+        let mesh = m.mesh;
+        let nv = mesh.positions.len() / 3;
+        if mesh.positions.iter().any(|c| !c.is_finite())
+            || mesh.indices.iter().any(|&k| k as usize >= nv)
+            || mesh.indices.len() % 3 != 0
+            || mesh.material_id.is_some_and(|i| i >= materials.len())
+        {
+            return Err(SceneError::Invalid {
+                path: path.to_path_buf(),
+                message: format!("object '{}': inconsistent geometry after parsing", m.name),
+            });
+        }
+        parts.push(ObjPart {
+            name: m.name,
+            material: mesh.material_id,
+            positions: mesh.positions,
+            indices: mesh.indices,
+        });
+    }
+    Ok(parts)
+}
+
+/// Parses OBJ text completely (line pass, then tobj), without reading any file: the entry
+/// point for tests. `materials` stands in for the material libraries.
+pub fn parse_obj_str(
+    path: &str,
+    text: &str,
+    scale: f64,
+    materials: &[String],
+) -> Result<(ObjScan, Vec<ObjPart>), SceneError> {
+    let p = Path::new(path);
+    let scan = scan_obj(p, text, scale)?;
+    let parts = read_obj(p, &scan, materials)?;
+    Ok((scan, parts))
+}
+
+/// A line shortened for an error message.
+fn short(l: &str) -> String {
+    if l.chars().count() > 60 {
+        format!("{}…", l.chars().take(60).collect::<String>())
+    } else {
+        l.to_string()
+    }
+}
