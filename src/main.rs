@@ -501,14 +501,21 @@ fn info(root: &Path) -> Result<()> {
     for d in dirs {
         match relight::scene::Scene::load(&d) {
             Ok(s) => {
-                let mesh = relight::mesh::Mesh::build(&s);
+                let patches = match relight::mesh::Mesh::try_build_with(
+                    &s,
+                    s.mesh.max_edge,
+                    bake::DEFAULT_MAX_PATCHES,
+                ) {
+                    Ok(mesh) => mesh.len().to_string(),
+                    Err(e) => format!(">{}", e.at_least.max(e.limit as u64)),
+                };
                 let groups: Vec<String> = s.lights.iter().map(|l| l.id.clone()).collect();
                 let cams: Vec<String> = s.cameras.iter().map(|c| c.id.clone()).collect();
                 outln!(
                     "{:<16} {:<28} {:>6} patches  surfaces {:<3} lights [{}]  cameras [{}]",
                     s.id,
                     s.name,
-                    mesh.len(),
+                    patches,
                     s.surfaces.len(),
                     groups.join(", "),
                     cams.join(", ")
