@@ -440,9 +440,23 @@ fn kd_with_one_value_does_not_panic() {
 #[test]
 fn unparsable_mtl_line_is_an_error_not_a_silent_drop() {
     let obj = format!("{TRI}o lamp\nusemtl glow\nv 0 1 0\nv 0 1 1\nv 1 1 0\nf 4 5 6\n");
-    // `Ns abc` made tobj drop every material, so emitters vanished. relight ignores the
-    // statements it does not use, by keyword, and keeps every material.
-    let mtl = "newmtl grey\nKd 0.5 0.5 0.5\nNs abc\nillum x\nmap_Kd\nnewmtl glow\nKe 5 5 5\n";
+    // `Ns abc` made tobj drop every material, so emitters vanished. relight reads every
+    // numeric statement, used or not: a damaged one is an error naming file and line.
+    for (bad, needle) in [
+        ("Ns abc", "Ns: 'abc' is not a number"),
+        ("illum x", "illum: 'x' is not a number"),
+        ("d", "d needs a number"),
+        ("Ka 1 nan 1", "Ka: 'nan' is not a number"),
+    ] {
+        let mtl = format!("newmtl grey\nKd 0.5 0.5 0.5\n{bad}\nnewmtl glow\nKe 5 5 5\n");
+        let e = load_err(&obj, &mtl, None);
+        assert!(
+            e.contains("scene.mtl:3") && e.contains(needle),
+            "{bad}: {e}"
+        );
+    }
+    // Well-formed statements it does not use are ignored, and every material is kept.
+    let mtl = "newmtl grey\nKd 0.5 0.5 0.5\nNs 10\nillum 2\nd -halo 0.5\nKa spectral a.rfl 1\nmap_Kd\nnewmtl glow\nKe 5 5 5\n";
     let s = write_scene(&obj, mtl, None);
     let scene = Scene::load(s.path()).unwrap();
     assert_eq!(scene.lights.len(), 1, "the emitter must not vanish");
@@ -458,7 +472,7 @@ fn unparsable_mtl_line_is_an_error_not_a_silent_drop() {
     ] {
         let e = load_err(&obj, &mtl.replace("Ke 5 5 5", bad), None);
         assert!(
-            e.contains("scene.mtl:7") && e.contains(needle),
+            e.contains("scene.mtl:9") && e.contains(needle),
             "{bad}: {e}"
         );
     }
@@ -469,7 +483,7 @@ fn unparsable_mtl_line_is_an_error_not_a_silent_drop() {
         scene
             .warnings
             .iter()
-            .any(|w| w.contains("scene.mtl") && w.contains("'Xyz' on line 8")),
+            .any(|w| w.contains("scene.mtl") && w.contains("'Xyz' on line 10")),
         "{:?}",
         scene.warnings
     );

@@ -5,8 +5,11 @@
 //!   lm/m², each in [0, [`MAX_EXITANCE`]]) are parsed strictly: three numbers (or one,
 //!   meaning grey, as the MTL specification allows), finite in `f32`, in range, at most
 //!   once per material. A trailing `# comment` is allowed.
-//! - Statements relight does not use (`Ka`, `Ks`, `Ns`, `Ni`, `d`, `Tr`, `Tf`, `illum`,
-//!   `map_*`, `bump`, …) are ignored by keyword, whatever follows them.
+//! - Numeric statements relight does not use (`Ka`, `Ks`, `Tf`, `Ns`, `Ni`, `d`, `Tr`,
+//!   `illum`, the PBR extensions `Pr`, `Pm`, …) must still read as numbers, so that a
+//!   damaged line is an error naming the file and line, never silently skipped; their
+//!   values are then ignored. Texture and other statements (`map_*`, `bump`, `refl`, …)
+//!   are ignored by keyword.
 //! - Misspelt `Kd`/`Ke` (`kd`, `KE`, …) are errors; any other unknown statement is ignored
 //!   with a warning, so no data is dropped silently.
 
@@ -35,8 +38,8 @@ pub struct MtlLibrary {
     pub warnings: Vec<String>,
 }
 
-/// Statements of the MTL format that relight does not use: ignored by keyword.
-const IGNORED: &[&str] = &[
+/// Numeric statements that relight does not use: checked, then ignored.
+const NUMERIC: &[&str] = &[
     "Ka",
     "Ks",
     "Tf",
@@ -46,11 +49,6 @@ const IGNORED: &[&str] = &[
     "Tr",
     "illum",
     "sharpness",
-    "bump",
-    "disp",
-    "decal",
-    "refl",
-    "norm",
     "Pr",
     "Pm",
     "Ps",
@@ -59,6 +57,14 @@ const IGNORED: &[&str] = &[
     "aniso",
     "anisor",
 ];
+
+/// A word cut to a length fit for a message.
+fn shorten(w: &str) -> String {
+    w.chars().take(40).collect()
+}
+
+/// Statements of the MTL format that relight does not use: ignored by keyword.
+const IGNORED: &[&str] = &["bump", "disp", "decal", "refl", "norm"];
 
 /// Parses the text of an MTL file; `path` is the display name errors use.
 pub fn parse_mtl_str(path: &str, text: &str) -> Result<MtlLibrary, SceneError> {
@@ -175,6 +181,24 @@ pub(crate) fn parse_mtl(path: &Path, text: &str) -> Result<MtlLibrary, SceneErro
                         "Ke"
                     }
                 )));
+            }
+            k if NUMERIC.contains(&k) => {
+                let vals: Vec<&str> = words.take_while(|w| !w.starts_with('#')).collect();
+                // `Ka spectral file.rfl f` and `Ka xyz x y z` name other forms; `d -halo f`
+                // has a flag.
+                let vals: Vec<&str> = vals
+                    .into_iter()
+                    .filter(|w| !matches!(*w, "spectral" | "xyz" | "-halo"))
+                    .collect();
+                if vals.is_empty() {
+                    return Err(syntax(format!("{k} needs a number")));
+                }
+                let spectral_file = |w: &str| w.contains('.') && w.parse::<f64>().is_err();
+                for w in vals {
+                    if !spectral_file(w) && !w.parse::<f64>().is_ok_and(f64::is_finite) {
+                        return Err(syntax(format!("{k}: '{}' is not a number", shorten(w))));
+                    }
+                }
             }
             k if IGNORED.contains(&k) || k.starts_with("map_") => {}
             k => {
