@@ -632,3 +632,35 @@ async fn slow_clients_held_connections_forever() {
     let _ = stop.send(());
     server.await.unwrap();
 }
+
+#[cfg(unix)]
+#[test]
+fn a_bake_that_runs_out_of_memory_took_the_server_down() {
+    use std::os::unix::fs::PermissionsExt;
+    // The kernel's OOM killer ends a process with SIGKILL: a stand-in bake command that
+    // dies that way must leave the server up and the scene failed with the reason.
+    let root = tempfile::tempdir().unwrap();
+    let scene = root.path().join("huge");
+    std::fs::create_dir(&scene).unwrap();
+    std::fs::write(scene.join("huge.obj"), "v 0 0 0\n").unwrap();
+    let bin = tempfile::tempdir().unwrap();
+    let exe = bin.path().join("fake-bake");
+    std::fs::write(&exe, "#!/bin/sh\necho '{\"progress\": 0.1}'\nkill -9 $$\n").unwrap();
+    std::fs::set_permissions(&exe, std::fs::Permissions::from_mode(0o755)).unwrap();
+    let cache = tempfile::tempdir().unwrap();
+    let st = AppState::new(ServerConfig {
+        scenes: root.path().to_path_buf(),
+        cache: cache.path().to_path_buf(),
+        bake_command: Some(exe),
+        ..ServerConfig::default()
+    })
+    .unwrap();
+    st.bake_all();
+    let (status, _, err) = st.slot("huge").unwrap().status();
+    assert_eq!(status, "failed");
+    let err = err.unwrap();
+    assert!(
+        err.contains("signal 9") && err.contains("out of memory"),
+        "{err}"
+    );
+}
