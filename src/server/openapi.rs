@@ -9,9 +9,9 @@
 use serde_json::{json, Map, Value};
 
 use super::api::{MAX_BATCH, MAX_COORDINATE, MAX_EMISSION, MAX_POINTS};
-use super::render_api::{MAX_FOV_DEG, MIN_FOV_DEG};
+use super::render_api::{MAX_FOV_DEG, MAX_RANGE_LUX, MIN_FOV_DEG, MIN_RANGE_LUX};
 use crate::lighting::MAX_INTENSITY;
-use crate::render::{FALSE_COLOR_MAX_LUX, FALSE_COLOR_MIN_LUX, MAX_SIDE};
+use crate::render::MAX_SIDE;
 
 /// Largest magnitude of any number in a request: values are computed in 32-bit floating
 /// point, so the handlers refuse anything beyond its range.
@@ -50,6 +50,14 @@ fn scene_errors() -> Map<String, Value> {
     let mut m = Map::new();
     m.insert("404".into(), response_ref("NotFound"));
     m.insert("503".into(), response_ref("Unavailable"));
+    m
+}
+
+/// The errors of a GET whose answer grows with the scene, on top of [`scene_errors`]: 422
+/// when building it would take more than one request's share of the memory budget.
+fn sized_get_errors() -> Map<String, Value> {
+    let mut m = scene_errors();
+    m.insert("422".into(), response_ref("Invalid"));
     m
 }
 
@@ -173,7 +181,7 @@ fn scene_get_paths(paths: &mut Map<String, Value>) {
             "patches",
             "Per patch: surface, area (m²), centroid and normal (m). JSON, or binary with `Accept: application/octet-stream`.",
             None, vec![],
-            with(scene_errors(), json!({
+            with(sized_get_errors(), json!({
                 "description": "Patches in patch order.",
                 "headers": patch_headers,
                 "content": {
@@ -190,7 +198,7 @@ fn scene_get_paths(paths: &mut Map<String, Value>) {
             "mesh",
             "The shading mesh for client-side drawing: vertices, triangles (one per patch), surface per triangle, and per-vertex patch weights (vertex colour = Σ weight · B[patch]).",
             None, vec![],
-            with(scene_errors(), json!({
+            with(sized_get_errors(), json!({
                 "description": "One binary buffer.",
                 "headers": {"X-Relight-Layout": header("The layout of the bytes.", json!({"type": "string"}), true)},
                 "content": {"application/octet-stream": {"schema": binary(
@@ -201,9 +209,7 @@ fn scene_get_paths(paths: &mut Map<String, Value>) {
     let mut render_errors = scene_errors();
     render_errors.insert("400".into(), response_ref("BadQuery"));
     render_errors.insert("422".into(), response_ref("Invalid"));
-    let int = |desc: &str| {
-        json!({"type": "integer", "minimum": 1, "maximum": MAX_SIDE, "default": 512, "description": desc})
-    };
+    let int = |desc: &str| json!({"type": "integer", "minimum": 1, "maximum": MAX_SIDE, "default": 512, "description": desc});
     paths.insert(
         "/api/scenes/{id}/render.png".into(),
         json!({"get": scene_op(
@@ -267,8 +273,7 @@ fn scene_post_paths(paths: &mut Map<String, Value>) {
             "illuminance",
             "Illuminance per surface (avg, min, max, uniformity), at points (direct light of the luminaires plus light gathered from the solved patches, with occlusion), and on calculation grids (Eavg, Emin, Emax, U0, Emin/Emax), with the luminaires' lumens and watts.",
             Some(body("IlluminanceRequest", false, "An empty body gives every surface in the default lighting state.",
-                json!({"lights": {"ceiling": {"intensity": 0.8, "color": [1.0, 0.9, 0.8]}}, "surfaces": ["floor"],
-                    "points": [{"position": [0.278, 0.1, 0.278], "normal": [0, 1, 0]}]}))),
+                json!({"lights": {"ceiling": {"intensity": 0.8, "color": [1.0, 0.9, 0.8]}}, "surfaces": ["floor"]}))),
             vec![],
             with(post_errors(), json_ok("Illuminance answers in lux.", schema_ref("IlluminanceResponse"))),
         )}),
@@ -318,9 +323,7 @@ fn scene_post_paths(paths: &mut Map<String, Value>) {
 
 /// Shared responses: errors as RFC 9457 problem documents.
 fn responses() -> Value {
-    let problem = |desc: &str| {
-        json!({"description": desc, "content": {"application/problem+json": {"schema": schema_ref("ProblemDetails")}}})
-    };
+    let problem = |desc: &str| json!({"description": desc, "content": {"application/problem+json": {"schema": schema_ref("ProblemDetails")}}});
     json!({
         "BadRequest": problem("Malformed JSON, or a request body that could not be read."),
         "BadQuery": problem("A malformed query: an unknown parameter, one given twice, or a value that is not a number where one is expected."),
@@ -339,9 +342,7 @@ fn responses() -> Value {
 /// Input schemas: what the handlers accept. Unknown fields are refused everywhere.
 fn request_schemas(s: &mut Map<String, Value>) {
     let num = |lo: f64, hi: f64| json!({"type": "number", "minimum": lo, "maximum": hi});
-    let triple = |item: Value, desc: &str| {
-        json!({"type": "array", "items": item, "minItems": 3, "maxItems": 3, "description": desc})
-    };
+    let triple = |item: Value, desc: &str| json!({"type": "array", "items": item, "minItems": 3, "maxItems": 3, "description": desc});
     s.insert(
         "Color".into(),
         triple(
@@ -396,9 +397,7 @@ fn request_schemas(s: &mut Map<String, Value>) {
         json!({"type": "object", "additionalProperties": false, "description": desc,
             "properties": props, "not": {"required": ["lights", "emission"]}})
     };
-    let names = |desc: &str| {
-        json!({"type": "array", "items": {"type": "string"}, "uniqueItems": true, "description": desc})
-    };
+    let names = |desc: &str| json!({"type": "array", "items": {"type": "string"}, "uniqueItems": true, "description": desc});
     s.insert(
         "LightingState".into(),
         lighting(
@@ -419,7 +418,9 @@ fn request_schemas(s: &mut Map<String, Value>) {
         "surfaces".into(),
         names("Surfaces to report (default: all when no points or grids are asked for)."),
     );
-    p.insert("points".into(), json!({"type": "array", "maxItems": MAX_POINTS, "items": {
+    p.insert("points".into(), json!({"type": "array", "maxItems": MAX_POINTS,
+        "description": "Receivers, e.g. [{\"position\": [0.278, 0.1, 0.278], \"normal\": [0, 1, 0]}]. Each point gathers from every patch it sees: thousands of points take seconds.",
+        "items": {
         "type": "object", "required": ["position", "normal"], "additionalProperties": false,
         "properties": {"position": schema_ref("Position"), "normal": schema_ref("Direction")}}}));
     p.insert(
@@ -454,7 +455,7 @@ fn request_schemas(s: &mut Map<String, Value>) {
         json!({"type": "string", "enum": ["filmic", "clamp"], "default": "filmic"}),
     );
     p.insert("range".into(), json!({"type": "array", "minItems": 2, "maxItems": 2,
-        "items": num(FALSE_COLOR_MIN_LUX as f64, FALSE_COLOR_MAX_LUX as f64),
+        "items": num(MIN_RANGE_LUX, MAX_RANGE_LUX),
         "description": "False-colour range [low, high] in lux, high ≥ 1.01 × low (default: max/100 to max)."}));
     let mut render = lighting(p, "A lighting state, a camera and the image to make.");
     render["allOf"] = json!([{"not": {"required": ["mode", "format"],
@@ -489,9 +490,7 @@ fn request_schemas(s: &mut Map<String, Value>) {
 /// Output schemas: what the handlers return.
 fn response_schemas(s: &mut Map<String, Value>) {
     let num = || json!({"type": "number"});
-    let obj = |required: &[&str], props: Value| {
-        json!({"type": "object", "required": required, "additionalProperties": false, "properties": props})
-    };
+    let obj = |required: &[&str], props: Value| json!({"type": "object", "required": required, "additionalProperties": false, "properties": props});
     s.insert(
         "ProblemDetails".into(),
         json!({"type": "object", "required": ["type", "title", "status", "detail"], "additionalProperties": false,
@@ -585,9 +584,15 @@ fn response_schemas(s: &mut Map<String, Value>) {
             "bake": obj(&["seconds", "from_cache", "residual"], json!({
                 "seconds": num(), "from_cache": {"type": "boolean"}, "residual": num()}))
         })));
-    s.insert("Patches".into(), obj(&["patches"], json!({"patches": {"type": "array", "items": obj(
+    s.insert(
+        "Patches".into(),
+        obj(
+            &["patches"],
+            json!({"patches": {"type": "array", "items": obj(
         &["surface", "area", "centroid", "normal"],
-        json!({"surface": {"type": "string"}, "area": num(), "centroid": vec3, "normal": vec3}))}})));
+        json!({"surface": {"type": "string"}, "area": num(), "centroid": vec3, "normal": vec3}))}}),
+        ),
+    );
     s.insert("RadiosityResponse".into(), json!({
         "type": "object", "required": ["scene", "patches", "unit"], "additionalProperties": false,
         "oneOf": [{"required": ["radiosity"]}, {"required": ["illuminance"]}],
@@ -603,9 +608,15 @@ fn response_schemas(s: &mut Map<String, Value>) {
         "Lux".into(),
         obj(&["lux", "rgb"], json!({"lux": num(), "rgb": vec3})),
     );
-    s.insert("SurfaceIlluminance".into(), obj(&["area", "avg", "min", "max", "uniformity"], json!({
+    s.insert(
+        "SurfaceIlluminance".into(),
+        obj(
+            &["area", "avg", "min", "max", "uniformity"],
+            json!({
         "area": num(), "avg": schema_ref("Lux"), "min": schema_ref("Lux"), "max": schema_ref("Lux"),
-        "uniformity": {"type": "number", "description": "Emin / Eavg"}})));
+        "uniformity": {"type": "number", "description": "Emin / Eavg"}}),
+        ),
+    );
     s.insert("GridStats".into(), obj(
         &["name", "unit", "count", "layout", "avg", "min", "max", "u0", "min_max", "values"],
         json!({"name": {"type": "string"}, "unit": {"type": "string", "const": "lx"}, "count": count(),

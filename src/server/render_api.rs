@@ -21,6 +21,10 @@ use super::api::{
 };
 use crate::budget::human_bytes;
 
+/// Lowest and highest ends of a false-colour range, lux.
+pub const MIN_RANGE_LUX: f64 = 1e-6;
+pub const MAX_RANGE_LUX: f64 = 1e12;
+
 /// Narrowest and widest vertical field of view accepted, degrees.
 pub const MIN_FOV_DEG: f64 = 1.0;
 pub const MAX_FOV_DEG: f64 = 170.0;
@@ -304,10 +308,7 @@ fn options(body: &Map<String, Value>, ready: &Ready) -> Result<RenderOptions, Ap
                 .as_array()
                 .filter(|a| a.len() == 2)
                 .ok_or_else(|| AppError::Invalid("range must be [low, high] in lux".into()))?;
-            let (min, max) = (
-                render::FALSE_COLOR_MIN_LUX as f64,
-                render::FALSE_COLOR_MAX_LUX as f64,
-            );
+            let (min, max) = (MIN_RANGE_LUX, MAX_RANGE_LUX);
             let lo = bounded(&a[0], "range[0] (lux)", min, max)?;
             let hi = bounded(&a[1], "range[1] (lux)", min, max)?;
             if hi < lo * 1.01 {
