@@ -1,0 +1,150 @@
+#!/usr/bin/env bash
+# Fuzzes the HTTP API against its own OpenAPI document with schemathesis: a running
+# `relight serve` must never answer 5xx, every status code, content type, header and body
+# must be the documented one, requests the schemas call invalid must be refused, and valid
+# ones must never be refused as malformed (400, 413, 415).
+#
+#   tests/schemathesis/run.sh                                  # builds target/release/relight
+#   RELIGHT_BIN=target/debug/relight tests/schemathesis/run.sh # any built binary (.ci/run
+#                                                              # uses the one `cargo test` built)
+#
+# ST_EXAMPLES (generated cases per operation in the fuzzing phase) and ST_SEED change the
+# run; the defaults are what CI runs. Exits non-zero on any failure.
+set -euo pipefail
+cd "$(dirname "$0")/../.."
+root=$PWD
+here=$root/tests/schemathesis
+
+st_version=4.32.5
+examples=${ST_EXAMPLES:-200}
+seed=${ST_SEED:-1729}
+ready_wait=180
+
+export PATH="$PATH:$HOME/.local/bin:$(python3 -c 'import sysconfig; print(sysconfig.get_path("scripts"))')"
+if [ "$(schemathesis --version 2>/dev/null | awk '{print $NF}')" != "$st_version" ]; then
+  python3 -m pip install -q "schemathesis==$st_version"
+fi
+
+if [ -n "${RELIGHT_BIN:-}" ]; then
+  bin=$RELIGHT_BIN
+else
+  cargo build --release --quiet
+  bin=target/release/relight
+fi
+[ -x "$bin" ] || { echo "schemathesis: no relight binary at $bin" >&2; exit 1; }
+
+work=$(mktemp -d)
+port=$(python3 -c 'import socket; s = socket.socket(); s.bind(("127.0.0.1", 0)); print(s.getsockname()[1])')
+base=http://127.0.0.1:$port
+# A 2 GB memory budget keeps the biggest renders (up to 4096×4096) within reach of a
+# small CI machine: larger estimates are refused with a documented 422.
+RELIGHT_LOG=warn "$bin" serve --addr "127.0.0.1:$port" --scenes scenes --static-dir static \
+  --cache "$work/cache" --memory-budget 2G >"$work/server.log" 2>&1 &
+pid=$!
+cleanup() {
+  kill "$pid" 2>/dev/null || true
+  wait "$pid" 2>/dev/null || true
+  rm -rf "$work"
+}
+trap cleanup EXIT
+trap 'exit 1' INT TERM
+
+t0=$SECONDS
+# Ready means every scene baked: a failed scene would answer 503 to everything.
+if ! python3 - "$base" "$pid" "$ready_wait" <<'EOF'; then
+import json, os, sys, time, urllib.error, urllib.request
+base, pid, wait = sys.argv[1], int(sys.argv[2]), float(sys.argv[3])
+deadline = time.monotonic() + wait
+while time.monotonic() < deadline:
+    try:
+        os.kill(pid, 0)
+    except OSError:
+        sys.exit("schemathesis: the server exited")
+    try:
+        with urllib.request.urlopen(base + "/readyz", timeout=5) as r:
+            scenes = json.load(r)["scenes"]
+        bad = [f"{s['id']}: {s.get('error')}" for s in scenes if s["status"] != "ready"]
+        if bad:
+            sys.exit("schemathesis: scenes failed to load: " + "; ".join(bad))
+        sys.exit(0)
+    except (urllib.error.URLError, ConnectionError, TimeoutError):
+        time.sleep(1)
+sys.exit(f"schemathesis: the server was not ready within {wait:.0f} s")
+EOF
+  cat "$work/server.log" >&2
+  exit 1
+fi
+echo "schemathesis: server ready in $((SECONDS - t0)) s at $base ($bin)"
+
+# The server's request counters (relight_http_requests_total), saved to a file.
+counters() {
+  python3 - "$base" "$1" <<'EOF'
+import json, re, sys, urllib.request
+text = urllib.request.urlopen(sys.argv[1] + "/metrics", timeout=10).read().decode()
+counts = {}
+for line in text.splitlines():
+    m = re.match(r'relight_http_requests_total\{method="([^"]*)",route="([^"]*)",status="([^"]*)"\} (\S+)', line)
+    if m:
+        counts[" ".join(m.group(1, 2, 3))] = int(float(m.group(4)))
+json.dump(counts, open(sys.argv[2], "w"))
+EOF
+}
+counters "$work/before.json"
+
+# Checks: all of them but four that cannot apply to this API, whose operations declare no
+# security scheme and create or delete nothing:
+# - ignored_auth, object_level_authorization: test authentication and authorization;
+# - use_after_free, ensure_resource_availability: follow create/delete links between
+#   operations to resources.
+# positive_data_acceptance is tuned in schemathesis.toml (422 stays acceptable).
+# Times: a response slower than 45 s fails max_response_time (the slowest legal requests,
+# such as illuminance at 10,000 points inside a room, take 15-30 s on 2 cores); the
+# server's own limit answers 503 at 60 s (not_a_server_error); schemathesis gives up on a
+# request at 90 s.
+t1=$SECONDS
+set +e
+SCHEMATHESIS_HOOKS=$here/hooks.py schemathesis --config-file "$here/schemathesis.toml" \
+  run "$base/api/openapi.json" \
+  --checks all \
+  --exclude-checks ignored_auth,object_level_authorization,use_after_free,ensure_resource_availability \
+  --max-examples "$examples" --seed "$seed" --workers 1 \
+  --max-response-time 45 --request-timeout 90 \
+  --generation-database none --no-color --output-truncate true 2>&1 | tee "$work/st.log"
+status=${PIPESTATUS[0]}
+set -e
+wall=$((SECONDS - t1))
+if ! kill -0 "$pid" 2>/dev/null; then
+  echo "schemathesis: the server died during the run" >&2
+  cat "$work/server.log" >&2
+  exit 1
+fi
+counters "$work/after.json"
+ops=$(sed -n 's/^ *Tested: \([0-9]*\).*/\1/p' "$work/st.log" | head -n 1)
+cases=$(sed -n 's/^ *\([0-9]*\) generated.*/\1/p' "$work/st.log" | head -n 1)
+# What the server answered during the run, per documented operation and status class.
+python3 - "$base" "$work/before.json" "$work/after.json" <<'EOF'
+import collections, json, sys, urllib.request
+spec = json.load(urllib.request.urlopen(sys.argv[1] + "/api/openapi.json", timeout=10))
+before, after = (json.load(open(f)) for f in sys.argv[2:4])
+table = collections.defaultdict(collections.Counter)
+for key, n in after.items():
+    method, route, status = key.split()
+    n -= before.get(key, 0) + (key == "GET /metrics 200")  # the counters' own request
+    documented = method.lower() in spec["paths"].get(route, {})
+    row = f"{method} {route}" if documented else "other methods and paths"
+    if n > 0:
+        table[row][status[0] + "xx"] += n
+print("schemathesis: requests served, by operation and status class:")
+for row, c in sorted(table.items(), key=lambda rc: (rc[0].startswith("other"), rc[0].split()[::-1])):
+    print(f"  {row:42} " + "  ".join(f"{k} {c[k]:4}" for k in sorted(c)))
+print(f"schemathesis: {sum(sum(c.values()) for c in table.values())} requests served")
+EOF
+echo "schemathesis: run size: ${ops:-?} operations × up to $examples fuzzed examples each" \
+  "(plus the examples, coverage and stateful phases): ${cases:-?} test cases in ${wall} s" \
+  "(seed $seed, schemathesis $st_version)"
+if grep -q "panicked" "$work/server.log"; then
+  echo "schemathesis: the server panicked:" >&2
+  grep -n -A3 "panicked" "$work/server.log" >&2
+  status=1
+fi
+exit "$status"
