@@ -36,8 +36,8 @@ fi
 work=$(mktemp -d)
 port=$(python3 -c 'import socket; s = socket.socket(); s.bind(("127.0.0.1", 0)); print(s.getsockname()[1])')
 base=http://127.0.0.1:$port
-# A 2 GB memory budget keeps the biggest renders (up to 4096×4096) within reach of a
-# small CI machine: larger estimates are refused with a documented 422.
+# A 2 GB memory budget bounds the server's memory on a small CI machine: requests
+# estimated beyond one request's share (the largest renders, batches) get a documented 422.
 RELIGHT_LOG=warn "$bin" serve --addr "127.0.0.1:$port" --scenes scenes --static-dir static \
   --cache "$work/cache" --memory-budget 2G >"$work/server.log" 2>&1 &
 pid=$!
