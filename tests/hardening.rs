@@ -664,3 +664,21 @@ fn a_bake_that_runs_out_of_memory_took_the_server_down() {
         "{err}"
     );
 }
+
+#[tokio::test]
+async fn a_scene_id_that_is_not_utf8_got_a_plain_text_400() {
+    for uri in [
+        "/api/scenes/%FF/patches",
+        "/api/scenes/%FF",
+        "/api/scenes/%C3%28/render.png",
+    ] {
+        let req = Request::get(uri).body(Body::empty()).unwrap();
+        let (s, h, b) = send(router(state()), req).await;
+        assert_eq!(s, StatusCode::NOT_FOUND, "{uri}");
+        assert_eq!(h[header::CONTENT_TYPE], "application/problem+json", "{uri}");
+        assert!(
+            String::from_utf8_lossy(&b).contains("no such scene"),
+            "{uri}"
+        );
+    }
+}

@@ -30,6 +30,27 @@ pub const MAX_COORDINATE: f64 = 1e6;
 
 type ApiResult = Result<Response, AppError>;
 
+/// The `{id}` of a scene route. A path segment that is not valid UTF-8 (or otherwise
+/// unreadable) names no scene: 404 as a problem document, like any unknown scene.
+pub struct SceneId(pub String);
+
+impl<S: Send + Sync> axum::extract::FromRequestParts<S> for SceneId {
+    type Rejection = AppError;
+
+    async fn from_request_parts(
+        parts: &mut axum::http::request::Parts,
+        state: &S,
+    ) -> Result<Self, Self::Rejection> {
+        match Path::<String>::from_request_parts(parts, state).await {
+            Ok(Path(id)) => Ok(SceneId(id)),
+            Err(e) => Err(AppError::NotFound(format!(
+                "no such scene: the scene id in the path is not readable ({})",
+                shorten(&e.body_text())
+            ))),
+        }
+    }
+}
+
 pub async fn healthz() -> &'static str {
     "ok"
 }
@@ -125,10 +146,7 @@ pub async fn list_scenes(State(state): State<Arc<AppState>>) -> Json<Value> {
     }))
 }
 
-pub async fn scene_details(
-    State(state): State<Arc<AppState>>,
-    Path(id): Path<String>,
-) -> ApiResult {
+pub async fn scene_details(State(state): State<Arc<AppState>>, SceneId(id): SceneId) -> ApiResult {
     let r = state.slot(&id)?.ready()?;
     let b = &r.baked;
     let (lo, hi) = b.scene.bounds();
@@ -205,7 +223,7 @@ fn binary(floats: Vec<f32>, n: usize, layout: &'static str) -> Response {
 
 pub async fn patches(
     State(state): State<Arc<AppState>>,
-    Path(id): Path<String>,
+    SceneId(id): SceneId,
     headers: HeaderMap,
 ) -> ApiResult {
     let r = state.slot(&id)?.ready()?;
@@ -251,7 +269,7 @@ fn patch_list(r: &Ready, binary_out: bool) -> Response {
 }
 
 /// The shading mesh (layout in [`crate::render::Shading::mesh_bytes`]).
-pub async fn mesh(State(state): State<Arc<AppState>>, Path(id): Path<String>) -> ApiResult {
+pub async fn mesh(State(state): State<Arc<AppState>>, SceneId(id): SceneId) -> ApiResult {
     let r = state.slot(&id)?.ready()?;
     // Built once per scene, off the runtime; then a cheap clone of shared bytes.
     let n = r.baked.mesh.len() as u64;
@@ -678,7 +696,7 @@ pub async fn begin(
 
 pub async fn radiosity(
     State(state): State<Arc<AppState>>,
-    Path(id): Path<String>,
+    SceneId(id): SceneId,
     headers: HeaderMap,
     body: Result<Bytes, BytesRejection>,
 ) -> ApiResult {
@@ -836,7 +854,7 @@ fn parse_points(v: &Value) -> Result<Vec<(DVec3, DVec3)>, AppError> {
 
 pub async fn illuminance(
     State(state): State<Arc<AppState>>,
-    Path(id): Path<String>,
+    SceneId(id): SceneId,
     headers: HeaderMap,
     body: Result<Bytes, BytesRejection>,
 ) -> ApiResult {
@@ -951,7 +969,7 @@ pub async fn illuminance(
 
 pub async fn optimize(
     State(state): State<Arc<AppState>>,
-    Path(id): Path<String>,
+    SceneId(id): SceneId,
     headers: HeaderMap,
     body: Result<Bytes, BytesRejection>,
 ) -> ApiResult {
@@ -1224,7 +1242,7 @@ pub fn luminaire_power(ready: &Ready, w: &[Rgb]) -> Value {
 
 pub async fn batch(
     State(state): State<Arc<AppState>>,
-    Path(id): Path<String>,
+    SceneId(id): SceneId,
     headers: HeaderMap,
     body: Result<Bytes, BytesRejection>,
 ) -> ApiResult {

@@ -10,14 +10,14 @@ use std::time::Instant;
 
 use axum::body::Bytes;
 use axum::extract::rejection::BytesRejection;
-use axum::extract::{Path, Query, State};
+use axum::extract::{Query, State};
 use axum::http::{header, HeaderMap};
 use axum::response::{IntoResponse, Response};
 use serde_json::{Map, Value};
 
 use super::api::{
     bounded, bounded_triple, direction, number, parse_lighting, shown, solve_for, Lighting,
-    MAX_COORDINATE,
+    SceneId, MAX_COORDINATE,
 };
 use crate::budget::human_bytes;
 
@@ -539,7 +539,7 @@ async fn respond(
 
 pub async fn render_post(
     State(state): State<Arc<AppState>>,
-    Path(id): Path<String>,
+    SceneId(id): SceneId,
     headers: HeaderMap,
     body: Result<Bytes, BytesRejection>,
 ) -> Result<Response, AppError> {
@@ -562,7 +562,7 @@ pub async fn render_post(
 /// `GET …/render.png?camera=front&w=512&h=512&light.ceiling=0.5&exposure=0&mode=falsecolor`
 pub async fn render_get(
     State(state): State<Arc<AppState>>,
-    Path(id): Path<String>,
+    SceneId(id): SceneId,
     Query(q): Query<Vec<(String, String)>>,
 ) -> Result<Response, AppError> {
     let ready = state.slot(&id)?.ready()?;
