@@ -91,17 +91,7 @@ fn mode_name(m: TransferMode) -> &'static str {
     }
 }
 
-/// "6.1 GB", "350 MB", "12 kB" (decimal units).
-pub fn human_bytes(b: u64) -> String {
-    let b = b as f64;
-    if b >= 1e9 {
-        format!("{:.1} GB", b / 1e9)
-    } else if b >= 1e6 {
-        format!("{:.0} MB", b / 1e6)
-    } else {
-        format!("{:.0} kB", b / 1e3)
-    }
-}
+pub use crate::budget::human_bytes;
 
 /// 39000 → "39,000".
 fn thousands(n: u64) -> String {

@@ -11,6 +11,7 @@ pub mod json;
 pub mod limits;
 pub mod metrics;
 pub mod openapi;
+pub mod parse;
 pub mod render_api;
 pub mod serve;
 
@@ -463,8 +464,12 @@ impl AppState {
             .into_iter()
             .map(|d| Arc::new(SceneSlot::new(d)))
             .collect();
+        Ok(Self::with_slots(slots, config))
+    }
+
+    fn with_slots(slots: Vec<Arc<SceneSlot>>, config: ServerConfig) -> Arc<AppState> {
         let budget = crate::budget::MemoryBudget::new(config.memory_budget);
-        Ok(Arc::new(AppState {
+        Arc::new(AppState {
             slots,
             metrics: metrics::Metrics::default(),
             views: std::sync::Mutex::new(render_api::ViewCache::new(budget.view_cache_max())),
@@ -472,22 +477,13 @@ impl AppState {
             heavy_permits: Arc::new(tokio::sync::Semaphore::new(config.max_concurrent.max(1))),
             heavy_waiting: Default::default(),
             config,
-        }))
+        })
     }
 
     /// A state with another configuration over the same scene slots (tests, and replicas
     /// that share baked scenes). Caches, metrics and the budget start afresh.
     pub fn reconfigured(&self, config: ServerConfig) -> Arc<AppState> {
-        let budget = crate::budget::MemoryBudget::new(config.memory_budget);
-        Arc::new(AppState {
-            slots: self.slots.clone(),
-            metrics: metrics::Metrics::default(),
-            views: std::sync::Mutex::new(render_api::ViewCache::new(budget.view_cache_max())),
-            budget,
-            heavy_permits: Arc::new(tokio::sync::Semaphore::new(config.max_concurrent.max(1))),
-            heavy_waiting: Default::default(),
-            config,
-        })
+        Self::with_slots(self.slots.clone(), config)
     }
 
     /// Bakes every scene on a background thread, one after another.
