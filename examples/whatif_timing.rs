@@ -6,8 +6,8 @@
 use std::time::Instant;
 
 use relight::bake::{load_or_bake, BakeOptions, CachePolicy};
-use relight::grid::GridResponse;
-use relight::optimize::{optimize, GridTerms, Target};
+use relight::model::grid::GridResponse;
+use relight::model::optimize::{optimize, GridTerms, Target};
 
 fn median(mut v: Vec<f64>) -> f64 {
     v.sort_by(f64::total_cmp);

@@ -9,7 +9,7 @@ use std::time::Instant;
 use serde::Serialize;
 
 use crate::bake::{load_or_bake, BakeOptions, CachePolicy};
-use crate::transfer::TransferMode;
+use crate::transport::transfer::TransferMode;
 
 /// Figures of one bench case.
 #[derive(Debug, Serialize)]

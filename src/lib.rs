@@ -1,32 +1,22 @@
 //! relight: relights static 3D scenes in milliseconds from a precomputed radiosity
 //! transfer. See `ARCHITECTURE.md` for the map of the crate.
 //!
-//! Data path: [`scene`] → [`mesh`] → [`bvh`] → [`formfactor`] (+ [`direct`] light of
-//! [`photometry`] luminaires) → [`solve`]/[`transfer`]
-//! → [`cache`], orchestrated by [`bake`]; [`report`] turns solutions into per-surface
-//! answers.
-
-// The OpenAPI document is one large json! literal.
-#![recursion_limit = "256"]
+//! Data path: [`scene`] → [`geometry`] (mesh, BVH) → [`transport`] (form factors, direct
+//! light of [`photometry`] luminaires, solve, transfer) → [`bake`] (pipeline and cache) →
+//! [`model`] (the queries: lighting states, per-patch answers, points, grids, optimize,
+//! reports) → [`render`] (images) and, with the default `server` feature, [`server`]
+//! (HTTP).
 
 pub mod bake;
 pub mod bench;
 pub mod budget;
-pub mod bvh;
-pub mod cache;
 pub mod color;
-pub mod direct;
-pub mod formfactor;
-pub mod grid;
-pub mod lighting;
+pub mod geometry;
 pub mod limits;
-pub mod mesh;
-pub mod optimize;
+pub mod model;
 pub mod photometry;
-pub mod probe;
 pub mod render;
-pub mod report;
 pub mod scene;
+#[cfg(feature = "server")]
 pub mod server;
-pub mod solve;
-pub mod transfer;
+pub mod transport;

@@ -9,8 +9,8 @@ use indicatif::{ProgressBar, ProgressStyle};
 
 use relight::bake::{self, BakeOptions, CachePolicy, Stage};
 use relight::color::luminance64;
-use relight::lighting::LightState;
-use relight::report::Report;
+use relight::model::lighting::LightState;
+use relight::model::report::Report;
 
 /// `println!` that ends the program quietly when stdout is a closed pipe
 /// (`relight radiosity … --json | head`), as command-line tools do.
@@ -383,9 +383,9 @@ fn bake_one(dir: &Path, cache: &Path, force: bool, budget: u64) -> Result<()> {
             &BakeOptions::default(),
             baked.scene.mesh.max_edge,
         );
-        let key = relight::cache::cache_key(&baked.scene.files, &settings)?;
-        let path = relight::cache::entry_path(cache, &baked.scene.id, &key);
-        baked.stats.cache_bytes = relight::cache::write(
+        let key = relight::bake::cache::cache_key(&baked.scene.files, &settings)?;
+        let path = relight::bake::cache::entry_path(cache, &baked.scene.id, &key);
+        baked.stats.cache_bytes = relight::bake::cache::write(
             &path,
             &baked.scene.id,
             &key,
@@ -393,7 +393,7 @@ fn bake_one(dir: &Path, cache: &Path, force: bool, budget: u64) -> Result<()> {
             baked.mesh.fingerprint(),
             &baked.transfer,
         )?;
-        relight::cache::prune(cache, &baked.scene.id, &path);
+        relight::bake::cache::prune(cache, &baked.scene.id, &path);
         baked.stats.cache_path = Some(path);
     }
     pb.finish_and_clear();
@@ -501,7 +501,7 @@ fn info(root: &Path) -> Result<()> {
     for d in dirs {
         match relight::scene::Scene::load(&d) {
             Ok(s) => {
-                let patches = match relight::mesh::Mesh::try_build_with(
+                let patches = match relight::geometry::mesh::Mesh::try_build_with(
                     &s,
                     s.mesh.max_edge,
                     bake::DEFAULT_MAX_PATCHES,
@@ -592,7 +592,7 @@ fn bench(case: Option<String>, scenes: &Path, json: bool) -> Result<()> {
             BakeOptions {
                 max_edge: Some(0.033),
                 // Factored at 10k patches, to measure the LU at that size.
-                mode: Some(relight::transfer::TransferMode::Factored),
+                mode: Some(relight::transport::transfer::TransferMode::Factored),
                 ..Default::default()
             },
         ),

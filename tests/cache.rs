@@ -135,7 +135,7 @@ fn foreign_and_future_files_are_rejected_with_a_clear_message() {
 
 // ---- Hardening: each test is named after the finding it guards. ----
 
-use relight::transfer::TransferMode;
+use relight::transport::transfer::TransferMode;
 
 #[test]
 fn patch_limit_is_checked_before_meshing() {
@@ -194,20 +194,22 @@ fn meshing_stops_at_the_patch_limit() {
     // itself stops as soon as it passes the limit.
     let s = small_scene();
     let scene = relight::scene::Scene::load(s.path()).unwrap();
-    let full = relight::mesh::Mesh::build(&scene).len();
-    let bound = relight::mesh::estimate_patches(&scene, scene.mesh.max_edge);
+    let full = relight::geometry::mesh::Mesh::build(&scene).len();
+    let bound = relight::geometry::mesh::estimate_patches(&scene, scene.mesh.max_edge);
     assert!(bound as usize <= full && bound > 0, "{bound} vs {full}");
     let limit = (bound as usize + full) / 2;
-    let e = relight::mesh::Mesh::try_build_with(&scene, scene.mesh.max_edge, limit).unwrap_err();
+    let e = relight::geometry::mesh::Mesh::try_build_with(&scene, scene.mesh.max_edge, limit)
+        .unwrap_err();
     assert!(
         !e.estimated && e.limit == limit && e.at_least > limit as u64,
         "{e:?}"
     );
     // Within the limit, the limited mesh is the mesh.
-    let m = relight::mesh::Mesh::try_build_with(&scene, scene.mesh.max_edge, full).unwrap();
+    let m =
+        relight::geometry::mesh::Mesh::try_build_with(&scene, scene.mesh.max_edge, full).unwrap();
     assert_eq!(
         m.fingerprint(),
-        relight::mesh::Mesh::build(&scene).fingerprint()
+        relight::geometry::mesh::Mesh::build(&scene).fingerprint()
     );
     // Through the bake: a limit between the bound and the real count.
     let opts = BakeOptions {
@@ -241,7 +243,7 @@ fn memory_budget_refuses_a_bake_before_allocating() {
 
     let s = small_scene();
     let scene = relight::scene::Scene::load(s.path()).unwrap();
-    let mesh = relight::mesh::Mesh::build(&scene);
+    let mesh = relight::geometry::mesh::Mesh::build(&scene);
     let est = relight::bake::memory_estimate(&scene, &mesh, TransferMode::Factored);
     // Two materials with grey and coloured reflectance: three distinct channels.
     assert_eq!((est.lu_count, est.groups, est.patches), (3, 1, mesh.len()));
@@ -396,7 +398,7 @@ fn cache_section_lengths_are_checked_before_allocating() {
 
 #[test]
 fn stale_temporary_files_are_removed() {
-    use relight::cache::{remove_stale_temps, STALE_TEMP_AGE, TEMP_PREFIX};
+    use relight::bake::cache::{remove_stale_temps, STALE_TEMP_AGE, TEMP_PREFIX};
     let cache = tempfile::tempdir().unwrap();
     let old = std::time::SystemTime::now() - STALE_TEMP_AGE - std::time::Duration::from_secs(5);
     let mk = |name: &str, aged: bool| {

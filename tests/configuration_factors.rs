@@ -191,7 +191,7 @@ fn row_sums_are_one_in_a_closed_room_with_an_occluder() {
         + &box_faces("box", "grey", [1.0, 0.8, 0.6], [1.8, 1.4, 1.3], false);
     let s = write_scene(&obj, GREY_MTL, None);
     let sol = form_factors(s.path());
-    let sums = relight::formfactor::row_sums(&sol.f, sol.n());
+    let sums = relight::transport::formfactor::row_sums(&sol.f, sol.n());
     let worst = sums.iter().map(|s| (s - 1.0).abs()).fold(0.0, f64::max);
     let mean = sums.iter().sum::<f64>() / sums.len() as f64;
     assert!(

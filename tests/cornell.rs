@@ -4,7 +4,7 @@
 mod common;
 
 use relight::bake::{load_or_bake, BakeOptions, CachePolicy};
-use relight::report::surface_averages;
+use relight::model::report::surface_averages;
 
 #[test]
 fn cornell_box_matches_the_path_traced_reference() {

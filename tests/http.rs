@@ -436,7 +436,8 @@ async fn illuminance_per_surface_and_at_points_matches_the_reference() {
     let floor = &v["surfaces"]["floor"];
     let r = ready("cornell-box");
     let sol = r.baked.transfer.relight(&[[1.0; 3]]);
-    let avg = &relight::report::surface_averages(&r.baked.scene, &r.baked.mesh, &sol)["floor"];
+    let avg =
+        &relight::model::report::surface_averages(&r.baked.scene, &r.baked.mesh, &sol)["floor"];
     assert!((floor["avg"]["rgb"][1].as_f64().unwrap() - avg.illuminance[1]).abs() < 1e-9);
     let (mn, av, mx) = (
         floor["min"]["lux"].as_f64().unwrap(),

@@ -6,7 +6,7 @@ mod common;
 use common::*;
 use relight::bake::{load_or_bake, BakeOptions, Baked, CachePolicy};
 use relight::color::luminance64;
-use relight::grid::GridResponse;
+use relight::model::grid::GridResponse;
 
 fn bake(s: &TempScene) -> Baked {
     load_or_bake(

@@ -29,7 +29,7 @@ fn constant_radiosity_renders_its_exact_value_without_cracks() {
     );
     let s = write_scene(&obj, GREY_MTL, Some("[mesh]\nmax_edge = 0.1\n"));
     let scene = relight::scene::Scene::load(s.path()).unwrap();
-    let mesh = relight::mesh::Mesh::build(&scene);
+    let mesh = relight::geometry::mesh::Mesh::build(&scene);
     assert!(mesh.len() > 500);
     let shading = Shading::new(&mesh);
     // The wall fills the whole view: 60° fov at distance 1 sees ±0.577.
@@ -74,7 +74,7 @@ fn the_z_buffer_puts_the_near_block_in_front() {
     );
     let s = write_scene(&obj, GREY_MTL, Some("[mesh]\nmax_edge = 0.5\n"));
     let scene = relight::scene::Scene::load(s.path()).unwrap();
-    let mesh = relight::mesh::Mesh::build(&scene);
+    let mesh = relight::geometry::mesh::Mesh::build(&scene);
     let shading = Shading::new(&mesh);
     let view = ViewBuffer::build(
         &mesh,

@@ -5,8 +5,8 @@ mod common;
 
 use common::*;
 use relight::bake::{load_or_bake, BakeOptions, Baked, CachePolicy};
-use relight::lighting::{LightSetting, LightState};
-use relight::transfer::TransferMode;
+use relight::model::lighting::{LightSetting, LightState};
+use relight::transport::transfer::TransferMode;
 
 fn bake(dir: &std::path::Path, opts: BakeOptions) -> Baked {
     load_or_bake(dir, CachePolicy::Off, &opts, &|_, _| {}).expect("bakes")

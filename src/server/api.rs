@@ -17,9 +17,11 @@ use serde_json::{json, Map, Value};
 pub use super::parse::*;
 use super::{AppError, AppState, Ready};
 use crate::color::Rgb;
-use crate::lighting::known_ids;
-use crate::report::{surface_averages, surface_illuminance, Lux, PowerReport, SurfaceIlluminance};
-use crate::transfer::Solution;
+use crate::model::lighting::known_ids;
+use crate::model::report::{
+    surface_averages, surface_illuminance, Lux, PowerReport, SurfaceIlluminance,
+};
+use crate::transport::transfer::Solution;
 
 type ApiResult = Result<Response, AppError>;
 
@@ -375,7 +377,7 @@ fn radiosity_json(
     unit: &str,
     key: &str,
     values: &[f32],
-    surfaces: Option<BTreeMap<String, crate::report::SurfaceAverage>>,
+    surfaces: Option<BTreeMap<String, crate::model::report::SurfaceAverage>>,
 ) -> Response {
     let n = values.len() / 3;
     let mut out = String::with_capacity(40 * n + 256);
@@ -472,13 +474,13 @@ pub async fn illuminance(
             Lighting::Emission(_) => None,
         };
         let at = |x: DVec3, n: DVec3| -> [f64; 3] {
-            let mut e = crate::probe::illuminance_at(&b.mesh, &b.bvh, &sol.b, x, n);
+            let mut e = crate::transport::probe::illuminance_at(&b.mesh, &b.bvh, &sol.b, x, n);
             // Direct light of point luminaires, exact per point.
             for (g, w) in b.scene.lights.iter().zip(weights.unwrap_or(&[])) {
                 if g.luminaires.is_empty() || w.iter().all(|&c| c == 0.0) {
                     continue;
                 }
-                let d = crate::direct::point_illuminance(&b.bvh, &g.luminaires, x, n);
+                let d = crate::transport::direct::point_illuminance(&b.bvh, &g.luminaires, x, n);
                 for c in 0..3 {
                     e[c] += w[c] as f64 * d[c];
                 }
@@ -513,7 +515,10 @@ pub async fn illuminance(
                             crate::color::luminance64(at_checked(DVec3::from_array(*p), n)) as f32
                         })
                         .collect();
-                    (g.id.clone(), grid_json(g, crate::grid::stats(values)))
+                    (
+                        g.id.clone(),
+                        grid_json(g, crate::model::grid::stats(values)),
+                    )
                 })
                 .collect(),
         };
@@ -613,7 +618,7 @@ pub async fn optimize(
                 })
                 .transpose()
         };
-        let t = crate::optimize::Target {
+        let t = crate::model::optimize::Target {
             grid: ready.grids[gi].grid.id.clone(),
             eavg_min: bound("eavg_min", 1e6)?,
             emin_min: bound("emin_min", 1e6)?,
@@ -648,7 +653,7 @@ pub async fn optimize(
             .iter()
             .map(|&gi| {
                 let gr = &r.grids[gi];
-                crate::optimize::GridTerms {
+                crate::model::optimize::GridTerms {
                     free: free
                         .iter()
                         .map(|&g| gr.group_values(g, scene.lights[g].color))
@@ -661,7 +666,7 @@ pub async fn optimize(
             .iter()
             .map(|&g| r.groups[g].lumens * crate::color::luminance(scene.lights[g].color) as f64)
             .collect();
-        let levels = crate::optimize::optimize(&flux, &parsed, &terms)
+        let levels = crate::model::optimize::optimize(&flux, &parsed, &terms)
             .map_err(|e| AppError::Invalid(e.to_string()))?;
         let mut w = fixed_w.clone();
         for (&g, &x) in free.iter().zip(&levels) {
@@ -714,7 +719,7 @@ pub async fn optimize(
     .await
 }
 
-fn grid_json(g: &crate::scene::Grid, s: crate::grid::GridStats) -> Value {
+fn grid_json(g: &crate::scene::Grid, s: crate::model::grid::GridStats) -> Value {
     json!({
         "name": g.name, "unit": "lx", "count": g.points.len(), "layout": g.layout,
         "avg": s.avg, "min": s.min, "max": s.max, "u0": s.u0, "min_max": s.min_max,

@@ -47,8 +47,8 @@ impl AppError {
     }
 }
 
-impl From<crate::lighting::LightError> for AppError {
-    fn from(e: crate::lighting::LightError) -> Self {
+impl From<crate::model::lighting::LightError> for AppError {
+    fn from(e: crate::model::lighting::LightError) -> Self {
         AppError::Invalid(e.to_string())
     }
 }

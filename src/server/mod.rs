@@ -123,7 +123,7 @@ pub struct Ready {
     pub groups: Vec<GroupInfo>,
     pub bake_seconds: f64,
     /// Calculation grids with per-group responses, built when the scene becomes ready.
-    pub grids: Vec<crate::grid::GridResponse>,
+    pub grids: Vec<crate::model::grid::GridResponse>,
     shading: std::sync::OnceLock<crate::render::Shading>,
     mesh_bytes: std::sync::OnceLock<axum::body::Bytes>,
     /// This scene's share of the memory budget, held while it is loaded.
@@ -170,7 +170,7 @@ impl Ready {
                 }
             })
             .collect();
-        let grids = crate::grid::GridResponse::build_all(
+        let grids = crate::model::grid::GridResponse::build_all(
             &baked.scene,
             &baked.mesh,
             &baked.bvh,
@@ -646,7 +646,7 @@ pub async fn serve(config: ServerConfig) -> anyhow::Result<()> {
         if config.read_only { ", read-only" } else { "" }
     );
     if !config.read_only {
-        let removed = crate::cache::remove_stale_temps(&config.cache);
+        let removed = crate::bake::cache::remove_stale_temps(&config.cache);
         if removed > 0 {
             tracing::info!("removed {removed} stale temporary file(s) from the cache");
         }

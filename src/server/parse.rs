@@ -14,8 +14,8 @@ use serde_json::{Map, Value};
 use super::json::kind;
 use super::{AppError, AppState, Ready};
 use crate::color::Rgb;
-use crate::lighting::{known_ids, LightSetting, LightState, MAX_INTENSITY};
-use crate::transfer::TransferMode;
+use crate::model::lighting::{known_ids, LightSetting, LightState, MAX_INTENSITY};
+use crate::transport::transfer::TransferMode;
 
 /// Largest emission value accepted, lm/m².
 pub const MAX_EMISSION: f64 = 1e9;

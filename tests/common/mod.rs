@@ -4,9 +4,9 @@
 use std::path::{Path, PathBuf};
 
 use relight::bake::scene_bvh;
-use relight::formfactor::{self, FormFactorOptions};
-use relight::mesh::Mesh;
+use relight::geometry::mesh::Mesh;
 use relight::scene::Scene;
+use relight::transport::formfactor::{self, FormFactorOptions};
 
 /// A scene folder in a temporary directory, removed on drop.
 pub struct TempScene {

@@ -17,7 +17,7 @@ use glam::{DVec3, Vec3};
 use rayon::prelude::*;
 
 use crate::color::{luminance, Rgb};
-use crate::mesh::Mesh;
+use crate::geometry::mesh::Mesh;
 use crate::scene::CameraDef;
 
 /// Patches meeting at a vertex at a sharper angle than this are shaded separately.
@@ -468,7 +468,7 @@ impl GroupImages {
     pub fn radiance(
         view: &ViewBuffer,
         shading: &Shading,
-        transfer: &crate::transfer::Transfer,
+        transfer: &crate::transport::transfer::Transfer,
     ) -> GroupImages {
         let values: Vec<Vec<Rgb>> = transfer
             .groups

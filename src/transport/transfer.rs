@@ -17,9 +17,9 @@ use faer::Mat;
 use serde::Serialize;
 
 use crate::color::Rgb;
-use crate::mesh::Mesh;
+use crate::geometry::mesh::Mesh;
 use crate::scene::{Scene, TransferChoice};
-use crate::solve::{self, ChannelLu};
+use crate::transport::solve::{self, ChannelLu};
 
 /// Relative tolerance of the iterative column solver.
 pub const COLUMN_TOL: f64 = 1e-7;
@@ -179,7 +179,7 @@ impl Transfer {
             .map(|p| scene.materials[p.material as usize].kd)
             .collect();
         let area: Vec<f32> = mesh.patches.iter().map(|p| p.area as f32).collect();
-        let escape: Vec<f32> = crate::formfactor::row_sums(&f, n)
+        let escape: Vec<f32> = crate::transport::formfactor::row_sums(&f, n)
             .into_iter()
             .map(|s| (1.0 - s).max(0.0) as f32)
             .collect();
@@ -247,7 +247,8 @@ impl Transfer {
                         *hv += dv;
                     }
                 }
-                let (flux, landed) = crate::direct::group_flux(&scene.lights[gi], &area, d);
+                let (flux, landed) =
+                    crate::transport::direct::group_flux(&scene.lights[gi], &area, d);
                 GroupColumns {
                     e: emission[gi].clone(),
                     b: solve::interleave(b.as_ref(), [3 * gi, 3 * gi + 1, 3 * gi + 2]),

@@ -25,8 +25,8 @@ use glam::{DVec3, Vec3A};
 use rayon::prelude::*;
 use serde::Serialize;
 
-use crate::bvh::Bvh;
-use crate::mesh::Mesh;
+use crate::geometry::bvh::Bvh;
+use crate::geometry::mesh::Mesh;
 
 /// Quality knobs of the form-factor pass. Part of the cache key.
 #[derive(Debug, Clone, Copy, Serialize, PartialEq)]

@@ -10,12 +10,14 @@ use std::time::Instant;
 use glam::Vec3A;
 use serde::Serialize;
 
-use crate::bvh::Bvh;
-use crate::cache::{self, CacheError};
-use crate::formfactor::{self, FormFactorOptions};
-use crate::mesh::Mesh;
+use crate::geometry::bvh::Bvh;
+pub mod cache;
+
+use crate::geometry::mesh::Mesh;
 use crate::scene::{Scene, SceneError};
-use crate::transfer::{Transfer, TransferMode};
+use crate::transport::formfactor::{self, FormFactorOptions};
+use crate::transport::transfer::{Transfer, TransferMode};
+use cache::CacheError;
 
 /// Largest patch count a dense transfer is built for (F alone is 4·n² bytes).
 pub const DEFAULT_MAX_PATCHES: usize = 30_000;
@@ -34,7 +36,7 @@ pub enum BakeError {
         /// The patch count, or a lower bound of it when `estimated`.
         patches: u64,
         max: usize,
-        /// True when the count is the pre-meshing estimate ([`crate::mesh::estimate_patches`]).
+        /// True when the count is the pre-meshing estimate ([`crate::geometry::mesh::estimate_patches`]).
         estimated: bool,
     },
     #[error(
@@ -330,7 +332,7 @@ pub fn settings_json(scene: &Scene, opts: &BakeOptions, max_edge: f64) -> serde_
         "form_factors": opts.ff,
         "transfer": opts.mode.map(|m| serde_json::to_value(m).unwrap_or_default())
             .unwrap_or_else(|| serde_json::to_value(scene.transfer).unwrap_or_default()),
-        "column_tol": crate::transfer::COLUMN_TOL,
+        "column_tol": crate::transport::transfer::COLUMN_TOL,
     })
 }
 
@@ -458,7 +460,7 @@ pub fn load_or_bake(
     let f = formfactor::compute(&mesh, &bvh, &opts.ff, &|x| progress(Stage::FormFactors, x));
     stats.form_factor_s = t0.elapsed().as_secs_f64();
     let t1 = Instant::now();
-    let direct = crate::direct::group_direct(&scene, &mesh, &bvh);
+    let direct = crate::transport::direct::group_direct(&scene, &mesh, &bvh);
     let transfer = Transfer::build(&scene, &mesh, f, &direct, mode, &|x| {
         progress(Stage::Solving, x)
     });

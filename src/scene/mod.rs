@@ -223,7 +223,7 @@ fn default_up() -> [f64; 3] {
     [0.0, 1.0, 0.0]
 }
 
-/// How the transfer is stored: see [`crate::transfer`].
+/// How the transfer is stored: see [`crate::transport::transfer`].
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum TransferChoice {

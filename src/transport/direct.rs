@@ -8,13 +8,13 @@
 //! hair off its surface, to the luminaire; the patch's own input triangle is skipped.
 //!
 //! That direct illuminance `D` becomes the first reflection `ρ D` in the transfer, which
-//! carries it through every further bounce (see [`crate::transfer`]).
+//! carries it through every further bounce (see [`crate::transport::transfer`]).
 
 use glam::{DVec3, Vec3A};
 use rayon::prelude::*;
 
-use crate::bvh::Bvh;
-use crate::mesh::Mesh;
+use crate::geometry::bvh::Bvh;
+use crate::geometry::mesh::Mesh;
 use crate::photometry::Luminaire;
 use crate::scene::Scene;
 

@@ -2,7 +2,7 @@
 //!
 //! The illuminance at a grid point is the direct light of the luminaires, exact per point
 //! with shadow rays, plus the light gathered from the solved patches (see
-//! [`crate::probe`]). Both are linear in the group weights, so each grid keeps one RGB
+//! [`crate::transport::probe`]). Both are linear in the group weights, so each grid keeps one RGB
 //! column per light group (lux at unit weight). A lighting state's grid is then a
 //! weighted sum: microseconds for a thousand points.
 
@@ -10,11 +10,11 @@ use glam::DVec3;
 use rayon::prelude::*;
 use serde::Serialize;
 
-use crate::bvh::Bvh;
 use crate::color::{luminance, Rgb};
-use crate::mesh::Mesh;
+use crate::geometry::bvh::Bvh;
+use crate::geometry::mesh::Mesh;
 use crate::scene::{Grid, Scene};
-use crate::transfer::Transfer;
+use crate::transport::transfer::Transfer;
 
 /// A grid with its per-group responses.
 pub struct GridResponse {
@@ -60,14 +60,19 @@ impl GridResponse {
                     .par_iter()
                     .map(|p| {
                         let x = DVec3::from_array(*p);
-                        let w = crate::probe::gather_weights(mesh, bvh, &importance, x, n);
+                        let w =
+                            crate::transport::probe::gather_weights(mesh, bvh, &importance, x, n);
                         scene
                             .lights
                             .iter()
                             .zip(&t.groups)
                             .map(|(light, g)| {
-                                let mut e =
-                                    crate::direct::point_illuminance(bvh, &light.luminaires, x, n);
+                                let mut e = crate::transport::direct::point_illuminance(
+                                    bvh,
+                                    &light.luminaires,
+                                    x,
+                                    n,
+                                );
                                 for &(j, wj) in &w {
                                     let bj = &g.b[3 * j as usize..3 * j as usize + 3];
                                     for (ec, &b) in e.iter_mut().zip(bj) {
@@ -103,7 +108,7 @@ impl GridResponse {
     /// Luminous illuminance (lx) at every point for per-group RGB weights.
     pub fn values(&self, weights: &[Rgb]) -> Vec<f32> {
         let mut rgb = vec![0f32; 3 * self.len()];
-        crate::transfer::weighted_sum(
+        crate::transport::transfer::weighted_sum(
             self.per_group.iter().map(|c| c.as_slice()),
             weights,
             &mut rgb,

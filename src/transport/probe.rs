@@ -8,9 +8,9 @@
 use glam::{DVec3, Vec3A};
 use rayon::prelude::*;
 
-use crate::bvh::Bvh;
-use crate::formfactor::point_to_polygon;
-use crate::mesh::Mesh;
+use crate::geometry::bvh::Bvh;
+use crate::geometry::mesh::Mesh;
+use crate::transport::formfactor::point_to_polygon;
 
 /// Rays every contributing patch gets first.
 const PROBE_RAYS: u32 = 4;

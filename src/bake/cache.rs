@@ -32,8 +32,8 @@ use std::path::{Path, PathBuf};
 use serde::{Deserialize, Serialize};
 use xxhash_rust::xxh3::Xxh3;
 
-use crate::solve::ChannelLu;
-use crate::transfer::{Factored, GroupColumns, SolveInfo, Transfer, TransferMode};
+use crate::transport::solve::ChannelLu;
+use crate::transport::transfer::{Factored, GroupColumns, SolveInfo, Transfer, TransferMode};
 
 pub const MAGIC: &[u8; 8] = b"RLTRANS\0";
 /// Bump when the file layout changes.

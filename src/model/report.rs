@@ -6,9 +6,9 @@ use std::collections::BTreeMap;
 use serde::Serialize;
 
 use crate::color::luminance64;
-use crate::mesh::Mesh;
+use crate::geometry::mesh::Mesh;
 use crate::scene::Scene;
-use crate::transfer::{Power, Solution, Transfer};
+use crate::transport::transfer::{Power, Solution, Transfer};
 
 /// Area-weighted averages over one surface.
 #[derive(Debug, Clone, Serialize)]

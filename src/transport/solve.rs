@@ -63,7 +63,7 @@ impl ChannelLu {
         ChannelLu { lu, perm, perm_inv }
     }
 
-    /// Rebuilds a factorization from stored parts (see [`crate::cache`]).
+    /// Rebuilds a factorization from stored parts (see [`crate::bake::cache`]).
     pub fn from_parts(n: usize, cols: &[f32], perm: Vec<usize>) -> Option<ChannelLu> {
         if cols.len() != n * n || perm.len() != n {
             return None;

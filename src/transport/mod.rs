@@ -1,0 +1,11 @@
+//! Light transport: form factors with occlusion ([`formfactor`]), the direct light of
+//! point luminaires ([`direct`]), the dense solves ([`solve`]), the baked, immutable
+//! [`transfer`], and illuminance gathered at arbitrary points ([`probe`]).
+//!
+//! Exitance and radiosity are in lm/m², illuminance in lux, flux in lm.
+
+pub mod direct;
+pub mod formfactor;
+pub mod probe;
+pub mod solve;
+pub mod transfer;
