@@ -1,0 +1,135 @@
+// Page state: the state object and its version (bumped on every change), lighting and
+// camera defaults, and the URL hash that mirrors the state so a what-if can be shared.
+// Imports only util.js; every other module may import this one.
+
+import { srgbToLinear, linearToSrgbHex } from "./util.js";
+
+export const state = {
+  scene: null,      // scene id
+  details: null,    // GET /api/scenes/{id}
+  lights: {},       // id → { pct (0..200), color "#rrggbb" (sRGB), on }
+  camera: null,     // preset id, or a free camera {position, target, fov_deg}
+  falsecolor: false,
+  exposure: null,   // stops, locked after metering; null = meter on the next image
+  range: null,      // false-colour [lo, hi] lux, locked on first use
+  version: 0,       // bumped on every lighting change
+  // gridStats (per-grid illuminance, or null) is added when a scene is shown.
+};
+export const inputTime = new Map(); // version → performance.now() of the change that made it
+
+// ------------------------------------------------------------------ versioning
+
+let onChange = () => {};
+
+/** Sets what happens after every change (app.js: update labels, URL hash and views). */
+export function setOnChange(f) {
+  onChange = f;
+}
+
+/** Records a change: bumps the version, timestamps it, then runs the change handler. */
+export function changed() {
+  state.version++;
+  inputTime.set(state.version, performance.now());
+  performance.mark(`relight-change-${state.version}`);
+  if (inputTime.size > 200) inputTime.delete(inputTime.keys().next().value);
+  onChange();
+}
+
+// ------------------------------------------------------------------ lighting and defaults
+
+/** The JSON lighting state: every group with its intensity and linear colour. */
+export function lightingJson() {
+  const out = {};
+  for (const g of state.details.lights) {
+    const l = state.lights[g.id];
+    out[g.id] = {
+      intensity: l.on ? (g.intensity * l.pct) / 100 : 0,
+      color: srgbToLinear(l.color),
+    };
+  }
+  return out;
+}
+
+export function defaultsFor(g) {
+  return { pct: 100, color: linearToSrgbHex(g.color), on: true };
+}
+
+/** Default state for the scene in state.details, then whatever the URL hash `h` overrides. */
+export function resetForScene(h) {
+  const details = state.details;
+  state.lights = Object.fromEntries(details.lights.map((g) => [g.id, defaultsFor(g)]));
+  state.camera = details.cameras.length ? details.cameras[0].id : defaultCamera();
+  state.exposure = null;
+  state.range = null;
+  applyHash(h);
+}
+
+// ------------------------------------------------------------------ cameras
+
+export function presetCamera(id) {
+  return state.details.cameras.find((c) => c.id === id);
+}
+
+/** The server image's camera as {position, target, fov_deg}. */
+export function imageCamera() {
+  return typeof state.camera === "string" ? presetCamera(state.camera) : state.camera;
+}
+
+/** For scenes without camera presets: the scene centre seen from outside its bounds. */
+function defaultCamera() {
+  const b = state.details.bounds;
+  const c = b.min.map((v, i) => (v + b.max[i]) / 2);
+  const d = Math.hypot(...b.max.map((v, i) => v - b.min[i]));
+  return { position: [c[0], c[1], c[2] - 1.2 * d], target: c, fov_deg: 45 };
+}
+
+// ------------------------------------------------------------------ URL hash
+
+/** Writes the state to the URL hash; `viewerCam` is the 3D view's camera, if any. */
+export function writeHash(viewerCam) {
+  if (!state.details) return;
+  const p = new URLSearchParams();
+  p.set("scene", state.scene);
+  p.set("cam", typeof state.camera === "string" ? state.camera
+    : [...state.camera.position, ...state.camera.target, state.camera.fov_deg].map((v) => +v.toFixed(3)).join(","));
+  p.set("l", state.details.lights.map((g) => {
+    const l = state.lights[g.id];
+    return `${g.id}:${l.pct}:${l.color.slice(1)}:${l.on ? 1 : 0}`;
+  }).join(","));
+  if (state.falsecolor) p.set("fc", "1");
+  if (state.exposure !== null) p.set("ev", state.exposure.toFixed(2));
+  if (viewerCam) {
+    const c = viewerCam;
+    p.set("v", [...c.pos, c.yaw, c.pitch, c.dist].map((v) => +v.toFixed(4)).join(","));
+  }
+  history.replaceState(null, "", "#" + p.toString());
+}
+
+/** The URL hash as a plain object (scene, cam, l, fc, ev, v). */
+export function readHash() {
+  const p = new URLSearchParams(location.hash.slice(1));
+  return Object.fromEntries(p.entries());
+}
+
+function applyHash(h) {
+  for (const item of (h.l || "").split(",")) {
+    const [id, pct, color, on] = item.split(":");
+    const l = state.lights[id];
+    if (!l) continue;
+    const k = Number(pct);
+    if (Number.isFinite(k)) l.pct = Math.max(0, Math.min(200, k));
+    if (/^[0-9a-f]{6}$/i.test(color || "")) l.color = "#" + color.toLowerCase();
+    l.on = on !== "0";
+  }
+  if (h.cam) {
+    const nums = h.cam.split(",").map(Number);
+    if (nums.length === 7 && nums.every(Number.isFinite)) {
+      state.camera = { position: nums.slice(0, 3), target: nums.slice(3, 6), fov_deg: nums[6] };
+    } else if (state.details.cameras.some((c) => c.id === h.cam)) {
+      state.camera = h.cam;
+    }
+  }
+  state.falsecolor = h.fc === "1";
+  const ev = Number(h.ev);
+  if (h.ev !== undefined && Number.isFinite(ev)) state.exposure = ev;
+}

@@ -1,0 +1,100 @@
+// Calculation grids: the statistics table and luminaire power (one illuminance request in
+// flight, gridFlight), and the grid points drawn over the 3D view, coloured on the
+// false-colour scale, with lux values where labels do not overlap (drawOverlay).
+
+import { $, fmtLux } from "../util.js";
+import { state, lightingJson } from "../state.js";
+import { postJson, problem, singleFlight } from "../api.js";
+import { viewer } from "./gl.js";
+
+export const gridFlight = singleFlight(async (signal) => {
+  if (!state.details) return;
+  const version = state.version;
+  const body = { lights: lightingJson(), grids: state.details.grids.map((g) => g.id), surfaces: [] };
+  const r = await postJson("/illuminance", body, { signal });
+  if (!r.ok) throw new Error(await problem(r));
+  const v = await r.json();
+  if (signal.aborted) return;
+  state.gridStats = v.grids;
+  const rows = state.details.grids.map((g) => gridRow(g, v.grids[g.id]));
+  $("#grid-stats tbody").replaceChildren(...rows);
+  const p = v.power || {};
+  $("#luminaire-power").textContent = p.luminaire_lumens
+    ? `Luminaires: ${Math.round(p.luminaire_lumens).toLocaleString()} lm` +
+      (p.luminaire_watts != null ? `, ${p.luminaire_watts.toFixed(1)} W` : "")
+    : "";
+  window.relight.stats.gridVersion = version;
+  drawOverlay();
+});
+
+/** One row of the statistics table: grid `g` with its statistics `s`. */
+function gridRow(g, s) {
+  const tr = document.createElement("tr");
+  for (const t of [g.name, fmtLux(s.avg), fmtLux(s.min), fmtLux(s.max), s.u0.toFixed(2)]) {
+    const td = document.createElement("td");
+    td.textContent = t;
+    tr.append(td);
+  }
+  tr.title = `${g.count} points; Emin/Emax ${s.min_max.toFixed(2)} (lux)`;
+  return tr;
+}
+
+/** Grid points in the 3D view: coloured by lux (the false-colour scale), with values
+ *  where labels do not overlap. */
+export function drawOverlay() {
+  const c = $("#overlay");
+  const dpr = window.devicePixelRatio || 1;
+  const w = c.clientWidth, h = c.clientHeight;
+  if (c.width !== Math.round(w * dpr) || c.height !== Math.round(h * dpr)) {
+    c.width = Math.round(w * dpr);
+    c.height = Math.round(h * dpr);
+  }
+  const g2 = c.getContext("2d");
+  g2.setTransform(dpr, 0, 0, dpr, 0, 0);
+  g2.clearRect(0, 0, w, h);
+  if (!state.details || !state.gridStats || !$("#grid-overlay").checked || !viewer) return;
+  const all = Object.values(state.gridStats).flatMap((s) => s.values);
+  const color = luxColour(Math.max(...all, 1e-6));
+  window.relight.stats.overlayPoints = drawPoints(g2, w, h, color);
+}
+
+/** Lux → CSS colour on the false-colour scale spanning [hi / 100, hi]. */
+function luxColour(hi) {
+  const stops = [[13, 13, 89], [0, 89, 230], [0, 191, 140], [140, 217, 26], [255, 204, 0], [217, 26, 13]];
+  const lo = hi / 100;
+  return (v) => {
+    const t = Math.max(0, Math.min(1, (Math.log10(Math.max(v, 1e-9)) - Math.log10(lo)) / 2)) * 5;
+    const i = Math.min(4, Math.floor(t)), f = t - i;
+    return `rgb(${stops[i].map((a, k) => Math.round(a + (stops[i + 1][k] - a) * f)).join(",")})`;
+  };
+}
+
+/** Draws every grid point visible in the w × h view; returns how many were drawn. */
+function drawPoints(g2, w, h, color) {
+  const taken = new Set();
+  g2.font = "11px system-ui, sans-serif";
+  g2.textAlign = "center";
+  let drawn = 0;
+  for (const g of state.details.grids) {
+    const s = state.gridStats[g.id];
+    if (!s) continue;
+    g.points.forEach((p, i) => {
+      const q = viewer.project(p);
+      if (!q || q[0] < 0 || q[1] < 0 || q[0] > w || q[1] > h) return;
+      g2.fillStyle = color(s.values[i]);
+      g2.beginPath();
+      g2.arc(q[0], q[1], 2.5, 0, 2 * Math.PI);
+      g2.fill();
+      drawn++;
+      const key = `${Math.floor(q[0] / 40)},${Math.floor(q[1] / 18)}`;
+      if (taken.has(key)) return;
+      taken.add(key);
+      const text = fmtLux(s.values[i]);
+      g2.fillStyle = "rgba(0,0,0,0.65)";
+      g2.fillRect(q[0] - 15, q[1] - 16, 30, 13);
+      g2.fillStyle = "#fff";
+      g2.fillText(text, q[0], q[1] - 6);
+    });
+  }
+  return drawn;
+}
