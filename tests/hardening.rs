@@ -457,7 +457,7 @@ async fn large_bodies_are_parsed_off_the_runtime_within_the_budget() {
         .map(|i| if i == 0 { [1.0; 3] } else { [1.234_567e-9; 3] })
         .collect();
     let body = json!({"emission": emission}).to_string();
-    assert!(body.len() > relight::server::api::INLINE_PARSE_BYTES);
+    assert!(body.len() > relight::server::parse::INLINE_PARSE_BYTES);
     let (s, _, v) = post("/api/scenes/cornell-box/illuminance", body.clone()).await;
     assert_eq!(s, StatusCode::OK, "{v}");
     // With a tiny budget the same body is refused for its parse, not half-parsed.

@@ -235,6 +235,20 @@ pub enum CachePolicy<'a> {
     ReadWrite(&'a Path),
     /// Load only; a missing or invalid entry is an error.
     ReadOnly(&'a Path),
+    /// Bake even if a valid entry exists, then write (`relight bake --force`).
+    Rebuild(&'a Path),
+}
+
+impl<'a> CachePolicy<'a> {
+    /// The cache folder, if any.
+    fn dir(self) -> Option<&'a Path> {
+        match self {
+            CachePolicy::Off => None,
+            CachePolicy::ReadWrite(d) | CachePolicy::ReadOnly(d) | CachePolicy::Rebuild(d) => {
+                Some(d)
+            }
+        }
+    }
 }
 
 /// Bake settings beyond `scene.toml`.
@@ -336,6 +350,101 @@ pub fn settings_json(scene: &Scene, opts: &BakeOptions, max_edge: f64) -> serde_
     })
 }
 
+/// A scene meshed and checked, ready to load from the cache or to bake.
+struct Prepared {
+    scene: Scene,
+    mesh: Mesh,
+    bvh: Bvh,
+    mode: TransferMode,
+    memory: MemoryEstimate,
+    settings: serde_json::Value,
+    /// The cache entry's path and key, under a cache policy.
+    entry: Option<(PathBuf, String)>,
+}
+
+impl Prepared {
+    /// Loads the scene, meshes it within the patch limit, and resolves mode and cache key.
+    fn new(dir: &Path, policy: CachePolicy<'_>, opts: &BakeOptions) -> Result<Prepared, BakeError> {
+        let scene = Scene::load(dir)?;
+        let max_edge = match opts.max_edge {
+            Some(e) if e.is_finite() && e > 0.0 => e,
+            Some(e) => {
+                return Err(BakeError::BadOption {
+                    scene: scene.id.clone(),
+                    message: format!("max_edge = {e}: must be a positive length in metres"),
+                })
+            }
+            None => scene.mesh.max_edge,
+        };
+        let too_large = |patches: u64, max: usize, estimated: bool| BakeError::TooLarge {
+            scene: scene.id.clone(),
+            patches,
+            max,
+            estimated,
+        };
+        let mesh = Mesh::try_build_with(&scene, max_edge, opts.max_patches)
+            .map_err(|e| too_large(e.at_least, e.limit, e.estimated))?;
+        let n = mesh.len();
+        if n > opts.max_patches {
+            return Err(too_large(n as u64, opts.max_patches, false));
+        }
+        let mode = opts
+            .mode
+            .unwrap_or_else(|| TransferMode::resolve(scene.transfer, n));
+        let settings = settings_json(&scene, opts, max_edge);
+        let entry = match policy.dir() {
+            None => None,
+            Some(d) => {
+                let key =
+                    cache::cache_key(&scene.files, &settings).map_err(|source| BakeError::Io {
+                        path: PathBuf::from(&scene.id),
+                        source,
+                    })?;
+                Some((cache::entry_path(d, &scene.id, &key), key))
+            }
+        };
+        Ok(Prepared {
+            memory: memory_estimate(&scene, &mesh, mode),
+            bvh: scene_bvh(&scene),
+            scene,
+            mesh,
+            mode,
+            settings,
+            entry,
+        })
+    }
+
+    /// Refuses `needed` bytes over the budget, for `action` (bake or load).
+    fn check_budget(
+        &self,
+        opts: &BakeOptions,
+        needed: u64,
+        action: &'static str,
+    ) -> Result<(), BakeError> {
+        match opts.memory_budget {
+            Some(budget) if needed > budget => Err(BakeError::OverBudget {
+                scene: self.scene.id.clone(),
+                needed,
+                budget,
+                patches: self.mesh.len(),
+                mode: self.mode,
+                action,
+            }),
+            _ => Ok(()),
+        }
+    }
+
+    fn done(self, transfer: Transfer, stats: BakeStats) -> Baked {
+        Baked {
+            scene: self.scene,
+            mesh: self.mesh,
+            bvh: self.bvh,
+            transfer,
+            stats,
+        }
+    }
+}
+
 /// Loads the scene at `dir` and its transfer from the cache, or bakes it.
 pub fn load_or_bake(
     dir: &Path,
@@ -344,148 +453,99 @@ pub fn load_or_bake(
     progress: &(dyn Fn(Stage, f64) + Sync),
 ) -> Result<Baked, BakeError> {
     progress(Stage::Loading, 0.0);
-    if let CachePolicy::ReadWrite(d) = cache_policy {
+    if let CachePolicy::ReadWrite(d) | CachePolicy::Rebuild(d) = cache_policy {
         cache::remove_stale_temps(d);
     }
-    let scene = Scene::load(dir)?;
-    let max_edge = match opts.max_edge {
-        Some(e) if e.is_finite() && e > 0.0 => e,
-        Some(e) => {
-            return Err(BakeError::BadOption {
-                scene: scene.id.clone(),
-                message: format!("max_edge = {e}: must be a positive length in metres"),
-            })
-        }
-        None => scene.mesh.max_edge,
-    };
-    let mesh = Mesh::try_build_with(&scene, max_edge, opts.max_patches).map_err(|e| {
-        BakeError::TooLarge {
-            scene: scene.id.clone(),
-            patches: e.at_least,
-            max: e.limit,
-            estimated: e.estimated,
-        }
-    })?;
-    let n = mesh.len();
-    if n > opts.max_patches {
-        return Err(BakeError::TooLarge {
-            scene: scene.id.clone(),
-            patches: n as u64,
-            max: opts.max_patches,
-            estimated: false,
-        });
-    }
-    let mode = opts
-        .mode
-        .unwrap_or_else(|| TransferMode::resolve(scene.transfer, n));
-    let memory = memory_estimate(&scene, &mesh, mode);
-    let over_budget = |needed: u64, action: &'static str| -> Result<(), BakeError> {
-        match opts.memory_budget {
-            Some(budget) if needed > budget => Err(BakeError::OverBudget {
-                scene: scene.id.clone(),
-                needed,
-                budget,
-                patches: n,
-                mode,
-                action,
-            }),
-            _ => Ok(()),
-        }
-    };
-    let bvh = scene_bvh(&scene);
-    let settings = settings_json(&scene, opts, max_edge);
-    let fingerprint = mesh.fingerprint();
+    let p = Prepared::new(dir, cache_policy, opts)?;
     let mut stats = BakeStats {
-        patches: n,
+        patches: p.mesh.len(),
         ..Default::default()
     };
-
-    let entry = match cache_policy {
-        CachePolicy::Off => None,
-        CachePolicy::ReadWrite(d) | CachePolicy::ReadOnly(d) => {
-            let key =
-                cache::cache_key(&scene.files, &settings).map_err(|source| BakeError::Io {
-                    path: PathBuf::from(&scene.id),
-                    source,
-                })?;
-            Some((cache::entry_path(d, &scene.id, &key), key))
-        }
-    };
-    if let Some((path, key)) = &entry {
-        if path.exists() {
-            over_budget(memory.load, "load")?;
-        }
-        let t0 = Instant::now();
-        match cache::read(path, key, fingerprint) {
-            Ok(transfer) => {
-                stats.from_cache = true;
-                stats.load_s = t0.elapsed().as_secs_f64();
-                stats.cache_bytes = std::fs::metadata(path).map(|m| m.len()).unwrap_or(0);
-                stats.cache_path = Some(path.clone());
-                stats.residual = transfer.info.residual;
-                progress(Stage::Writing, 1.0);
-                return Ok(Baked {
-                    scene,
-                    mesh,
-                    bvh,
-                    transfer,
-                    stats,
-                });
-            }
-            Err(e) => {
-                let missing = matches!(&e, CacheError::Io { source, .. } if source.kind() == std::io::ErrorKind::NotFound);
-                if let CachePolicy::ReadOnly(_) = cache_policy {
-                    return Err(if missing {
-                        BakeError::NotCached {
-                            scene: scene.id.clone(),
-                            path: path.clone(),
-                        }
-                    } else {
-                        BakeError::BadCache {
-                            scene: scene.id.clone(),
-                            source: e,
-                        }
-                    });
-                }
-                if !missing {
-                    tracing::warn!("{e}; rebaking");
-                    stats.cache_note = Some(e.to_string());
-                }
-            }
+    if !matches!(cache_policy, CachePolicy::Rebuild(_)) {
+        if let Some(transfer) = try_cache(&p, cache_policy, opts, &mut stats)? {
+            progress(Stage::Writing, 1.0);
+            return Ok(p.done(transfer, stats));
         }
     }
-
-    over_budget(memory.bake, "bake")?;
+    p.check_budget(opts, p.memory.bake, "bake")?;
     let t0 = Instant::now();
-    let f = formfactor::compute(&mesh, &bvh, &opts.ff, &|x| progress(Stage::FormFactors, x));
+    let f = formfactor::compute(&p.mesh, &p.bvh, &opts.ff, &|x| {
+        progress(Stage::FormFactors, x)
+    });
     stats.form_factor_s = t0.elapsed().as_secs_f64();
     let t1 = Instant::now();
-    let direct = crate::transport::direct::group_direct(&scene, &mesh, &bvh);
-    let transfer = Transfer::build(&scene, &mesh, f, &direct, mode, &|x| {
+    let direct = crate::transport::direct::group_direct(&p.scene, &p.mesh, &p.bvh);
+    let transfer = Transfer::build(&p.scene, &p.mesh, f, &direct, p.mode, &|x| {
         progress(Stage::Solving, x)
     });
     stats.solve_s = t1.elapsed().as_secs_f64();
     stats.residual = transfer.info.residual;
-
-    if let (Some((path, key)), CachePolicy::ReadWrite(dir)) = (&entry, cache_policy) {
+    if let (Some((path, key)), Some(dir), false) = (
+        &p.entry,
+        cache_policy.dir(),
+        matches!(cache_policy, CachePolicy::ReadOnly(_)),
+    ) {
         progress(Stage::Writing, 0.0);
-        match cache::write(path, &scene.id, key, &settings, fingerprint, &transfer) {
+        let fingerprint = p.mesh.fingerprint();
+        match cache::write(path, &p.scene.id, key, &p.settings, fingerprint, &transfer) {
             Ok(bytes) => {
                 stats.cache_bytes = bytes;
                 stats.cache_path = Some(path.clone());
-                cache::prune(dir, &scene.id, path);
+                cache::prune(dir, &p.scene.id, path);
             }
             Err(e) => tracing::warn!("could not write the cache: {e}"),
         }
     }
     progress(Stage::Writing, 1.0);
-    Ok(Baked {
-        scene,
-        mesh,
-        bvh,
-        transfer,
-        stats,
-    })
+    Ok(p.done(transfer, stats))
+}
+
+/// The cached transfer when the entry is valid; None when it must be baked (missing, or
+/// invalid under read-write); an error under read-only.
+fn try_cache(
+    p: &Prepared,
+    policy: CachePolicy<'_>,
+    opts: &BakeOptions,
+    stats: &mut BakeStats,
+) -> Result<Option<Transfer>, BakeError> {
+    let Some((path, key)) = &p.entry else {
+        return Ok(None);
+    };
+    if path.exists() {
+        p.check_budget(opts, p.memory.load, "load")?;
+    }
+    let t0 = Instant::now();
+    match cache::read(path, key, p.mesh.fingerprint()) {
+        Ok(transfer) => {
+            stats.from_cache = true;
+            stats.load_s = t0.elapsed().as_secs_f64();
+            stats.cache_bytes = std::fs::metadata(path).map(|m| m.len()).unwrap_or(0);
+            stats.cache_path = Some(path.clone());
+            stats.residual = transfer.info.residual;
+            Ok(Some(transfer))
+        }
+        Err(e) => {
+            let missing = matches!(&e, CacheError::Io { source, .. } if source.kind() == std::io::ErrorKind::NotFound);
+            if let CachePolicy::ReadOnly(_) = policy {
+                return Err(if missing {
+                    BakeError::NotCached {
+                        scene: p.scene.id.clone(),
+                        path: path.clone(),
+                    }
+                } else {
+                    BakeError::BadCache {
+                        scene: p.scene.id.clone(),
+                        source: e,
+                    }
+                });
+            }
+            if !missing {
+                tracing::warn!("{e}; rebaking");
+                stats.cache_note = Some(e.to_string());
+            }
+            Ok(None)
+        }
+    }
 }
 
 /// Default cache folder: `$RELIGHT_CACHE`, else `$XDG_CACHE_HOME/relight`, else

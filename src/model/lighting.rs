@@ -3,6 +3,16 @@
 //! A state maps group ids to a [`LightSetting`]; groups left out keep the default from
 //! `scene.toml` (intensity 1, colour white unless configured). Resolving a state against
 //! a scene validates it and yields one RGB weight per group: `intensity × colour`.
+//!
+//! This is the one grammar of a lighting state. Every front end sets a group through
+//! [`LightState::set`] (what it leaves out keeps the scene's default), and the text form
+//! `ID=VALUE` of the command line (`--light ceiling=0.5`) and of query strings
+//! (`light.ceiling=0.5`) is read by [`parse_value`]:
+//! - `ID=I`: intensity I (a dimming factor, 1 = as modelled), the group's own colour;
+//! - `ID=R,G,B`: intensity 1, linear RGB colour filter (R, G, B).
+//!
+//! [`Lighting`] is a state resolved for a scene: per-group weights, or (factored
+//! transfer only) a per-patch emission vector in lm/m².
 
 use std::collections::BTreeMap;
 
@@ -29,8 +39,14 @@ pub struct LightState {
     pub lights: BTreeMap<String, LightSetting>,
 }
 
+/// Largest per-patch emission accepted, lm/m² per channel.
+pub const MAX_EMISSION: f64 = 1e9;
+
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum LightError {
+    /// A setting's text form does not parse (`ID=I` or `ID=R,G,B`).
+    #[error("{0}")]
+    Syntax(String),
     #[error("unknown light group '{id}' (known: {known})")]
     UnknownGroup { id: String, known: String },
     #[error("light '{id}': {message}")]
@@ -95,27 +111,78 @@ impl LightState {
             .collect())
     }
 
-    /// Parses a command-line setting `id=v` (intensity) or `id=r,g,b` (RGB weights).
-    pub fn parse_arg(&mut self, arg: &str) -> Result<(), String> {
-        let (id, val) = arg
-            .split_once('=')
-            .ok_or_else(|| format!("'{arg}': expected ID=INTENSITY or ID=R,G,B"))?;
-        let nums: Result<Vec<f32>, _> = val.split(',').map(|v| v.trim().parse::<f32>()).collect();
-        let nums = nums.map_err(|_| format!("'{arg}': not numbers"))?;
-        let setting = match nums.as_slice() {
-            [v] => LightSetting {
-                intensity: *v,
-                color: [1.0; 3],
-            },
-            [r, g, b] => LightSetting {
-                intensity: 1.0,
-                color: [*r, *g, *b],
-            },
-            _ => return Err(format!("'{arg}': give one intensity or three RGB values")),
+    /// Sets group `id` of `scene`: `intensity` and `color` where given; what is left
+    /// out keeps the scene's default. Checks the id and the numbers.
+    pub fn set(
+        &mut self,
+        scene: &Scene,
+        id: &str,
+        intensity: Option<f32>,
+        color: Option<Rgb>,
+    ) -> Result<(), LightError> {
+        let g = scene
+            .light_index(id)
+            .ok_or_else(|| LightError::UnknownGroup {
+                id: id.into(),
+                known: known_ids(scene),
+            })?;
+        let def = &scene.lights[g];
+        let setting = LightSetting {
+            intensity: intensity.unwrap_or(def.intensity),
+            color: color.unwrap_or(def.color),
         };
-        setting.validate(id).map_err(|e| e.to_string())?;
+        setting.validate(id)?;
         self.lights.insert(id.to_string(), setting);
         Ok(())
+    }
+
+    /// Applies command-line settings `ID=I` or `ID=R,G,B` (see [`parse_value`]).
+    pub fn parse_args<S: AsRef<str>>(scene: &Scene, args: &[S]) -> Result<LightState, LightError> {
+        let mut state = LightState::default();
+        for arg in args {
+            let arg = arg.as_ref();
+            let (id, val) = arg.split_once('=').ok_or_else(|| {
+                LightError::Syntax(format!("'{arg}': expected ID=INTENSITY or ID=R,G,B"))
+            })?;
+            let (intensity, color) =
+                parse_value(val).map_err(|e| LightError::Syntax(format!("'{arg}': {e}")))?;
+            state.set(scene, id, intensity, color)?;
+        }
+        Ok(state)
+    }
+}
+
+/// The text form of one group's setting: `I` (intensity; the group keeps its colour) or
+/// `R,G,B` (intensity 1 and this colour). Numbers are checked later by
+/// [`LightState::set`].
+pub fn parse_value(val: &str) -> Result<(Option<f32>, Option<Rgb>), String> {
+    let nums: Result<Vec<f64>, _> = val.split(',').map(|v| v.trim().parse::<f64>()).collect();
+    let nums = nums.map_err(|_| "not numbers".to_string())?;
+    // Out-of-range values become inf here and are refused by the checks.
+    let f = |x: f64| x as f32;
+    match nums.as_slice() {
+        [v] => Ok((Some(f(*v)), None)),
+        [r, g, b] => Ok((Some(1.0), Some([f(*r), f(*g), f(*b)]))),
+        _ => Err("give one intensity or three RGB values".into()),
+    }
+}
+
+/// A lighting state resolved for one scene.
+#[derive(Debug, Clone)]
+pub enum Lighting {
+    /// Per light group, RGB weights (intensity × colour), in the order of `scene.lights`.
+    Groups(Vec<Rgb>),
+    /// Per patch, RGB emission in lm/m², n × 3 interleaved (factored transfer only).
+    Emission(Vec<f32>),
+}
+
+impl Lighting {
+    /// The group weights, when this is a group state.
+    pub fn weights(&self) -> Option<&[Rgb]> {
+        match self {
+            Lighting::Groups(w) => Some(w),
+            Lighting::Emission(_) => None,
+        }
     }
 }
 

@@ -1,7 +1,154 @@
 //! The query layer: everything a client can ask of a baked scene, in engine terms.
-//! The CLI, the HTTP server and the examples all answer through it.
+//!
+//! A [`Model`] is a baked scene plus what its queries precompute once: light-group facts
+//! ([`GroupInfo`]) and calculation grids with per-group responses
+//! ([`grid::GridResponse`]). The CLI, the HTTP server and the examples all answer through
+//! its methods; none of them computes on the engine's data itself. The model knows
+//! nothing of HTTP or JSON text; its answers are serde types that the server and the CLI
+//! print as they like.
+//!
+//! - [`lighting`]: the one grammar of a lighting state ([`LightState`]: group id →
+//!   intensity and colour) and [`Lighting`], a state resolved against a scene (per-group
+//!   RGB weights, or a per-patch emission vector).
+//! - [`query`]: per-patch radiosity B (lm/m²) or illuminance H (lux), per-surface
+//!   statistics, illuminance at points and on grids, luminaire power.
+//! - [`optimize`]: least-flux dimming levels under grid targets.
+//! - [`report`]: per-surface averages and the power balance.
+//!
+//! Errors are [`QueryError`]s: always the client's mistake (a 4xx over HTTP), never a bug.
 
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
+
+use crate::bake::Baked;
+use crate::color::luminance64;
+
+pub mod error;
 pub mod grid;
 pub mod lighting;
 pub mod optimize;
+pub mod query;
 pub mod report;
+
+pub use error::QueryError;
+pub use lighting::{LightSetting, LightState, Lighting};
+
+/// Light-group facts (defaults from `scene.toml`, emitting area, flux at unit weight).
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct GroupInfo {
+    pub id: String,
+    pub name: String,
+    /// Default intensity and colour.
+    pub intensity: f32,
+    pub color: [f32; 3],
+    /// Area of the emitting patches, m².
+    pub emitting_area: f64,
+    /// Luminous flux at intensity 1, colour white, lm (emissive surfaces and luminaires).
+    pub lumens: f64,
+    /// Point luminaires in the group.
+    pub luminaires: usize,
+    /// Electrical power of the luminaires at intensity 1, W, when every one gives it.
+    pub watts: Option<f64>,
+}
+
+/// A baked scene ready to answer queries. Immutable once built.
+pub struct Model {
+    pub baked: Baked,
+    /// One entry per light group, in the order of `scene.lights`.
+    pub groups: Vec<GroupInfo>,
+    /// The scene's calculation grids with their per-group responses.
+    pub grids: Vec<grid::GridResponse>,
+}
+
+/// Bytes per patch held besides the transfer: mesh, BVH, shading vertices, mesh bytes.
+const SCENE_BYTES_PER_PATCH: u64 = 400;
+
+impl Model {
+    /// Precomputes the group facts and the grids' per-group responses (direct light with
+    /// shadow rays plus the gather from every group's radiosity).
+    pub fn new(baked: Baked) -> Model {
+        let groups = group_infos(&baked);
+        let grids =
+            grid::GridResponse::build_all(&baked.scene, &baked.mesh, &baked.bvh, &baked.transfer);
+        Model {
+            baked,
+            groups,
+            grids,
+        }
+    }
+
+    /// Bytes this model holds: the transfer, the mesh and BVH, and the grid responses.
+    pub fn bytes(&self) -> u64 {
+        let t = &self.baked.transfer;
+        let grid_bytes: u64 = self
+            .grids
+            .iter()
+            .map(|g| 16 * g.len() as u64 * (1 + 3 * t.group_count() as u64))
+            .sum();
+        t.bytes() + SCENE_BYTES_PER_PATCH * t.n as u64 + grid_bytes
+    }
+
+    /// Number of patches.
+    pub fn patches(&self) -> usize {
+        self.baked.transfer.n
+    }
+}
+
+fn group_infos(baked: &Baked) -> Vec<GroupInfo> {
+    let t = &baked.transfer;
+    baked
+        .scene
+        .lights
+        .iter()
+        .zip(&t.groups)
+        .map(|(l, g)| {
+            let mut area = 0.0;
+            let mut flux = [0f64; 3];
+            for i in 0..t.n {
+                let e = &g.e[3 * i..3 * i + 3];
+                if e.iter().any(|&v| v > 0.0) {
+                    area += t.area[i] as f64;
+                    for c in 0..3 {
+                        flux[c] += t.area[i] as f64 * e[c] as f64;
+                    }
+                }
+            }
+            let watts: Option<f64> = l.luminaires.iter().map(|m| m.watts).sum();
+            GroupInfo {
+                id: l.id.clone(),
+                name: l.name.clone(),
+                intensity: l.intensity,
+                color: l.color,
+                emitting_area: area,
+                lumens: luminance64(flux) + luminance64(g.flux),
+                luminaires: l.luminaires.len(),
+                watts: if l.luminaires.is_empty() { None } else { watts },
+            }
+        })
+        .collect()
+}
+
+/// Raised when whoever asked for a piece of work no longer wants it (an HTTP client that
+/// went away, a timed-out request). Long loops check it and stop.
+#[derive(Clone, Default)]
+pub struct Cancel(Arc<AtomicBool>);
+
+impl Cancel {
+    pub fn is_cancelled(&self) -> bool {
+        self.0.load(Ordering::Relaxed)
+    }
+
+    /// Raises the flag.
+    pub fn cancel(&self) {
+        self.0.store(true, Ordering::Relaxed);
+    }
+
+    /// `Err` once cancelled, for `?` in loops.
+    pub fn check(&self) -> Result<(), QueryError> {
+        if self.is_cancelled() {
+            Err(QueryError::Cancelled)
+        } else {
+            Ok(())
+        }
+    }
+}

@@ -12,7 +12,14 @@
 //! The objective, the emitted flux Σ_g Φ_g x_g, is linear too: a small LP (a few groups,
 //! a few thousand rows), solved exactly by the simplex method (microlp).
 
+use std::collections::BTreeMap;
+
 use microlp::{ComparisonOp, OptimizationDirection, Problem};
+use serde::Serialize;
+
+use super::query::{GridAnswer, LuminairePower};
+use super::{Model, QueryError};
+use crate::color::{luminance, luminance64, Rgb};
 
 /// A target on one grid, lux or ratio bounds.
 #[derive(Debug, Clone, Default)]
@@ -126,5 +133,214 @@ fn explain(targets: &[Target], terms: &[GridTerms], g: usize) -> String {
         "the targets cannot all be met at once".into()
     } else {
         format!("the targets cannot be met: {}", why.join("; "))
+    }
+}
+
+/// Bounds on one grid, by grid index (lux, or a ratio for U₀).
+#[derive(Debug, Clone, Copy, Default)]
+pub struct GridTarget {
+    pub grid: usize,
+    pub eavg_min: Option<f64>,
+    pub emin_min: Option<f64>,
+    pub u0_min: Option<f64>,
+}
+
+/// Largest illuminance bound accepted, lx.
+pub const MAX_TARGET_LUX: f64 = 1e6;
+
+impl GridTarget {
+    /// Checks the bounds; `at` names the target in messages (`targets[0]`).
+    pub fn check(&self, at: &str) -> Result<(), QueryError> {
+        let bad = |m: String| Err(QueryError::Invalid(m));
+        for (key, v, max) in [
+            ("eavg_min", self.eavg_min, MAX_TARGET_LUX),
+            ("emin_min", self.emin_min, MAX_TARGET_LUX),
+            ("u0_min", self.u0_min, 1.0),
+        ] {
+            if let Some(x) = v.filter(|x| !(0.0..=max).contains(x)) {
+                return bad(format!("{at}.{key} = {x}: must be in 0..{max}"));
+            }
+        }
+        if self.eavg_min.is_none() && self.emin_min.is_none() && self.u0_min.is_none() {
+            return bad(format!(
+                "{at} sets no bound: give eavg_min, emin_min or u0_min"
+            ));
+        }
+        if self.u0_min.is_some() && !(self.eavg_min > Some(0.0) || self.emin_min > Some(0.0)) {
+            return bad(format!(
+                "{at}: u0_min needs a positive eavg_min or emin_min as well: a ratio alone sets no light level, and all lights off would use the least flux"
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// One group's level in an optimized state.
+#[derive(Debug, Clone, Serialize)]
+pub struct LevelAnswer {
+    /// Dimming factor (for free groups, the optimized level in [0, 1]).
+    pub intensity: f64,
+    pub color: Rgb,
+    /// Whether the optimizer chose this level.
+    pub free: bool,
+}
+
+/// What a grid achieves under the optimized levels (lux; U₀ a ratio).
+#[derive(Debug, Clone, Copy, Serialize)]
+pub struct Achieved {
+    pub avg: f64,
+    pub min: f64,
+    pub u0: f64,
+}
+
+/// One target with what the levels achieve.
+#[derive(Debug, Clone, Serialize)]
+pub struct TargetAnswer {
+    pub grid: String,
+    pub eavg_min: Option<f64>,
+    pub emin_min: Option<f64>,
+    pub u0_min: Option<f64>,
+    pub achieved: Achieved,
+    pub met: bool,
+}
+
+/// The optimizer's answer.
+#[derive(Debug, Clone, Serialize)]
+pub struct OptimizeAnswer {
+    /// Every group's level, keyed by group id.
+    pub lights: BTreeMap<String, LevelAnswer>,
+    /// Total luminous flux of the state, lm.
+    pub lumens: f64,
+    pub power: LuminairePower,
+    pub targets: Vec<TargetAnswer>,
+    pub grids: BTreeMap<String, GridAnswer>,
+    /// Time to build and solve the LP, ms.
+    pub solve_ms: f64,
+}
+
+impl Model {
+    /// Peak bytes of [`Model::optimize`] for these free groups and targets.
+    pub fn optimize_bytes(&self, free: usize, targets: &[GridTarget]) -> u64 {
+        let rows: u64 = targets
+            .iter()
+            .map(|t| self.grids[t.grid].len() as u64)
+            .sum();
+        2 * rows * (free as u64 + 2) * 64 + (1 << 20)
+    }
+
+    /// Levels of the `free` groups (the others keep `base`) that meet `targets` with the
+    /// least flux. Groups and grids are given by index, each at most once.
+    pub fn optimize(
+        &self,
+        base: &[Rgb],
+        free: &[usize],
+        targets: &[GridTarget],
+    ) -> Result<OptimizeAnswer, QueryError> {
+        let t0 = std::time::Instant::now();
+        let scene = &self.baked.scene;
+        let is_free = |g: usize| free.contains(&g);
+        // Fixed groups keep the given state; free ones are 0 in the fixed part.
+        let fixed_w: Vec<Rgb> = (0..scene.lights.len())
+            .map(|g| if is_free(g) { [0.0; 3] } else { base[g] })
+            .collect();
+        let terms: Vec<GridTerms> = targets
+            .iter()
+            .map(|t| {
+                let gr = &self.grids[t.grid];
+                GridTerms {
+                    free: free
+                        .iter()
+                        .map(|&g| gr.group_values(g, scene.lights[g].color))
+                        .collect(),
+                    fixed: gr.values(&fixed_w).iter().map(|&v| v as f64).collect(),
+                }
+            })
+            .collect();
+        let labelled: Vec<Target> = targets
+            .iter()
+            .map(|t| Target {
+                grid: self.grids[t.grid].grid.id.clone(),
+                eavg_min: t.eavg_min,
+                emin_min: t.emin_min,
+                u0_min: t.u0_min,
+            })
+            .collect();
+        let flux: Vec<f64> = free
+            .iter()
+            .map(|&g| self.groups[g].lumens * luminance(scene.lights[g].color) as f64)
+            .collect();
+        let levels = optimize(&flux, &labelled, &terms)?;
+        let mut w = fixed_w;
+        for (&g, &x) in free.iter().zip(&levels) {
+            w[g] = scene.lights[g].color.map(|c| c * x as f32);
+        }
+        let solve_ms = t0.elapsed().as_secs_f64() * 1e3;
+        let grid_ix: Vec<usize> = targets.iter().map(|t| t.grid).collect();
+        let grids = self.grid_answers(&grid_ix, &w);
+        Ok(OptimizeAnswer {
+            lights: self.levels(&w, free, &levels),
+            lumens: self.lumens(&w),
+            power: self.luminaire_power(&w),
+            targets: labelled.iter().map(|t| target_answer(t, &grids)).collect(),
+            grids,
+            solve_ms,
+        })
+    }
+
+    /// Every group's level for weights `w`: free groups report their optimized level,
+    /// fixed ones their luminous level relative to their default colour.
+    fn levels(&self, w: &[Rgb], free: &[usize], levels: &[f64]) -> BTreeMap<String, LevelAnswer> {
+        let scene = &self.baked.scene;
+        scene
+            .lights
+            .iter()
+            .enumerate()
+            .map(|(g, l)| {
+                let intensity = match free.iter().position(|&f| f == g) {
+                    Some(k) => levels[k],
+                    None => {
+                        let y = luminance(l.color) as f64;
+                        if y > 0.0 {
+                            luminance(w[g]) as f64 / y
+                        } else {
+                            0.0
+                        }
+                    }
+                };
+                let free = free.contains(&g);
+                let answer = LevelAnswer {
+                    intensity,
+                    color: l.color,
+                    free,
+                };
+                (l.id.clone(), answer)
+            })
+            .collect()
+    }
+
+    /// Total luminous flux of group weights `w`, lm.
+    pub fn lumens(&self, w: &[Rgb]) -> f64 {
+        w.iter()
+            .zip(&self.groups)
+            .map(|(wt, info)| luminance64(wt.map(|c| c as f64)) * info.lumens)
+            .sum()
+    }
+}
+
+fn target_answer(t: &Target, grids: &BTreeMap<String, GridAnswer>) -> TargetAnswer {
+    let (avg, min, u0) = grids
+        .get(&t.grid)
+        .map_or((0.0, 0.0, 0.0), |s| (s.avg, s.min, s.u0));
+    let tol = 1e-6;
+    let met = t.eavg_min.is_none_or(|e| avg >= e * (1.0 - tol))
+        && t.emin_min.is_none_or(|e| min >= e * (1.0 - tol))
+        && t.u0_min.is_none_or(|u| u0 >= u - tol);
+    TargetAnswer {
+        grid: t.grid.clone(),
+        eavg_min: t.eavg_min,
+        emin_min: t.emin_min,
+        u0_min: t.u0_min,
+        achieved: Achieved { avg, min, u0 },
+        met,
     }
 }

@@ -13,6 +13,8 @@
 //! 3. A relit image is a gather: vertex values (lm/m²) → radiance B/π → the pixel's
 //!    weighted sum, then exposure, tone mapping, sRGB and encoding.
 
+pub mod pipeline;
+
 use glam::{DVec3, Vec3};
 use rayon::prelude::*;
 
@@ -938,6 +940,8 @@ pub enum Format {
     Jpeg,
     /// Linear OpenEXR, f32 RGB radiance in W/(m²·sr)-like units (lm/(m²·sr)).
     Exr,
+    /// Linear portable float map, the same values as EXR (the command line only).
+    Pfm,
 }
 
 impl Format {
@@ -946,6 +950,7 @@ impl Format {
             Format::Png => "image/png",
             Format::Jpeg => "image/jpeg",
             Format::Exr => "image/x-exr",
+            Format::Pfm => "image/x-portable-floatmap",
         }
     }
 }
@@ -962,7 +967,7 @@ pub fn encode_8bit(rgb: &[u8], w: u32, h: u32, format: Format) -> Result<Vec<u8>
         )
         .write_image(rgb, w, h, image::ExtendedColorType::Rgb8),
         Format::Jpeg => return encode_jpeg(rgb, w, h),
-        Format::Exr => return Err("EXR is written from linear data".into()),
+        Format::Exr | Format::Pfm => return Err("EXR and PFM are written from linear data".into()),
     }
     .map_err(|e| e.to_string())?;
     Ok(out)

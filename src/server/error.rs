@@ -53,6 +53,19 @@ impl From<crate::model::lighting::LightError> for AppError {
     }
 }
 
+/// A query's mistakes are the client's (422); an abandoned one is 503.
+impl From<crate::model::QueryError> for AppError {
+    fn from(e: crate::model::QueryError) -> Self {
+        match e {
+            crate::model::QueryError::Cancelled => AppError::Unavailable {
+                detail: e.to_string(),
+                progress: None,
+            },
+            e => AppError::Invalid(e.to_string()),
+        }
+    }
+}
+
 impl IntoResponse for AppError {
     fn into_response(self) -> Response {
         let status = self.status();

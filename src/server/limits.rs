@@ -11,7 +11,7 @@
 //!    request's future is dropped (the client went away or the request timed out); long
 //!    loops check it and stop.
 
-use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
+use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::Arc;
 use std::time::Duration;
 
@@ -21,27 +21,7 @@ use crate::budget::BudgetError;
 /// How many heavy requests may wait for a permit, per permit.
 pub const QUEUE_PER_PERMIT: usize = 4;
 
-/// Raised when the request that started a piece of work is gone.
-#[derive(Clone, Default)]
-pub struct Cancel(Arc<AtomicBool>);
-
-impl Cancel {
-    pub fn is_cancelled(&self) -> bool {
-        self.0.load(Ordering::Relaxed)
-    }
-
-    /// `Err` once cancelled, for `?` in loops.
-    pub fn check(&self) -> Result<(), AppError> {
-        if self.is_cancelled() {
-            Err(AppError::Unavailable {
-                detail: "the request was abandoned".into(),
-                progress: None,
-            })
-        } else {
-            Ok(())
-        }
-    }
-}
+pub use crate::model::Cancel;
 
 /// Raises its [`Cancel`] when dropped unless disarmed.
 struct CancelOnDrop(Cancel, bool);
@@ -49,7 +29,7 @@ struct CancelOnDrop(Cancel, bool);
 impl Drop for CancelOnDrop {
     fn drop(&mut self) {
         if self.1 {
-            self.0 .0.store(true, Ordering::Relaxed);
+            self.0.cancel();
         }
     }
 }

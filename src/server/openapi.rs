@@ -8,9 +8,9 @@
 
 use serde_json::{json, Map, Value};
 
-use super::api::{MAX_BATCH, MAX_COORDINATE, MAX_EMISSION, MAX_POINTS};
-use super::render_api::{MAX_FOV_DEG, MAX_RANGE_LUX, MIN_FOV_DEG, MIN_RANGE_LUX};
+use super::parse::{MAX_BATCH, MAX_COORDINATE, MAX_EMISSION, MAX_POINTS};
 use crate::model::lighting::MAX_INTENSITY;
+use crate::render::pipeline::{MAX_FOV_DEG, MAX_RANGE_LUX, MIN_FOV_DEG, MIN_RANGE_LUX};
 use crate::render::MAX_SIDE;
 
 /// Largest magnitude of any number in a request: values are computed in 32-bit floating

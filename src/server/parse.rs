@@ -14,11 +14,9 @@ use serde_json::{Map, Value};
 use super::json::kind;
 use super::{AppError, AppState, Ready};
 use crate::color::Rgb;
-use crate::model::lighting::{known_ids, LightSetting, LightState, MAX_INTENSITY};
-use crate::transport::transfer::TransferMode;
-
-/// Largest emission value accepted, lm/m².
-pub const MAX_EMISSION: f64 = 1e9;
+pub use crate::model::lighting::MAX_EMISSION;
+use crate::model::lighting::{LightState, MAX_INTENSITY};
+pub use crate::model::Lighting;
 
 /// Most lighting states in one batch.
 pub const MAX_BATCH: usize = 1000;
@@ -216,28 +214,19 @@ pub fn parse_lights(v: Option<&Value>, ready: &Ready) -> Result<Vec<Rgb>, AppErr
             ))
         })?;
         for (id, s) in obj {
-            let g = scene.light_index(id).ok_or_else(|| {
-                AppError::Invalid(format!(
-                    "unknown light group '{id}' (known: {})",
-                    known_ids(scene)
-                ))
-            })?;
-            let def = &scene.lights[g];
-            let mut setting = LightSetting {
-                intensity: def.intensity,
-                color: def.color,
-            };
+            let (mut level, mut color) = (None, None);
             match s {
                 Value::Object(o) => {
                     for k in o.keys() {
                         if k != "intensity" && k != "color" {
                             return Err(AppError::Invalid(format!(
-                                "light '{id}': unknown field '{k}' (expected intensity, color)"
+                                "light '{}': unknown field '{k}' (expected intensity, color)",
+                                shorten(id)
                             )));
                         }
                     }
                     if let Some(i) = o.get("intensity") {
-                        setting.intensity = intensity(i, &format!("light '{id}' intensity"))?;
+                        level = Some(intensity(i, &format!("light '{id}' intensity"))?);
                     }
                     if let Some(c) = o.get("color") {
                         let what = format!("light '{id}' color");
@@ -245,16 +234,15 @@ pub fn parse_lights(v: Option<&Value>, ready: &Ready) -> Result<Vec<Rgb>, AppErr
                         for x in t {
                             bounded(&Value::from(x), &what, 0.0, MAX_INTENSITY as f64)?;
                         }
-                        setting.color = t.map(|x| x as f32);
+                        color = Some(t.map(|x| x as f32));
                     }
                 }
-                other => setting.intensity = intensity(other, &format!("light '{id}'"))?,
+                other => level = Some(intensity(other, &format!("light '{id}'"))?),
             }
-            setting.validate(id)?;
-            state.lights.insert(id.clone(), setting);
+            state.set(scene, id, level, color)?;
         }
     }
-    Ok(state.weights(scene)?)
+    Ok(ready.weights(&state)?)
 }
 
 /// An intensity (dimming factor) in `[0, MAX_INTENSITY]`.
@@ -262,29 +250,14 @@ pub(crate) fn intensity(v: &Value, what: &str) -> Result<f32, AppError> {
     Ok(bounded(v, what, 0.0, MAX_INTENSITY as f64)? as f32)
 }
 
-/// Per-patch emission, dense `[[r,g,b], …]` or sparse `{"<index>": [r,g,b]}`.
+/// Per-patch emission, dense `[[r,g,b], …]` or sparse `{"<index>": [r,g,b]}`, lm/m².
 pub(crate) fn parse_emission(v: &Value, ready: &Ready) -> Result<Vec<f32>, AppError> {
-    let t = &ready.baked.transfer;
-    if t.mode != TransferMode::Factored {
-        return Err(AppError::Invalid(format!(
-            "scene '{}' uses the columns transfer, which answers light groups only; per-patch \
-             emission needs transfer = \"factored\" in scene.toml",
-            ready.baked.scene.id
-        )));
-    }
-    let n = t.n;
+    ready.require_factored()?;
+    let n = ready.patches();
     let mut e = vec![0f32; 3 * n];
     let mut put = |i: usize, val: &Value| -> Result<(), AppError> {
-        let what = format!("emission[{i}]");
-        let tr = triple(val, &what)?;
-        for (c, x) in tr.iter().enumerate() {
-            if *x < 0.0 || *x > MAX_EMISSION {
-                return Err(AppError::Invalid(format!(
-                    "{what}: values must be in [0, {MAX_EMISSION:e}] lm/m², got {x}"
-                )));
-            }
-            e[3 * i + c] = *x as f32;
-        }
+        let rgb = ready.emission_value(i, triple(val, &format!("emission[{i}]"))?)?;
+        e[3 * i..3 * i + 3].copy_from_slice(&rgb);
         Ok(())
     };
     match v {
@@ -312,11 +285,6 @@ pub(crate) fn parse_emission(v: &Value, ready: &Ready) -> Result<Vec<f32>, AppEr
                             k.chars().take(40).collect::<String>()
                         ))
                     })?;
-                if i >= n {
-                    return Err(AppError::Invalid(format!(
-                        "emission patch index {i} out of range (the scene has {n} patches)"
-                    )));
-                }
                 put(i, val)?;
             }
         }
@@ -328,12 +296,6 @@ pub(crate) fn parse_emission(v: &Value, ready: &Ready) -> Result<Vec<f32>, AppEr
         }
     }
     Ok(e)
-}
-
-/// A lighting request: group settings or a per-patch emission.
-pub enum Lighting {
-    Groups(Vec<Rgb>),
-    Emission(Vec<f32>),
 }
 
 pub fn parse_lighting(body: &Map<String, Value>, ready: &Ready) -> Result<Lighting, AppError> {
@@ -384,15 +346,7 @@ pub(crate) fn surface_list(v: Option<&Value>, ready: &Ready) -> Result<Vec<usize
     Ok(out)
 }
 
-/// A client-supplied string cut to a length fit for a message.
-pub fn shorten(s: &str) -> String {
-    const MAX: usize = 200;
-    if s.chars().count() <= MAX {
-        s.to_string()
-    } else {
-        format!("{}…", s.chars().take(MAX).collect::<String>())
-    }
-}
+pub use crate::model::error::shorten;
 
 /// An optional boolean field (absent = false).
 pub(crate) fn flag(body: &Map<String, Value>, key: &str) -> Result<bool, AppError> {
@@ -488,20 +442,5 @@ pub(crate) fn grid_index(g: &Value, ready: &Ready) -> Result<usize, AppError> {
     let id = g
         .as_str()
         .ok_or_else(|| AppError::Invalid(format!("grid ids must be strings, got {}", kind(g))))?;
-    ready
-        .grids
-        .iter()
-        .position(|r| r.grid.id == id)
-        .ok_or_else(|| {
-            let known: Vec<&str> = ready.grids.iter().map(|r| r.grid.id.as_str()).collect();
-            AppError::Invalid(format!(
-                "unknown grid '{}' (known: {})",
-                shorten(id),
-                if known.is_empty() {
-                    "none".to_string()
-                } else {
-                    known.join(", ")
-                }
-            ))
-        })
+    Ok(ready.grid_index(id)?)
 }

@@ -1,0 +1,150 @@
+//! `relight bake`: bakes scenes into the cache (form factors, factorization, light-group
+//! columns), with a progress bar, or as the server's child process with JSON progress.
+
+use std::path::{Path, PathBuf};
+
+use anyhow::{Context, Result};
+
+use super::{outln, progress_bar};
+use relight::bake::{self, BakeOptions, CachePolicy, Stage};
+
+#[derive(clap::Args)]
+pub struct BakeArgs {
+    /// Scene folder (OBJ + MTL + optional scene.toml). Omit with --all.
+    scene: Option<PathBuf>,
+    /// Bake every scene under --scenes.
+    #[arg(long)]
+    all: bool,
+    /// Folder of scenes for --all.
+    #[arg(long, env = "RELIGHT_SCENES", default_value = "scenes")]
+    scenes: PathBuf,
+    /// Cache folder [default: $RELIGHT_CACHE, $XDG_CACHE_HOME/relight or ~/.cache/relight].
+    #[arg(long, env = "RELIGHT_CACHE")]
+    cache: Option<PathBuf>,
+    /// Bake even if a valid cache entry exists.
+    #[arg(long)]
+    force: bool,
+    /// Memory budget: refuse a scene whose bake is estimated to need more (bytes with
+    /// an optional unit such as 4G, or a percentage of memory such as 50%)
+    /// [default: half of the machine's or the container's memory].
+    #[arg(long, env = "RELIGHT_MEMORY_BUDGET", value_parser = relight::budget::parse_budget)]
+    memory_budget: Option<u64>,
+    /// Report progress as JSON lines on stdout (used by `relight serve`, which bakes in
+    /// a child process).
+    #[arg(long, hide = true)]
+    progress_json: bool,
+}
+
+pub fn run(a: BakeArgs) -> Result<()> {
+    let BakeArgs {
+        scene,
+        all,
+        scenes,
+        cache,
+        force,
+        memory_budget,
+        progress_json,
+    } = a;
+    let cache = cache.unwrap_or_else(bake::default_cache_dir);
+    let budget = memory_budget.unwrap_or_else(relight::budget::default_budget);
+    if progress_json {
+        // The server's child: the kernel's OOM killer should pick this process
+        // before the server.
+        let _ = std::fs::write("/proc/self/oom_score_adj", "1000");
+        let Some(dir) = scene else {
+            anyhow::bail!("--progress-json bakes one scene folder");
+        };
+        return match bake_child(&dir, &cache, budget) {
+            Ok(()) => Ok(()),
+            Err(e) => {
+                outln!("{}", serde_json::json!({ "error": format!("{e:#}") }));
+                std::process::exit(2);
+            }
+        };
+    }
+    let dirs = match (scene, all) {
+        (Some(s), false) => vec![s],
+        (None, true) => {
+            bake::scene_dirs(&scenes).with_context(|| format!("reading {}", scenes.display()))?
+        }
+        _ => anyhow::bail!("give a scene folder or --all"),
+    };
+    let mut failed = 0;
+    for d in dirs {
+        if let Err(e) = bake_one(&d, &cache, force, budget) {
+            eprintln!("error: {e:#}");
+            failed += 1;
+        }
+    }
+    if failed > 0 {
+        anyhow::bail!("{failed} scene(s) failed");
+    }
+    Ok(())
+}
+
+/// `relight bake DIR --progress-json`: bakes into the cache, reporting progress as JSON
+/// lines (`{"progress": 0.42}`) for the server that started this process.
+fn bake_child(dir: &Path, cache: &Path, budget: u64) -> Result<()> {
+    let opts = BakeOptions {
+        memory_budget: Some(budget),
+        ..Default::default()
+    };
+    use std::sync::atomic::{AtomicU64, Ordering};
+    let last = AtomicU64::new((-1.0f64).to_bits());
+    let progress = |stage: Stage, f: f64| {
+        let p = stage.overall(f);
+        if p - f64::from_bits(last.load(Ordering::Relaxed)) >= 0.005 {
+            last.store(p.to_bits(), Ordering::Relaxed);
+            outln!("{}", serde_json::json!({ "progress": p }));
+        }
+    };
+    bake::load_or_bake(dir, CachePolicy::ReadWrite(cache), &opts, &progress)?;
+    outln!("{}", serde_json::json!({ "progress": 1.0, "done": true }));
+    Ok(())
+}
+
+fn bake_one(dir: &Path, cache: &Path, force: bool, budget: u64) -> Result<()> {
+    let label = dir
+        .file_name()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    let pb = progress_bar(&label);
+    let policy = if force {
+        CachePolicy::Rebuild(cache)
+    } else {
+        CachePolicy::ReadWrite(cache)
+    };
+    let progress = |stage: Stage, f: f64| {
+        pb.set_message(format!("{stage:?}"));
+        pb.set_position((stage.overall(f) * 1000.0) as u64);
+    };
+    let opts = BakeOptions {
+        memory_budget: Some(budget),
+        ..Default::default()
+    };
+    let baked = bake::load_or_bake(dir, policy, &opts, &progress)?;
+    pb.finish_and_clear();
+    let s = &baked.stats;
+    for w in &baked.scene.warnings {
+        eprintln!("warning: {}: {w}", baked.scene.id);
+    }
+    outln!("scene          {}  ({})", baked.scene.id, baked.scene.name);
+    outln!("patches        {}", s.patches);
+    outln!("mode           {:?}", baked.transfer.mode);
+    if s.from_cache {
+        outln!("loaded from    cache in {:.3} s", s.load_s);
+    } else {
+        outln!("form factors   {:.2} s", s.form_factor_s);
+        outln!("solve          {:.2} s", s.solve_s);
+    }
+    outln!("residual       {:.2e}", s.residual);
+    outln!(
+        "cache          {:.1} MB  {}",
+        s.cache_bytes as f64 / 1e6,
+        s.cache_path
+            .as_ref()
+            .map(|p| p.display().to_string())
+            .unwrap_or_default()
+    );
+    Ok(())
+}

@@ -1,0 +1,117 @@
+//! `relight bench`: bake, cached-load and relight figures, one subprocess per case so
+//! that each case's peak memory is its own.
+
+use std::path::{Path, PathBuf};
+
+use anyhow::Result;
+
+use super::outln;
+use relight::bake::BakeOptions;
+
+#[derive(clap::Args)]
+pub struct BenchArgs {
+    /// Run one case only: cornell, cornell-10k or groups-10k.
+    #[arg(long)]
+    case: Option<String>,
+    #[arg(long, env = "RELIGHT_SCENES", default_value = "scenes")]
+    scenes: PathBuf,
+    /// Print the case's figures as JSON (used between the parent and its subprocesses).
+    #[arg(long)]
+    json: bool,
+    /// Only write the 8-group benchmark room (about 10,000 patches) into this folder.
+    #[arg(long, value_name = "DIR")]
+    make_scene: Option<PathBuf>,
+}
+
+pub fn run(a: BenchArgs) -> Result<()> {
+    if let Some(dir) = a.make_scene {
+        relight::bench::write_group_room(&dir, 8, BENCH_ROOM_TARGET)?;
+        outln!("wrote {}", dir.display());
+        return Ok(());
+    }
+    bench(a.case, &a.scenes, a.json)
+}
+
+/// `target_patches` that gives the 8-group room just over 10,000 patches.
+const BENCH_ROOM_TARGET: usize = 8_200;
+
+const BENCH_CASES: [&str; 3] = ["cornell", "cornell-10k", "groups-10k"];
+
+fn bench(case: Option<String>, scenes: &Path, json: bool) -> Result<()> {
+    let Some(case) = case else {
+        outln!(
+            "{:<12} {:>7} {:>3} {:>9} {:>8} {:>8} {:>9} {:>9} {:>9} {:>10} {:>10} {:>9}",
+            "case",
+            "patches",
+            "grp",
+            "mode",
+            "ff s",
+            "solve s",
+            "cold s",
+            "cached s",
+            "cache MB",
+            "relight µs",
+            "solve E ms",
+            "peak MB"
+        );
+        for c in BENCH_CASES {
+            let out = std::process::Command::new(std::env::current_exe()?)
+                .args(["bench", "--json", "--case", c, "--scenes"])
+                .arg(scenes)
+                .output()?;
+            anyhow::ensure!(
+                out.status.success(),
+                "case {c} failed: {}",
+                String::from_utf8_lossy(&out.stderr)
+            );
+            let r: serde_json::Value = serde_json::from_slice(&out.stdout)?;
+            let f = |k: &str| r[k].as_f64().unwrap_or(f64::NAN);
+            outln!(
+                "{:<12} {:>7} {:>3} {:>9} {:>8.2} {:>8.2} {:>9.2} {:>9.3} {:>9.1} {:>10.1} {:>10} {:>9.0}",
+                c,
+                r["patches"],
+                r["groups"],
+                r["mode"].as_str().unwrap_or(""),
+                f("form_factor_s"),
+                f("solve_s"),
+                f("cold_bake_s"),
+                f("cached_load_s"),
+                f("cache_mb"),
+                f("relight_us"),
+                r["solve_emission_ms"]
+                    .as_f64()
+                    .map_or("-".to_string(), |v| format!("{v:.1}")),
+                f("peak_rss_mb"),
+            );
+        }
+        return Ok(());
+    };
+    let tmp = tempfile::tempdir()?;
+    let (dir, opts) = match case.as_str() {
+        "cornell" => (scenes.join("cornell-box"), BakeOptions::default()),
+        "cornell-10k" => (
+            scenes.join("cornell-box"),
+            BakeOptions {
+                max_edge: Some(0.033),
+                // Factored at 10k patches, to measure the LU at that size.
+                mode: Some(relight::transport::transfer::TransferMode::Factored),
+                ..Default::default()
+            },
+        ),
+        "groups-10k" => {
+            relight::bench::write_group_room(tmp.path(), 8, BENCH_ROOM_TARGET)?;
+            (tmp.path().to_path_buf(), BakeOptions::default())
+        }
+        other => anyhow::bail!(
+            "unknown case '{other}': use one of {}",
+            BENCH_CASES.join(", ")
+        ),
+    };
+    let r = relight::bench::run_case(&case, &dir, &opts)?;
+    if json {
+        outln!("{}", serde_json::to_string(&r)?);
+    } else {
+        outln!("{}", serde_json::to_string_pretty(&r)?);
+    }
+    Ok(())
+}

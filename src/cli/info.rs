@@ -1,0 +1,46 @@
+//! `relight info`: the scenes under a folder with their patch counts, surfaces, light
+//! groups and cameras (meshes each scene; bakes nothing).
+
+use std::path::Path;
+
+use anyhow::{Context, Result};
+
+use super::outln;
+use relight::bake;
+
+pub fn run(root: &Path) -> Result<()> {
+    let dirs = bake::scene_dirs(root).with_context(|| format!("reading {}", root.display()))?;
+    if dirs.is_empty() {
+        outln!("no scenes under {}", root.display());
+    }
+    for d in dirs {
+        match relight::scene::Scene::load(&d) {
+            Ok(s) => {
+                let patches = match relight::geometry::mesh::Mesh::try_build_with(
+                    &s,
+                    s.mesh.max_edge,
+                    bake::DEFAULT_MAX_PATCHES,
+                ) {
+                    Ok(mesh) => mesh.len().to_string(),
+                    Err(e) => format!(">{}", e.at_least.max(e.limit as u64)),
+                };
+                let groups: Vec<String> = s.lights.iter().map(|l| l.id.clone()).collect();
+                let cams: Vec<String> = s.cameras.iter().map(|c| c.id.clone()).collect();
+                outln!(
+                    "{:<16} {:<28} {:>6} patches  surfaces {:<3} lights [{}]  cameras [{}]",
+                    s.id,
+                    s.name,
+                    patches,
+                    s.surfaces.len(),
+                    groups.join(", "),
+                    cams.join(", ")
+                );
+            }
+            Err(e) => outln!(
+                "{:<16} FAILED: {e}",
+                d.file_name().unwrap_or_default().to_string_lossy()
+            ),
+        }
+    }
+    Ok(())
+}

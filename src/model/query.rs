@@ -1,0 +1,350 @@
+//! The queries of a lighting state: per-patch radiosity B (lm/m², leaving) or incident
+//! illuminance H (lux, arriving), per-surface statistics, illuminance at points and on
+//! calculation grids (lux), and the luminaires' flux (lm) and power (W).
+//!
+//! Group states are weighted sums of precomputed columns (microseconds); a per-patch
+//! emission is an exact solve with the stored factors (factored transfer only).
+
+use std::collections::BTreeMap;
+
+use glam::DVec3;
+use rayon::prelude::*;
+use serde::Serialize;
+
+use super::grid::{self, GridStats};
+use super::lighting::{LightState, Lighting, MAX_EMISSION};
+use super::report::{surface_illuminance, Lux, SurfaceIlluminance};
+use super::{Cancel, Model, QueryError};
+use crate::color::{luminance64, Rgb};
+use crate::transport::transfer::{Solution, TransferMode};
+
+/// Which per-patch quantity.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Quantity {
+    /// Radiosity B, lm/m² (light leaving the patch).
+    Radiosity,
+    /// Incident illuminance H, lux (light arriving at the patch).
+    Illuminance,
+}
+
+/// One grid's answer for a lighting state (lux).
+#[derive(Debug, Clone, Serialize)]
+pub struct GridAnswer {
+    pub name: String,
+    /// Always `"lx"`.
+    pub unit: &'static str,
+    pub count: usize,
+    /// Columns × rows for rectangular work planes.
+    pub layout: Option<[usize; 2]>,
+    pub avg: f64,
+    pub min: f64,
+    pub max: f64,
+    /// Emin / Eavg.
+    pub u0: f64,
+    /// Emin / Emax.
+    pub min_max: f64,
+    /// Luminous illuminance at each point, lx, in grid order.
+    pub values: Vec<f32>,
+}
+
+/// Flux and electrical power of the point luminaires in a lighting state.
+#[derive(Debug, Clone, Copy, Serialize)]
+pub struct LuminairePower {
+    /// lm.
+    pub luminaire_lumens: f64,
+    /// W, dimming assumed proportional; None when a luminaire gives no wattage.
+    pub luminaire_watts: Option<f64>,
+}
+
+/// What to compute illuminance for.
+#[derive(Debug, Clone, Default)]
+pub struct IlluminanceQuery {
+    /// Surface indices (statistics of the per-patch illuminance).
+    pub surfaces: Vec<usize>,
+    /// Points with their normals (position m, unit normal).
+    pub points: Vec<(DVec3, DVec3)>,
+    /// Grid indices.
+    pub grids: Vec<usize>,
+}
+
+/// The answer to an [`IlluminanceQuery`], lux throughout.
+#[derive(Debug, Clone, Serialize)]
+pub struct IlluminanceAnswer {
+    /// Always `"lx"`.
+    pub unit: &'static str,
+    pub points: Vec<Lux>,
+    pub surfaces: BTreeMap<String, SurfaceIlluminance>,
+    pub grids: BTreeMap<String, GridAnswer>,
+    /// Luminaire flux and power (group states only).
+    pub power: Option<LuminairePower>,
+}
+
+impl Model {
+    /// Per-group RGB weights of a lighting state.
+    pub fn weights(&self, state: &LightState) -> Result<Vec<Rgb>, QueryError> {
+        Ok(state.weights(&self.baked.scene)?)
+    }
+
+    /// The index of grid `id`.
+    pub fn grid_index(&self, id: &str) -> Result<usize, QueryError> {
+        self.grids
+            .iter()
+            .position(|r| r.grid.id == id)
+            .ok_or_else(|| {
+                let known: Vec<&str> = self.grids.iter().map(|r| r.grid.id.as_str()).collect();
+                QueryError::Invalid(format!(
+                    "unknown grid '{}' (known: {})",
+                    super::error::shorten(id),
+                    if known.is_empty() {
+                        "none".to_string()
+                    } else {
+                        known.join(", ")
+                    }
+                ))
+            })
+    }
+
+    /// Refuses per-patch emission unless the transfer is factored.
+    pub fn require_factored(&self) -> Result<(), QueryError> {
+        let t = &self.baked.transfer;
+        match t.mode {
+            TransferMode::Factored if t.factored.is_some() => Ok(()),
+            m => Err(QueryError::NeedsFactored {
+                scene: self.baked.scene.id.clone(),
+                mode: match m {
+                    TransferMode::Factored => "factored (without its factors)",
+                    TransferMode::Columns => "columns",
+                },
+            }),
+        }
+    }
+
+    /// One patch's emission, lm/m² per channel, checked against [`MAX_EMISSION`].
+    pub fn emission_value(&self, patch: usize, rgb: [f64; 3]) -> Result<[f32; 3], QueryError> {
+        let n = self.patches();
+        if patch >= n {
+            return Err(QueryError::Invalid(format!(
+                "emission patch index {patch} out of range (the scene has {n} patches)"
+            )));
+        }
+        for x in rgb {
+            if !(0.0..=MAX_EMISSION).contains(&x) {
+                return Err(QueryError::Invalid(format!(
+                    "emission[{patch}]: values must be in [0, {MAX_EMISSION:e}] lm/m², got {x}"
+                )));
+            }
+        }
+        Ok(rgb.map(|x| x as f32))
+    }
+
+    /// The full solution (emission, radiosity, illuminance per patch).
+    pub fn solve(&self, l: &Lighting) -> Result<Solution, QueryError> {
+        let t = &self.baked.transfer;
+        match l {
+            Lighting::Groups(w) => Ok(t.relight(w)),
+            Lighting::Emission(e) => {
+                self.require_factored()?;
+                if e.len() != 3 * t.n {
+                    return Err(QueryError::Invalid(format!(
+                        "emission has {} entries; the scene has {} patches (one [r,g,b] per patch)",
+                        e.len() / 3,
+                        t.n
+                    )));
+                }
+                t.solve(e).ok_or_else(|| {
+                    QueryError::Invalid("this scene's transfer cannot solve an emission".into())
+                })
+            }
+        }
+    }
+
+    /// Per-patch B (lm/m²) or H (lux) for group weights: one weighted sum.
+    pub fn per_patch_groups(&self, w: &[Rgb], q: Quantity, out: &mut [f32]) {
+        let t = &self.baked.transfer;
+        match q {
+            Quantity::Radiosity => t.relight_into(w, out),
+            Quantity::Illuminance => t.illuminance_into(w, out),
+        }
+    }
+
+    /// Per-patch B (lm/m²) or H (lux), n × 3 interleaved.
+    pub fn per_patch(&self, l: &Lighting, q: Quantity) -> Result<Vec<f32>, QueryError> {
+        if let Lighting::Groups(w) = l {
+            let mut out = vec![0f32; 3 * self.patches()];
+            self.per_patch_groups(w, q, &mut out);
+            return Ok(out);
+        }
+        let s = self.solve(l)?;
+        Ok(match q {
+            Quantity::Radiosity => s.b,
+            Quantity::Illuminance => s.h,
+        })
+    }
+
+    /// Illuminance statistics of `surfaces` from per-patch illuminance `h` (lux), by name.
+    pub fn surface_stats(
+        &self,
+        surfaces: &[usize],
+        h: &[f32],
+    ) -> BTreeMap<String, SurfaceIlluminance> {
+        let b = &self.baked;
+        surfaces
+            .iter()
+            .map(|&s| {
+                (
+                    b.scene.surfaces[s].name.clone(),
+                    surface_illuminance(&b.mesh, s, h),
+                )
+            })
+            .collect()
+    }
+
+    /// Illuminance (lux, RGB) at point `x` (m) on a receiver facing `n`: the light
+    /// gathered from radiosity `b` plus, for group weights, the luminaires' direct light
+    /// with shadow rays.
+    pub fn point_illuminance(&self, b: &[f32], w: Option<&[Rgb]>, x: DVec3, n: DVec3) -> [f64; 3] {
+        let k = &self.baked;
+        let mut e = crate::transport::probe::illuminance_at(&k.mesh, &k.bvh, b, x, n);
+        for (g, w) in k.scene.lights.iter().zip(w.unwrap_or(&[])) {
+            if g.luminaires.is_empty() || w.iter().all(|&c| c == 0.0) {
+                continue;
+            }
+            let d = crate::transport::direct::point_illuminance(&k.bvh, &g.luminaires, x, n);
+            for c in 0..3 {
+                e[c] += w[c] as f64 * d[c];
+            }
+        }
+        e
+    }
+
+    /// A grid's answer for group weights: a weighted sum of its per-group responses.
+    pub fn grid_answer(&self, gi: usize, w: &[Rgb]) -> GridAnswer {
+        let g = &self.grids[gi];
+        grid_answer(&g.grid, g.stats(w))
+    }
+
+    /// Grid answers for group weights, keyed by grid id.
+    pub fn grid_answers(&self, grids: &[usize], w: &[Rgb]) -> BTreeMap<String, GridAnswer> {
+        grids
+            .iter()
+            .map(|&gi| (self.grids[gi].grid.id.clone(), self.grid_answer(gi, w)))
+            .collect()
+    }
+
+    /// Flux (lm) and power (W) of the point luminaires for group weights. Watts scale
+    /// with the luminous level of each group (dimming assumed proportional).
+    pub fn luminaire_power(&self, w: &[Rgb]) -> LuminairePower {
+        let mut lumens = 0.0;
+        let mut watts = 0.0;
+        let mut watts_known = true;
+        let groups = self.baked.transfer.groups.iter().zip(&self.groups);
+        for ((g, info), wt) in groups.zip(w) {
+            if info.luminaires == 0 {
+                continue;
+            }
+            let lm = luminance64([0, 1, 2].map(|c| wt[c] as f64 * g.flux[c]));
+            lumens += lm;
+            match info.watts {
+                Some(full) if info.lumens > 0.0 => watts += full * lm / luminance64(g.flux),
+                _ => watts_known = false,
+            }
+        }
+        LuminairePower {
+            luminaire_lumens: lumens,
+            luminaire_watts: watts_known.then_some(watts),
+        }
+    }
+
+    /// Peak bytes an [`IlluminanceQuery`] may allocate (solution and per-point answers).
+    pub fn illuminance_bytes(&self, q: &IlluminanceQuery) -> u64 {
+        let grid_points: u64 = q.grids.iter().map(|&g| self.grids[g].len() as u64).sum();
+        BYTES_PER_PATCH_ANSWER * self.patches() as u64 + 400 * (q.points.len() as u64 + grid_points)
+    }
+
+    /// Whether a query is a pure weighted sum (no points, group lighting): microseconds.
+    pub fn is_cheap(&self, l: &Lighting, q: &IlluminanceQuery) -> bool {
+        matches!(l, Lighting::Groups(_)) && q.points.is_empty()
+    }
+
+    /// Illuminance on surfaces, at points and on grids for a lighting state. Points (and
+    /// grid points under an emission) are gathered in parallel and stop when `cancel` is
+    /// raised.
+    pub fn illuminance(
+        &self,
+        l: &Lighting,
+        q: &IlluminanceQuery,
+        cancel: &Cancel,
+    ) -> Result<IlluminanceAnswer, QueryError> {
+        let w = l.weights();
+        if let (Some(w), true) = (w, q.points.is_empty()) {
+            let mut h = vec![0f32; 3 * self.patches()];
+            self.per_patch_groups(w, Quantity::Illuminance, &mut h);
+            return Ok(IlluminanceAnswer {
+                unit: "lx",
+                points: vec![],
+                surfaces: self.surface_stats(&q.surfaces, &h),
+                grids: self.grid_answers(&q.grids, w),
+                power: Some(self.luminaire_power(w)),
+            });
+        }
+        let sol = self.solve(l)?;
+        let at = |x: DVec3, n: DVec3| -> [f64; 3] {
+            if cancel.is_cancelled() {
+                [0.0; 3]
+            } else {
+                self.point_illuminance(&sol.b, w, x, n)
+            }
+        };
+        let points: Vec<Lux> = q
+            .points
+            .par_iter()
+            .map(|(x, n)| Lux::new(at(*x, *n)))
+            .collect();
+        cancel.check()?;
+        let grids = match w {
+            Some(w) => self.grid_answers(&q.grids, w),
+            None => q
+                .grids
+                .iter()
+                .map(|&gi| {
+                    let g = &self.grids[gi].grid;
+                    let n = DVec3::from_array(g.normal);
+                    let values: Vec<f32> = g
+                        .points
+                        .par_iter()
+                        .map(|p| luminance64(at(DVec3::from_array(*p), n)) as f32)
+                        .collect();
+                    (g.id.clone(), grid_answer(g, grid::stats(values)))
+                })
+                .collect(),
+        };
+        cancel.check()?;
+        Ok(IlluminanceAnswer {
+            unit: "lx",
+            points,
+            surfaces: self.surface_stats(&q.surfaces, &sol.h),
+            grids,
+            power: w.map(|w| self.luminaire_power(w)),
+        })
+    }
+}
+
+/// Bytes a per-patch answer may hold per patch: the solution (b, h, e: 36), the values
+/// copied out (12) and JSON text (3 numbers of up to 16 characters, 50).
+pub const BYTES_PER_PATCH_ANSWER: u64 = 100;
+
+fn grid_answer(g: &crate::scene::Grid, s: GridStats) -> GridAnswer {
+    GridAnswer {
+        name: g.name.clone(),
+        unit: "lx",
+        count: g.points.len(),
+        layout: g.layout,
+        avg: s.avg,
+        min: s.min,
+        max: s.max,
+        u0: s.u0,
+        min_max: s.min_max,
+        values: s.values,
+    }
+}

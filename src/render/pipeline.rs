@@ -1,0 +1,157 @@
+//! One render pipeline for every front end (`POST /render`, `GET /render.png`,
+//! `relight render`): a view (buffer, optional per-group images) and a lighting state in,
+//! an encoded image out.
+//!
+//! Shaded images show radiance L = B/π (cd/m², from radiosity B in lm/m²), exposed and
+//! tone-mapped for 8-bit formats, linear in EXR/PFM. False colour shows incident
+//! illuminance in lux on a logarithmic scale with a legend.
+
+use super::ViewBuffer;
+use super::{
+    encode_8bit, encode_exr, encode_pfm, false_color, Camera, Format, GroupImages, Shading, ToneMap,
+};
+use crate::color::{luminance, Rgb};
+use crate::model::query::Quantity;
+use crate::model::{Lighting, Model, QueryError};
+
+/// Lowest and highest ends of a false-colour range, lux.
+pub const MIN_RANGE_LUX: f64 = 1e-6;
+pub const MAX_RANGE_LUX: f64 = 1e12;
+
+/// Narrowest and widest vertical field of view accepted, degrees.
+pub const MIN_FOV_DEG: f64 = 1.0;
+pub const MAX_FOV_DEG: f64 = 170.0;
+
+/// What to draw and how.
+#[derive(Debug, Clone)]
+pub struct RenderOptions {
+    pub camera: Camera,
+    /// Stops; None = auto exposure (log-average luminance to middle grey).
+    pub exposure: Option<f32>,
+    pub format: Format,
+    /// Illuminance (lux) in false colour instead of the shaded image.
+    pub falsecolor: bool,
+    pub tonemap: ToneMap,
+    /// False-colour range in lux (default: max/100 .. max).
+    pub range: Option<(f32, f32)>,
+}
+
+/// An encoded image and the settings it was made with.
+pub struct Rendered {
+    pub bytes: Vec<u8>,
+    /// False-colour range in lux, when in false colour.
+    pub range: Option<(f32, f32)>,
+    /// Exposure used, stops (shaded 8-bit images).
+    pub exposure: Option<f32>,
+}
+
+/// Why an image could not be made.
+#[derive(Debug, thiserror::Error)]
+pub enum RenderError {
+    /// The lighting state cannot be answered (the asker's mistake).
+    #[error(transparent)]
+    Query(#[from] QueryError),
+    /// The encoder failed (a bug, never bad input).
+    #[error("encoding the image failed: {0}")]
+    Encode(String),
+}
+
+/// A view of a scene: its rasterization, and per-light-group images when they exist.
+pub struct Frame<'a> {
+    pub view: &'a ViewBuffer,
+    pub groups: Option<&'a GroupImages>,
+    pub shading: &'a Shading,
+}
+
+/// Renders `lighting` through `frame` and encodes it.
+pub fn render(
+    model: &Model,
+    frame: Frame<'_>,
+    lighting: &Lighting,
+    o: &RenderOptions,
+) -> Result<Rendered, RenderError> {
+    let Frame {
+        view,
+        groups,
+        shading,
+    } = frame;
+    let (w, h) = (o.camera.width, o.camera.height);
+    if o.falsecolor {
+        let per_patch = model.per_patch(lighting, Quantity::Illuminance)?;
+        let img = view.gather(&shading.vertex_values(&per_patch), 1.0);
+        let (lo, hi) = o.range.unwrap_or_else(|| default_range(&img));
+        let rgb = false_color(&img, w, h, lo, hi);
+        let bytes = encode_8bit(&rgb, w, h, o.format).map_err(RenderError::Encode)?;
+        return Ok(Rendered {
+            bytes,
+            range: Some((lo, hi)),
+            exposure: None,
+        });
+    }
+    if let (Lighting::Groups(wts), Some(gi)) = (lighting, groups) {
+        return finish(
+            o,
+            |exposure| gi.tonemapped(wts, exposure, o.tonemap),
+            || gi.linear(wts),
+        );
+    }
+    let values = shading.vertex_values(&model.per_patch(lighting, Quantity::Radiosity)?);
+    let scale = std::f32::consts::FRAC_1_PI;
+    finish(
+        o,
+        |exposure| view.gather_tonemapped(&values, scale, exposure, o.tonemap),
+        || view.gather(&values, scale),
+    )
+}
+
+/// Builds the view of `o.camera` and renders once (the command line; the server keeps
+/// views in a cache).
+pub fn render_once(
+    model: &Model,
+    shading: &Shading,
+    lighting: &Lighting,
+    o: &RenderOptions,
+) -> Result<Rendered, RenderError> {
+    let view = ViewBuffer::build(&model.baked.mesh, shading, &o.camera);
+    let frame = Frame {
+        view: &view,
+        groups: None,
+        shading,
+    };
+    render(model, frame, lighting, o)
+}
+
+/// max/100 .. max of an image's luminous values (lux); 0.01 .. 1 for a black image.
+fn default_range(img: &[Rgb]) -> (f32, f32) {
+    let max = img.iter().map(|p| luminance(*p)).fold(0.0, f32::max);
+    let max = if max > 0.0 { max } else { 1.0 };
+    (max / 100.0, max)
+}
+
+/// Encodes a shaded image: linear EXR/PFM from `linear`, else 8-bit from `tonemapped`.
+fn finish(
+    o: &RenderOptions,
+    tonemapped: impl FnOnce(Option<f32>) -> (Vec<u8>, f32),
+    linear: impl FnOnce() -> Vec<Rgb>,
+) -> Result<Rendered, RenderError> {
+    let (w, h) = (o.camera.width, o.camera.height);
+    let linear_bytes = match o.format {
+        Format::Exr => Some(encode_exr(&linear(), w, h).map_err(RenderError::Encode)?),
+        Format::Pfm => Some(encode_pfm(&linear(), w, h)),
+        Format::Png | Format::Jpeg => None,
+    };
+    if let Some(bytes) = linear_bytes {
+        return Ok(Rendered {
+            bytes,
+            range: None,
+            exposure: None,
+        });
+    }
+    let (px, ev) = tonemapped(o.exposure);
+    let bytes = encode_8bit(&px, w, h, o.format).map_err(RenderError::Encode)?;
+    Ok(Rendered {
+        bytes,
+        range: None,
+        exposure: Some(ev),
+    })
+}

@@ -1,0 +1,132 @@
+//! `POST /api/scenes/{id}/radiosity`: per-patch radiosity B (lm/m², leaving) or incident
+//! illuminance H (lux, arriving) for a lighting state, as JSON or binary f32, with
+//! optional per-surface averages.
+
+use std::collections::BTreeMap;
+use std::sync::Arc;
+
+use axum::body::Bytes;
+use axum::extract::rejection::BytesRejection;
+use axum::extract::State;
+use axum::http::{header, HeaderMap};
+use axum::response::{IntoResponse, Response};
+use serde_json::Value;
+
+use super::{binary, wants_binary, ApiResult};
+use crate::model::query::{Quantity, BYTES_PER_PATCH_ANSWER};
+use crate::model::report::{surface_averages, SurfaceAverage};
+use crate::model::Lighting;
+use crate::server::parse::{begin, flag, parse_lighting, shown, SceneId};
+use crate::server::{AppError, AppState};
+
+pub async fn radiosity(
+    State(state): State<Arc<AppState>>,
+    SceneId(id): SceneId,
+    headers: HeaderMap,
+    body: Result<Bytes, BytesRejection>,
+) -> ApiResult {
+    let (ready, body) = begin(
+        &state,
+        &id,
+        &headers,
+        body,
+        &["lights", "emission", "surfaces", "quantity"],
+    )
+    .await?;
+    let want_surfaces = flag(&body, "surfaces")?;
+    let quantity = match body.get("quantity") {
+        None => Quantity::Radiosity,
+        Some(Value::String(q)) if q == "radiosity" => Quantity::Radiosity,
+        Some(Value::String(q)) if q == "illuminance" => Quantity::Illuminance,
+        Some(v) => {
+            return Err(AppError::Invalid(format!(
+                "'quantity' must be \"radiosity\" (lm/m2, leaving) or \"illuminance\" (lux, arriving), got {}", shown(v)
+            )))
+        }
+    };
+    let (key, unit, layout) = match quantity {
+        Quantity::Illuminance => (
+            "illuminance",
+            "lx",
+            "f32 LE [patch][r,g,b] incident illuminance, lx",
+        ),
+        Quantity::Radiosity => (
+            "radiosity",
+            "lm/m2",
+            "f32 LE [patch][r,g,b] radiosity, lm/m2",
+        ),
+    };
+    let lighting = parse_lighting(&body, &ready)?;
+    let n = ready.patches();
+    let binary_out = wants_binary(&headers);
+    // The hot path: group weights and binary out, no surfaces: one weighted sum (a memory
+    // stream of n × groups floats), answered inline.
+    if let (Lighting::Groups(w), true, false) = (&lighting, binary_out, want_surfaces) {
+        let mut out = vec![0f32; 3 * n];
+        ready.per_patch_groups(w, quantity, &mut out);
+        return Ok(binary(out, n, layout));
+    }
+    // Everything else (exact solves, JSON text of n triples) runs off the runtime.
+    let bytes = BYTES_PER_PATCH_ANSWER * n as u64;
+    let what = format!("the radiosity answer for {n} patches");
+    state
+        .heavy(bytes, &what, move |_| {
+            let b = &ready.baked;
+            let sol = ready.solve(&lighting)?;
+            let surfaces = want_surfaces.then(|| surface_averages(&b.scene, &b.mesh, &sol));
+            let values = match quantity {
+                Quantity::Illuminance => sol.h,
+                Quantity::Radiosity => sol.b,
+            };
+            if binary_out {
+                return Ok(binary(values, n, layout));
+            }
+            Ok(radiosity_json(&b.scene.id, unit, key, &values, surfaces))
+        })
+        .await
+}
+
+/// Written by hand: the float array dominates, and ryu into one buffer is ~2x faster
+/// than going through serde for 30,000 numbers.
+fn radiosity_json(
+    scene: &str,
+    unit: &str,
+    key: &str,
+    values: &[f32],
+    surfaces: Option<BTreeMap<String, SurfaceAverage>>,
+) -> Response {
+    let n = values.len() / 3;
+    let mut out = String::with_capacity(40 * n + 256);
+    out.push_str(&format!(
+        "{{\"scene\":{},\"patches\":{n},\"unit\":\"{unit}\",\"{key}\":[",
+        Value::from(scene)
+    ));
+    let mut fb = ryu::Buffer::new();
+    for (i, t) in values.chunks_exact(3).enumerate() {
+        if i > 0 {
+            out.push(',');
+        }
+        out.push('[');
+        for (c, v) in t.iter().enumerate() {
+            if c > 0 {
+                out.push(',');
+            }
+            out.push_str(if v.is_finite() {
+                fb.format_finite(*v)
+            } else {
+                "null"
+            });
+        }
+        out.push(']');
+    }
+    out.push(']');
+    if let Some(s) = surfaces {
+        out.push_str(",\"surfaces\":");
+        match serde_json::to_string(&s) {
+            Ok(text) => out.push_str(&text),
+            Err(e) => return AppError::Internal(e.to_string()).into_response(),
+        }
+    }
+    out.push('}');
+    ([(header::CONTENT_TYPE, "application/json")], out).into_response()
+}

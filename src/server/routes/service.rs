@@ -1,0 +1,83 @@
+//! Service endpoints: `/healthz`, `/readyz`, `/metrics`, `/api/openapi.json`, and the
+//! 404 of unknown API paths.
+
+use std::sync::Arc;
+
+use axum::extract::State;
+use axum::http::{header, StatusCode};
+use axum::response::{IntoResponse, Response};
+use axum::Json;
+use serde_json::{json, Value};
+
+use super::scenes::scene_summary;
+use crate::server::{AppError, AppState};
+
+pub async fn healthz() -> &'static str {
+    "ok"
+}
+
+pub async fn not_found() -> AppError {
+    AppError::NotFound("no such endpoint; see /api/openapi.json".into())
+}
+
+pub async fn metrics(State(state): State<Arc<AppState>>) -> Response {
+    (
+        [(
+            header::CONTENT_TYPE,
+            "text/plain; version=0.0.4; charset=utf-8",
+        )],
+        state.metrics.render() + &memory_metrics(&state),
+    )
+        .into_response()
+}
+
+/// Gauges of the memory budget and the view cache, bytes.
+fn memory_metrics(state: &AppState) -> String {
+    let b = &state.budget;
+    let views = state.views.lock().map(|v| v.bytes()).unwrap_or(0);
+    let mut out = String::new();
+    for (name, help, v) in [
+        (
+            "relight_memory_budget_bytes",
+            "The memory budget.",
+            b.total(),
+        ),
+        (
+            "relight_memory_pinned_bytes",
+            "Bytes held by loaded scenes.",
+            b.pinned(),
+        ),
+        (
+            "relight_memory_reserved_bytes",
+            "Bytes reserved by requests in flight.",
+            b.used(),
+        ),
+        (
+            "relight_view_cache_bytes",
+            "Bytes held by cached view buffers and group images.",
+            views as u64,
+        ),
+    ] {
+        out += &format!("# HELP {name} {help}\n# TYPE {name} gauge\n{name} {v}\n");
+    }
+    out
+}
+
+pub async fn openapi() -> Response {
+    (
+        [(header::CONTENT_TYPE, "application/json")],
+        crate::server::openapi::spec().to_string(),
+    )
+        .into_response()
+}
+
+pub async fn readyz(State(state): State<Arc<AppState>>) -> Response {
+    let scenes: Vec<Value> = state.slots.iter().map(|s| scene_summary(s)).collect();
+    let ready = state.settled();
+    let status = if ready {
+        StatusCode::OK
+    } else {
+        StatusCode::SERVICE_UNAVAILABLE
+    };
+    (status, Json(json!({ "ready": ready, "scenes": scenes }))).into_response()
+}

@@ -1,0 +1,381 @@
+//! The server's shared state: the scene slots (queued → baking → ready | failed), the
+//! bakes (in a child `relight bake --progress-json` process, or in this process for
+//! tests), and [`Ready`], a scene that answers.
+
+use std::path::PathBuf;
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::{Arc, RwLock};
+use std::time::Instant;
+
+use super::{metrics, views, AppError, ServerConfig};
+use crate::bake::{self, BakeOptions, Baked, CachePolicy};
+use crate::model::Model;
+
+pub use crate::model::GroupInfo;
+
+/// A scene ready to answer: its [`Model`] plus what only the server keeps (lazily built
+/// shading data, its pin on the memory budget). Derefs to the model.
+pub struct Ready {
+    pub model: Model,
+    pub bake_seconds: f64,
+    shading: std::sync::OnceLock<crate::render::Shading>,
+    mesh_bytes: std::sync::OnceLock<axum::body::Bytes>,
+    /// This scene's share of the memory budget, held while it is loaded.
+    _pin: Option<crate::budget::Pin>,
+}
+
+impl std::ops::Deref for Ready {
+    type Target = Model;
+    fn deref(&self) -> &Model {
+        &self.model
+    }
+}
+
+impl Ready {
+    fn new(
+        baked: Baked,
+        bake_seconds: f64,
+        budget: Option<&Arc<crate::budget::MemoryBudget>>,
+    ) -> Ready {
+        let model = Model::new(baked);
+        let _pin = budget.map(|b| b.pin(model.bytes()));
+        Ready {
+            _pin,
+            model,
+            bake_seconds,
+            shading: std::sync::OnceLock::new(),
+            mesh_bytes: std::sync::OnceLock::new(),
+        }
+    }
+
+    /// Gouraud shading vertices, built on first use.
+    pub fn shading(&self) -> &crate::render::Shading {
+        self.shading
+            .get_or_init(|| crate::render::Shading::new(&self.baked.mesh))
+    }
+
+    /// The shading mesh as served by `GET /api/scenes/{id}/mesh`, built on first use.
+    pub fn mesh_bytes(&self) -> axum::body::Bytes {
+        self.mesh_bytes
+            .get_or_init(|| self.shading().mesh_bytes(&self.baked.mesh).into())
+            .clone()
+    }
+}
+
+/// Where a scene is in its life.
+pub enum SlotState {
+    Queued,
+    Baking,
+    Ready(Arc<Ready>),
+    Failed(String),
+}
+
+/// One scene folder and its state.
+pub struct SceneSlot {
+    pub id: String,
+    pub dir: PathBuf,
+    progress: AtomicU64,
+    state: RwLock<SlotState>,
+}
+
+impl SceneSlot {
+    fn new(dir: PathBuf) -> SceneSlot {
+        SceneSlot {
+            id: dir
+                .file_name()
+                .map(|s| s.to_string_lossy().into_owned())
+                .unwrap_or_default(),
+            dir,
+            progress: AtomicU64::new(0f64.to_bits()),
+            state: RwLock::new(SlotState::Queued),
+        }
+    }
+
+    /// Bake progress, 0..1.
+    pub fn progress(&self) -> f64 {
+        f64::from_bits(self.progress.load(Ordering::Relaxed))
+    }
+
+    fn set_progress(&self, p: f64) {
+        self.progress.store(p.to_bits(), Ordering::Relaxed);
+    }
+
+    fn set(&self, s: SlotState) {
+        *self.state.write().unwrap_or_else(|p| p.into_inner()) = s;
+    }
+
+    /// Status word and, when ready, the scene.
+    pub fn status(&self) -> (&'static str, Option<Arc<Ready>>, Option<String>) {
+        match &*self.state.read().unwrap_or_else(|p| p.into_inner()) {
+            SlotState::Queued => ("queued", None, None),
+            SlotState::Baking => ("baking", None, None),
+            SlotState::Ready(r) => ("ready", Some(r.clone()), None),
+            SlotState::Failed(e) => ("failed", None, Some(e.clone())),
+        }
+    }
+
+    /// The ready scene, or the 503 that explains why not.
+    pub fn ready(&self) -> Result<Arc<Ready>, AppError> {
+        match self.status() {
+            (_, Some(r), _) => Ok(r),
+            ("failed", _, Some(e)) => Err(AppError::Unavailable {
+                detail: format!("scene '{}' failed to load: {e}", self.id),
+                progress: None,
+            }),
+            (word, _, _) => Err(AppError::Unavailable {
+                detail: format!(
+                    "scene '{}' is {word} ({:.0} % done); retry shortly",
+                    self.id,
+                    self.progress() * 100.0
+                ),
+                progress: Some(self.progress()),
+            }),
+        }
+    }
+
+    /// Bakes or loads the scene; never panics.
+    fn bake(
+        &self,
+        cfg: &ServerConfig,
+        metrics: &metrics::Metrics,
+        budget: &Arc<crate::budget::MemoryBudget>,
+    ) {
+        self.set(SlotState::Baking);
+        let t0 = Instant::now();
+        let result = match (&cfg.bake_command, cfg.read_only) {
+            (Some(exe), false) => self.bake_in_child(exe, cfg),
+            _ => self.bake_here(cfg),
+        };
+        let secs = t0.elapsed().as_secs_f64();
+        match result {
+            Ok(baked) => {
+                tracing::info!(
+                    scene = %self.id,
+                    patches = baked.stats.patches,
+                    from_cache = baked.stats.from_cache,
+                    seconds = secs,
+                    "scene ready"
+                );
+                metrics.bake_done(&self.id, secs, baked.stats.from_cache);
+                self.set_progress(1.0);
+                self.set(SlotState::Ready(Arc::new(Ready::new(
+                    baked,
+                    secs,
+                    Some(budget),
+                ))));
+            }
+            Err(e) => {
+                tracing::error!(scene = %self.id, "scene failed: {e}");
+                self.set(SlotState::Failed(scrub_paths(&e, cfg)));
+            }
+        }
+    }
+
+    fn options(cfg: &ServerConfig) -> BakeOptions {
+        BakeOptions {
+            memory_budget: Some(cfg.memory_budget),
+            ..BakeOptions::default()
+        }
+    }
+
+    /// Loads (read-only) or bakes the scene in this process; a panic becomes an error.
+    fn bake_here(&self, cfg: &ServerConfig) -> Result<Baked, String> {
+        let policy = if cfg.read_only {
+            CachePolicy::ReadOnly(&cfg.cache)
+        } else {
+            CachePolicy::ReadWrite(&cfg.cache)
+        };
+        let result = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+            bake::load_or_bake(&self.dir, policy, &Self::options(cfg), &|stage, f| {
+                self.set_progress(stage.overall(f))
+            })
+        }));
+        match result {
+            Ok(Ok(baked)) => Ok(baked),
+            Ok(Err(e)) => Err(e.to_string()),
+            Err(panic) => {
+                let msg = panic
+                    .downcast_ref::<String>()
+                    .cloned()
+                    .or_else(|| panic.downcast_ref::<&str>().map(|s| s.to_string()))
+                    .unwrap_or_else(|| "unknown panic".into());
+                Err(format!("internal error while baking: {msg}"))
+            }
+        }
+    }
+
+    /// Bakes the scene into the cache in a child `relight bake` process, then loads the
+    /// entry. A bake that exhausts memory kills only the child (which also asks the
+    /// kernel's OOM killer to pick it first).
+    fn bake_in_child(&self, exe: &std::path::Path, cfg: &ServerConfig) -> Result<Baked, String> {
+        use std::io::BufRead;
+        use std::process::{Command, Stdio};
+        // A valid cache entry needs no child at all.
+        if let Ok(baked) = bake::load_or_bake(
+            &self.dir,
+            CachePolicy::ReadOnly(&cfg.cache),
+            &Self::options(cfg),
+            &|_, _| {},
+        ) {
+            return Ok(baked);
+        }
+        let mut child = Command::new(exe)
+            .arg("bake")
+            .arg(&self.dir)
+            .arg("--cache")
+            .arg(&cfg.cache)
+            .arg("--memory-budget")
+            .arg(cfg.memory_budget.to_string())
+            .arg("--progress-json")
+            .stdin(Stdio::null())
+            .stdout(Stdio::piped())
+            .stderr(Stdio::null())
+            .spawn()
+            .map_err(|e| format!("cannot start the bake process: {e}"))?;
+        let mut error = None;
+        if let Some(out) = child.stdout.take() {
+            for line in std::io::BufReader::new(out).lines() {
+                let Ok(line) = line else { break };
+                let Ok(v) = serde_json::from_str::<serde_json::Value>(&line) else {
+                    continue;
+                };
+                if let Some(p) = v.get("progress").and_then(|p| p.as_f64()) {
+                    self.set_progress(p.clamp(0.0, 1.0));
+                }
+                if let Some(e) = v.get("error").and_then(|e| e.as_str()) {
+                    error = Some(e.to_string());
+                }
+            }
+        }
+        let status = child
+            .wait()
+            .map_err(|e| format!("the bake process was lost: {e}"))?;
+        if !status.success() {
+            if let Some(e) = error {
+                return Err(e);
+            }
+            #[cfg(unix)]
+            {
+                use std::os::unix::process::ExitStatusExt;
+                if let Some(sig) = status.signal() {
+                    return Err(format!(
+                        "the bake process was killed by signal {sig}{}",
+                        if sig == 9 {
+                            " (most likely out of memory: lower the scene's patch count or raise the memory limit)"
+                        } else {
+                            ""
+                        }
+                    ));
+                }
+            }
+            return Err(format!("the bake process failed ({status})"));
+        }
+        bake::load_or_bake(
+            &self.dir,
+            CachePolicy::ReadOnly(&cfg.cache),
+            &Self::options(cfg),
+            &|_, _| {},
+        )
+        .map_err(|e| format!("the bake process finished but its cache entry does not load: {e}"))
+    }
+}
+
+/// Removes the server's own absolute paths (scenes and cache folders) from a message that
+/// is shown to clients.
+fn scrub_paths(msg: &str, cfg: &ServerConfig) -> String {
+    let mut out = msg.to_string();
+    for dir in [&cfg.scenes, &cfg.cache] {
+        let mut forms = vec![dir.display().to_string()];
+        if let Ok(c) = dir.canonicalize() {
+            forms.push(c.display().to_string());
+        }
+        forms.sort_by_key(|f| std::cmp::Reverse(f.len()));
+        for f in forms {
+            if f.len() > 1 {
+                out = out.replace(&format!("{f}/"), "").replace(&f, ".");
+            }
+        }
+    }
+    out
+}
+
+/// Shared state of the server.
+pub struct AppState {
+    pub config: ServerConfig,
+    pub slots: Vec<Arc<SceneSlot>>,
+    pub metrics: metrics::Metrics,
+    /// View buffers per (scene, camera, size), an LRU bounded in bytes.
+    pub views: std::sync::Mutex<views::ViewCache>,
+    /// The memory budget every heavy request reserves from.
+    pub budget: Arc<crate::budget::MemoryBudget>,
+    pub(super) heavy_permits: Arc<tokio::sync::Semaphore>,
+    pub(super) heavy_waiting: std::sync::atomic::AtomicUsize,
+}
+
+impl AppState {
+    /// Lists the scene folders (nothing is baked yet).
+    pub fn new(config: ServerConfig) -> std::io::Result<Arc<AppState>> {
+        let slots = bake::scene_dirs(&config.scenes)?
+            .into_iter()
+            .map(|d| Arc::new(SceneSlot::new(d)))
+            .collect();
+        Ok(Self::with_slots(slots, config))
+    }
+
+    fn with_slots(slots: Vec<Arc<SceneSlot>>, config: ServerConfig) -> Arc<AppState> {
+        let budget = crate::budget::MemoryBudget::new(config.memory_budget);
+        Arc::new(AppState {
+            slots,
+            metrics: metrics::Metrics::default(),
+            views: std::sync::Mutex::new(views::ViewCache::new(budget.view_cache_max())),
+            budget,
+            heavy_permits: Arc::new(tokio::sync::Semaphore::new(config.max_concurrent.max(1))),
+            heavy_waiting: Default::default(),
+            config,
+        })
+    }
+
+    /// A state with another configuration over the same scene slots (tests, and replicas
+    /// that share baked scenes). Caches, metrics and the budget start afresh.
+    pub fn reconfigured(&self, config: ServerConfig) -> Arc<AppState> {
+        Self::with_slots(self.slots.clone(), config)
+    }
+
+    /// Bakes every scene on a background thread, one after another.
+    pub fn spawn_bakes(self: &Arc<Self>) {
+        let state = self.clone();
+        std::thread::Builder::new()
+            .name("relight-bake".into())
+            .spawn(move || state.bake_all())
+            .expect("spawn bake thread");
+    }
+
+    /// Bakes every scene on this thread (tests, and `relight serve` replicas that want to
+    /// be ready before listening).
+    pub fn bake_all(&self) {
+        for slot in &self.slots {
+            slot.bake(&self.config, &self.metrics, &self.budget);
+        }
+    }
+
+    pub fn slot(&self, id: &str) -> Result<&Arc<SceneSlot>, AppError> {
+        self.slots.iter().find(|s| s.id == id).ok_or_else(|| {
+            let known: Vec<&str> = self.slots.iter().map(|s| s.id.as_str()).collect();
+            AppError::NotFound(format!(
+                "unknown scene '{id}' (known: {})",
+                if known.is_empty() {
+                    "none".into()
+                } else {
+                    known.join(", ")
+                }
+            ))
+        })
+    }
+
+    /// True when every scene is ready or failed.
+    pub fn settled(&self) -> bool {
+        self.slots
+            .iter()
+            .all(|s| matches!(s.status().0, "ready" | "failed"))
+    }
+}

@@ -1,0 +1,199 @@
+//! The server's cache of views: per (scene, camera, size), the view buffer and, made on
+//! first use, per-light-group images. An LRU bounded by the bytes its entries really hold,
+//! with one build per view however many requests ask for it at once.
+
+use std::collections::{HashMap, VecDeque};
+use std::sync::{Arc, Mutex, OnceLock};
+
+use super::{AppState, Ready};
+use crate::render::pipeline::RenderOptions;
+use crate::render::{Camera, GroupImages, ViewBuffer};
+
+type ViewKey = (String, [u32; 12]);
+
+/// One cached view: its buffer and, made on first use when they are smaller than the
+/// buffer, per-light-group images.
+pub struct View {
+    pub buffer: ViewBuffer,
+    groups: OnceLock<Option<GroupImages>>,
+}
+
+impl View {
+    /// Bytes this entry holds now: the buffer, plus its group images once made.
+    fn bytes(&self) -> usize {
+        self.buffer.bytes()
+            + self
+                .groups
+                .get()
+                .and_then(|g| g.as_ref())
+                .map_or(0, GroupImages::bytes)
+    }
+
+    /// Whether group images for `groups` light groups would still have to be made.
+    fn group_images_pending(&self, groups: usize) -> bool {
+        self.groups.get().is_none() && GroupImages::worthwhile(&self.buffer, groups)
+    }
+
+    /// Per-group images for `ready`'s light groups, or None when a gather reads less.
+    pub fn group_images(&self, ready: &Ready) -> Option<&GroupImages> {
+        self.groups
+            .get_or_init(|| {
+                let t = &ready.baked.transfer;
+                if !GroupImages::worthwhile(&self.buffer, t.group_count()) {
+                    return None;
+                }
+                Some(GroupImages::radiance(&self.buffer, ready.shading(), t))
+            })
+            .as_ref()
+    }
+}
+
+/// A cache slot: filled once by the first request for its key; concurrent requests for
+/// the same key wait for that build instead of building their own.
+#[derive(Default)]
+struct Slot {
+    view: OnceLock<Arc<View>>,
+    building: Mutex<()>,
+}
+
+/// A least-recently-used cache of views, bounded by the bytes its entries really hold
+/// (buffers and group images, measured by allocated capacity).
+pub struct ViewCache {
+    map: HashMap<ViewKey, Arc<Slot>>,
+    order: VecDeque<ViewKey>,
+    max_bytes: usize,
+}
+
+impl ViewCache {
+    pub fn new(max_bytes: u64) -> ViewCache {
+        ViewCache {
+            map: HashMap::new(),
+            order: VecDeque::new(),
+            max_bytes: max_bytes.min(usize::MAX as u64) as usize,
+        }
+    }
+
+    /// The slot for `k`, made empty if new; marks it most recently used.
+    fn slot(&mut self, k: &ViewKey) -> Arc<Slot> {
+        self.order.retain(|x| x != k);
+        self.order.push_back(k.clone());
+        self.map.entry(k.clone()).or_default().clone()
+    }
+
+    /// The finished view for `k`, if cached.
+    fn peek(&self, k: &ViewKey) -> Option<Arc<View>> {
+        self.map.get(k).and_then(|s| s.view.get().cloned())
+    }
+
+    /// Bytes held by finished entries.
+    pub fn bytes(&self) -> usize {
+        self.map
+            .values()
+            .filter_map(|s| s.view.get())
+            .map(|v| v.bytes())
+            .sum()
+    }
+
+    /// Evicts least recently used finished entries until the cache fits its bound.
+    /// Entries still being built are left alone (their builders hold a reservation).
+    pub fn trim(&mut self) {
+        let mut total = self.bytes();
+        let mut k = 0;
+        while total > self.max_bytes && k < self.order.len() {
+            let key = self.order[k].clone();
+            let done = self
+                .map
+                .get(&key)
+                .and_then(|s| s.view.get().map(|v| v.bytes()));
+            match done {
+                Some(b) => {
+                    self.map.remove(&key);
+                    self.order.remove(k);
+                    total -= b;
+                }
+                None => k += 1,
+            }
+        }
+    }
+
+    /// Drops a slot whose build failed, so that the next request tries again.
+    fn forget_empty(&mut self, k: &ViewKey) {
+        if self.map.get(k).is_some_and(|s| s.view.get().is_none()) {
+            self.map.remove(k);
+            self.order.retain(|x| x != k);
+        }
+    }
+
+    /// Finished views cached.
+    pub fn len(&self) -> usize {
+        self.map.values().filter(|s| s.view.get().is_some()).count()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+}
+
+fn view_key(ready: &Ready, cam: &Camera) -> ViewKey {
+    (ready.baked.scene.id.clone(), cam.key())
+}
+
+/// The view buffer for this scene and camera, from the cache or built now. Concurrent
+/// requests for the same view wait for one build. The caller has reserved the build's
+/// memory (see [`render_estimate`]).
+pub fn view_for(state: &AppState, ready: &Ready, cam: &Camera) -> Arc<View> {
+    let key = view_key(ready, cam);
+    let slot = lock(&state.views).slot(&key);
+    if let Some(v) = slot.view.get() {
+        return v.clone();
+    }
+    let _building = lock(&slot.building);
+    if let Some(v) = slot.view.get() {
+        return v.clone();
+    }
+    let built = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+        Arc::new(View {
+            buffer: ViewBuffer::build(&ready.baked.mesh, ready.shading(), cam),
+            groups: OnceLock::new(),
+        })
+    }));
+    match built {
+        Ok(v) => {
+            let v = slot.view.get_or_init(|| v).clone();
+            lock(&state.views).trim();
+            v
+        }
+        Err(p) => {
+            lock(&state.views).forget_empty(&key);
+            std::panic::resume_unwind(p)
+        }
+    }
+}
+
+/// Peak bytes a render may allocate beyond what is cached: the view buffer and group
+/// images when not cached yet, the linear and 8-bit images, and the encoded file.
+pub fn render_estimate(state: &AppState, ready: &Ready, o: &RenderOptions) -> u64 {
+    let px = o.camera.width as u64 * o.camera.height as u64;
+    let groups = ready.baked.transfer.group_count();
+    let n = ready.baked.transfer.n as u64;
+    let images = px * (12 + 3 + 4) + 12 * n * 3;
+    let view = match lock(&state.views).peek(&view_key(ready, &o.camera)) {
+        Some(v) if v.group_images_pending(groups) => GroupImages::estimate_bytes(&v.buffer, groups),
+        Some(_) => 0,
+        None => {
+            ViewBuffer::estimate_bytes(&o.camera)
+                // Group images are at most the size of the buffer (else not made).
+                + 2 * (ViewBuffer::estimate_bytes(&o.camera)).min(24 * groups as u64 * px)
+        }
+    };
+    images + view
+}
+
+fn lock<T>(m: &Mutex<T>) -> std::sync::MutexGuard<'_, T> {
+    m.lock().unwrap_or_else(|p| p.into_inner())
+}
+
+/// Trims the view cache to its bound (after an entry grew by its group images).
+pub fn trim(state: &AppState) {
+    lock(&state.views).trim();
+}
