@@ -3,6 +3,8 @@
 use std::time::Instant;
 
 use relight::bake::{load_or_bake, BakeOptions, CachePolicy};
+use relight::model::query::Quantity;
+use relight::model::Model;
 use relight::render::{self, Camera, Format, GroupImages, Shading, ToneMap, ViewBuffer};
 
 /// Runs `f` 50 times (after 5 warm-ups); per stage, the median of the stage times it
@@ -39,13 +41,16 @@ fn main() {
         ("scenes/cornell-box", "front", 1024, 768, Format::Jpeg),
         ("scenes/desk-room", "door", 1024, 768, Format::Jpeg),
     ] {
-        let b = load_or_bake(
-            scene.as_ref(),
-            CachePolicy::ReadWrite(&cache),
-            &BakeOptions::default(),
-            &|_, _| {},
-        )
-        .unwrap();
+        let model = Model::new(
+            load_or_bake(
+                scene.as_ref(),
+                CachePolicy::ReadWrite(&cache),
+                &BakeOptions::default(),
+                &|_, _| {},
+            )
+            .unwrap(),
+        );
+        let b = &model.baked;
         let shading = Shading::new(&b.mesh);
         let cam = Camera::from_def(
             b.scene.cameras.iter().find(|c| c.id == cam_id).unwrap(),
@@ -60,7 +65,7 @@ fn main() {
         // Any lighting (also per-patch emission): relight, vertex values, gather.
         let m = medians(|| {
             let t0 = Instant::now();
-            b.transfer.relight_into(&weights, &mut out);
+            model.per_patch_groups(&weights, Quantity::Radiosity, &mut out);
             let t1 = Instant::now();
             let vv = shading.vertex_values(&out);
             let t2 = Instant::now();

@@ -6,8 +6,8 @@
 use std::time::Instant;
 
 use relight::bake::{load_or_bake, BakeOptions, CachePolicy};
-use relight::model::grid::GridResponse;
-use relight::model::optimize::{optimize, GridTerms, Target};
+use relight::model::optimize::GridTarget;
+use relight::model::Model;
 
 fn median(mut v: Vec<f64>) -> f64 {
     v.sort_by(f64::total_cmp);
@@ -36,11 +36,11 @@ fn main() {
             .sum::<usize>()
     );
     let t = Instant::now();
-    let grids = GridResponse::build_all(&office.scene, &office.mesh, &office.bvh, &office.transfer);
+    let office = Model::new(office);
     println!(
         "office grids precomputed: {:.2} s ({} points)",
         t.elapsed().as_secs_f64(),
-        grids.iter().map(|g| g.len()).sum::<usize>()
+        office.grids.iter().map(|g| g.len()).sum::<usize>()
     );
 
     // An 8-group room with a 1,092-point work plane.
@@ -49,17 +49,16 @@ fn main() {
     let mut toml = std::fs::read_to_string(dir.path().join("scene.toml")).unwrap();
     toml += "\n[[grids]]\nid = \"workplane\"\nmin = [0.5, 0.5]\nmax = [7.5, 5.5]\nheight = 0.75\nspacing = 0.18\n";
     std::fs::write(dir.path().join("scene.toml"), toml).unwrap();
-    let room = load_or_bake(dir.path(), CachePolicy::Off, &opts, &|_, _| {}).unwrap();
-    let grids = GridResponse::build_all(&room.scene, &room.mesh, &room.bvh, &room.transfer);
-    let g = &grids[0];
-    let groups = room.scene.lights.len();
+    let room = Model::new(load_or_bake(dir.path(), CachePolicy::Off, &opts, &|_, _| {}).unwrap());
+    let g = &room.grids[0];
+    let groups = room.baked.scene.lights.len();
     let times: Vec<f64> = (0..200)
         .map(|k| {
             let w: Vec<[f32; 3]> = (0..groups)
                 .map(|i| [((k + i) % 10) as f32 / 10.0; 3])
                 .collect();
             let t = Instant::now();
-            std::hint::black_box(g.stats(&w));
+            std::hint::black_box(room.grid_answer(0, &w));
             t.elapsed().as_secs_f64() * 1e3
         })
         .collect();
@@ -68,24 +67,20 @@ fn main() {
         g.len(),
         median(times)
     );
-    let flux: Vec<f64> = vec![3000.0; groups];
-    let terms = || GridTerms {
-        free: (0..groups).map(|k| g.group_values(k, [1.0; 3])).collect(),
-        fixed: vec![0.0; g.len()],
-    };
-    let full_avg = g.stats(&vec![[1.0; 3]; groups]).avg;
-    let target = Target {
-        grid: "workplane".into(),
+    let full_avg = room.grid_answer(0, &vec![[1.0; 3]; groups]).avg;
+    let target = GridTarget {
+        grid: 0,
         eavg_min: Some(0.6 * full_avg),
         emin_min: None,
         u0_min: Some(0.5),
     };
+    let base = vec![[1.0f32; 3]; groups];
+    let free: Vec<usize> = (0..groups).collect();
     let times: Vec<f64> = (0..20)
         .map(|_| {
-            let m = terms();
             let t = Instant::now();
-            let levels = optimize(&flux, std::slice::from_ref(&target), &[m]).unwrap();
-            std::hint::black_box(levels);
+            let answer = room.optimize(&base, &free, &[target]).unwrap();
+            std::hint::black_box(answer);
             t.elapsed().as_secs_f64() * 1e3
         })
         .collect();

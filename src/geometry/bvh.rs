@@ -234,43 +234,8 @@ fn build(
     }
     let scale = BINS as f32 / ext[axis];
     let bin_of = |i: u32| (((cent[i as usize][axis] - clo[axis]) * scale) as usize).min(BINS - 1);
-    let mut bcount = [0usize; BINS];
-    let mut blo_b = [Vec3A::splat(f32::INFINITY); BINS];
-    let mut bhi_b = [Vec3A::splat(f32::NEG_INFINITY); BINS];
-    for &i in ids.iter() {
-        let b = bin_of(i);
-        bcount[b] += 1;
-        blo_b[b] = blo_b[b].min(lo[i as usize]);
-        bhi_b[b] = bhi_b[b].max(hi[i as usize]);
-    }
-    let area = |l: Vec3A, h: Vec3A| {
-        let e = (h - l).max(Vec3A::ZERO);
-        e.x * e.y + e.y * e.z + e.z * e.x
-    };
-    let mut best = (f32::INFINITY, 0usize);
-    for split in 1..BINS {
-        let (mut ln, mut rn) = (0usize, 0usize);
-        let (mut l0, mut l1) = (Vec3A::splat(f32::INFINITY), Vec3A::splat(f32::NEG_INFINITY));
-        let (mut r0, mut r1) = (l0, l1);
-        for b in 0..split {
-            ln += bcount[b];
-            l0 = l0.min(blo_b[b]);
-            l1 = l1.max(bhi_b[b]);
-        }
-        for b in split..BINS {
-            rn += bcount[b];
-            r0 = r0.min(blo_b[b]);
-            r1 = r1.max(bhi_b[b]);
-        }
-        if ln == 0 || rn == 0 {
-            continue;
-        }
-        let cost = ln as f32 * area(l0, l1) + rn as f32 * area(r0, r1);
-        if cost < best.0 {
-            best = (cost, split);
-        }
-    }
-    if best.0 >= ids.len() as f32 * area(blo, bhi) && ids.len() <= 16 {
+    let best = best_split(ids, &bin_of, lo, hi);
+    if best.0 >= ids.len() as f32 * half_area(blo, bhi) && ids.len() <= 16 {
         return leaf(nodes);
     }
     let mid = if best.1 == 0 {
@@ -304,6 +269,55 @@ fn build(
     let (l, r) = ids.split_at_mut(mid);
     build(nodes, left, l, first, cent, lo, hi);
     build(nodes, left + 1, r, first + mid as u32, cent, lo, hi);
+}
+
+/// Half the surface area of a box (the SAH's measure).
+fn half_area(l: Vec3A, h: Vec3A) -> f32 {
+    let e = (h - l).max(Vec3A::ZERO);
+    e.x * e.y + e.y * e.z + e.z * e.x
+}
+
+/// The cheapest split by the surface-area heuristic over `BINS` bins: (cost, first bin
+/// of the right side); (∞, 0) when no split leaves both sides non-empty.
+fn best_split(
+    ids: &[u32],
+    bin_of: &impl Fn(u32) -> usize,
+    lo: &[Vec3A],
+    hi: &[Vec3A],
+) -> (f32, usize) {
+    let mut bcount = [0usize; BINS];
+    let mut blo_b = [Vec3A::splat(f32::INFINITY); BINS];
+    let mut bhi_b = [Vec3A::splat(f32::NEG_INFINITY); BINS];
+    for &i in ids.iter() {
+        let b = bin_of(i);
+        bcount[b] += 1;
+        blo_b[b] = blo_b[b].min(lo[i as usize]);
+        bhi_b[b] = bhi_b[b].max(hi[i as usize]);
+    }
+    let mut best = (f32::INFINITY, 0usize);
+    for split in 1..BINS {
+        let (mut ln, mut rn) = (0usize, 0usize);
+        let (mut l0, mut l1) = (Vec3A::splat(f32::INFINITY), Vec3A::splat(f32::NEG_INFINITY));
+        let (mut r0, mut r1) = (l0, l1);
+        for b in 0..split {
+            ln += bcount[b];
+            l0 = l0.min(blo_b[b]);
+            l1 = l1.max(bhi_b[b]);
+        }
+        for b in split..BINS {
+            rn += bcount[b];
+            r0 = r0.min(blo_b[b]);
+            r1 = r1.max(bhi_b[b]);
+        }
+        if ln == 0 || rn == 0 {
+            continue;
+        }
+        let cost = ln as f32 * half_area(l0, l1) + rn as f32 * half_area(r0, r1);
+        if cost < best.0 {
+            best = (cost, split);
+        }
+    }
+    best
 }
 
 #[cfg(test)]

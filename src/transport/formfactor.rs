@@ -179,7 +179,41 @@ pub fn compute(
     progress: &(dyn Fn(f64) + Sync),
 ) -> Vec<f32> {
     let n = mesh.len();
-    let geo: Vec<PatchGeo> = (0..n)
+    let geo = patch_geometry(mesh);
+    let quad = quadrature_tables();
+    let mut f = vec![0f32; n * n];
+    let total_pairs = (n * n.saturating_sub(1) / 2).max(1);
+    let done = AtomicUsize::new(0);
+    let last_report = AtomicUsize::new(0);
+
+    // Pass 1: the symmetric coupling G_ij = A_i F_ij into the upper triangle.
+    f.par_chunks_mut(n)
+        .enumerate()
+        .with_min_len(1)
+        .for_each(|(i, row)| {
+            for j in i + 1..n {
+                row[j] = coupling(&geo, i, j, bvh, opts, &quad);
+            }
+            let pairs = n - i - 1;
+            let now = done.fetch_add(pairs, Ordering::Relaxed) + pairs;
+            let step = total_pairs / 200 + 1;
+            let prev = last_report.load(Ordering::Relaxed);
+            if now >= prev + step
+                && last_report
+                    .compare_exchange(prev, now, Ordering::Relaxed, Ordering::Relaxed)
+                    .is_ok()
+            {
+                progress(now as f64 / total_pairs as f64);
+            }
+        });
+    divide_by_areas(&mut f, &geo);
+    progress(1.0);
+    f
+}
+
+/// Corners, centroid, normal, area, size and source triangle of every patch.
+fn patch_geometry(mesh: &Mesh) -> Vec<PatchGeo> {
+    (0..mesh.len())
         .map(|i| {
             let p = &mesh.patches[i];
             let c = mesh.corners(i);
@@ -195,99 +229,84 @@ pub fn compute(
                 source: p.source,
             }
         })
-        .collect();
-    let quad = quadrature_tables();
-    let mut f = vec![0f32; n * n];
-    let total_pairs = (n * n.saturating_sub(1) / 2).max(1);
-    let done = AtomicUsize::new(0);
-    let last_report = AtomicUsize::new(0);
+        .collect()
+}
 
-    // Pass 1: the symmetric coupling G_ij = A_i F_ij into the upper triangle.
-    f.par_chunks_mut(n)
-        .enumerate()
-        .with_min_len(1)
-        .for_each(|(i, row)| {
-            let a = &geo[i];
-            for j in i + 1..n {
-                let b = &geo[j];
-                let tol = 1e-9 + 1e-7 * (a.size + b.size);
-                if height_above(a, b) <= tol || height_above(b, a) <= tol {
-                    continue;
-                }
-                let d = a.centroid.distance(b.centroid);
-                let level = |own: f64, other: f64| -> usize {
-                    let r = d / own.max(other * 0.5);
-                    match r {
-                        r if r > 8.0 => 0,
-                        r if r > 4.0 => 1,
-                        r if r > 2.0 => 2,
-                        r if r > 1.0 => 3,
-                        _ => 4,
-                    }
-                };
-                let fij = directed(a, b, &quad[level(a.size, b.size)]);
-                let fji = directed(b, a, &quad[level(b.size, a.size)]);
-                let g = 0.5 * (a.area * fij + b.area * fji);
-                if g <= 0.0 {
-                    continue;
-                }
-                let fmax = (g / a.area).max(g / b.area);
-                let rays = ((fmax * opts.rays_per_ff).ceil() as u32)
-                    .clamp(opts.probe_rays, opts.max_rays.max(opts.probe_rays));
-                let mut rng = Rng::new(i, j);
-                let cast = |count: u32, rng: &mut Rng| -> u32 {
-                    let mut free = 0u32;
-                    // Stratify the first sample coordinate of both ends over the rays.
-                    for r in 0..count {
-                        let s = (r as f64 + rng.next_f64()) / count as f64;
-                        let t = ((r * 7 + 3) % count) as f64 / count as f64;
-                        let x = sample_triangle(&a.c, s, rng.next_f64());
-                        let y = sample_triangle(
-                            &b.c,
-                            t + rng.next_f64() / count as f64,
-                            rng.next_f64(),
-                        );
-                        let blocked = bvh.occluded(
-                            Vec3A::from(x.as_vec3()),
-                            Vec3A::from(y.as_vec3()),
-                            [a.source, b.source],
-                        );
-                        free += u32::from(!blocked);
-                    }
-                    free
-                };
-                // Probe first; a pair the probes see as partly hidden gets the full budget
-                // of rays, so shadow boundaries are resolved where they are.
-                let probes = opts.probe_rays.min(rays);
-                let mut free = cast(probes, &mut rng);
-                let mut total = probes;
-                let partial = free != 0 && free != probes;
-                let budget = if partial {
-                    opts.max_rays.max(rays)
-                } else {
-                    rays
-                };
-                if budget > total {
-                    free += cast(budget - total, &mut rng);
-                    total = budget;
-                }
-                let (free, rays) = (free, total);
-                row[j] = (g * free as f64 / rays as f64) as f32;
-            }
-            let pairs = n - i - 1;
-            let now = done.fetch_add(pairs, Ordering::Relaxed) + pairs;
-            let step = total_pairs / 200 + 1;
-            let prev = last_report.load(Ordering::Relaxed);
-            if now >= prev + step
-                && last_report
-                    .compare_exchange(prev, now, Ordering::Relaxed, Ordering::Relaxed)
-                    .is_ok()
-            {
-                progress(now as f64 / total_pairs as f64);
-            }
-        });
+/// The symmetric coupling `G_ij = ½ (A_i F_ij + A_j F_ji)` of patches i < j, m², with
+/// visibility from rays: probes first, the full ray budget for partly hidden pairs.
+fn coupling(
+    geo: &[PatchGeo],
+    i: usize,
+    j: usize,
+    bvh: &Bvh,
+    opts: &FormFactorOptions,
+    quad: &[Vec<DVec3>; 5],
+) -> f32 {
+    let (a, b) = (&geo[i], &geo[j]);
+    let tol = 1e-9 + 1e-7 * (a.size + b.size);
+    if height_above(a, b) <= tol || height_above(b, a) <= tol {
+        return 0.0;
+    }
+    let d = a.centroid.distance(b.centroid);
+    let level = |own: f64, other: f64| -> usize {
+        let r = d / own.max(other * 0.5);
+        match r {
+            r if r > 8.0 => 0,
+            r if r > 4.0 => 1,
+            r if r > 2.0 => 2,
+            r if r > 1.0 => 3,
+            _ => 4,
+        }
+    };
+    let fij = directed(a, b, &quad[level(a.size, b.size)]);
+    let fji = directed(b, a, &quad[level(b.size, a.size)]);
+    let g = 0.5 * (a.area * fij + b.area * fji);
+    if g <= 0.0 {
+        return 0.0;
+    }
+    let fmax = (g / a.area).max(g / b.area);
+    let rays = ((fmax * opts.rays_per_ff).ceil() as u32)
+        .clamp(opts.probe_rays, opts.max_rays.max(opts.probe_rays));
+    let mut rng = Rng::new(i, j);
+    let cast = |count: u32, rng: &mut Rng| -> u32 {
+        let mut free = 0u32;
+        // Stratify the first sample coordinate of both ends over the rays.
+        for r in 0..count {
+            let s = (r as f64 + rng.next_f64()) / count as f64;
+            let t = ((r * 7 + 3) % count) as f64 / count as f64;
+            let x = sample_triangle(&a.c, s, rng.next_f64());
+            let y = sample_triangle(&b.c, t + rng.next_f64() / count as f64, rng.next_f64());
+            let blocked = bvh.occluded(
+                Vec3A::from(x.as_vec3()),
+                Vec3A::from(y.as_vec3()),
+                [a.source, b.source],
+            );
+            free += u32::from(!blocked);
+        }
+        free
+    };
+    // Probe first; a pair the probes see as partly hidden gets the full budget of rays,
+    // so shadow boundaries are resolved where they are.
+    let probes = opts.probe_rays.min(rays);
+    let mut free = cast(probes, &mut rng);
+    let mut total = probes;
+    let partial = free != 0 && free != probes;
+    let budget = if partial {
+        opts.max_rays.max(rays)
+    } else {
+        rays
+    };
+    if budget > total {
+        free += cast(budget - total, &mut rng);
+        total = budget;
+    }
+    (g * free as f64 / total as f64) as f32
+}
 
-    // Pass 2: F_ji = G_ij / A_j into the lower triangle; pass 3: F_ij = G_ij / A_i.
+/// Passes 2 and 3: `F_ji = G_ij / A_j` into the lower triangle, then `F_ij = G_ij / A_i`
+/// in place.
+fn divide_by_areas(f: &mut [f32], geo: &[PatchGeo]) {
+    let n = geo.len();
     let ptr = SyncPtr(f.as_mut_ptr());
     (0..n).into_par_iter().for_each(|j| {
         let p = ptr;
@@ -307,8 +326,6 @@ pub fn compute(
             *x = (*x as f64 * inv) as f32;
         }
     });
-    progress(1.0);
-    f
 }
 
 #[derive(Clone, Copy)]

@@ -159,6 +159,60 @@ pub fn group_emission(scene: &Scene, mesh: &Mesh) -> Vec<Vec<f32>> {
     cols
 }
 
+/// The sources `E + ρ D` as an n × 3G matrix, column 3g + c: emission plus the first
+/// reflection of the group's luminaires' direct illuminance D (lux).
+fn source_matrix(emission: &[Vec<f32>], direct: &[Option<Vec<f32>>], rho: &[Rgb]) -> Mat<f32> {
+    let n = rho.len();
+    let mut e = Mat::<f32>::zeros(n, 3 * emission.len());
+    for (gi, col) in emission.iter().enumerate() {
+        let d = direct.get(gi).and_then(|d| d.as_deref());
+        for i in 0..n {
+            for c in 0..3 {
+                let first = d.map_or(0.0, |d| rho[i][c] * d[3 * i + c]);
+                e[(i, 3 * gi + c)] = col[3 * i + c] + first;
+            }
+        }
+    }
+    e
+}
+
+/// One LU of `(I − ρF)ᵀ` per distinct reflectance channel, and each channel's LU index.
+fn factor_channels(
+    f: &[f32],
+    rho_ch: &[Vec<f32>; 3],
+    n: usize,
+    progress: &(dyn Fn(f64) + Sync),
+) -> (Vec<ChannelLu>, [u8; 3]) {
+    let mut channel_lu = [0u8; 3];
+    let mut distinct: Vec<usize> = Vec::new();
+    for c in 0..3 {
+        match distinct.iter().position(|&d| rho_ch[d] == rho_ch[c]) {
+            Some(k) => channel_lu[c] = k as u8,
+            None => {
+                channel_lu[c] = distinct.len() as u8;
+                distinct.push(c);
+            }
+        }
+    }
+    let mut lus = Vec::new();
+    for (k, &c) in distinct.iter().enumerate() {
+        lus.push(ChannelLu::factor(f, &rho_ch[c], n));
+        progress(0.9 * (k + 1) as f64 / distinct.len() as f64);
+    }
+    (lus, channel_lu)
+}
+
+/// The largest relative residual `‖E − (B − ρ F B)‖∞ / ‖E‖∞` over the columns.
+fn max_residual(e: &Mat<f32>, b: &Mat<f32>, h: &Mat<f32>, rho_of_col: &[&[f32]]) -> f64 {
+    let n = e.nrows();
+    let mut residual = 0f64;
+    for (k, rho) in rho_of_col.iter().enumerate() {
+        let col = |m: &Mat<f32>| -> Vec<f32> { (0..n).map(|i| m[(i, k)]).collect() };
+        residual = residual.max(solve::relative_residual(&col(e), &col(b), &col(h), rho));
+    }
+    residual
+}
+
 impl Transfer {
     /// Solves the scene for its light groups (and factors it in factored mode).
     /// `direct[g]` is the direct illuminance of group g's point luminaires (lux, n × 3 at
@@ -186,38 +240,12 @@ impl Transfer {
         let rho_ch: [Vec<f32>; 3] = std::array::from_fn(|c| rho.iter().map(|r| r[c]).collect());
         let emission = group_emission(scene, mesh);
         let g = emission.len();
-        // E as an n × 3G matrix, column 3g + c.
-        let mut e = Mat::<f32>::zeros(n, 3 * g);
-        for (gi, col) in emission.iter().enumerate() {
-            let d = direct.get(gi).and_then(|d| d.as_deref());
-            for i in 0..n {
-                for c in 0..3 {
-                    let first = d.map_or(0.0, |d| rho[i][c] * d[3 * i + c]);
-                    e[(i, 3 * gi + c)] = col[3 * i + c] + first;
-                }
-            }
-        }
+        let e = source_matrix(&emission, direct, &rho);
         let rho_of_col: Vec<&[f32]> = (0..3 * g).map(|k| rho_ch[k % 3].as_slice()).collect();
 
         let (b, lus, sweeps) = match mode {
             TransferMode::Factored => {
-                // One factorization per distinct channel.
-                let mut channel_lu = [0u8; 3];
-                let mut distinct: Vec<usize> = Vec::new();
-                for c in 0..3 {
-                    match distinct.iter().position(|&d| rho_ch[d] == rho_ch[c]) {
-                        Some(k) => channel_lu[c] = k as u8,
-                        None => {
-                            channel_lu[c] = distinct.len() as u8;
-                            distinct.push(c);
-                        }
-                    }
-                }
-                let mut lus = Vec::new();
-                for (k, &c) in distinct.iter().enumerate() {
-                    lus.push(ChannelLu::factor(&f, &rho_ch[c], n));
-                    progress(0.9 * (k + 1) as f64 / distinct.len() as f64);
-                }
+                let (lus, channel_lu) = factor_channels(&f, &rho_ch, n, progress);
                 let b = solve_refined(&lus, channel_lu, &f, e.as_ref(), &rho_of_col);
                 (b, Some((lus, channel_lu)), 0)
             }
@@ -228,16 +256,7 @@ impl Transfer {
             }
         };
         let h = solve::apply_f(&f, n, b.as_ref());
-        let mut residual = 0f64;
-        for k in 0..3 * g {
-            let col = |m: &Mat<f32>| -> Vec<f32> { (0..n).map(|i| m[(i, k)]).collect() };
-            residual = residual.max(solve::relative_residual(
-                &col(&e),
-                &col(&b),
-                &col(&h),
-                rho_of_col[k],
-            ));
-        }
+        let residual = max_residual(&e, &b, &h, &rho_of_col);
         let groups = (0..g)
             .map(|gi| {
                 let d = direct.get(gi).and_then(|d| d.as_deref());
