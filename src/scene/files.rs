@@ -253,6 +253,37 @@ pub(crate) fn human_bytes(n: u64) -> String {
 }
 
 impl SceneDir {
+    /// The folder's one `.obj` file, canonicalized (it must resolve inside the folder).
+    pub fn find_obj(&self) -> Result<PathBuf, SceneError> {
+        let root = self.display_root();
+        let mut objs: Vec<PathBuf> = std::fs::read_dir(&self.root)
+            .map_err(|source| SceneError::Io {
+                path: root.clone(),
+                source,
+            })?
+            .filter_map(|e| e.ok().map(|e| e.path()))
+            .filter(|p| p.extension().is_some_and(|e| e.eq_ignore_ascii_case("obj")))
+            .collect();
+        objs.sort();
+        match objs.len() {
+            0 => Err(SceneError::NoObj(root)),
+            1 => self.resolve_own(&objs[0]),
+            _ => Err(SceneError::ManyObj {
+                dir: root,
+                files: objs
+                    .iter()
+                    .map(|p| {
+                        p.file_name()
+                            .unwrap_or_default()
+                            .to_string_lossy()
+                            .into_owned()
+                    })
+                    .collect::<Vec<_>>()
+                    .join(", "),
+            }),
+        }
+    }
+
     /// Canonicalizes `path`, a file found by listing the folder (the OBJ, `scene.toml`): it
     /// must resolve inside the folder.
     pub fn resolve_own(&self, path: &Path) -> Result<PathBuf, SceneError> {

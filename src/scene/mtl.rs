@@ -13,7 +13,9 @@
 //! - Misspelt `Kd`/`Ke` (`kd`, `KE`, …) are errors; any other unknown statement is ignored
 //!   with a warning, so no data is dropped silently.
 
+use std::collections::HashMap;
 use std::path::Path;
+use std::str::SplitWhitespace;
 
 use super::SceneError;
 use crate::color::Rgb;
@@ -72,12 +74,14 @@ pub fn parse_mtl_str(path: &str, text: &str) -> Result<MtlLibrary, SceneError> {
 }
 
 pub(crate) fn parse_mtl(path: &Path, text: &str) -> Result<MtlLibrary, SceneError> {
-    let mut lib = MtlLibrary::default();
-    // Per material: whether Kd / Ke were given.
-    let mut given: Vec<[bool; 2]> = Vec::new();
-    let mut lines_of: std::collections::HashMap<String, usize> = Default::default();
-    let mut unknown: Vec<(String, usize)> = Vec::new();
-    let mut unknown_count = 0usize;
+    let mut p = MtlParser {
+        path,
+        lib: MtlLibrary::default(),
+        given: Vec::new(),
+        lines_of: HashMap::new(),
+        unknown: Vec::new(),
+        unknown_count: 0,
+    };
     for (i, raw) in text.lines().enumerate() {
         let line = i + 1;
         let l = raw.trim();
@@ -86,144 +90,204 @@ pub(crate) fn parse_mtl(path: &Path, text: &str) -> Result<MtlLibrary, SceneErro
         if key.starts_with('#') {
             continue;
         }
-        let syntax = |message: String| SceneError::Syntax {
-            path: path.to_path_buf(),
-            line,
-            message,
-        };
         match key {
-            "newmtl" => {
-                let name = l["newmtl".len()..].trim();
-                if name.is_empty() {
-                    return Err(syntax("newmtl needs a material name".into()));
-                }
-                if let Some(prev) = lines_of.get(name) {
-                    return Err(syntax(format!(
-                        "material '{name}' is defined twice (first on line {prev})"
-                    )));
-                }
-                if lib.materials.len() >= MAX_MATERIALS {
-                    return Err(syntax(format!("more than {MAX_MATERIALS} materials")));
-                }
-                lines_of.insert(name.to_string(), line);
-                lib.materials.push(MtlMaterial {
-                    name: name.to_string(),
-                    kd: [0.0; 3],
-                    ke: [0.0; 3],
-                    line,
-                });
-                given.push([false; 2]);
-            }
-            "Kd" | "Ke" => {
-                let (Some(cur), Some(seen)) = (lib.materials.last_mut(), given.last_mut()) else {
-                    return Err(syntax(format!("{key} before any newmtl")));
-                };
-                let bad = |message: String| SceneError::BadMaterial {
-                    path: path.to_path_buf(),
-                    line,
-                    material: cur.name.clone(),
-                    message,
-                };
-                let slot = usize::from(key == "Ke");
-                if seen[slot] {
-                    return Err(bad(format!("{key} is given twice")));
-                }
-                seen[slot] = true;
-                let vals: Vec<&str> = words.take_while(|w| !w.starts_with('#')).collect();
-                if matches!(vals.first(), Some(&"spectral") | Some(&"xyz")) {
-                    return Err(bad(format!("{key}: only RGB values are supported")));
-                }
-                if !matches!(vals.len(), 1 | 3) {
-                    return Err(bad(format!(
-                        "{key} needs 3 numbers (r g b), or 1 for grey; found {}",
-                        vals.len()
-                    )));
-                }
-                let mut v = [0f32; 3];
-                for (k, w) in vals.iter().enumerate() {
-                    let x: f32 = w
-                        .parse()
-                        .map_err(|_| bad(format!("{key}: '{w}' is not a number")))?;
-                    if !x.is_finite() {
-                        return Err(bad(format!("{key}: '{w}' is not a finite 32-bit number")));
-                    }
-                    v[k] = x;
-                }
-                if vals.len() == 1 {
-                    v = [v[0]; 3];
-                }
-                if key == "Kd" {
-                    if v.iter().any(|&x| !(0.0..1.0).contains(&x)) {
-                        return Err(bad(format!(
-                            "Kd {} {} {}: diffuse reflectance must be in [0, 1) per channel \
-                             (a surface cannot reflect all the light it receives)",
-                            v[0], v[1], v[2]
-                        )));
-                    }
-                    cur.kd = v;
-                } else {
-                    if v.iter().any(|&x| !(0.0..=MAX_EXITANCE).contains(&x)) {
-                        return Err(bad(format!(
-                            "Ke {} {} {}: exitance must be in [0, {MAX_EXITANCE:e}] lm/m² \
-                             per channel",
-                            v[0], v[1], v[2]
-                        )));
-                    }
-                    cur.ke = v;
-                }
-            }
+            "newmtl" => p.newmtl(line, l)?,
+            "Kd" | "Ke" => p.color(line, key, words)?,
             k if k.eq_ignore_ascii_case("kd") || k.eq_ignore_ascii_case("ke") => {
-                return Err(syntax(format!(
-                    "unknown statement '{k}' (did you mean '{}'? keywords are case-sensitive)",
-                    if k.eq_ignore_ascii_case("kd") {
-                        "Kd"
-                    } else {
-                        "Ke"
-                    }
-                )));
+                return Err(p.syntax(
+                    line,
+                    format!(
+                        "unknown statement '{k}' (did you mean '{}'? keywords are \
+                         case-sensitive)",
+                        if k.eq_ignore_ascii_case("kd") {
+                            "Kd"
+                        } else {
+                            "Ke"
+                        }
+                    ),
+                ));
             }
-            k if NUMERIC.contains(&k) => {
-                let vals: Vec<&str> = words.take_while(|w| !w.starts_with('#')).collect();
-                // `Ka spectral file.rfl f` and `Ka xyz x y z` name other forms; `d -halo f`
-                // has a flag.
-                let vals: Vec<&str> = vals
-                    .into_iter()
-                    .filter(|w| !matches!(*w, "spectral" | "xyz" | "-halo"))
-                    .collect();
-                if vals.is_empty() {
-                    return Err(syntax(format!("{k} needs a number")));
-                }
-                let spectral_file = |w: &str| w.contains('.') && w.parse::<f64>().is_err();
-                for w in vals {
-                    if !spectral_file(w) && !w.parse::<f64>().is_ok_and(f64::is_finite) {
-                        return Err(syntax(format!("{k}: '{}' is not a number", shorten(w))));
-                    }
-                }
-            }
+            k if NUMERIC.contains(&k) => check_numeric(k, words).map_err(|m| p.syntax(line, m))?,
             k if IGNORED.contains(&k) || k.starts_with("map_") => {}
             k => {
-                unknown_count += 1;
-                if unknown.len() < 3 {
-                    unknown.push((k.chars().take(40).collect(), line));
+                p.unknown_count += 1;
+                if p.unknown.len() < 3 {
+                    p.unknown.push((k.chars().take(40).collect(), line));
                 }
             }
         }
     }
-    if unknown_count > 0 {
-        let at: Vec<String> = unknown
-            .iter()
-            .map(|(k, l)| format!("'{k}' on line {l}"))
-            .collect();
-        lib.warnings.push(format!(
-            "{}: {unknown_count} unknown statement(s) ignored ({}{})",
-            path.display(),
-            at.join(", "),
-            if unknown_count > unknown.len() {
-                ", …"
-            } else {
-                ""
+    Ok(p.finish())
+}
+
+/// The state of one MTL file's reading.
+struct MtlParser<'a> {
+    /// Display name for errors.
+    path: &'a Path,
+    lib: MtlLibrary,
+    /// Per material: whether Kd / Ke were given.
+    given: Vec<[bool; 2]>,
+    /// Line of each material's `newmtl`.
+    lines_of: HashMap<String, usize>,
+    /// The first few unknown statements (keyword, line), and how many there were.
+    unknown: Vec<(String, usize)>,
+    unknown_count: usize,
+}
+
+impl MtlParser<'_> {
+    fn syntax(&self, line: usize, message: String) -> SceneError {
+        SceneError::Syntax {
+            path: self.path.to_path_buf(),
+            line,
+            message,
+        }
+    }
+
+    /// `newmtl NAME`: starts a material.
+    fn newmtl(&mut self, line: usize, l: &str) -> Result<(), SceneError> {
+        let name = l["newmtl".len()..].trim();
+        if name.is_empty() {
+            return Err(self.syntax(line, "newmtl needs a material name".into()));
+        }
+        if let Some(prev) = self.lines_of.get(name) {
+            return Err(self.syntax(
+                line,
+                format!("material '{name}' is defined twice (first on line {prev})"),
+            ));
+        }
+        if self.lib.materials.len() >= MAX_MATERIALS {
+            return Err(self.syntax(line, format!("more than {MAX_MATERIALS} materials")));
+        }
+        self.lines_of.insert(name.to_string(), line);
+        self.lib.materials.push(MtlMaterial {
+            name: name.to_string(),
+            kd: [0.0; 3],
+            ke: [0.0; 3],
+            line,
+        });
+        self.given.push([false; 2]);
+        Ok(())
+    }
+
+    /// `Kd r g b` or `Ke r g b` (or one number for grey) of the current material.
+    fn color(
+        &mut self,
+        line: usize,
+        key: &str,
+        words: SplitWhitespace<'_>,
+    ) -> Result<(), SceneError> {
+        let path = self.path;
+        let (Some(cur), Some(seen)) = (self.lib.materials.last_mut(), self.given.last_mut()) else {
+            return Err(SceneError::Syntax {
+                path: path.to_path_buf(),
+                line,
+                message: format!("{key} before any newmtl"),
+            });
+        };
+        let bad = |message: String| SceneError::BadMaterial {
+            path: path.to_path_buf(),
+            line,
+            material: cur.name.clone(),
+            message,
+        };
+        let slot = usize::from(key == "Ke");
+        if seen[slot] {
+            return Err(bad(format!("{key} is given twice")));
+        }
+        seen[slot] = true;
+        let v = color_values(key, words).map_err(bad)?;
+        if key == "Kd" {
+            if v.iter().any(|&x| !(0.0..1.0).contains(&x)) {
+                return Err(bad(format!(
+                    "Kd {} {} {}: diffuse reflectance must be in [0, 1) per channel \
+                     (a surface cannot reflect all the light it receives)",
+                    v[0], v[1], v[2]
+                )));
             }
+            cur.kd = v;
+        } else {
+            if v.iter().any(|&x| !(0.0..=MAX_EXITANCE).contains(&x)) {
+                return Err(bad(format!(
+                    "Ke {} {} {}: exitance must be in [0, {MAX_EXITANCE:e}] lm/m² \
+                     per channel",
+                    v[0], v[1], v[2]
+                )));
+            }
+            cur.ke = v;
+        }
+        Ok(())
+    }
+
+    /// The library, with one warning summing up the unknown statements.
+    fn finish(mut self) -> MtlLibrary {
+        let (unknown, unknown_count) = (&self.unknown, self.unknown_count);
+        if unknown_count > 0 {
+            let at: Vec<String> = unknown
+                .iter()
+                .map(|(k, l)| format!("'{k}' on line {l}"))
+                .collect();
+            self.lib.warnings.push(format!(
+                "{}: {unknown_count} unknown statement(s) ignored ({}{})",
+                self.path.display(),
+                at.join(", "),
+                if unknown_count > unknown.len() {
+                    ", …"
+                } else {
+                    ""
+                }
+            ));
+        }
+        self.lib
+    }
+}
+
+/// The three channels of a `Kd`/`Ke` statement (one number means grey): finite `f32`s,
+/// not yet range-checked.
+fn color_values(key: &str, words: SplitWhitespace<'_>) -> Result<Rgb, String> {
+    let vals: Vec<&str> = words.take_while(|w| !w.starts_with('#')).collect();
+    if matches!(vals.first(), Some(&"spectral") | Some(&"xyz")) {
+        return Err(format!("{key}: only RGB values are supported"));
+    }
+    if !matches!(vals.len(), 1 | 3) {
+        return Err(format!(
+            "{key} needs 3 numbers (r g b), or 1 for grey; found {}",
+            vals.len()
         ));
     }
-    Ok(lib)
+    let mut v = [0f32; 3];
+    for (k, w) in vals.iter().enumerate() {
+        let x: f32 = w
+            .parse()
+            .map_err(|_| format!("{key}: '{w}' is not a number"))?;
+        if !x.is_finite() {
+            return Err(format!("{key}: '{w}' is not a finite 32-bit number"));
+        }
+        v[k] = x;
+    }
+    if vals.len() == 1 {
+        v = [v[0]; 3];
+    }
+    Ok(v)
+}
+
+/// A numeric statement relight does not use (`k`, one of [`NUMERIC`]): its values must
+/// read as numbers (or name a spectral file).
+fn check_numeric(k: &str, words: SplitWhitespace<'_>) -> Result<(), String> {
+    let vals: Vec<&str> = words.take_while(|w| !w.starts_with('#')).collect();
+    // `Ka spectral file.rfl f` and `Ka xyz x y z` name other forms; `d -halo f`
+    // has a flag.
+    let vals: Vec<&str> = vals
+        .into_iter()
+        .filter(|w| !matches!(*w, "spectral" | "xyz" | "-halo"))
+        .collect();
+    if vals.is_empty() {
+        return Err(format!("{k} needs a number"));
+    }
+    let spectral_file = |w: &str| w.contains('.') && w.parse::<f64>().is_err();
+    for w in vals {
+        if !spectral_file(w) && !w.parse::<f64>().is_ok_and(f64::is_finite) {
+            return Err(format!("{k}: '{}' is not a number", shorten(w)));
+        }
+    }
+    Ok(())
 }

@@ -21,15 +21,15 @@ use crate::limits::{MAX_COORD_M, MAX_MTLLIBS, MAX_OBJ_TRIANGLES, MAX_OBJ_VERTICE
 #[derive(Debug, Clone, Default)]
 pub struct ObjScan {
     /// `mtllib` statements: (file name as written, line).
-    pub mtllibs: Vec<(String, usize)>,
+    pub(crate) mtllibs: Vec<(String, usize)>,
     /// `usemtl` statements: (material name, line).
-    pub usemtl: Vec<(String, usize)>,
+    pub(crate) usemtl: Vec<(String, usize)>,
     /// Number of `v` statements.
-    pub vertices: usize,
+    pub(crate) vertices: usize,
     /// Number of triangles the faces give (fan triangulation).
-    pub triangles: usize,
+    pub(crate) triangles: usize,
     /// Non-fatal notes (ignored statements).
-    pub warnings: Vec<String>,
+    pub(crate) warnings: Vec<String>,
     /// The normalized text handed to tobj.
     normalized: String,
 }
@@ -116,206 +116,253 @@ fn rest<'a>(l: &'a str, keyword: &str) -> &'a str {
 
 /// Validates the OBJ text line by line. `path` is the display name for errors, `scale`
 /// the factor to metres (coordinates must stay within [`MAX_COORD_M`] after it).
-pub fn scan_obj(path: &Path, text: &str, scale: f64) -> Result<ObjScan, SceneError> {
-    let mut s = ObjScan {
-        normalized: String::with_capacity(text.len() / 2 + 64),
-        ..Default::default()
+pub(crate) fn scan_obj(path: &Path, text: &str, scale: f64) -> Result<ObjScan, SceneError> {
+    let mut sc = Scanner {
+        s: ObjScan {
+            normalized: String::with_capacity(text.len() / 2 + 64),
+            ..Default::default()
+        },
+        path,
+        scale,
+        ntex: 0,
+        nnorm: 0,
+        colored: None,
+        ignored: Vec::new(),
+        ignored_count: 0,
     };
     // One synthetic mtllib, first: its loader returns the whole material table.
-    s.normalized.push_str("mtllib relight\n");
-    let (mut ntex, mut nnorm) = (0usize, 0usize);
-    let mut colored: Option<bool> = None;
-    let mut ignored: Vec<(String, usize)> = Vec::new();
-    let mut ignored_count = 0usize;
+    sc.s.normalized.push_str("mtllib relight\n");
     for (i, raw) in text.lines().enumerate() {
         let line = i + 1;
         let l = raw.trim();
         let mut words = l.split_whitespace();
         let Some(key) = words.next() else { continue };
         match key {
-            "v" => {
-                let vals: Vec<&str> = words.collect();
-                if !matches!(vals.len(), 3 | 4 | 6) {
-                    return Err(syntax(
-                        path,
-                        line,
-                        format!(
-                            "vertex needs 3 coordinates (optionally w, or r g b): '{}'",
-                            short(l)
-                        ),
-                    ));
-                }
-                let mut p = [0f32; 3];
-                for (k, w) in vals[..3].iter().enumerate() {
-                    p[k] = coord(path, line, w, "vertex coordinate")?;
-                }
-                if vals.len() == 4 {
-                    let w = coord(path, line, vals[3], "vertex weight w")?;
-                    if w == 0.0 {
-                        return Err(syntax(path, line, "vertex weight w is 0".into()));
-                    }
-                    for c in &mut p {
-                        *c /= w;
-                    }
-                }
-                if vals.len() == 6 {
-                    for w in &vals[3..] {
-                        coord(path, line, w, "vertex colour")?;
-                    }
-                }
-                let has_color = vals.len() == 6;
-                match colored {
-                    None => colored = Some(has_color),
-                    Some(c) if c != has_color => {
-                        return Err(syntax(
-                            path,
-                            line,
-                            "vertex colours must be given for every vertex or for none".into(),
-                        ))
-                    }
-                    _ => {}
-                }
-                for c in p {
-                    let m = c as f64 * scale;
-                    if !(m.is_finite() && m.abs() <= MAX_COORD_M) {
-                        return Err(syntax(
-                            path,
-                            line,
-                            format!(
-                                "vertex coordinate {c} is {m:e} m after scaling; \
-                                 coordinates must lie within ±{MAX_COORD_M:e} m"
-                            ),
-                        ));
-                    }
-                }
-                s.vertices += 1;
-                if s.vertices > MAX_OBJ_VERTICES {
-                    return Err(syntax(
-                        path,
-                        line,
-                        format!("more than {MAX_OBJ_VERTICES} vertices"),
-                    ));
-                }
-                // f32 Display is the shortest text that parses back to the same value.
-                let _ = writeln!(s.normalized, "v {} {} {}", p[0], p[1], p[2]);
-            }
-            "vt" | "vn" => {
-                let need = if key == "vt" { 2 } else { 3 };
-                let vals: Vec<&str> = words.collect();
-                if vals.len() < need {
-                    return Err(syntax(
-                        path,
-                        line,
-                        format!("{key} needs {need} numbers: '{}'", short(l)),
-                    ));
-                }
-                for w in &vals[..need] {
-                    w.parse::<f32>().map_err(|_| {
-                        syntax(path, line, format!("bad {key} value '{w}': not a number"))
-                    })?;
-                }
-                if key == "vt" {
-                    ntex += 1;
-                } else {
-                    nnorm += 1;
-                }
-            }
-            "f" | "l" => {
-                let refs: Vec<&str> = words.collect();
-                let counts = [s.vertices, ntex, nnorm];
-                let mut idx = Vec::with_capacity(refs.len());
-                for w in &refs {
-                    idx.push(vertex_ref(path, line, w, counts)?);
-                }
-                if key == "l" {
-                    if !(1..=2).contains(&refs.len()) {
-                        return Err(syntax(
-                            path,
-                            line,
-                            "line elements ('l') with more than 2 vertices are not supported \
-                             (they would be read as faces); remove them or use 'f'"
-                                .into(),
-                        ));
-                    }
-                    ignored_count += 1;
-                    if ignored.len() < 3 {
-                        ignored.push(("l".into(), line));
-                    }
-                    continue;
-                }
-                if refs.len() < 3 {
-                    return Err(syntax(path, line, "face needs at least 3 vertices".into()));
-                }
-                s.triangles += refs.len() - 2;
-                if s.triangles > MAX_OBJ_TRIANGLES {
-                    return Err(syntax(
-                        path,
-                        line,
-                        format!("more than {MAX_OBJ_TRIANGLES} triangles"),
-                    ));
-                }
-                s.normalized.push('f');
-                for k in idx {
-                    let _ = write!(s.normalized, " {k}");
-                }
-                s.normalized.push('\n');
-            }
+            "v" => sc.vertex(line, l, words.collect())?,
+            "vt" | "vn" => sc.texture_or_normal(line, l, key, words.collect())?,
+            "f" | "l" => sc.face_or_line(line, key, words.collect())?,
             "o" | "g" => {
                 let name = rest(l, key);
-                let _ = writeln!(s.normalized, "{key} {name}");
+                let _ = writeln!(sc.s.normalized, "{key} {name}");
             }
             "mtllib" => {
                 let name = rest(l, key);
                 if name.is_empty() {
                     return Err(syntax(path, line, "mtllib needs a file name".into()));
                 }
-                if s.mtllibs.len() >= MAX_MTLLIBS {
+                if sc.s.mtllibs.len() >= MAX_MTLLIBS {
                     return Err(syntax(
                         path,
                         line,
                         format!("more than {MAX_MTLLIBS} mtllib statements"),
                     ));
                 }
-                s.mtllibs.push((name.to_string(), line));
+                sc.s.mtllibs.push((name.to_string(), line));
             }
             "usemtl" => {
                 let name = rest(l, key);
                 if name.is_empty() {
                     return Err(syntax(path, line, "usemtl needs a material name".into()));
                 }
-                s.usemtl.push((name.to_string(), line));
-                let _ = writeln!(s.normalized, "usemtl {name}");
+                sc.s.usemtl.push((name.to_string(), line));
+                let _ = writeln!(sc.s.normalized, "usemtl {name}");
             }
-            "p" | "curv" | "curv2" | "surf" => {
-                ignored_count += 1;
-                if ignored.len() < 3 {
-                    ignored.push((key.to_string(), line));
-                }
-            }
+            "p" | "curv" | "curv2" | "surf" => sc.ignore(key, line),
             _ => {}
         }
     }
-    if ignored_count > 0 {
-        let at: Vec<String> = ignored
-            .iter()
-            .map(|(k, l)| format!("'{k}' on line {l}"))
-            .collect();
-        s.warnings.push(format!(
-            "{}: {ignored_count} point, line or free-form statement(s) ignored ({}{})",
-            path.display(),
-            at.join(", "),
-            if ignored_count > ignored.len() {
-                ", …"
-            } else {
-                ""
+    Ok(sc.finish())
+}
+
+/// The state of the line-level pass.
+struct Scanner<'a> {
+    s: ObjScan,
+    path: &'a Path,
+    /// Factor from OBJ units to metres.
+    scale: f64,
+    /// Texture coordinates and normals defined so far.
+    ntex: usize,
+    nnorm: usize,
+    /// Whether vertices carry colours (set by the first vertex).
+    colored: Option<bool>,
+    /// The first few ignored statements (keyword, line), and how many there were.
+    ignored: Vec<(String, usize)>,
+    ignored_count: usize,
+}
+
+impl Scanner<'_> {
+    /// A `v x y z [w | r g b]` statement.
+    fn vertex(&mut self, line: usize, l: &str, vals: Vec<&str>) -> Result<(), SceneError> {
+        let path = self.path;
+        if !matches!(vals.len(), 3 | 4 | 6) {
+            return Err(syntax(
+                path,
+                line,
+                format!(
+                    "vertex needs 3 coordinates (optionally w, or r g b): '{}'",
+                    short(l)
+                ),
+            ));
+        }
+        let mut p = [0f32; 3];
+        for (k, w) in vals[..3].iter().enumerate() {
+            p[k] = coord(path, line, w, "vertex coordinate")?;
+        }
+        if vals.len() == 4 {
+            let w = coord(path, line, vals[3], "vertex weight w")?;
+            if w == 0.0 {
+                return Err(syntax(path, line, "vertex weight w is 0".into()));
             }
-        ));
+            for c in &mut p {
+                *c /= w;
+            }
+        }
+        if vals.len() == 6 {
+            for w in &vals[3..] {
+                coord(path, line, w, "vertex colour")?;
+            }
+        }
+        let has_color = vals.len() == 6;
+        match self.colored {
+            None => self.colored = Some(has_color),
+            Some(c) if c != has_color => {
+                return Err(syntax(
+                    path,
+                    line,
+                    "vertex colours must be given for every vertex or for none".into(),
+                ))
+            }
+            _ => {}
+        }
+        for c in p {
+            let m = c as f64 * self.scale;
+            if !(m.is_finite() && m.abs() <= MAX_COORD_M) {
+                return Err(syntax(
+                    path,
+                    line,
+                    format!(
+                        "vertex coordinate {c} is {m:e} m after scaling; \
+                         coordinates must lie within ±{MAX_COORD_M:e} m"
+                    ),
+                ));
+            }
+        }
+        self.s.vertices += 1;
+        if self.s.vertices > MAX_OBJ_VERTICES {
+            return Err(syntax(
+                path,
+                line,
+                format!("more than {MAX_OBJ_VERTICES} vertices"),
+            ));
+        }
+        // f32 Display is the shortest text that parses back to the same value.
+        let _ = writeln!(self.s.normalized, "v {} {} {}", p[0], p[1], p[2]);
+        Ok(())
     }
-    Ok(s)
+
+    /// A `vt u v` or `vn x y z` statement: checked and counted, not passed on.
+    fn texture_or_normal(
+        &mut self,
+        line: usize,
+        l: &str,
+        key: &str,
+        vals: Vec<&str>,
+    ) -> Result<(), SceneError> {
+        let path = self.path;
+        let need = if key == "vt" { 2 } else { 3 };
+        if vals.len() < need {
+            return Err(syntax(
+                path,
+                line,
+                format!("{key} needs {need} numbers: '{}'", short(l)),
+            ));
+        }
+        for w in &vals[..need] {
+            w.parse::<f32>()
+                .map_err(|_| syntax(path, line, format!("bad {key} value '{w}': not a number")))?;
+        }
+        if key == "vt" {
+            self.ntex += 1;
+        } else {
+            self.nnorm += 1;
+        }
+        Ok(())
+    }
+
+    /// An `f` statement (passed on with vertex indices only) or an `l` statement (checked,
+    /// then ignored).
+    fn face_or_line(&mut self, line: usize, key: &str, refs: Vec<&str>) -> Result<(), SceneError> {
+        let path = self.path;
+        let counts = [self.s.vertices, self.ntex, self.nnorm];
+        let mut idx = Vec::with_capacity(refs.len());
+        for w in &refs {
+            idx.push(vertex_ref(path, line, w, counts)?);
+        }
+        if key == "l" {
+            if !(1..=2).contains(&refs.len()) {
+                return Err(syntax(
+                    path,
+                    line,
+                    "line elements ('l') with more than 2 vertices are not supported \
+                     (they would be read as faces); remove them or use 'f'"
+                        .into(),
+                ));
+            }
+            self.ignore("l", line);
+            return Ok(());
+        }
+        if refs.len() < 3 {
+            return Err(syntax(path, line, "face needs at least 3 vertices".into()));
+        }
+        self.s.triangles += refs.len() - 2;
+        if self.s.triangles > MAX_OBJ_TRIANGLES {
+            return Err(syntax(
+                path,
+                line,
+                format!("more than {MAX_OBJ_TRIANGLES} triangles"),
+            ));
+        }
+        self.s.normalized.push('f');
+        for k in idx {
+            let _ = write!(self.s.normalized, " {k}");
+        }
+        self.s.normalized.push('\n');
+        Ok(())
+    }
+
+    /// Notes an ignored point, line or free-form statement.
+    fn ignore(&mut self, key: &str, line: usize) {
+        self.ignored_count += 1;
+        if self.ignored.len() < 3 {
+            self.ignored.push((key.to_string(), line));
+        }
+    }
+
+    /// The scan, with one warning summing up the ignored statements.
+    fn finish(mut self) -> ObjScan {
+        let (ignored, ignored_count) = (&self.ignored, self.ignored_count);
+        if ignored_count > 0 {
+            let at: Vec<String> = ignored
+                .iter()
+                .map(|(k, l)| format!("'{k}' on line {l}"))
+                .collect();
+            self.s.warnings.push(format!(
+                "{}: {ignored_count} point, line or free-form statement(s) ignored ({}{})",
+                self.path.display(),
+                at.join(", "),
+                if ignored_count > ignored.len() {
+                    ", …"
+                } else {
+                    ""
+                }
+            ));
+        }
+        self.s
+    }
 }
 
 /// Checks that every `usemtl` names a material in `materials`.
-pub fn check_usemtl(path: &Path, scan: &ObjScan, materials: &[String]) -> Result<(), SceneError> {
+fn check_usemtl(path: &Path, scan: &ObjScan, materials: &[String]) -> Result<(), SceneError> {
     let known: HashSet<&str> = materials.iter().map(String::as_str).collect();
     for (name, line) in &scan.usemtl {
         if !known.contains(name.as_str()) {
@@ -331,7 +378,7 @@ pub fn check_usemtl(path: &Path, scan: &ObjScan, materials: &[String]) -> Result
 
 /// Builds the objects of a scanned OBJ with tobj. `materials` are the material names in
 /// relight's order; every `usemtl` must name one of them (see [`check_usemtl`]).
-pub fn read_obj(
+pub(crate) fn read_obj(
     path: &Path,
     scan: &ObjScan,
     materials: &[String],

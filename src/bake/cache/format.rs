@@ -1,0 +1,99 @@
+//! The cache file's layout: magic, versions, the JSON header with its section table, and
+//! the sections (names, kinds and exact lengths in bytes) a header must list for its
+//! patch count, groups and mode.
+
+use serde::{Deserialize, Serialize};
+
+use crate::transport::transfer::{SolveInfo, TransferMode};
+
+/// The first 8 bytes of every cache file.
+pub(super) const MAGIC: &[u8; 8] = b"RLTRANS\0";
+/// Bump when the file layout changes.
+pub(super) const FORMAT_VERSION: u32 = 2;
+/// Bump when the numbers a bake produces change (meshing, form factors, solver).
+pub(super) const ALGORITHM_VERSION: u32 = 1;
+/// Largest JSON header accepted, bytes.
+pub(super) const MAX_HEADER_BYTES: usize = 16 << 20;
+/// Bytes before the JSON header: magic, format version, header length.
+pub(super) const PREAMBLE: u64 = 16;
+
+/// One section of the data area: byte offset from its start, length in bytes, and the
+/// XXH3-64 of its bytes (16 hex digits).
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct Section {
+    pub name: String,
+    pub offset: u64,
+    pub len: u64,
+    pub xxh3: String,
+}
+
+/// The JSON header of a cache file.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct Header {
+    pub format_version: u32,
+    pub algorithm_version: u32,
+    pub relight_version: String,
+    pub scene_id: String,
+    pub key: String,
+    pub settings: serde_json::Value,
+    pub patch_count: usize,
+    pub mesh_fingerprint: String,
+    pub mode: TransferMode,
+    pub groups: usize,
+    /// Per group: luminaire flux and its part landing on patches, lm per channel.
+    #[serde(default)]
+    pub group_flux: Vec<[[f64; 3]; 2]>,
+    pub channel_lu: Option<[u8; 3]>,
+    pub lu_count: usize,
+    pub info: SolveInfo,
+    pub sections: Vec<Section>,
+}
+
+/// What a section holds, and its expected length in bytes.
+#[derive(Clone, Copy, PartialEq, Eq)]
+pub(super) enum Kind {
+    /// f32 values.
+    Floats,
+    /// An n × n column-major LU (read straight into its matrix).
+    Lu,
+}
+
+/// The sections a header must list, with their kinds and exact lengths in bytes.
+pub(super) fn expected_sections(h: &Header) -> Option<Vec<(String, Kind, u64)>> {
+    let n = h.patch_count as u64;
+    let vec3 = n.checked_mul(12)?;
+    let vec1 = n.checked_mul(4)?;
+    let square = n.checked_mul(n)?.checked_mul(4)?;
+    let mut out = vec![
+        ("rho".to_string(), Kind::Floats, vec3),
+        ("area".to_string(), Kind::Floats, vec1),
+        ("escape".to_string(), Kind::Floats, vec1),
+    ];
+    // Every group needs three sections listed in the (bounded) header.
+    if h.groups > h.sections.len() {
+        return None;
+    }
+    for g in 0..h.groups {
+        for c in ["e", "b", "h"] {
+            out.push((format!("{c}{g}"), Kind::Floats, vec3));
+        }
+    }
+    match h.mode {
+        TransferMode::Columns => {
+            if h.lu_count != 0 {
+                return None;
+            }
+        }
+        TransferMode::Factored => {
+            if !(1..=3).contains(&h.lu_count) {
+                return None;
+            }
+            out.push(("f".to_string(), Kind::Floats, square));
+            for k in 0..h.lu_count {
+                out.push((format!("lu{k}"), Kind::Lu, square));
+                out.push((format!("perm{k}"), Kind::Floats, vec1));
+            }
+        }
+    }
+    Some(out)
+}

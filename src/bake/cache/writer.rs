@@ -1,0 +1,175 @@
+//! Writing a cache entry: the sections of a transfer (little-endian f32/u32 arrays, LUs
+//! streamed column by column), their checksums and the JSON header, written to a
+//! temporary name in the same folder, synced, then renamed into place.
+
+use std::fs::File;
+use std::io::{BufWriter, Write};
+use std::path::Path;
+
+use xxhash_rust::xxh3::Xxh3;
+
+use super::folder::temp_path;
+use super::format::{Header, Section, ALGORITHM_VERSION, FORMAT_VERSION, MAGIC};
+use super::CacheError;
+use crate::transport::solve::ChannelLu;
+use crate::transport::transfer::Transfer;
+
+/// One section's data, as it is written.
+enum Data<'a> {
+    Bytes(Vec<u8>),
+    Slice(&'a [u8]),
+    /// An LU, streamed column by column from its matrix (no copy of n² floats).
+    Lu(&'a ChannelLu),
+}
+
+impl Data<'_> {
+    fn len(&self) -> u64 {
+        match self {
+            Data::Bytes(b) => b.len() as u64,
+            Data::Slice(b) => b.len() as u64,
+            Data::Lu(lu) => 4 * (lu.lu.nrows() as u64) * (lu.lu.ncols() as u64),
+        }
+    }
+
+    fn each_chunk(&self, f: &mut dyn FnMut(&[u8]) -> std::io::Result<()>) -> std::io::Result<()> {
+        match self {
+            Data::Bytes(b) => f(b),
+            Data::Slice(b) => f(b),
+            Data::Lu(lu) => {
+                for j in 0..lu.lu.ncols() {
+                    f(bytemuck::cast_slice(lu.lu.col_as_slice(j)))?;
+                }
+                Ok(())
+            }
+        }
+    }
+
+    fn xxh3(&self) -> u64 {
+        let mut h = Xxh3::new();
+        let _ = self.each_chunk(&mut |b| {
+            h.update(b);
+            Ok(())
+        });
+        h.digest()
+    }
+}
+
+/// Writes a transfer atomically. Returns the file size in bytes.
+pub fn write(
+    path: &Path,
+    scene_id: &str,
+    key: &str,
+    settings: &serde_json::Value,
+    mesh_fingerprint: u64,
+    t: &Transfer,
+) -> Result<u64, CacheError> {
+    let io = |source| CacheError::Io {
+        path: path.to_path_buf(),
+        source,
+    };
+    let dir = path.parent().unwrap_or(Path::new("."));
+    std::fs::create_dir_all(dir).map_err(io)?;
+
+    let all = sections_of(t);
+    let header = Header {
+        format_version: FORMAT_VERSION,
+        algorithm_version: ALGORITHM_VERSION,
+        relight_version: env!("CARGO_PKG_VERSION").into(),
+        scene_id: scene_id.into(),
+        key: key.into(),
+        settings: settings.clone(),
+        patch_count: t.n,
+        mesh_fingerprint: format!("{mesh_fingerprint:016x}"),
+        mode: t.mode,
+        groups: t.groups.len(),
+        group_flux: t.groups.iter().map(|g| [g.flux, g.landed]).collect(),
+        channel_lu: t.factored.as_ref().map(|f| f.channel_lu),
+        lu_count: t.factored.as_ref().map_or(0, |f| f.lus.len()),
+        info: t.info,
+        sections: section_table(&all),
+    };
+    let hjson = serde_json::to_vec(&header).map_err(|e| io(std::io::Error::other(e)))?;
+
+    let tmp = temp_path(dir, path);
+    let result = write_file(&tmp, path, &hjson, &all);
+    if result.is_err() {
+        let _ = std::fs::remove_file(&tmp);
+    }
+    result.map_err(io)
+}
+
+/// The sections of `t`, named, in file order (f32 data is stored little-endian: this
+/// crate targets little-endian machines, checked at compile time).
+fn sections_of(t: &Transfer) -> Vec<(String, Data<'_>)> {
+    let mut all: Vec<(String, Data)> = Vec::new();
+    let rho: Vec<f32> = t.rho.iter().flatten().copied().collect();
+    all.push((
+        "rho".into(),
+        Data::Bytes(bytemuck::cast_slice(&rho).to_vec()),
+    ));
+    if let Some(f) = &t.factored {
+        for (k, lu) in f.lus.iter().enumerate() {
+            all.push((format!("lu{k}"), Data::Lu(lu)));
+            let perm: Vec<u32> = lu.perm.iter().map(|&p| p as u32).collect();
+            all.push((
+                format!("perm{k}"),
+                Data::Bytes(bytemuck::cast_slice(&perm).to_vec()),
+            ));
+        }
+    }
+    all.push(("area".into(), Data::Slice(bytemuck::cast_slice(&t.area))));
+    all.push((
+        "escape".into(),
+        Data::Slice(bytemuck::cast_slice(&t.escape)),
+    ));
+    for (g, col) in t.groups.iter().enumerate() {
+        all.push((format!("e{g}"), Data::Slice(bytemuck::cast_slice(&col.e))));
+        all.push((format!("b{g}"), Data::Slice(bytemuck::cast_slice(&col.b))));
+        all.push((format!("h{g}"), Data::Slice(bytemuck::cast_slice(&col.h))));
+    }
+    if let Some(f) = &t.factored {
+        all.push(("f".into(), Data::Slice(bytemuck::cast_slice(&f.f))));
+    }
+    all
+}
+
+/// The section table of the header: contiguous offsets, lengths and checksums.
+fn section_table(all: &[(String, Data)]) -> Vec<Section> {
+    let mut sections = Vec::new();
+    let mut offset = 0u64;
+    for (name, data) in all {
+        sections.push(Section {
+            name: name.clone(),
+            offset,
+            len: data.len(),
+            xxh3: format!("{:016x}", data.xxh3()),
+        });
+        offset += data.len();
+    }
+    sections
+}
+
+/// Writes preamble, header and sections to `tmp`, syncs it and renames it to `path`.
+/// Returns the file size in bytes.
+fn write_file(
+    tmp: &Path,
+    path: &Path,
+    hjson: &[u8],
+    all: &[(String, Data)],
+) -> std::io::Result<u64> {
+    let file = File::create(tmp)?;
+    let mut w = BufWriter::with_capacity(1 << 20, file);
+    w.write_all(MAGIC)?;
+    w.write_all(&FORMAT_VERSION.to_le_bytes())?;
+    w.write_all(&(hjson.len() as u32).to_le_bytes())?;
+    w.write_all(hjson)?;
+    for (_, data) in all {
+        data.each_chunk(&mut |b| w.write_all(b))?;
+    }
+    let file = w.into_inner().map_err(|e| e.into_error())?;
+    file.sync_all()?;
+    let size = file.metadata()?.len();
+    drop(file);
+    std::fs::rename(tmp, path)?;
+    Ok(size)
+}

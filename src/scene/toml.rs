@@ -1,0 +1,489 @@
+//! `scene.toml`: the serde structs of the file as written by the user, reading it from the
+//! scene folder, and the range checks of every number in it against [`crate::limits`].
+//!
+//! Lengths in the file are in scene units (`units`/`scale`, converted to metres on load);
+//! range checks on lengths apply after scaling, in metres. Angles are in degrees, flux in
+//! lumens (lm), power in watts (W), efficacy in lm/W, colour temperature in kelvin (K).
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+use serde::{Deserialize, Serialize};
+
+use super::files::{self, SceneDir};
+use super::SceneError;
+use crate::color::Rgb;
+use crate::limits::*;
+
+/// `scene.toml`, as written by the user. Every key is optional.
+#[derive(Debug, Default, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SceneToml {
+    /// Display name.
+    pub(crate) name: Option<String>,
+    /// Length unit of the OBJ coordinates: "m" (default), "cm", "mm", "in" or "ft".
+    pub(crate) units: Option<String>,
+    /// Explicit factor from OBJ units to metres; overrides `units`.
+    pub(crate) scale: Option<f64>,
+    /// "auto" (default), "factored" or "columns".
+    pub(crate) transfer: Option<TransferChoice>,
+    #[serde(default)]
+    pub(crate) mesh: MeshToml,
+    #[serde(default)]
+    pub(crate) lights: Vec<LightToml>,
+    #[serde(default)]
+    pub(crate) cameras: Vec<CameraToml>,
+    /// Point luminaires (IES, spot or isotropic), each in a light group.
+    #[serde(default)]
+    pub(crate) luminaires: Vec<LuminaireToml>,
+    /// Calculation grids: work planes or point lists.
+    #[serde(default)]
+    pub(crate) grids: Vec<GridToml>,
+    /// Per-surface options, keyed by OBJ object/group name.
+    #[serde(default)]
+    pub(crate) surface: BTreeMap<String, FaceOptions>,
+    /// Per-material options, keyed by MTL material name.
+    #[serde(default)]
+    pub(crate) material: BTreeMap<String, FaceOptions>,
+}
+
+#[derive(Debug, Default, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(crate) struct MeshToml {
+    /// Longest patch edge, in scene units.
+    pub(crate) max_edge: Option<f64>,
+    /// Aim for about this many patches when `max_edge` is not given (default 4000).
+    pub(crate) target_patches: Option<usize>,
+}
+
+#[derive(Debug, Default, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(crate) struct FaceOptions {
+    /// Both sides emit, reflect and receive (thin panels).
+    #[serde(default)]
+    pub(crate) two_sided: bool,
+}
+
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(crate) struct LightToml {
+    pub(crate) id: String,
+    pub(crate) name: Option<String>,
+    /// Emissive materials that belong to this group.
+    #[serde(default)]
+    pub(crate) materials: Vec<String>,
+    /// Emissive surfaces (OBJ object/group names) that belong to this group.
+    #[serde(default)]
+    pub(crate) surfaces: Vec<String>,
+    /// Total luminous flux of the group in lumens at intensity 1; rescales its Ke.
+    pub(crate) lumens: Option<f64>,
+    /// Default intensity (dimming factor, 1 = as modelled).
+    pub(crate) intensity: Option<f32>,
+    /// Default colour filter (linear RGB multipliers).
+    pub(crate) color: Option<Rgb>,
+}
+
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(crate) struct LuminaireToml {
+    pub(crate) id: String,
+    /// Light group to join (created when no `[[lights]]` entry has this id); default `id`.
+    pub(crate) group: Option<String>,
+    /// Position, scene units.
+    pub(crate) position: [f64; 3],
+    /// Photometric axis (nadir for type C); default straight down.
+    #[serde(default = "default_aim")]
+    pub(crate) aim: [f64; 3],
+    /// Direction of the C = 0° plane (type C) / the luminaire's length axis.
+    pub(crate) c0: Option<[f64; 3]>,
+    /// Total flux, lm; default: the IES file's (absolute) candela integral.
+    pub(crate) lumens: Option<f64>,
+    /// "isotropic", "spot" or "ies"; default "ies" when `ies` is given, else "isotropic".
+    pub(crate) distribution: Option<String>,
+    /// IES LM-63 file, relative to the scene folder (with its place in `scene.toml`).
+    pub(crate) ies: Option<::toml::Spanned<String>>,
+    /// Spot beam angle (50 % of peak) and field angle (cut-off), full cone, degrees.
+    pub(crate) beam_deg: Option<f64>,
+    pub(crate) field_deg: Option<f64>,
+    /// Linear RGB colour, or a colour temperature in kelvin (blackbody).
+    pub(crate) color: Option<Rgb>,
+    pub(crate) cct: Option<f64>,
+    /// Electrical power (W), or luminous efficacy (lm/W) to derive it.
+    pub(crate) watts: Option<f64>,
+    pub(crate) efficacy: Option<f64>,
+}
+
+fn default_aim() -> [f64; 3] {
+    [0.0, -1.0, 0.0]
+}
+
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(crate) struct GridToml {
+    pub(crate) id: String,
+    pub(crate) name: Option<String>,
+    /// Work plane: horizontal rectangle from `min` = [x, z] to `max` = [x, z] (scene
+    /// units) at `height` above the floor (the scene's lowest point), points at the centres
+    /// of cells about `spacing` wide.
+    pub(crate) min: Option<[f64; 2]>,
+    pub(crate) max: Option<[f64; 2]>,
+    pub(crate) height: Option<f64>,
+    pub(crate) spacing: Option<f64>,
+    /// Or explicit points (scene units).
+    pub(crate) points: Option<Vec<[f64; 3]>>,
+    /// Receiver normal; default up.
+    #[serde(default = "default_up")]
+    pub(crate) normal: [f64; 3],
+}
+
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(crate) struct CameraToml {
+    pub(crate) id: String,
+    pub(crate) position: [f64; 3],
+    pub(crate) target: [f64; 3],
+    #[serde(default = "default_up")]
+    pub(crate) up: [f64; 3],
+    /// Vertical field of view in degrees.
+    pub(crate) fov_deg: f64,
+}
+
+fn default_up() -> [f64; 3] {
+    [0.0, 1.0, 0.0]
+}
+
+/// How the transfer is stored: see [`crate::transport::transfer`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum TransferChoice {
+    #[default]
+    Auto,
+    Factored,
+    Columns,
+}
+
+/// `scene.toml` as read from a scene folder.
+pub(crate) struct TomlFile {
+    /// The name errors use (`<scene id>/scene.toml`), also when there is no such file.
+    pub(crate) path: PathBuf,
+    /// Canonical path of the file, when the folder has one (for the cache key).
+    pub(crate) canon: Option<PathBuf>,
+    /// Its text (empty without a file), for the lines of `ies` references.
+    pub(crate) text: String,
+    /// The parsed and range-checked content (defaults without a file).
+    pub(crate) cfg: SceneToml,
+}
+
+/// Reads and checks the folder's `scene.toml`; a folder without one gets the defaults.
+pub(crate) fn read_scene_toml(sd: &SceneDir) -> Result<TomlFile, SceneError> {
+    let file = sd.root.join("scene.toml");
+    let path = sd.display(&file);
+    let canon = match std::fs::symlink_metadata(&file) {
+        Ok(_) => Some(sd.resolve_own(&file)?),
+        Err(_) => None,
+    };
+    let (cfg, text) = match &canon {
+        Some(p) => {
+            let text = files::to_text(&path, sd.read(p, MAX_TEXT_BYTES)?)?;
+            (parse_toml(&path, &text)?, text)
+        }
+        None => (SceneToml::default(), String::new()),
+    };
+    Ok(TomlFile {
+        path,
+        canon,
+        text,
+        cfg,
+    })
+}
+
+/// Parses the text of a `scene.toml` and checks every number in it against
+/// [`crate::limits`] (what needs the geometry, such as material names, is checked by
+/// [`super::Scene::load`]). `path` is the display name errors use.
+pub fn parse_scene_toml(path: &str, text: &str) -> Result<SceneToml, SceneError> {
+    parse_toml(Path::new(path), text)
+}
+
+fn parse_toml(path: &Path, text: &str) -> Result<SceneToml, SceneError> {
+    let cfg: SceneToml = ::toml::from_str(text).map_err(|e| SceneError::Toml {
+        path: path.to_path_buf(),
+        message: e.to_string().trim_end().replace('\n', " "),
+    })?;
+    validate_toml(&cfg, path)?;
+    Ok(cfg)
+}
+
+/// A number for a message: plain when moderate, else in exponent form (`1e300`, `1e-9`).
+pub(crate) fn num(v: f64) -> String {
+    let a = v.abs();
+    if v == 0.0 || !v.is_finite() || (1e-4..1e15).contains(&a) {
+        format!("{v}")
+    } else {
+        format!("{v:e}")
+    }
+}
+
+/// `lo ≤ v ≤ hi` and finite, else an error naming `what` and the range.
+fn in_range(what: &str, v: f64, lo: f64, hi: f64) -> Result<(), String> {
+    if v.is_finite() && v >= lo && v <= hi {
+        Ok(())
+    } else {
+        Err(format!("{what} = {}: must be in {lo}..={hi:e}", num(v)))
+    }
+}
+
+/// A position in scene units: finite, within ±MAX_COORD_M metres after scaling.
+fn position(what: &str, v: &[f64], scale: f64) -> Result<(), String> {
+    for &x in v {
+        let m = x * scale;
+        if !(x.is_finite() && m.is_finite() && m.abs() <= MAX_COORD_M) {
+            return Err(format!(
+                "{what}: coordinate {} is outside ±{MAX_COORD_M:e} m (after scaling)",
+                num(x)
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// A direction: finite components.
+fn direction(what: &str, v: &[f64; 3]) -> Result<(), String> {
+    if v.iter().all(|x| x.is_finite()) {
+        Ok(())
+    } else {
+        Err(format!("{what} must be finite"))
+    }
+}
+
+/// A colour: finite components in 0..=MAX_COLOR.
+fn color_ok(what: &str, c: &Rgb) -> Result<(), String> {
+    if c.iter()
+        .all(|&x| x.is_finite() && x >= 0.0 && x as f64 <= MAX_COLOR)
+    {
+        Ok(())
+    } else {
+        Err(format!(
+            "{what} must be 3 numbers in 0..={MAX_COLOR} (got {:?})",
+            c
+        ))
+    }
+}
+
+/// Checks the ranges of every number of a `scene.toml` (see [`crate::limits`]).
+fn validate_toml(cfg: &SceneToml, path: &Path) -> Result<(), SceneError> {
+    let inv = |message: String| SceneError::Invalid {
+        path: path.to_path_buf(),
+        message,
+    };
+    let (_, scale) = resolve_units(cfg, path)?;
+    check_counts(cfg).map_err(inv)?;
+    check_mesh(&cfg.mesh, scale).map_err(inv)?;
+    for l in &cfg.lights {
+        check_light(l).map_err(|m| inv(format!("light '{}': {m}", l.id)))?;
+    }
+    for l in &cfg.luminaires {
+        check_luminaire(l, scale).map_err(|m| inv(format!("luminaire '{}': {m}", l.id)))?;
+    }
+    for c in &cfg.cameras {
+        check_camera(c, scale).map_err(|m| inv(format!("camera '{}': {m}", c.id)))?;
+    }
+    // Grid points, counted in f64 over all grids before anything is allocated.
+    let mut grid_points = 0f64;
+    for g in &cfg.grids {
+        check_grid(g, scale, &mut grid_points).map_err(|m| inv(format!("grid '{}': {m}", g.id)))?;
+    }
+    Ok(())
+}
+
+/// The number of entries of each array of tables.
+fn check_counts(cfg: &SceneToml) -> Result<(), String> {
+    for (what, n, max) in [
+        ("[[lights]]", cfg.lights.len(), MAX_TOML_ENTRIES),
+        ("[[luminaires]]", cfg.luminaires.len(), MAX_LUMINAIRES),
+        ("[[grids]]", cfg.grids.len(), MAX_TOML_ENTRIES),
+        ("[[cameras]]", cfg.cameras.len(), MAX_TOML_ENTRIES),
+    ] {
+        if n > max {
+            return Err(format!("{n} {what} entries; the limit is {max}"));
+        }
+    }
+    Ok(())
+}
+
+/// `[mesh]`: `max_edge` (scene units, checked in metres) and `target_patches`.
+fn check_mesh(mesh: &MeshToml, scale: f64) -> Result<(), String> {
+    if let Some(e) = mesh.max_edge {
+        let m = e * scale;
+        if !(e.is_finite() && (MIN_MAX_EDGE_M..=MAX_MAX_EDGE_M).contains(&m)) {
+            return Err(format!(
+                "[mesh] max_edge = {}: must be a length between {MIN_MAX_EDGE_M} m and \
+                 {MAX_MAX_EDGE_M:e} m (after scaling)",
+                num(e)
+            ));
+        }
+    }
+    if let Some(t) = mesh.target_patches {
+        if !(1..=MAX_TARGET_PATCHES).contains(&t) {
+            return Err(format!(
+                "[mesh] target_patches = {t}: must be in 1..={MAX_TARGET_PATCHES}"
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// One `[[lights]]` entry: lumens, intensity, colour.
+fn check_light(l: &LightToml) -> Result<(), String> {
+    if let Some(lm) = l.lumens {
+        in_range("lumens", lm, 0.0, MAX_LUMENS)?;
+    }
+    if let Some(i) = l.intensity {
+        in_range("intensity", i as f64, 0.0, MAX_INTENSITY)?;
+    }
+    if let Some(c) = &l.color {
+        color_ok("color", c)?;
+    }
+    Ok(())
+}
+
+/// One `[[luminaires]]` entry: placement, flux, spot angles (degrees), colour, power.
+fn check_luminaire(l: &LuminaireToml, scale: f64) -> Result<(), String> {
+    position("position", &l.position, scale)?;
+    direction("aim", &l.aim)?;
+    if let Some(c) = &l.c0 {
+        direction("c0", c)?;
+    }
+    if let Some(lm) = l.lumens {
+        in_range("lumens", lm, 0.0, MAX_LUMENS)?;
+    }
+    for (what, v) in [("beam_deg", l.beam_deg), ("field_deg", l.field_deg)] {
+        if let Some(v) = v {
+            if !(v.is_finite() && v > 0.0 && v <= 180.0) {
+                return Err(format!("{what} = {}: must be in (0, 180]", num(v)));
+            }
+        }
+    }
+    if let Some(k) = l.cct {
+        if !(k.is_finite() && (MIN_CCT..=MAX_CCT).contains(&k)) {
+            return Err(format!("cct = {}: must be {MIN_CCT}..{MAX_CCT} K", num(k)));
+        }
+    }
+    if let Some(c) = &l.color {
+        color_ok("color", c)?;
+    }
+    if let Some(w) = l.watts {
+        in_range("watts", w, 0.0, MAX_WATTS)?;
+    }
+    if let Some(e) = l.efficacy {
+        if !(e.is_finite() && e > 0.0 && e <= MAX_EFFICACY) {
+            return Err(format!(
+                "efficacy = {}: must be in (0, {MAX_EFFICACY}] lm/W",
+                num(e)
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// One `[[cameras]]` entry: placement and vertical field of view (degrees).
+fn check_camera(c: &CameraToml, scale: f64) -> Result<(), String> {
+    position("position", &c.position, scale)?;
+    position("target", &c.target, scale)?;
+    direction("up", &c.up)?;
+    if !(c.fov_deg > 0.0 && c.fov_deg < 180.0) {
+        return Err(format!("fov_deg = {}: must be in (0, 180)", num(c.fov_deg)));
+    }
+    Ok(())
+}
+
+/// One `[[grids]]` entry; adds its points to `grid_points`, the running total of all
+/// grids, which must stay within [`MAX_GRID_POINTS_TOTAL`].
+fn check_grid(g: &GridToml, scale: f64, grid_points: &mut f64) -> Result<(), String> {
+    direction("normal", &g.normal)?;
+    if let Some(p) = &g.points {
+        if p.len() > MAX_GRID_POINTS {
+            return Err(format!(
+                "{} points; the limit is {MAX_GRID_POINTS}",
+                p.len()
+            ));
+        }
+        for q in p {
+            position("points", q, scale)?;
+        }
+        *grid_points += p.len() as f64;
+    }
+    for (what, v) in [("min", g.min), ("max", g.max)] {
+        if let Some(v) = v {
+            position(what, &v, scale)?;
+        }
+    }
+    if let Some(h) = g.height {
+        position("height", &[h], scale)?;
+    }
+    if let Some(sp) = g.spacing {
+        let m = sp * scale;
+        if !(sp.is_finite() && m.is_finite() && m >= MIN_GRID_SPACING_M) {
+            return Err(format!(
+                "spacing = {}: must be at least {MIN_GRID_SPACING_M} m (after scaling)",
+                num(sp)
+            ));
+        }
+    }
+    if let (Some(lo), Some(hi)) = (g.min, g.max) {
+        let sp = g.spacing.unwrap_or(0.25 / scale);
+        // Counted in f64 before anything is allocated.
+        let nx = ((hi[0] - lo[0]) / sp).ceil().max(1.0);
+        let nz = ((hi[1] - lo[1]) / sp).ceil().max(1.0);
+        if nx * nz > MAX_GRID_POINTS as f64 {
+            return Err(format!(
+                "{} × {} points; the limit is {MAX_GRID_POINTS}",
+                num(nx),
+                num(nz)
+            ));
+        }
+        *grid_points += nx * nz;
+    }
+    if *grid_points > MAX_GRID_POINTS_TOTAL as f64 {
+        return Err(format!(
+            "the grids have {} points in all; the limit is {MAX_GRID_POINTS_TOTAL}",
+            num(*grid_points)
+        ));
+    }
+    Ok(())
+}
+
+/// The unit label ("m", "mm", …) and its factor to metres.
+pub(crate) fn resolve_units(
+    cfg: &SceneToml,
+    toml_path: &Path,
+) -> Result<(String, f64), SceneError> {
+    if let Some(s) = cfg.scale {
+        if !(s.is_finite() && (MIN_SCALE..=MAX_SCALE).contains(&s)) {
+            return Err(SceneError::Invalid {
+                path: toml_path.into(),
+                message: format!(
+                    "scale = {}: must be a factor to metres in {MIN_SCALE:e}..={MAX_SCALE:e}",
+                    num(s)
+                ),
+            });
+        }
+        return Ok((cfg.units.clone().unwrap_or_else(|| format!("{s} m")), s));
+    }
+    let u = cfg.units.clone().unwrap_or_else(|| "m".into());
+    let s = match u.as_str() {
+        "m" | "metre" | "metres" | "meter" | "meters" => 1.0,
+        "cm" => 0.01,
+        "mm" | "millimetre" | "millimetres" => 0.001,
+        "in" | "inch" | "inches" => 0.0254,
+        "ft" | "foot" | "feet" => 0.3048,
+        other => {
+            return Err(SceneError::Invalid {
+                path: toml_path.into(),
+                message: format!(
+                "units = \"{other}\": use m, cm, mm, in or ft, or give scale = <factor to metres>"
+            ),
+            })
+        }
+    };
+    Ok((u, s))
+}
