@@ -12,6 +12,7 @@ pub mod limits;
 pub mod metrics;
 pub mod openapi;
 pub mod parse;
+mod requests;
 pub mod routes;
 pub mod serve;
 mod state;

@@ -1,4 +1,4 @@
-//! `POST /api/scenes/{id}/batch`: up to [`MAX_BATCH`] lighting states in one request,
+//! `POST /api/scenes/{id}/batch`: up to `MAX_BATCH` lighting states in one request,
 //! each answered with surface illuminance (lux), the power balance (lm), and optionally
 //! grids and per-patch radiosity (lm/m²).
 
@@ -10,54 +10,38 @@ use axum::extract::State;
 use axum::http::HeaderMap;
 use axum::response::IntoResponse;
 use axum::Json;
-use serde_json::{json, Value};
+use serde_json::json;
 
 use super::ApiResult;
 use crate::model::query::BYTES_PER_PATCH_ANSWER;
 use crate::model::report::PowerReport;
 use crate::model::Lighting;
-use crate::server::parse::{
-    begin, check_keys, flag, grid_list, parse_lighting, surface_list, SceneId, MAX_BATCH,
-};
+use crate::server::openapi::{BatchResponse, PostErrors, SceneIdParam};
+use crate::server::parse::{begin, SceneId};
+use crate::server::requests::BatchRequest;
 use crate::server::{AppError, AppState};
 
-pub async fn batch(
+#[utoipa::path(post, path = "/api/scenes/{id}/batch", operation_id = "batch", tag = "scenes",
+    summary = "Up to 1000 lighting states in one request, each with surface illuminance statistics and the power balance.",
+    params(SceneIdParam),
+    request_body(content = BatchRequest, content_type = "application/json",
+        description = "The lighting states and what to report.",
+        example = json!({"states": [{"lights": {"ceiling": 0.25}}, {"lights": {"ceiling": 1}}], "surfaces": ["floor"]})),
+    responses((status = 200, description = "One result per state, in request order.", body = BatchResponse), PostErrors))]
+pub(crate) async fn batch(
     State(state): State<Arc<AppState>>,
     SceneId(id): SceneId,
     headers: HeaderMap,
     body: Result<Bytes, BytesRejection>,
 ) -> ApiResult {
-    let (ready, body) = begin(
-        &state,
-        &id,
-        &headers,
-        body,
-        &["states", "surfaces", "radiosity", "grids"],
-    )
-    .await?;
-    let grids = grid_list(body.get("grids"), &ready)?;
-    let states = body
-        .get("states")
-        .and_then(Value::as_array)
-        .ok_or_else(|| AppError::Invalid("'states' must be an array of lighting states".into()))?;
-    if states.is_empty() || states.len() > MAX_BATCH {
-        return Err(AppError::Invalid(format!(
-            "'states' has {} entries; give 1 to {MAX_BATCH}",
-            states.len()
-        )));
-    }
-    let with_radiosity = flag(&body, "radiosity")?;
-    let mut surfaces = surface_list(body.get("surfaces"), &ready)?;
-    if body.get("surfaces").is_none() {
-        surfaces = (0..ready.baked.scene.surfaces.len()).collect();
-    }
+    let (ready, body): (_, BatchRequest) = begin(&state, &id, &headers, body).await?;
+    let (grids, surfaces) = body.plan(&ready)?;
+    let with_radiosity = body.radiosity;
+    let states = &body.states;
     // Memory: every emission state holds a per-patch vector; every answer holds its
     // surfaces, grids and (when asked) radiosity as JSON values, then as text.
     let n = ready.patches() as u64;
-    let emission_states = states
-        .iter()
-        .filter(|s| s.get("emission").is_some())
-        .count() as u64;
+    let emission_states = states.iter().filter(|s| s.is_emission()).count() as u64;
     let grid_points: u64 = grids.iter().map(|&g| ready.grids[g].len() as u64).sum();
     let per_state =
         400 * surfaces.len() as u64 + 48 * grid_points + if with_radiosity { 150 * n } else { 0 };
@@ -67,16 +51,12 @@ pub async fn batch(
     let r = ready.clone();
     let results = state
         .heavy(bytes, &what, move |cancel| {
-            let states = body.get("states").and_then(Value::as_array).map_or(&[][..], |v| v);
+            let states = &body.states;
             let mut results = Vec::with_capacity(states.len());
             for (k, s) in states.iter().enumerate() {
                 cancel.check()?;
                 let at = |e: AppError| AppError::Invalid(format!("states[{k}]: {e}"));
-                let obj = s
-                    .as_object()
-                    .ok_or_else(|| AppError::Invalid(format!("states[{k}] must be an object")))?;
-                check_keys(obj, &["lights", "emission"]).map_err(at)?;
-                let l = parse_lighting(obj, &r).map_err(at)?;
+                let l = s.lighting(&r).map_err(at)?;
                 let sol = r.solve(&l)?;
                 let mut v = json!({
                     "surfaces": r.surface_stats(&surfaces, &sol.h),

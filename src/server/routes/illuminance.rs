@@ -11,42 +11,26 @@ use axum::response::IntoResponse;
 use axum::Json;
 
 use super::ApiResult;
-use crate::model::query::IlluminanceQuery;
-use crate::server::parse::{begin, grid_list, parse_lighting, parse_points, surface_list, SceneId};
+use crate::server::openapi::{IlluminanceResponse, PostErrors, SceneIdParam};
+use crate::server::parse::{begin, SceneId};
+use crate::server::requests::IlluminanceRequest;
 use crate::server::AppState;
 
-pub async fn illuminance(
+#[utoipa::path(post, path = "/api/scenes/{id}/illuminance", operation_id = "illuminance", tag = "scenes",
+    summary = "Illuminance per surface (avg, min, max, uniformity), at points (direct light of the luminaires plus light gathered from the solved patches, with occlusion), and on calculation grids (Eavg, Emin, Emax, U0, Emin/Emax), with the luminaires' lumens and watts.",
+    params(SceneIdParam),
+    request_body(content = IlluminanceRequest, content_type = "application/json",
+        description = "An empty body gives every surface in the default lighting state.",
+        example = json!({"lights": {"ceiling": {"intensity": 0.8, "color": [1.0, 0.9, 0.8]}}, "surfaces": ["floor"]})),
+    responses((status = 200, description = "Illuminance answers in lux.", body = IlluminanceResponse), PostErrors))]
+pub(crate) async fn illuminance(
     State(state): State<Arc<AppState>>,
     SceneId(id): SceneId,
     headers: HeaderMap,
     body: Result<Bytes, BytesRejection>,
 ) -> ApiResult {
-    let (ready, body) = begin(
-        &state,
-        &id,
-        &headers,
-        body,
-        &["lights", "emission", "surfaces", "points", "grids"],
-    )
-    .await?;
-    let lighting = parse_lighting(&body, &ready)?;
-    let mut q = IlluminanceQuery {
-        surfaces: surface_list(body.get("surfaces"), &ready)?,
-        grids: grid_list(body.get("grids"), &ready)?,
-        points: body
-            .get("points")
-            .map(parse_points)
-            .transpose()?
-            .unwrap_or_default(),
-    };
-    // Nothing asked for: every surface.
-    if q.surfaces.is_empty()
-        && q.points.is_empty()
-        && q.grids.is_empty()
-        && body.get("surfaces").is_none()
-    {
-        q.surfaces = (0..ready.baked.scene.surfaces.len()).collect();
-    }
+    let (ready, body): (_, IlluminanceRequest) = begin(&state, &id, &headers, body).await?;
+    let (lighting, q) = body.query(&ready)?;
     // Group lighting and no points: a weighted sum of precomputed columns, inline.
     if ready.is_cheap(&lighting, &q) {
         let answer = ready.illuminance(&lighting, &q, &Default::default())?;

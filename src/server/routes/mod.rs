@@ -7,13 +7,13 @@ use axum::response::{IntoResponse, Response};
 
 use super::AppError;
 
-pub mod batch;
-pub mod illuminance;
-pub mod optimize;
-pub mod radiosity;
-pub mod render;
-pub mod scenes;
-pub mod service;
+pub(crate) mod batch;
+pub(crate) mod illuminance;
+pub(crate) mod optimize;
+pub(crate) mod radiosity;
+pub(crate) mod render;
+pub(crate) mod scenes;
+pub(crate) mod service;
 
 pub(crate) type ApiResult = Result<Response, AppError>;
 

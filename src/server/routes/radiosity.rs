@@ -16,34 +16,34 @@ use super::{binary, wants_binary, ApiResult};
 use crate::model::query::{Quantity, BYTES_PER_PATCH_ANSWER};
 use crate::model::report::{surface_averages, SurfaceAverage};
 use crate::model::Lighting;
-use crate::server::parse::{begin, flag, parse_lighting, shown, SceneId};
+use crate::server::openapi::{PostErrors, RadiosityBinary, RadiosityResponse, SceneIdParam};
+use crate::server::parse::{begin, SceneId};
+use crate::server::requests::RadiosityRequest;
 use crate::server::{AppError, AppState};
 
-pub async fn radiosity(
+#[utoipa::path(post, path = "/api/scenes/{id}/radiosity", operation_id = "radiosity", tag = "scenes",
+    summary = "Per-patch radiosity for a lighting state (group settings, or a per-patch emission in factored mode).",
+    params(SceneIdParam),
+    request_body(content = RadiosityRequest, content_type = "application/json",
+        description = "An empty body is the default lighting state.",
+        example = json!({"lights": {"ceiling": 0.5}, "surfaces": true})),
+    responses(
+        (status = 200, description = "Per-patch radiosity in lm/m² (or, with quantity = illuminance, incident illuminance in lux), in patch order.",
+            headers(
+                ("X-Relight-Patches" = u64, description = "Binary answer: the number of patches n."),
+                ("X-Relight-Layout" = String, description = "Binary answer: the layout of the bytes."),
+            ),
+            content((RadiosityResponse = "application/json"), (RadiosityBinary = "application/octet-stream"))),
+        PostErrors,
+    ))]
+pub(crate) async fn radiosity(
     State(state): State<Arc<AppState>>,
     SceneId(id): SceneId,
     headers: HeaderMap,
     body: Result<Bytes, BytesRejection>,
 ) -> ApiResult {
-    let (ready, body) = begin(
-        &state,
-        &id,
-        &headers,
-        body,
-        &["lights", "emission", "surfaces", "quantity"],
-    )
-    .await?;
-    let want_surfaces = flag(&body, "surfaces")?;
-    let quantity = match body.get("quantity") {
-        None => Quantity::Radiosity,
-        Some(Value::String(q)) if q == "radiosity" => Quantity::Radiosity,
-        Some(Value::String(q)) if q == "illuminance" => Quantity::Illuminance,
-        Some(v) => {
-            return Err(AppError::Invalid(format!(
-                "'quantity' must be \"radiosity\" (lm/m2, leaving) or \"illuminance\" (lux, arriving), got {}", shown(v)
-            )))
-        }
-    };
+    let (ready, body): (_, RadiosityRequest) = begin(&state, &id, &headers, body).await?;
+    let (want_surfaces, quantity) = (body.surfaces, body.quantity.0);
     let (key, unit, layout) = match quantity {
         Quantity::Illuminance => (
             "illuminance",
@@ -56,7 +56,7 @@ pub async fn radiosity(
             "f32 LE [patch][r,g,b] radiosity, lm/m2",
         ),
     };
-    let lighting = parse_lighting(&body, &ready)?;
+    let lighting = body.lighting(&ready)?;
     let n = ready.patches();
     let binary_out = wants_binary(&headers);
     // The hot path: group weights and binary out, no surfaces: one weighted sum (a memory

@@ -11,6 +11,10 @@ use axum::Json;
 use serde_json::{json, Value};
 
 use super::{binary, wants_binary, ApiResult};
+use crate::server::openapi::{
+    MeshBinary, Patches, PatchesBinary, SceneDetails, SceneErrors, SceneIdParam, SceneList,
+    SizedGetErrors,
+};
 use crate::server::parse::SceneId;
 use crate::server::{AppState, Ready, SceneSlot};
 
@@ -33,13 +37,23 @@ pub(super) fn scene_summary(slot: &SceneSlot) -> Value {
     v
 }
 
-pub async fn list_scenes(State(state): State<Arc<AppState>>) -> Json<Value> {
+#[utoipa::path(get, path = "/api/scenes", operation_id = "listScenes", tag = "scenes",
+    summary = "All scenes with status (queued, baking with progress 0..1, ready, failed with error), patch count and light groups.",
+    responses((status = 200, description = "Scene list.", body = SceneList)))]
+pub(crate) async fn list_scenes(State(state): State<Arc<AppState>>) -> Json<Value> {
     Json(json!({
         "scenes": state.slots.iter().map(|s| scene_summary(s)).collect::<Vec<_>>()
     }))
 }
 
-pub async fn scene_details(State(state): State<Arc<AppState>>, SceneId(id): SceneId) -> ApiResult {
+#[utoipa::path(get, path = "/api/scenes/{id}", operation_id = "sceneDetails", tag = "scenes",
+    summary = "Light groups, cameras, luminaires, calculation grids, surfaces (with patch ranges), bounds, units and transfer mode of a scene.",
+    params(SceneIdParam),
+    responses((status = 200, description = "Scene details.", body = SceneDetails), SceneErrors))]
+pub(crate) async fn scene_details(
+    State(state): State<Arc<AppState>>,
+    SceneId(id): SceneId,
+) -> ApiResult {
     let r = state.slot(&id)?.ready()?;
     let b = &r.baked;
     let (lo, hi) = b.scene.bounds();
@@ -88,7 +102,19 @@ pub async fn scene_details(State(state): State<Arc<AppState>>, SceneId(id): Scen
     .into_response())
 }
 
-pub async fn patches(
+#[utoipa::path(get, path = "/api/scenes/{id}/patches", operation_id = "patches", tag = "scenes",
+    summary = "Per patch: surface, area (m²), centroid and normal (m). JSON, or binary with `Accept: application/octet-stream`.",
+    params(SceneIdParam),
+    responses(
+        (status = 200, description = "Patches in patch order.",
+            headers(
+                ("X-Relight-Patches" = u64, description = "Binary answer: the number of patches."),
+                ("X-Relight-Layout" = String, description = "Binary answer: the layout of the bytes."),
+            ),
+            content((Patches = "application/json"), (PatchesBinary = "application/octet-stream"))),
+        SizedGetErrors,
+    ))]
+pub(crate) async fn patches(
     State(state): State<Arc<AppState>>,
     SceneId(id): SceneId,
     headers: HeaderMap,
@@ -136,7 +162,16 @@ fn patch_list(r: &Ready, binary_out: bool) -> Response {
 }
 
 /// The shading mesh (layout in [`crate::render::Shading::mesh_bytes`]).
-pub async fn mesh(State(state): State<Arc<AppState>>, SceneId(id): SceneId) -> ApiResult {
+#[utoipa::path(get, path = "/api/scenes/{id}/mesh", operation_id = "mesh", tag = "scenes",
+    summary = "The shading mesh for client-side drawing: vertices, triangles (one per patch), surface per triangle, and per-vertex patch weights (vertex colour = Σ weight · B[patch]).",
+    params(SceneIdParam),
+    responses(
+        (status = 200, description = "One binary buffer.",
+            headers(("X-Relight-Layout" = String, description = "The layout of the bytes.")),
+            content((MeshBinary = "application/octet-stream"))),
+        SizedGetErrors,
+    ))]
+pub(crate) async fn mesh(State(state): State<Arc<AppState>>, SceneId(id): SceneId) -> ApiResult {
     let r = state.slot(&id)?.ready()?;
     // Built once per scene, off the runtime; then a cheap clone of shared bytes.
     let n = r.baked.mesh.len() as u64;

@@ -10,17 +10,24 @@ use axum::Json;
 use serde_json::{json, Value};
 
 use super::scenes::scene_summary;
+use crate::server::openapi::{Document, HealthText, MetricsText, Readiness};
 use crate::server::{AppError, AppState};
 
-pub async fn healthz() -> &'static str {
+#[utoipa::path(get, path = "/healthz", operation_id = "healthz", tag = "service",
+    summary = "Liveness: 200 while the process is up.",
+    responses((status = 200, description = "The text `ok`.", body = HealthText, content_type = "text/plain")))]
+pub(crate) async fn healthz() -> &'static str {
     "ok"
 }
 
-pub async fn not_found() -> AppError {
+pub(crate) async fn not_found() -> AppError {
     AppError::NotFound("no such endpoint; see /api/openapi.json".into())
 }
 
-pub async fn metrics(State(state): State<Arc<AppState>>) -> Response {
+#[utoipa::path(get, path = "/metrics", operation_id = "metrics", tag = "service",
+    summary = "Prometheus metrics: requests and latency per route, bake times.",
+    responses((status = 200, description = "Prometheus text exposition format 0.0.4.", body = MetricsText, content_type = "text/plain")))]
+pub(crate) async fn metrics(State(state): State<Arc<AppState>>) -> Response {
     (
         [(
             header::CONTENT_TYPE,
@@ -63,7 +70,10 @@ fn memory_metrics(state: &AppState) -> String {
     out
 }
 
-pub async fn openapi() -> Response {
+#[utoipa::path(get, path = "/api/openapi.json", operation_id = "openapi", tag = "service",
+    summary = "This document.",
+    responses((status = 200, description = "The OpenAPI 3.1 document.", body = Document)))]
+pub(crate) async fn openapi() -> Response {
     (
         [(header::CONTENT_TYPE, "application/json")],
         crate::server::openapi::spec().to_string(),
@@ -71,7 +81,13 @@ pub async fn openapi() -> Response {
         .into_response()
 }
 
-pub async fn readyz(State(state): State<Arc<AppState>>) -> Response {
+#[utoipa::path(get, path = "/readyz", operation_id = "readyz", tag = "service",
+    summary = "Readiness: 200 once every scene is ready or failed, else 503 with every scene's status and progress.",
+    responses(
+        (status = 200, description = "Every scene is ready or failed.", body = Readiness),
+        (status = 503, description = "Some scene is still queued or baking.", body = Readiness),
+    ))]
+pub(crate) async fn readyz(State(state): State<Arc<AppState>>) -> Response {
     let scenes: Vec<Value> = state.slots.iter().map(|s| scene_summary(s)).collect();
     let ready = state.settled();
     let status = if ready {

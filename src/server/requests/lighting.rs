@@ -1,0 +1,334 @@
+//! Lighting in requests: `"lights": {"<group>": 0.5 | {"intensity": 0.5, "color": [r, g,
+//! b]}}` or, in factored mode, a per-patch `"emission"` (dense `[[r, g, b], …]` or sparse
+//! `{"<index>": [r, g, b]}`, lm/m²); and the triples requests are made of.
+
+use std::collections::BTreeMap;
+use std::fmt;
+
+use serde::de::{Deserializer, MapAccess, SeqAccess, Visitor};
+use serde::Deserialize;
+use serde_json::json;
+use utoipa::openapi::schema::Schema;
+use utoipa::openapi::RefOr;
+use utoipa::{PartialSchema, ToSchema};
+
+use super::{raw, schema_ref, some};
+use crate::color::Rgb;
+use crate::model::lighting::{LightState, MAX_EMISSION, MAX_INTENSITY};
+use crate::model::Lighting;
+use crate::server::json::count_rest;
+use crate::server::parse::{bounded, shorten, MAX_COORDINATE};
+use crate::server::{AppError, Ready};
+
+/// Three JSON numbers, as sent; their ranges are checked by whoever uses them.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Triple(pub [f64; 3]);
+
+impl<'de> Deserialize<'de> for Triple {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        struct V;
+        impl<'de> Visitor<'de> for V {
+            type Value = Triple;
+            fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
+                f.write_str("an array of three numbers")
+            }
+            fn visit_seq<A: SeqAccess<'de>>(self, mut seq: A) -> Result<Triple, A::Error> {
+                let mut t = [0.0; 3];
+                for (i, x) in t.iter_mut().enumerate() {
+                    *x = seq
+                        .next_element()?
+                        .ok_or_else(|| serde::de::Error::invalid_length(i, &self))?;
+                }
+                let more = count_rest(&mut seq)?;
+                if more > 0 {
+                    return Err(serde::de::Error::invalid_length(3 + more, &self));
+                }
+                Ok(Triple(t))
+            }
+        }
+        d.deserialize_seq(V)
+    }
+}
+
+/// Declares a triple with its schema (a component of that name).
+macro_rules! triple {
+    ($(#[$doc:meta])* $name:ident, $schema:expr) => {
+        $(#[$doc])*
+        #[derive(Debug, Clone, Copy, Deserialize)]
+        #[serde(transparent)]
+        pub(crate) struct $name(pub Triple);
+
+        impl PartialSchema for $name {
+            fn schema() -> RefOr<Schema> {
+                raw($schema)
+            }
+        }
+        impl ToSchema for $name {}
+    };
+}
+
+fn triple_schema(lo: f64, hi: f64, description: &str) -> serde_json::Value {
+    json!({"type": "array", "items": {"type": "number", "minimum": lo, "maximum": hi},
+        "minItems": 3, "maxItems": 3, "description": description})
+}
+
+triple!(
+    /// A linear RGB colour filter.
+    Color,
+    triple_schema(
+        0.0,
+        MAX_INTENSITY as f64,
+        "Linear RGB colour filter, each channel in [0, 1e6]."
+    )
+);
+triple!(
+    /// A point, metres.
+    Position,
+    triple_schema(
+        -MAX_COORDINATE,
+        MAX_COORDINATE,
+        "A point, metres; each coordinate within ±1e6."
+    )
+);
+triple!(
+    /// A direction (normalised by the server).
+    Direction,
+    {
+        let f = f32::MAX as f64;
+        let mut s = triple_schema(
+            -f,
+            f,
+            "A direction (normalised by the server); not all zero.",
+        );
+        // "Some component is not zero" (spelt without `not`, which generators handle badly).
+        s["contains"] = json!({"anyOf": [{"exclusiveMinimum": 0}, {"exclusiveMaximum": 0}]});
+        s
+    }
+);
+
+/// Light group id → setting. Groups left out keep their defaults.
+#[derive(Debug, Clone, Default, Deserialize)]
+#[serde(transparent)]
+pub(crate) struct Lights(pub BTreeMap<String, LightSetting>);
+
+impl PartialSchema for Lights {
+    fn schema() -> RefOr<Schema> {
+        raw(
+            json!({"type": "object", "additionalProperties": schema_ref("LightSetting"),
+            "description": "Light group id → setting. Groups left out keep their defaults. Unknown groups are a 422."}),
+        )
+    }
+}
+impl ToSchema for Lights {}
+
+/// One group's setting: an intensity, or an intensity and a colour.
+#[derive(Debug, Clone)]
+pub(crate) enum LightSetting {
+    Intensity(f64),
+    Fields(SettingFields),
+}
+
+/// `{"intensity": 0.5, "color": [r, g, b]}`: what is left out keeps the group's default.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(remote = "Self", deny_unknown_fields)]
+pub(crate) struct SettingFields {
+    #[serde(default, deserialize_with = "some")]
+    intensity: Option<f64>,
+    #[serde(default, deserialize_with = "some")]
+    color: Option<Color>,
+}
+
+super::object_only!(SettingFields, "an object {intensity, color}");
+
+impl LightSetting {
+    /// Intensity 1 at colour `c` (the `light.ID=r,g,b` of a query).
+    pub(crate) fn colored(c: Triple) -> LightSetting {
+        LightSetting::Fields(SettingFields {
+            intensity: Some(1.0),
+            color: Some(Color(c)),
+        })
+    }
+}
+
+impl<'de> Deserialize<'de> for LightSetting {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        struct V;
+        impl<'de> Visitor<'de> for V {
+            type Value = LightSetting;
+            fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
+                f.write_str("a number (the intensity) or an object {intensity, color}")
+            }
+            fn visit_f64<E>(self, x: f64) -> Result<LightSetting, E> {
+                Ok(LightSetting::Intensity(x))
+            }
+            fn visit_i64<E>(self, x: i64) -> Result<LightSetting, E> {
+                Ok(LightSetting::Intensity(x as f64))
+            }
+            fn visit_u64<E>(self, x: u64) -> Result<LightSetting, E> {
+                Ok(LightSetting::Intensity(x as f64))
+            }
+            fn visit_map<A: MapAccess<'de>>(self, map: A) -> Result<LightSetting, A::Error> {
+                let de = serde::de::value::MapAccessDeserializer::new(map);
+                SettingFields::deserialize(de).map(LightSetting::Fields)
+            }
+        }
+        d.deserialize_any(V)
+    }
+}
+
+impl PartialSchema for LightSetting {
+    fn schema() -> RefOr<Schema> {
+        let intensity = json!({"type": "number", "minimum": 0, "maximum": MAX_INTENSITY});
+        let mut level = intensity.clone();
+        level["description"] = json!("Intensity (dimming factor; 1 = as modelled).");
+        raw(
+            json!({"oneOf": [level, {"type": "object", "additionalProperties": false,
+            "properties": {"intensity": intensity, "color": schema_ref("Color")}}]}),
+        )
+    }
+}
+impl ToSchema for LightSetting {}
+
+/// Per-patch emitted exitance, lm/m²: one `[r, g, b]` per patch, or patch index → `[r,
+/// g, b]`.
+#[derive(Debug, Clone)]
+pub(crate) enum Emission {
+    Dense(Vec<Triple>),
+    Sparse(BTreeMap<String, Triple>),
+}
+
+impl<'de> Deserialize<'de> for Emission {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        struct V;
+        impl<'de> Visitor<'de> for V {
+            type Value = Emission;
+            fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
+                f.write_str("an array of [r,g,b] per patch or an object of patch index → [r,g,b]")
+            }
+            fn visit_seq<A: SeqAccess<'de>>(self, mut seq: A) -> Result<Emission, A::Error> {
+                let mut out = Vec::with_capacity(seq.size_hint().unwrap_or(0).min(4096));
+                while let Some(t) = seq.next_element()? {
+                    out.push(t);
+                }
+                Ok(Emission::Dense(out))
+            }
+            fn visit_map<A: MapAccess<'de>>(self, mut map: A) -> Result<Emission, A::Error> {
+                let mut out = BTreeMap::new();
+                while let Some((k, t)) = map.next_entry()? {
+                    out.insert(k, t);
+                }
+                Ok(Emission::Sparse(out))
+            }
+        }
+        d.deserialize_any(V)
+    }
+}
+
+impl PartialSchema for Emission {
+    fn schema() -> RefOr<Schema> {
+        let exitance = triple_schema(
+            0.0,
+            MAX_EMISSION,
+            "Emitted exitance [r, g, b], lm/m², each in [0, 1e9].",
+        );
+        raw(json!({
+        "description": "Factored mode only: per-patch emitted exitance (lm/m²), dense (one [r,g,b] per patch, exactly as many as the scene has patches) or sparse (patch index → [r,g,b]). Replaces the light groups.",
+        "oneOf": [
+            {"type": "array", "items": exitance},
+            {"type": "object", "propertyNames": {"pattern": "^(0|[1-9][0-9]*)$"}, "additionalProperties": exitance}
+        ]}))
+    }
+}
+impl ToSchema for Emission {}
+
+/// An intensity (dimming factor) in `[0, MAX_INTENSITY]`.
+fn intensity(x: f64, what: &str) -> Result<f32, AppError> {
+    Ok(bounded(x, what, 0.0, MAX_INTENSITY as f64)? as f32)
+}
+
+/// A colour filter, each channel in `[0, MAX_INTENSITY]`.
+fn color(c: Color, what: &str) -> Result<Rgb, AppError> {
+    for x in c.0 .0 {
+        bounded(x, what, 0.0, MAX_INTENSITY as f64)?;
+    }
+    Ok(c.0 .0.map(|x| x as f32))
+}
+
+/// Per-group weights of a lighting state (absent: every group at its default).
+pub(crate) fn light_weights(lights: Option<&Lights>, ready: &Ready) -> Result<Vec<Rgb>, AppError> {
+    let scene = &ready.baked.scene;
+    let mut state = LightState::default();
+    for (id, s) in lights.map(|l| &l.0).into_iter().flatten() {
+        let name = shorten(id);
+        let (level, rgb) = match s {
+            LightSetting::Intensity(x) => (Some(intensity(*x, &format!("light '{name}'"))?), None),
+            LightSetting::Fields(f) => (
+                f.intensity
+                    .map(|x| intensity(x, &format!("light '{name}' intensity")))
+                    .transpose()?,
+                f.color
+                    .map(|c| color(c, &format!("light '{name}' color")))
+                    .transpose()?,
+            ),
+        };
+        state.set(scene, id, level, rgb)?;
+    }
+    Ok(ready.weights(&state)?)
+}
+
+/// The per-patch emission vector, n × 3 (factored transfer only).
+pub(crate) fn emission_vector(e: &Emission, ready: &Ready) -> Result<Vec<f32>, AppError> {
+    ready.require_factored()?;
+    let n = ready.patches();
+    let mut out = vec![0f32; 3 * n];
+    let mut put = |i: usize, t: &Triple| -> Result<(), AppError> {
+        let rgb = ready.emission_value(i, t.0)?;
+        out[3 * i..3 * i + 3].copy_from_slice(&rgb);
+        Ok(())
+    };
+    match e {
+        Emission::Dense(list) => {
+            if list.len() != n {
+                return Err(AppError::Invalid(format!(
+                    "emission has {} entries; the scene has {n} patches (one [r,g,b] per patch)",
+                    list.len()
+                )));
+            }
+            for (i, t) in list.iter().enumerate() {
+                put(i, t)?;
+            }
+        }
+        Emission::Sparse(map) => {
+            for (k, t) in map {
+                // Canonical decimal indices only: "+1", "01" or " 1" would alias patch 1.
+                let i: usize = k
+                    .parse()
+                    .ok()
+                    .filter(|i: &usize| i.to_string() == *k)
+                    .ok_or_else(|| {
+                        AppError::Invalid(format!(
+                            "emission key '{}' is not a patch index (a decimal number without sign or leading zeros)",
+                            k.chars().take(40).collect::<String>()
+                        ))
+                    })?;
+                put(i, t)?;
+            }
+        }
+    }
+    Ok(out)
+}
+
+/// A lighting state from a request's `lights` and `emission` (at most one of them).
+pub(crate) fn lighting(
+    lights: Option<&Lights>,
+    emission: Option<&Emission>,
+    ready: &Ready,
+) -> Result<Lighting, AppError> {
+    match (lights, emission) {
+        (Some(_), Some(_)) => Err(AppError::Invalid(
+            "give either 'lights' (group settings) or 'emission' (per patch), not both".into(),
+        )),
+        (_, Some(e)) => Ok(Lighting::Emission(emission_vector(e, ready)?)),
+        (l, None) => Ok(Lighting::Groups(light_weights(l, ready)?)),
+    }
+}

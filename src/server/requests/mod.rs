@@ -1,0 +1,168 @@
+//! Typed request bodies: one struct per POST endpoint, deserialized strictly (unknown
+//! fields refused, `null` never taken for "absent", objects only where the API says
+//! object) and documented by the same types ([`utoipa::ToSchema`]), so that the code
+//! and the OpenAPI document cannot drift apart.
+//!
+//! Deserialization checks shapes and types; the numbers' ranges and the ids are checked
+//! after it, by the conversions to engine terms (`lighting`, `query`, `options`, …),
+//! through [`super::parse`] and the query model.
+//!
+//! - [`lighting`]: light-group settings, per-patch emission, and the triples (colours,
+//!   positions, directions) they and the points are made of.
+//! - [`bodies`]: the radiosity, illuminance, batch and optimize requests.
+//! - [`render`]: the render request and the query of `render.png`.
+
+use std::fmt;
+use std::marker::PhantomData;
+
+use serde::de::{Deserialize, Deserializer, Visitor};
+use serde_json::Value;
+use utoipa::openapi::extensions::Extensions;
+use utoipa::openapi::schema::{Object, Schema, SchemaType};
+use utoipa::openapi::RefOr;
+
+pub(crate) mod bodies;
+pub(crate) mod lighting;
+pub(crate) mod render;
+
+pub(crate) use bodies::{BatchRequest, IlluminanceRequest, OptimizeRequest, RadiosityRequest};
+pub(crate) use render::RenderRequest;
+
+/// For optional fields: present means a value of `T`, never `null` (serde's `Option`
+/// would take `null` for absent). Use with `#[serde(default, deserialize_with = "some")]`.
+pub(crate) fn some<'de, D: Deserializer<'de>, T: Deserialize<'de>>(
+    d: D,
+) -> Result<Option<T>, D::Error> {
+    T::deserialize(d).map(Some)
+}
+
+/// Implements `Deserialize` for a struct whose derived deserializer is inherent
+/// (`#[serde(remote = "Self")]`), taking a JSON object only: serde's derive also takes an
+/// array of the fields in order, which the API does not.
+macro_rules! object_only {
+    ($t:ty, $expecting:literal) => {
+        impl<'de> serde::Deserialize<'de> for $t {
+            fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+                struct ObjectVisitor;
+                impl<'de> serde::de::Visitor<'de> for ObjectVisitor {
+                    type Value = $t;
+                    fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+                        f.write_str($expecting)
+                    }
+                    fn visit_map<A: serde::de::MapAccess<'de>>(
+                        self,
+                        map: A,
+                    ) -> Result<$t, A::Error> {
+                        <$t>::deserialize(serde::de::value::MapAccessDeserializer::new(map))
+                    }
+                }
+                d.deserialize_map(ObjectVisitor)
+            }
+        }
+    };
+}
+pub(crate) use object_only;
+
+/// A schema written as JSON Schema: for the union types that have their own
+/// deserializers (number or object, array or object, …), with limits from the constants
+/// the checks use.
+pub(crate) fn raw(v: Value) -> RefOr<Schema> {
+    let Value::Object(m) = v else {
+        panic!("a schema is a JSON object")
+    };
+    let mut o = Object::new();
+    o.schema_type = SchemaType::AnyValue;
+    o.extensions = Some(Extensions::from_iter(m));
+    Schema::Object(o).into()
+}
+
+/// A `$ref` to a component schema.
+pub(crate) fn schema_ref(name: &str) -> Value {
+    serde_json::json!({ "$ref": format!("#/components/schemas/{name}") })
+}
+
+/// A string from a fixed set, with its own message for anything else.
+pub(crate) trait Choice: Sized + 'static {
+    /// The accepted strings, the default first.
+    const NAMES: &'static [&'static str];
+    fn pick(s: &str) -> Option<Self>;
+    /// The message for an unknown string (see [`super::json::FIELD`]).
+    fn refuse(got: &str) -> String;
+}
+
+pub(crate) fn choice<'de, D: Deserializer<'de>, T: Choice>(d: D) -> Result<T, D::Error> {
+    struct V<T>(PhantomData<T>);
+    impl<T: Choice> Visitor<'_> for V<T> {
+        type Value = T;
+        fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
+            write!(f, "one of {}", T::NAMES.join(", "))
+        }
+        fn visit_str<E: serde::de::Error>(self, s: &str) -> Result<T, E> {
+            T::pick(s).ok_or_else(|| E::custom(T::refuse(&super::parse::shorten(s))))
+        }
+    }
+    d.deserialize_str(V(PhantomData))
+}
+
+/// The schema of a [`Choice`]: its strings, the first the default.
+pub(crate) fn choice_schema<T: Choice>(description: &str) -> RefOr<Schema> {
+    raw(serde_json::json!({
+        "type": "string", "enum": T::NAMES, "default": T::NAMES[0], "description": description
+    }))
+}
+
+/// Implements `Deserialize` and the schema of a [`Choice`].
+macro_rules! choice_impls {
+    ($t:ty, $description:literal) => {
+        impl<'de> serde::Deserialize<'de> for $t {
+            fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+                $crate::server::requests::choice(d)
+            }
+        }
+        impl utoipa::PartialSchema for $t {
+            fn schema() -> utoipa::openapi::RefOr<utoipa::openapi::schema::Schema> {
+                $crate::server::requests::choice_schema::<$t>($description)
+            }
+        }
+        impl utoipa::ToSchema for $t {}
+    };
+}
+pub(crate) use choice_impls;
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::server::json::parse;
+    use crate::server::AppError;
+
+    fn err<T: serde::de::DeserializeOwned + std::fmt::Debug>(body: &str) -> String {
+        match parse::<T>(body.as_bytes()) {
+            Err(AppError::Invalid(m)) => m,
+            other => panic!("{body}: {other:?}"),
+        }
+    }
+
+    #[test]
+    fn requests_refuse_nulls_arrays_for_objects_and_unknown_fields() {
+        assert!(parse::<RadiosityRequest>(b"{}").is_ok());
+        assert_eq!(
+            err::<RadiosityRequest>(r#"{"lights": null}"#),
+            "'lights' must be an object, got null"
+        );
+        let m = err::<IlluminanceRequest>(r#"{"points": [[[0, 0, 0], [0, 1, 0]]]}"#);
+        assert!(m.starts_with("'points[0]' must be an object"), "{m}");
+        let m = err::<RadiosityRequest>(r#"{"lights": {"a": {"hue": 1}}}"#);
+        assert!(m.contains("unknown field 'hue' in 'lights.a'"), "{m}");
+        let m = err::<RadiosityRequest>(r#"{"lights": {"a": {"color": [1, 1]}}}"#);
+        assert!(
+            m.contains("'lights.a.color' must be an array of three numbers"),
+            "{m}"
+        );
+        let m = err::<RadiosityRequest>(r#"{"quantity": "luminance"}"#);
+        assert!(m.starts_with("'quantity' must be"), "{m}");
+        let m = err::<RenderRequest>(r#"{"format": "gif"}"#);
+        assert!(m.starts_with("format 'gif'"), "{m}");
+        let m = err::<BatchRequest>(r#"{"states": [[]]}"#);
+        assert!(m.starts_with("'states[0]' must be an object"), "{m}");
+    }
+}

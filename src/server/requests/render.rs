@@ -1,0 +1,436 @@
+//! The body of `POST …/render` and the query of `GET …/render.png`, and their
+//! conversion to [`RenderOptions`].
+
+use std::collections::BTreeMap;
+use std::fmt;
+
+use serde::de::{Deserializer, MapAccess, SeqAccess, Visitor};
+use serde::Deserialize;
+use serde_json::json;
+use utoipa::openapi::schema::Schema;
+use utoipa::openapi::RefOr;
+use utoipa::{PartialSchema, ToSchema};
+
+use super::lighting::{lighting, Direction, Emission, LightSetting, Lights, Position, Triple};
+use super::{choice_impls, object_only, raw, schema_ref, some, Choice};
+use crate::model::Lighting;
+use crate::render::pipeline::{
+    RenderOptions, MAX_FOV_DEG, MAX_RANGE_LUX, MIN_FOV_DEG, MIN_RANGE_LUX,
+};
+use crate::render::{Camera, Format, ToneMap, MAX_SIDE};
+use crate::server::json::{count_rest, FIELD};
+use crate::server::parse::{bounded, bounded_triple, direction, number, shorten, MAX_COORDINATE};
+use crate::server::{AppError, Ready};
+
+/// Largest exposure, stops either way.
+const MAX_EXPOSURE: f64 = 40.0;
+
+/// Declares a [`Choice`] over a render setting.
+macro_rules! setting {
+    ($name:ident($t:ty), [$($text:literal => $value:expr),+], $use:literal, $description:literal) => {
+        #[derive(Debug, Clone, Copy)]
+        pub(crate) struct $name(pub $t);
+
+        impl Choice for $name {
+            const NAMES: &'static [&'static str] = &[$($text),+];
+            fn pick(s: &str) -> Option<Self> {
+                match s {
+                    $($text => Some($name($value)),)+
+                    _ => None,
+                }
+            }
+            fn refuse(got: &str) -> String {
+                format!("{FIELD} '{got}': use {}", $use)
+            }
+        }
+
+        impl Default for $name {
+            fn default() -> Self {
+                Self::pick(Self::NAMES[0]).expect("the default is a name")
+            }
+        }
+
+        choice_impls!($name, $description);
+    };
+}
+
+setting!(FormatName(Format),     ["png" => Format::Png, "jpeg" => Format::Jpeg, "jpg" => Format::Jpeg, "exr" => Format::Exr],
+    "png, jpeg or exr", "The image format.");
+setting!(ModeName(bool), ["shaded" => false, "falsecolor" => true],
+    "shaded or falsecolor",
+    "falsecolor maps illuminance (lux) on a log scale, with a legend bar labelled in lux at the right edge; the range is in the X-Relight-Falsecolor-Lux header. It is an 8-bit image: not with format exr.");
+setting!(TonemapName(ToneMap), ["filmic" => ToneMap::Filmic, "clamp" => ToneMap::Clamp],
+    "filmic or clamp", "The tone curve of shaded 8-bit images.");
+
+/// A camera preset id, or a full camera.
+#[derive(Debug, Clone)]
+pub(crate) enum CameraSpec {
+    Preset(String),
+    Full(CameraFields),
+}
+
+/// A full camera. The target must differ from the position, and up must not be parallel
+/// to the view direction.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(remote = "Self", deny_unknown_fields)]
+pub(crate) struct CameraFields {
+    position: Position,
+    target: Position,
+    #[serde(default, deserialize_with = "some")]
+    up: Option<Direction>,
+    fov_deg: f64,
+}
+
+object_only!(CameraFields, "an object {position, target, up, fov_deg}");
+
+impl<'de> Deserialize<'de> for CameraSpec {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        struct V;
+        impl<'de> Visitor<'de> for V {
+            type Value = CameraSpec;
+            fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
+                f.write_str("a preset id or an object {position, target, up, fov_deg}")
+            }
+            fn visit_str<E>(self, s: &str) -> Result<CameraSpec, E> {
+                Ok(CameraSpec::Preset(s.to_string()))
+            }
+            fn visit_map<A: MapAccess<'de>>(self, map: A) -> Result<CameraSpec, A::Error> {
+                let de = serde::de::value::MapAccessDeserializer::new(map);
+                CameraFields::deserialize(de).map(CameraSpec::Full)
+            }
+        }
+        d.deserialize_any(V)
+    }
+}
+
+impl PartialSchema for CameraSpec {
+    fn schema() -> RefOr<Schema> {
+        raw(json!({"oneOf": [
+            {"type": "string", "description": "Preset id from scene.toml."},
+            {"type": "object", "required": ["position", "target", "fov_deg"], "additionalProperties": false,
+             "description": "A full camera. The target must differ from the position, and up must not be parallel to the view direction.",
+             "properties": {"position": schema_ref("Position"), "target": schema_ref("Position"),
+                "up": {"allOf": [schema_ref("Direction")], "default": [0, 1, 0]},
+                "fov_deg": {"type": "number", "minimum": MIN_FOV_DEG, "maximum": MAX_FOV_DEG, "description": "Vertical field of view, degrees."}}}],
+            "description": "Default: the scene's first preset."}))
+    }
+}
+impl ToSchema for CameraSpec {}
+
+/// Exposure in stops, or `"auto"`.
+#[derive(Debug, Clone, Copy)]
+pub(crate) enum Exposure {
+    Auto,
+    Stops(f64),
+}
+
+impl<'de> Deserialize<'de> for Exposure {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        struct V;
+        impl Visitor<'_> for V {
+            type Value = Exposure;
+            fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
+                f.write_str("a number of stops or \"auto\"")
+            }
+            fn visit_f64<E>(self, x: f64) -> Result<Exposure, E> {
+                Ok(Exposure::Stops(x))
+            }
+            fn visit_i64<E>(self, x: i64) -> Result<Exposure, E> {
+                Ok(Exposure::Stops(x as f64))
+            }
+            fn visit_u64<E>(self, x: u64) -> Result<Exposure, E> {
+                Ok(Exposure::Stops(x as f64))
+            }
+            fn visit_str<E: serde::de::Error>(self, s: &str) -> Result<Exposure, E> {
+                match s {
+                    "auto" => Ok(Exposure::Auto),
+                    _ => Err(E::invalid_value(serde::de::Unexpected::Str(s), &self)),
+                }
+            }
+        }
+        d.deserialize_any(V)
+    }
+}
+
+impl PartialSchema for Exposure {
+    fn schema() -> RefOr<Schema> {
+        raw(json!({
+            "description": "Stops (2^exposure scales radiance), within ±40, or \"auto\" (default): log-average luminance to middle grey.",
+            "oneOf": [{"type": "number", "minimum": -MAX_EXPOSURE, "maximum": MAX_EXPOSURE},
+                {"type": "string", "enum": ["auto"]}]}))
+    }
+}
+impl ToSchema for Exposure {}
+
+/// The false-colour range `[low, high]`, lux.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct LuxRange(f64, f64);
+
+impl<'de> Deserialize<'de> for LuxRange {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        struct V;
+        impl<'de> Visitor<'de> for V {
+            type Value = LuxRange;
+            fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
+                f.write_str("[low, high] in lux")
+            }
+            fn visit_seq<A: SeqAccess<'de>>(self, mut seq: A) -> Result<LuxRange, A::Error> {
+                let mut t = [0.0; 2];
+                for (i, x) in t.iter_mut().enumerate() {
+                    *x = seq
+                        .next_element()?
+                        .ok_or_else(|| serde::de::Error::invalid_length(i, &self))?;
+                }
+                let more = count_rest(&mut seq)?;
+                if more > 0 {
+                    return Err(serde::de::Error::invalid_length(2 + more, &self));
+                }
+                Ok(LuxRange(t[0], t[1]))
+            }
+        }
+        d.deserialize_seq(V)
+    }
+}
+
+fn side() -> RefOr<Schema> {
+    raw(json!({"type": "integer", "minimum": 1, "maximum": MAX_SIDE, "default": 512}))
+}
+
+fn range_schema() -> RefOr<Schema> {
+    raw(json!({"type": "array", "minItems": 2, "maxItems": 2,
+        "items": {"type": "number", "minimum": MIN_RANGE_LUX, "maximum": MAX_RANGE_LUX},
+        "description": "False-colour range [low, high] in lux, high ≥ 1.01 × low (default: max/100 to max)."}))
+}
+
+/// A lighting state, a camera and the image to make.
+#[derive(Debug, Default, Deserialize, ToSchema)]
+#[serde(remote = "Self", deny_unknown_fields)]
+pub(crate) struct RenderRequest {
+    #[serde(default, deserialize_with = "some")]
+    #[schema(nullable = false)]
+    lights: Option<Lights>,
+    #[serde(default, deserialize_with = "some")]
+    #[schema(nullable = false)]
+    emission: Option<Emission>,
+    #[serde(default, deserialize_with = "some")]
+    #[schema(nullable = false, inline)]
+    camera: Option<CameraSpec>,
+    #[serde(default, deserialize_with = "some")]
+    #[schema(schema_with = side)]
+    width: Option<f64>,
+    #[serde(default, deserialize_with = "some")]
+    #[schema(schema_with = side)]
+    height: Option<f64>,
+    #[serde(default, deserialize_with = "some")]
+    #[schema(nullable = false)]
+    exposure: Option<Exposure>,
+    #[serde(default)]
+    #[schema(inline)]
+    format: FormatName,
+    #[serde(default)]
+    #[schema(inline)]
+    mode: ModeName,
+    #[serde(default)]
+    #[schema(inline)]
+    tonemap: TonemapName,
+    #[serde(default, deserialize_with = "some")]
+    #[schema(schema_with = range_schema, value_type = Vec<f64>)]
+    range: Option<LuxRange>,
+}
+
+object_only!(RenderRequest, "a JSON object");
+
+impl RenderRequest {
+    pub(crate) fn lighting(&self, ready: &Ready) -> Result<Lighting, AppError> {
+        lighting(self.lights.as_ref(), self.emission.as_ref(), ready)
+    }
+
+    /// The camera, image size and look, checked.
+    pub(crate) fn options(&self, ready: &Ready) -> Result<RenderOptions, AppError> {
+        let w = size(self.width, "width")?;
+        let h = size(self.height, "height")?;
+        let camera = camera(self.camera.as_ref(), ready, w, h)?;
+        let exposure = match self.exposure {
+            None | Some(Exposure::Auto) => None,
+            Some(Exposure::Stops(e)) => {
+                let e = number(e, "exposure")?;
+                if e.abs() > MAX_EXPOSURE {
+                    return Err(AppError::Invalid(format!(
+                        "exposure {e} stops is outside ±40"
+                    )));
+                }
+                Some(e as f32)
+            }
+        };
+        let range = match self.range {
+            None => None,
+            Some(LuxRange(lo, hi)) => {
+                let (min, max) = (MIN_RANGE_LUX, MAX_RANGE_LUX);
+                let lo = bounded(lo, "range[0] (lux)", min, max)?;
+                let hi = bounded(hi, "range[1] (lux)", min, max)?;
+                if hi < lo * 1.01 {
+                    return Err(AppError::Invalid(format!(
+                        "range [{lo}, {hi}]: the high end must exceed the low end by at least 1 %"
+                    )));
+                }
+                Some((lo as f32, hi as f32))
+            }
+        };
+        let (format, falsecolor) = (self.format.0, self.mode.0);
+        if falsecolor && format == Format::Exr {
+            return Err(AppError::Invalid(
+                "false colour is an 8-bit image: use png or jpeg".into(),
+            ));
+        }
+        Ok(RenderOptions {
+            camera,
+            exposure,
+            format,
+            falsecolor,
+            tonemap: self.tonemap.0,
+            range,
+        })
+    }
+
+    /// `render.png?camera=front&w=512&h=512&light.ceiling=0.5&exposure=0&mode=falsecolor`:
+    /// 400 for a parameter given twice, unknown, or not a number where one is expected.
+    pub(crate) fn from_query(q: &[(String, String)]) -> Result<RenderRequest, AppError> {
+        let mut r = RenderRequest::default();
+        let mut lights = BTreeMap::new();
+        let mut seen: Vec<&str> = Vec::with_capacity(q.len());
+        for (k, v) in q {
+            let key = match k.as_str() {
+                "w" => "width",
+                "h" => "height",
+                k => k,
+            };
+            if seen.contains(&key) {
+                return Err(AppError::BadRequest(format!(
+                    "query parameter '{}' is given twice",
+                    shorten(k)
+                )));
+            }
+            seen.push(key);
+            let num = |v: &str| query_number(k, v);
+            match key {
+                "camera" => r.camera = Some(CameraSpec::Preset(v.clone())),
+                "width" => r.width = Some(num(v)?),
+                "height" => r.height = Some(num(v)?),
+                "exposure" if v == "auto" => r.exposure = Some(Exposure::Auto),
+                "exposure" => r.exposure = Some(Exposure::Stops(num(v)?)),
+                "mode" => r.mode = query_choice(key, v)?,
+                "tonemap" => r.tonemap = query_choice(key, v)?,
+                _ => match k.strip_prefix("light.") {
+                    // light.ID=0.5 or light.ID=r,g,b
+                    Some(g) => {
+                        let parts: Vec<&str> = v.split(',').collect();
+                        let s = if parts.len() == 3 {
+                            let c = [num(parts[0])?, num(parts[1])?, num(parts[2])?];
+                            LightSetting::colored(Triple(c))
+                        } else {
+                            LightSetting::Intensity(num(v)?)
+                        };
+                        lights.insert(g.to_string(), s);
+                    }
+                    None => return Err(AppError::BadRequest(format!(
+                        "unknown query parameter '{}' (camera, w, h, exposure, mode, tonemap, light.<group>)", shorten(k)
+                    ))),
+                },
+            }
+        }
+        r.lights = Some(Lights(lights));
+        Ok(r)
+    }
+}
+
+fn query_number(k: &str, v: &str) -> Result<f64, AppError> {
+    v.parse::<f64>().map_err(|_| {
+        AppError::BadRequest(format!(
+            "query parameter {}={}: not a number",
+            shorten(k),
+            shorten(v)
+        ))
+    })
+}
+
+fn query_choice<T: Choice>(key: &str, v: &str) -> Result<T, AppError> {
+    T::pick(v).ok_or_else(|| AppError::Invalid(T::refuse(&shorten(v)).replacen(FIELD, key, 1)))
+}
+
+/// An image side, pixels (default 512).
+fn size(v: Option<f64>, what: &str) -> Result<u32, AppError> {
+    let Some(x) = v else { return Ok(512) };
+    let x = number(x, what)?;
+    if x.fract() != 0.0 || x < 1.0 || x > MAX_SIDE as f64 {
+        return Err(AppError::Invalid(format!(
+            "{what} = {x}: must be a whole number from 1 to {MAX_SIDE}"
+        )));
+    }
+    Ok(x as u32)
+}
+
+fn camera(spec: Option<&CameraSpec>, ready: &Ready, w: u32, h: u32) -> Result<Camera, AppError> {
+    let scene = &ready.baked.scene;
+    let cam = match spec {
+        None => {
+            let def = scene.cameras.first().ok_or_else(|| {
+                AppError::Invalid("the scene has no camera preset; pass a full camera".into())
+            })?;
+            Camera::from_def(def, w, h)
+        }
+        Some(CameraSpec::Preset(id)) => {
+            let def = scene.cameras.iter().find(|c| &c.id == id).ok_or_else(|| {
+                let ids: Vec<&str> = scene.cameras.iter().map(|c| c.id.as_str()).collect();
+                AppError::Invalid(format!(
+                    "unknown camera '{}' (known: {})",
+                    shorten(id),
+                    ids.join(", ")
+                ))
+            })?;
+            Camera::from_def(def, w, h)
+        }
+        Some(CameraSpec::Full(c)) => {
+            let position = bounded_triple(c.position.0 .0, "camera.position", MAX_COORDINATE)?;
+            let target = bounded_triple(c.target.0 .0, "camera.target", MAX_COORDINATE)?;
+            let up = match c.up {
+                Some(u) => direction(u.0 .0, "camera.up")?.to_array(),
+                None => [0.0, 1.0, 0.0],
+            };
+            let fov = bounded(c.fov_deg, "camera.fov_deg", MIN_FOV_DEG, MAX_FOV_DEG)?;
+            let v3 = |a: [f64; 3]| glam::Vec3::new(a[0] as f32, a[1] as f32, a[2] as f32);
+            Camera {
+                position: v3(position),
+                target: v3(target),
+                up: v3(up),
+                fov_deg: fov as f32,
+                width: w,
+                height: h,
+            }
+        }
+    };
+    cam.validate().map_err(AppError::Invalid)?;
+    Ok(cam)
+}
+
+/// The query of `render.png` as documented (it is read as a list of pairs, to refuse
+/// repeats; see [`RenderRequest::from_query`]).
+#[derive(utoipa::IntoParams)]
+#[into_params(parameter_in = Query)]
+#[allow(dead_code)]
+pub(crate) struct RenderQuery {
+    /// Camera preset id from scene.toml (default: the first).
+    camera: Option<String>,
+    /// Width, pixels.
+    #[param(schema_with = side)]
+    w: Option<u32>,
+    /// Height, pixels.
+    #[param(schema_with = side)]
+    h: Option<u32>,
+    /// Stops, or auto (default).
+    #[param(value_type = Option<Exposure>)]
+    exposure: Option<f64>,
+    #[param(inline)]
+    mode: Option<ModeName>,
+    #[param(inline)]
+    tonemap: Option<TonemapName>,
+}
