@@ -191,8 +191,8 @@ pub fn compute(
         .enumerate()
         .with_min_len(1)
         .for_each(|(i, row)| {
-            for j in i + 1..n {
-                row[j] = coupling(&geo, i, j, bvh, opts, &quad);
+            for (j, g) in row.iter_mut().enumerate().skip(i + 1) {
+                *g = coupling(&geo, i, j, bvh, opts, &quad);
             }
             let pairs = n - i - 1;
             let now = done.fetch_add(pairs, Ordering::Relaxed) + pairs;
