@@ -1,0 +1,144 @@
+//! Shading vertices: the Gouraud values an image blends.
+//!
+//! A shading vertex is a mesh vertex together with the patches around it that lie within
+//! one surface and bend less than `CREASE_DEG` (30°) against each other. Its value is the
+//! area-weighted mean of those patches, so creases stay sharp and no light bleeds across
+//! corners or surfaces.
+
+use glam::DVec3;
+use rayon::prelude::*;
+
+use crate::color::Rgb;
+use crate::geometry::mesh::Mesh;
+
+/// Patches meeting at a vertex at a sharper angle than this are shaded separately.
+const CREASE_DEG: f64 = 30.0;
+
+/// Per-corner shading vertices and their patch weights (CSR).
+pub struct Shading {
+    /// Shading vertex of each patch corner.
+    pub(super) corner: Vec<[u32; 3]>,
+    start: Vec<u32>,
+    patch: Vec<u32>,
+    weight: Vec<f32>,
+}
+
+impl Shading {
+    pub fn new(mesh: &Mesh) -> Shading {
+        // Incident patches per mesh vertex.
+        let nv = mesh.vertices.len();
+        let mut inc: Vec<Vec<(u32, u8)>> = vec![Vec::new(); nv];
+        for (p, patch) in mesh.patches.iter().enumerate() {
+            for (k, &v) in patch.v.iter().enumerate() {
+                inc[v as usize].push((p as u32, k as u8));
+            }
+        }
+        let cos_crease = CREASE_DEG.to_radians().cos();
+        let mut corner = vec![[0u32; 3]; mesh.len()];
+        let mut start = vec![0u32];
+        let mut patch = Vec::new();
+        let mut weight = Vec::new();
+        for list in &inc {
+            // Greedy clusters by normal.
+            let mut clusters: Vec<(DVec3, Vec<(u32, u8)>)> = Vec::new();
+            for &(p, k) in list {
+                let n = mesh.patches[p as usize].normal;
+                match clusters.iter_mut().find(|(cn, _)| cn.dot(n) >= cos_crease) {
+                    Some(c) => c.1.push((p, k)),
+                    None => clusters.push((n, vec![(p, k)])),
+                }
+            }
+            for (_, members) in clusters {
+                let sv = (start.len() - 1) as u32;
+                let total: f64 = members
+                    .iter()
+                    .map(|&(p, _)| mesh.patches[p as usize].area)
+                    .sum();
+                for &(p, k) in &members {
+                    corner[p as usize][k as usize] = sv;
+                    patch.push(p);
+                    weight.push((mesh.patches[p as usize].area / total) as f32);
+                }
+                start.push(patch.len() as u32);
+            }
+        }
+        Shading {
+            corner,
+            start,
+            patch,
+            weight,
+        }
+    }
+
+    /// Number of shading vertices.
+    pub fn len(&self) -> usize {
+        self.start.len() - 1
+    }
+
+    /// True when there is no shading vertex.
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    /// The shading mesh for clients that draw it themselves (the web page's 3D view), in
+    /// one little-endian buffer, every array 4-byte aligned:
+    ///
+    /// ```text
+    /// "RLMESH01"                       8 bytes
+    /// u32 nv, nt, nw                   shading vertices, triangles (= patches), weights
+    /// f32 position[nv][3]              m
+    /// u32 triangle[nt][3]              shading vertices of patch t, counter-clockwise
+    ///                                  seen from its lit (front) side
+    /// u32 surface[nt]                  index into the scene's surfaces
+    /// u32 start[nv + 1]                CSR: vertex v blends patch[start[v]..start[v+1]]
+    /// u32 patch[nw], f32 weight[nw]    with these weights (sum 1 per vertex)
+    /// ```
+    ///
+    /// A vertex colour is `Σ weight · B[patch]` over per-patch radiosity from the radiosity
+    /// endpoint, exactly as the server's renderer shades.
+    pub fn mesh_bytes(&self, mesh: &Mesh) -> Vec<u8> {
+        let (nv, nt, nw) = (self.len(), self.corner.len(), self.patch.len());
+        let mut pos = vec![[0f32; 3]; nv];
+        for (p, c) in mesh.patches.iter().zip(&self.corner) {
+            for k in 0..3 {
+                pos[c[k] as usize] = mesh.vertices[p.v[k] as usize].as_vec3().to_array();
+            }
+        }
+        let mut out = Vec::with_capacity(20 + 12 * nv + 16 * nt + 4 * (nv + 1) + 8 * nw);
+        out.extend_from_slice(b"RLMESH01");
+        for n in [nv, nt, nw] {
+            out.extend_from_slice(&(n as u32).to_le_bytes());
+        }
+        let words = |out: &mut Vec<u8>, it: &mut dyn Iterator<Item = u32>| {
+            for w in it {
+                out.extend_from_slice(&w.to_le_bytes());
+            }
+        };
+        words(&mut out, &mut pos.iter().flatten().map(|v| v.to_bits()));
+        words(&mut out, &mut self.corner.iter().flatten().copied());
+        words(&mut out, &mut mesh.patches.iter().map(|p| p.surface));
+        words(&mut out, &mut self.start.iter().copied());
+        words(&mut out, &mut self.patch.iter().copied());
+        words(&mut out, &mut self.weight.iter().map(|w| w.to_bits()));
+        out
+    }
+
+    /// Vertex values from per-patch values (n × 3 interleaved).
+    pub fn vertex_values(&self, per_patch: &[f32]) -> Vec<Rgb> {
+        (0..self.len())
+            .into_par_iter()
+            .with_min_len(1024)
+            .map(|s| {
+                let mut acc = [0f32; 3];
+                for k in self.start[s] as usize..self.start[s + 1] as usize {
+                    let p = self.patch[k] as usize;
+                    let w = self.weight[k];
+                    for c in 0..3 {
+                        acc[c] += w * per_patch[3 * p + c];
+                    }
+                }
+                acc
+            })
+            .collect()
+    }
+}
