@@ -258,3 +258,53 @@ async fn read_only_replicas_serve_a_baked_cache_and_never_bake() {
     assert!(v["surfaces"]["room-y"]["avg"]["lux"].as_f64().unwrap() > 0.0);
     assert_eq!(listing(cache.path()), baked, "a read-only replica wrote");
 }
+
+/// `relight radiosity --grid` answers through the same model as the server: its JSON is
+/// the HTTP `/illuminance` answer for the same lighting state and grids, value for value.
+#[tokio::test]
+async fn radiosity_grid_equals_the_http_grid_answer() {
+    use http_body_util::BodyExt;
+    use tower::ServiceExt;
+    let cache = tempfile::tempdir().unwrap();
+    let out = relight()
+        .args(["radiosity", scenes_dir().join("office").to_str().unwrap()])
+        .args([
+            "--grid",
+            "desk",
+            "--grid",
+            "workplane",
+            "--light",
+            "window_row=0.5",
+        ])
+        .args(["--json", "--cache"])
+        .arg(cache.path())
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let cli: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert!(cli["grids"]["desk"]["avg"].as_f64().unwrap() > 0.0, "{cli}");
+    // A read-only server over the entry the command just wrote.
+    let config = relight::server::ServerConfig {
+        scenes: scenes_dir(),
+        cache: cache.path().to_path_buf(),
+        read_only: true,
+        ..Default::default()
+    };
+    let state = relight::server::AppState::new(config).unwrap();
+    state.bake_all();
+    let req = axum::http::Request::post("/api/scenes/office/illuminance")
+        .header("content-type", "application/json")
+        .body(axum::body::Body::from(
+            r#"{"lights": {"window_row": 0.5}, "grids": ["desk", "workplane"]}"#,
+        ))
+        .unwrap();
+    let resp = relight::server::router(state).oneshot(req).await.unwrap();
+    assert_eq!(resp.status(), 200);
+    let body = resp.into_body().collect().await.unwrap().to_bytes();
+    let http: serde_json::Value = serde_json::from_slice(&body).unwrap();
+    assert_eq!(cli, http);
+}
