@@ -1,8 +1,6 @@
 //! The HTTP API: every endpoint and error path through `oneshot`, answers checked against
 //! the library, and one real server on a loopback port.
 
-mod common;
-
 use std::sync::{Arc, OnceLock};
 
 use axum::body::Body;
@@ -12,6 +10,8 @@ use http_body_util::BodyExt;
 use relight::server::{router, AppState, ServerConfig, DEFAULT_BODY_LIMIT};
 use serde_json::{json, Value};
 use tower::ServiceExt;
+
+use crate::common;
 
 fn config(scenes: std::path::PathBuf, cache: std::path::PathBuf) -> ServerConfig {
     ServerConfig {
@@ -26,14 +26,14 @@ fn config(scenes: std::path::PathBuf, cache: std::path::PathBuf) -> ServerConfig
     }
 }
 
-/// The bundled scenes, baked once per test binary (cached under target/).
+/// The bundled scenes, baked once per test run (cached under target/).
 fn state() -> Arc<AppState> {
     static STATE: OnceLock<Arc<AppState>> = OnceLock::new();
     STATE
         .get_or_init(|| {
             let cache = std::path::Path::new(env!("CARGO_TARGET_TMPDIR")).join("http-cache");
             let s = AppState::new(config(common::scenes_dir(), cache)).unwrap();
-            s.bake_all();
+            common::bake_all(&s);
             assert!(s.slots.iter().all(|s| s.status().0 == "ready"));
             s
         })
@@ -95,6 +95,7 @@ fn floats(v: &Value) -> Vec<f32> {
 
 #[tokio::test]
 async fn health_ready_and_scene_list() {
+    let _gate = common::shared();
     let (s, _, b) = send(app(), Request::get("/healthz").body(Body::empty()).unwrap()).await;
     assert_eq!((s, b.as_slice()), (StatusCode::OK, &b"ok"[..]));
     let (s, v) = get(app(), "/readyz").await;
@@ -113,6 +114,7 @@ async fn health_ready_and_scene_list() {
 
 #[tokio::test]
 async fn scene_details_with_flux_surfaces_and_cameras() {
+    let _gate = common::shared();
     let (s, v) = get(app(), "/api/scenes/cornell-box").await;
     assert_eq!(s, StatusCode::OK);
     let light = &v["lights"][0];
@@ -145,6 +147,7 @@ async fn scene_details_with_flux_surfaces_and_cameras() {
 
 #[tokio::test]
 async fn unknown_scene_is_a_404_problem() {
+    let _gate = common::shared();
     let (s, h, b) = send(
         app(),
         Request::get("/api/scenes/atlantis")
@@ -165,6 +168,7 @@ async fn unknown_scene_is_a_404_problem() {
 
 #[tokio::test]
 async fn patches_as_json_and_binary() {
+    let _gate = common::shared();
     let r = ready("cornell-box");
     let n = r.baked.mesh.len();
     let (s, v) = get(app(), "/api/scenes/cornell-box/patches").await;
@@ -192,6 +196,7 @@ async fn patches_as_json_and_binary() {
 
 #[tokio::test]
 async fn radiosity_json_equals_the_library() {
+    let _gate = common::shared();
     let (s, _, v) = post(
         app(),
         "/api/scenes/desk-room/radiosity",
@@ -220,6 +225,7 @@ async fn radiosity_json_equals_the_library() {
 
 #[tokio::test]
 async fn radiosity_binary_equals_the_library() {
+    let _gate = common::shared();
     let req = Request::post("/api/scenes/cornell-box/radiosity")
         .header(header::CONTENT_TYPE, "application/json")
         .header(header::ACCEPT, "application/octet-stream")
@@ -243,6 +249,7 @@ async fn radiosity_binary_equals_the_library() {
 
 #[tokio::test]
 async fn per_patch_emission_dense_and_sparse() {
+    let _gate = common::shared();
     let r = ready("cornell-box");
     let n = r.baked.mesh.len();
     let mut e = vec![[0f32; 3]; n];
@@ -270,6 +277,7 @@ async fn per_patch_emission_dense_and_sparse() {
 
 #[tokio::test]
 async fn bad_requests_get_precise_problems() {
+    let _gate = common::shared();
     let cases: &[(&str, StatusCode, &str)] = &[
         ("{not json", StatusCode::BAD_REQUEST, "malformed JSON"),
         (
@@ -362,6 +370,7 @@ async fn bad_requests_get_precise_problems() {
 
 #[tokio::test]
 async fn oversized_bodies_get_413() {
+    let _gate = common::shared();
     let base = state();
     let small = base.reconfigured(ServerConfig {
         body_limit: 1000,
@@ -376,6 +385,7 @@ async fn oversized_bodies_get_413() {
 
 #[tokio::test]
 async fn columns_mode_refuses_per_patch_emission() {
+    let _gate = common::shared();
     let dir = tempfile::tempdir().unwrap();
     let scene = dir.path().join("room");
     relight::bench::write_group_room(&scene, 2, 300).unwrap();
@@ -393,6 +403,7 @@ async fn columns_mode_refuses_per_patch_emission() {
 
 #[tokio::test]
 async fn illuminance_per_surface_and_at_points_matches_the_reference() {
+    let _gate = common::shared();
     let reference: Value = serde_json::from_str(
         &std::fs::read_to_string(
             std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
@@ -470,6 +481,7 @@ async fn illuminance_per_surface_and_at_points_matches_the_reference() {
 
 #[tokio::test]
 async fn batch_answers_each_state_like_a_single_request() {
+    let _gate = common::shared();
     let states: Vec<Value> = (0..5)
         .map(|k| json!({"lights": {"ceiling": k as f64 * 0.25, "lamp": 1.0 - k as f64 * 0.2}}))
         .collect();
@@ -510,6 +522,7 @@ async fn batch_answers_each_state_like_a_single_request() {
 
 #[tokio::test]
 async fn baking_scenes_answer_503_with_progress() {
+    let _gate = common::shared();
     let s = AppState::new(config(
         common::scenes_dir(),
         std::env::temp_dir().join("never"),
@@ -529,6 +542,7 @@ async fn baking_scenes_answer_503_with_progress() {
 
 #[tokio::test]
 async fn a_broken_scene_is_listed_as_failed_and_the_others_serve() {
+    let _gate = common::shared();
     let dir = tempfile::tempdir().unwrap();
     let bad = dir.path().join("broken");
     std::fs::create_dir(&bad).unwrap();
@@ -556,6 +570,7 @@ async fn a_broken_scene_is_listed_as_failed_and_the_others_serve() {
 
 #[tokio::test]
 async fn openapi_metrics_and_cors() {
+    let _gate = common::shared();
     let (s, v) = get(app(), "/api/openapi.json").await;
     assert_eq!(s, StatusCode::OK);
     for p in [
@@ -604,6 +619,7 @@ async fn openapi_metrics_and_cors() {
 
 #[tokio::test]
 async fn real_server_on_a_loopback_port_relights_the_cornell_box() {
+    let _gate = common::shared();
     // A fresh state with the shared cache: the server listens first, bakes in the background.
     let cfg = state().config.clone();
     let s = AppState::new(cfg).unwrap();
@@ -648,6 +664,7 @@ fn ready_cornell() -> Arc<relight::server::Ready> {
 
 #[tokio::test]
 async fn render_endpoints_return_images_and_precise_errors() {
+    let _gate = common::shared();
     let req = |uri: &str| Request::get(uri).body(Body::empty()).unwrap();
     // Quick GET: PNG; a brighter light gives a brighter image (fixed exposure).
     let (s, h, dim) = send(app(), req("/api/scenes/cornell-box/render.png?camera=front&w=64&h=64&exposure=0&light.ceiling=0.5")).await;
@@ -712,6 +729,7 @@ async fn render_endpoints_return_images_and_precise_errors() {
 
 #[tokio::test]
 async fn mesh_and_per_patch_illuminance_let_a_client_shade_like_the_server() {
+    let _gate = common::shared();
     let (s, h, b) = send(
         app(),
         Request::get("/api/scenes/desk-room/mesh")
@@ -811,6 +829,7 @@ async fn mesh_and_per_patch_illuminance_let_a_client_shade_like_the_server() {
 
 #[tokio::test]
 async fn grids_answer_with_statistics_and_luminaire_power() {
+    let _gate = common::shared();
     let (s, _, v) = post(
         app(),
         "/api/scenes/office/illuminance",
@@ -862,6 +881,7 @@ async fn grids_answer_with_statistics_and_luminaire_power() {
 
 #[tokio::test]
 async fn optimize_finds_the_least_flux_levels_that_meet_the_targets() {
+    let _gate = common::shared();
     let body = r#"{"targets": [{"grid": "desk", "eavg_min": 500, "u0_min": 0.6}]}"#;
     let (s, _, v) = post(app(), "/api/scenes/office/optimize", body).await;
     assert_eq!(s, StatusCode::OK, "{v}");

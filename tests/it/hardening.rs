@@ -1,8 +1,6 @@
 //! Regression tests for the hardening findings: requests that crashed, stalled or exhausted
 //! the server. Each test is named after the finding it pins.
 
-mod common;
-
 use std::sync::{Arc, OnceLock};
 use std::time::{Duration, Instant};
 
@@ -14,7 +12,9 @@ use relight::server::{router, AppState, ServerConfig};
 use serde_json::{json, Value};
 use tower::ServiceExt;
 
-/// The bundled scenes, baked once per test binary (the cache is shared with tests/http.rs).
+use crate::common;
+
+/// The bundled scenes, baked once per test run (the cache is shared with the `http` module).
 fn state() -> Arc<AppState> {
     static STATE: OnceLock<Arc<AppState>> = OnceLock::new();
     STATE
@@ -28,7 +28,7 @@ fn state() -> Arc<AppState> {
                 ..ServerConfig::default()
             })
             .unwrap();
-            s.bake_all();
+            common::bake_all(&s);
             assert!(s.slots.iter().all(|s| s.status().0 == "ready"));
             s
         })
@@ -83,6 +83,7 @@ fn problem(s: StatusCode, h: &header::HeaderMap, v: &Value, status: StatusCode, 
 
 #[tokio::test]
 async fn falsecolor_range_up_to_1e39_killed_the_process() {
+    let _gate = common::shared();
     let uri = "/api/scenes/cornell-box/render";
     for range in [
         "[1, 1e39]",
@@ -113,6 +114,7 @@ async fn falsecolor_range_up_to_1e39_killed_the_process() {
 
 #[tokio::test]
 async fn repeated_ids_multiplied_work_and_are_refused() {
+    let _gate = common::shared();
     let grids = json!({"grids": vec!["desk"; 200_000], "surfaces": []}).to_string();
     let (s, h, v) = post("/api/scenes/office/illuminance", grids).await;
     problem(
@@ -150,6 +152,7 @@ async fn repeated_ids_multiplied_work_and_are_refused() {
 
 #[tokio::test]
 async fn optimize_with_a_group_listed_twice_reported_levels_it_did_not_apply() {
+    let _gate = common::shared();
     let (s, h, v) = post(
         "/api/scenes/office/optimize",
         r#"{"targets": [{"grid": "desk", "eavg_min": 500}], "groups": ["window_row", "window_row"]}"#,
@@ -185,6 +188,7 @@ async fn optimize_with_a_group_listed_twice_reported_levels_it_did_not_apply() {
 
 #[tokio::test]
 async fn repeated_json_keys_silently_kept_the_last() {
+    let _gate = common::shared();
     for body in [
         r#"{"lights": {"ceiling": 0, "ceiling": 1}}"#,
         r#"{"lights": {}, "lights": {"ceiling": 2}}"#,
@@ -196,6 +200,7 @@ async fn repeated_json_keys_silently_kept_the_last() {
 
 #[tokio::test]
 async fn sparse_emission_keys_plus_1_and_1_both_meant_patch_1() {
+    let _gate = common::shared();
     let uri = "/api/scenes/cornell-box/radiosity";
     for key in ["+1", "01", " 1", "1.0", "-0", "1e0"] {
         let body = format!(r#"{{"emission": {{"{key}": [1, 1, 1]}}}}"#);
@@ -216,6 +221,7 @@ async fn sparse_emission_keys_plus_1_and_1_both_meant_patch_1() {
 
 #[tokio::test]
 async fn a_normal_of_1e300_passed_the_zero_check_and_answered_0_lux() {
+    let _gate = common::shared();
     let uri = "/api/scenes/cornell-box/illuminance";
     let at = |n: &str| {
         format!(
@@ -247,6 +253,7 @@ async fn a_normal_of_1e300_passed_the_zero_check_and_answered_0_lux() {
 
 #[tokio::test]
 async fn any_content_type_was_parsed_as_json() {
+    let _gate = common::shared();
     for ct in [
         "text/plain",
         "application/x-www-form-urlencoded",
@@ -277,6 +284,7 @@ async fn any_content_type_was_parsed_as_json() {
 
 #[tokio::test]
 async fn unknown_http_methods_became_new_metrics_series() {
+    let _gate = common::shared();
     let app = router(with(|_| {}));
     for m in ["FOO", "BAR", "X-ATTACK"] {
         let req = Request::builder()
@@ -297,6 +305,7 @@ async fn unknown_http_methods_became_new_metrics_series() {
 
 #[tokio::test]
 async fn render_memory_is_estimated_and_budgeted() {
+    let _gate = common::shared();
     // A 256 MB budget: one request may reserve 128 MB, so a 4096² view buffer (up to
     // 2.7 GB) is refused up front with a message naming the limit.
     let small = with(|c| c.memory_budget = 256 << 20);
@@ -338,6 +347,7 @@ async fn render_memory_is_estimated_and_budgeted() {
 
 #[tokio::test]
 async fn the_same_camera_was_built_twice_at_once() {
+    let _gate = common::shared();
     let st = with(|_| {});
     let body = r#"{"width": 300, "height": 200, "camera": {"position": [0.3, 0.3, -0.8], "target": [0.28, 0.27, 0.28], "fov_deg": 50}}"#;
     let tasks: Vec<_> = (0..4)
@@ -369,6 +379,7 @@ async fn the_same_camera_was_built_twice_at_once() {
 
 #[tokio::test]
 async fn distinct_cameras_were_free_to_make_and_the_lru_counted_lengths() {
+    let _gate = common::shared();
     // A 128 MB budget keeps a 32 MB view cache: many distinct cameras never hold more.
     let st = with(|c| c.memory_budget = 128 << 20);
     let cap = st.budget.view_cache_max() as usize;
@@ -385,6 +396,7 @@ async fn distinct_cameras_were_free_to_make_and_the_lru_counted_lengths() {
 
 #[tokio::test]
 async fn heavy_requests_beyond_the_concurrency_limit_are_shed_with_503() {
+    let _gate = common::shared();
     let st = with(|c| {
         c.max_concurrent = 1;
         c.queue_wait = Duration::from_millis(1);
@@ -415,6 +427,9 @@ async fn heavy_requests_beyond_the_concurrency_limit_are_shed_with_503() {
 
 #[tokio::test]
 async fn spawned_work_kept_running_after_the_client_left() {
+    // Alone: the abandoned work runs on rayon's global pool, which every test of this
+    // process shares, and a long bake there would hold it past the 5 s allowed below.
+    let _gate = common::alone();
     // A 30 ms request timeout on a request that needs seconds: 503 at once, and the
     // abandoned work stops soon after (its memory reservation comes back).
     let st = with(|c| c.request_timeout = Duration::from_millis(30));
@@ -444,6 +459,7 @@ async fn spawned_work_kept_running_after_the_client_left() {
 
 #[tokio::test]
 async fn large_bodies_are_parsed_off_the_runtime_within_the_budget() {
+    let _gate = common::shared();
     // A 6 MB dense emission for the Cornell box parses (on the blocking pool) and solves.
     let n = state()
         .slot("cornell-box")
@@ -473,6 +489,7 @@ async fn large_bodies_are_parsed_off_the_runtime_within_the_budget() {
 
 #[tokio::test]
 async fn repeated_query_parameters_on_render_png_are_refused() {
+    let _gate = common::shared();
     let req = Request::get(
         "/api/scenes/cornell-box/render.png?w=32&h=32&light.ceiling=1&light.ceiling=0",
     )
@@ -485,6 +502,7 @@ async fn repeated_query_parameters_on_render_png_are_refused() {
 
 #[test]
 fn failed_scene_errors_carried_absolute_server_paths() {
+    let _gate = common::shared();
     let root = tempfile::tempdir().unwrap();
     let scene = root.path().join("broken");
     std::fs::create_dir(&scene).unwrap();
@@ -509,6 +527,7 @@ fn failed_scene_errors_carried_absolute_server_paths() {
 
 #[test]
 fn a_scene_bakes_in_a_child_process_and_its_failure_is_reported() {
+    let _gate = common::shared();
     let root = tempfile::tempdir().unwrap();
     let good = root.path().join("box");
     std::fs::create_dir(&good).unwrap();
@@ -561,6 +580,7 @@ fn a_scene_bakes_in_a_child_process_and_its_failure_is_reported() {
 
 #[test]
 fn cli_on_a_closed_pipe_panicked_with_a_backtrace() {
+    let _gate = common::shared();
     use std::io::Read;
     use std::process::{Command, Stdio};
     let cache = std::path::Path::new(env!("CARGO_TARGET_TMPDIR")).join("cli-pipe-cache");
@@ -594,6 +614,7 @@ fn cli_on_a_closed_pipe_panicked_with_a_backtrace() {
 
 #[tokio::test]
 async fn slow_clients_held_connections_forever() {
+    let _gate = common::shared();
     use tokio::io::{AsyncReadExt, AsyncWriteExt};
     let st = with(|c| c.header_timeout = Duration::from_millis(500));
     let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await.unwrap();
@@ -636,6 +657,7 @@ async fn slow_clients_held_connections_forever() {
 #[cfg(unix)]
 #[test]
 fn a_bake_that_runs_out_of_memory_took_the_server_down() {
+    let _gate = common::shared();
     use std::os::unix::fs::PermissionsExt;
     // The kernel's OOM killer ends a process with SIGKILL: a stand-in bake command that
     // dies that way must leave the server up and the scene failed with the reason.
@@ -667,6 +689,7 @@ fn a_bake_that_runs_out_of_memory_took_the_server_down() {
 
 #[tokio::test]
 async fn a_scene_id_that_is_not_utf8_got_a_plain_text_400() {
+    let _gate = common::shared();
     for uri in [
         "/api/scenes/%FF/patches",
         "/api/scenes/%FF",

@@ -1,12 +1,65 @@
-//! Helpers shared by the integration tests: scenes written to temporary folders.
-#![allow(dead_code)]
+//! Helpers shared by the integration tests: the gate that keeps the timing tests alone,
+//! scenes written to temporary folders, and form factors of small scenes.
 
 use std::path::{Path, PathBuf};
+use std::sync::{Mutex, PoisonError, RwLock, RwLockReadGuard, RwLockWriteGuard};
 
 use relight::bake::scene_bvh;
 use relight::geometry::mesh::Mesh;
 use relight::scene::Scene;
+use relight::server::AppState;
 use relight::transport::formfactor::{self, FormFactorOptions};
+
+/// Every test holds the gate for its whole run: [`shared`] by default, [`alone`] for the
+/// few that need the machine to themselves. libtest runs the tests of this binary on
+/// parallel threads of one process, where the separate binaries they once were ran one
+/// after another.
+static GATE: RwLock<()> = RwLock::new(());
+
+/// The gate held by a test that may run alongside others.
+///
+/// A wrapper rather than the bare guard: the async tests hold it across `.await`, which is
+/// safe here (nothing on a test's runtime ever waits for the gate; a test blocks on it
+/// before its first `.await`), but `clippy::await_holding_lock` would flag the guard.
+#[must_use = "bind it to `_gate` so that it is held until the test ends"]
+pub struct Shared {
+    _guard: RwLockReadGuard<'static, ()>,
+}
+
+/// The gate held by a test that needs the machine to itself: one that asserts latencies
+/// or reports timings.
+#[must_use = "bind it to `_gate` so that it is held until the test ends"]
+pub struct Alone {
+    _guard: RwLockWriteGuard<'static, ()>,
+}
+
+/// Waits while a test holding [`alone`] runs (or waits to run).
+pub fn shared() -> Shared {
+    Shared {
+        // A test that failed while holding the gate poisons it; the others still run.
+        _guard: GATE.read().unwrap_or_else(PoisonError::into_inner),
+    }
+}
+
+/// Waits until the tests in flight have ended, and keeps the others from starting until
+/// the returned gate is dropped.
+pub fn alone() -> Alone {
+    Alone {
+        _guard: GATE.write().unwrap_or_else(PoisonError::into_inner),
+    }
+}
+
+/// Bakes (or loads from the cache) every scene of `state`, while no other state does.
+///
+/// The modules that serve the bundled scenes (`http`, `hardening`, `fuzz_requests`,
+/// `saturation`) each build their own state over one cache folder. On a cold cache, states
+/// baking at once would each bake every scene; one after another, the first bakes and the
+/// others load its entries.
+pub fn bake_all(state: &AppState) {
+    static BAKING: Mutex<()> = Mutex::new(());
+    let _one = BAKING.lock().unwrap_or_else(PoisonError::into_inner);
+    state.bake_all();
+}
 
 /// A scene folder in a temporary directory, removed on drop.
 pub struct TempScene {

@@ -2,9 +2,7 @@
 //! server on a loopback port, clients hammering renders and point gathers beyond the
 //! concurrency limit, and a prober on its own thread measuring health latency.
 //!
-//! This binary holds one test so that nothing else competes for the cores meanwhile.
-
-mod common;
+//! The test holds `common::alone()`, so that no other test competes for the cores meanwhile.
 
 use std::io::{Read, Write};
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
@@ -13,6 +11,8 @@ use std::time::{Duration, Instant};
 
 use relight::server::{AppState, ServerConfig};
 use serde_json::json;
+
+use crate::common;
 
 /// One GET over a fresh connection; the time to the full answer.
 fn probe(addr: std::net::SocketAddr, path: &str) -> (Duration, String) {
@@ -35,6 +35,7 @@ fn percentile(sorted: &[Duration], p: f64) -> Duration {
 
 #[test]
 fn health_answers_within_50_ms_p99_while_heavy_endpoints_are_saturated() {
+    let _gate = common::alone();
     let cache = std::path::Path::new(env!("CARGO_TARGET_TMPDIR")).join("http-cache");
     let state = AppState::new(ServerConfig {
         scenes: common::scenes_dir(),
@@ -42,7 +43,7 @@ fn health_answers_within_50_ms_p99_while_heavy_endpoints_are_saturated() {
         ..ServerConfig::default()
     })
     .unwrap();
-    state.bake_all();
+    common::bake_all(&state);
     assert!(state.slots.iter().all(|s| s.status().0 == "ready"));
 
     // The server on its own runtime.

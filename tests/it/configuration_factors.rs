@@ -1,11 +1,9 @@
 //! Form factors against closed-form configuration factors (Howell's catalog), reciprocity,
 //! row sums in closed rooms, and exact occlusion.
 
-mod common;
-
 use std::f64::consts::PI;
 
-use common::*;
+use crate::common::{self, *};
 
 /// Howell C-11: directly opposed parallel rectangles a × b at distance c.
 fn parallel_rectangles(a: f64, b: f64, c: f64) -> f64 {
@@ -50,6 +48,7 @@ fn assert_rel(got: f64, want: f64, tol: f64, what: &str) {
 
 #[test]
 fn closed_forms_are_what_the_literature_says() {
+    let _gate = common::shared();
     // Guards the formulas themselves: the unit-cube values quoted in the literature.
     assert!((perpendicular_rectangles(1.0, 1.0, 1.0) - 0.200044).abs() < 1e-6);
     assert!((parallel_rectangles(1.0, 1.0, 1.0) - 0.199825).abs() < 1e-6);
@@ -57,6 +56,7 @@ fn closed_forms_are_what_the_literature_says() {
 
 #[test]
 fn howell_c11_parallel_rectangles() {
+    let _gate = common::shared();
     let obj = quad(
         "bottom",
         "grey",
@@ -87,6 +87,7 @@ fn howell_c11_parallel_rectangles() {
 
 #[test]
 fn howell_c14_perpendicular_rectangles_with_common_edge() {
+    let _gate = common::shared();
     // Common edge along z (length 1); horizontal width 1.5, vertical height 0.8.
     let obj = quad(
         "horizontal",
@@ -141,6 +142,7 @@ fn disk(name: &str, r: f64, y: f64, up: bool, segments: usize) -> String {
 
 #[test]
 fn coaxial_parallel_disks() {
+    let _gate = common::shared();
     let m = 96;
     let obj = disk("lower", 0.5, 0.0, true, m) + &disk("upper", 0.8, 0.6, false, m);
     let s = write_scene(&obj, GREY_MTL, None);
@@ -159,6 +161,7 @@ fn coaxial_parallel_disks() {
 
 #[test]
 fn reciprocity_holds_pairwise() {
+    let _gate = common::shared();
     let obj = box_faces("room", "grey", [0., 0., 0.], [2., 1.5, 1.], true)
         + &box_faces("block", "grey", [0.6, 0.0, 0.3], [1.1, 0.7, 0.6], false);
     let s = write_scene(&obj, GREY_MTL, Some("[mesh]\ntarget_patches = 1500\n"));
@@ -186,6 +189,7 @@ fn reciprocity_holds_pairwise() {
 
 #[test]
 fn row_sums_are_one_in_a_closed_room_with_an_occluder() {
+    let _gate = common::shared();
     // A closed room with a floating box inside: every patch sees only closed geometry.
     let obj = box_faces("room", "grey", [0., 0., 0.], [3., 2.5, 2.], true)
         + &box_faces("box", "grey", [1.0, 0.8, 0.6], [1.8, 1.4, 1.3], false);
@@ -203,6 +207,7 @@ fn row_sums_are_one_in_a_closed_room_with_an_occluder() {
 
 #[test]
 fn an_occluder_that_exactly_hides_gives_zero() {
+    let _gate = common::shared();
     let plate = |name: &str, y: f64, up: bool| {
         quad(
             name,

@@ -1,10 +1,9 @@
 //! The on-disk cache: reloads fast and identically, rejects corrupt, stale and foreign
 //! entries, and never leaves temporary files behind.
 
-mod common;
-
-use common::*;
 use relight::bake::{load_or_bake, BakeError, BakeOptions, CachePolicy};
+
+use crate::common::{self, *};
 
 fn small_scene() -> TempScene {
     let obj = box_faces("room", "wall", [0., 0., 0.], [2., 2., 2.], true)
@@ -32,6 +31,7 @@ fn load(dir: &std::path::Path, policy: CachePolicy<'_>) -> Result<relight::bake:
 
 #[test]
 fn second_load_comes_from_the_cache_and_is_identical() {
+    let _gate = common::shared();
     let s = small_scene();
     let cache = tempfile::tempdir().unwrap();
     let a = load(s.path(), CachePolicy::ReadWrite(cache.path())).unwrap();
@@ -56,6 +56,7 @@ fn second_load_comes_from_the_cache_and_is_identical() {
 
 #[test]
 fn corrupt_entry_is_detected_and_rebaked() {
+    let _gate = common::shared();
     let s = small_scene();
     let cache = tempfile::tempdir().unwrap();
     let a = load(s.path(), CachePolicy::ReadWrite(cache.path())).unwrap();
@@ -92,6 +93,7 @@ fn corrupt_entry_is_detected_and_rebaked() {
 
 #[test]
 fn editing_the_scene_makes_the_entry_stale() {
+    let _gate = common::shared();
     let s = small_scene();
     let cache = tempfile::tempdir().unwrap();
     load(s.path(), CachePolicy::ReadWrite(cache.path())).unwrap();
@@ -113,6 +115,7 @@ fn editing_the_scene_makes_the_entry_stale() {
 
 #[test]
 fn foreign_and_future_files_are_rejected_with_a_clear_message() {
+    let _gate = common::shared();
     let s = small_scene();
     let cache = tempfile::tempdir().unwrap();
     let a = load(s.path(), CachePolicy::ReadWrite(cache.path())).unwrap();
@@ -139,6 +142,7 @@ use relight::transport::transfer::TransferMode;
 
 #[test]
 fn patch_limit_is_checked_before_meshing() {
+    let _gate = common::shared();
     // target_patches = 1,000,000 (the largest scene.toml accepts): refused from the
     // estimate, in milliseconds, instead of meshing for minutes.
     let s = write_scene(
@@ -190,6 +194,7 @@ fn patch_limit_is_checked_before_meshing() {
 
 #[test]
 fn meshing_stops_at_the_patch_limit() {
+    let _gate = common::shared();
     // The estimate is a lower bound: when it passes but the mesh would not fit, refinement
     // itself stops as soon as it passes the limit.
     let s = small_scene();
@@ -228,6 +233,7 @@ fn meshing_stops_at_the_patch_limit() {
 
 #[test]
 fn memory_budget_refuses_a_bake_before_allocating() {
+    let _gate = common::shared();
     use relight::bake::{estimate_bake_bytes, estimate_load_bytes};
     // The estimate: 4n² for F, plus 4n² per distinct channel LU in factored mode.
     let n = 39_000usize;
@@ -330,6 +336,7 @@ fn edit_header(path: &std::path::Path, edit: impl Fn(&mut serde_json::Value)) {
 
 #[test]
 fn cache_section_lengths_are_checked_before_allocating() {
+    let _gate = common::shared();
     let reject = |path: &std::path::Path, s: &TempScene, cache: &std::path::Path, needle: &str| {
         let t0 = std::time::Instant::now();
         match load(s.path(), CachePolicy::ReadOnly(cache)) {
@@ -398,6 +405,7 @@ fn cache_section_lengths_are_checked_before_allocating() {
 
 #[test]
 fn stale_temporary_files_are_removed() {
+    let _gate = common::shared();
     use relight::bake::cache::{remove_stale_temps, STALE_TEMP_AGE, TEMP_PREFIX};
     let cache = tempfile::tempdir().unwrap();
     let old = std::time::SystemTime::now() - STALE_TEMP_AGE - std::time::Duration::from_secs(5);

@@ -1,12 +1,11 @@
 //! The solved transfer against known answers: the furnace, the unit cube's 6 × 6 system,
 //! energy balance, agreement of the two modes, and linearity of relighting.
 
-mod common;
-
-use common::*;
 use relight::bake::{load_or_bake, BakeOptions, Baked, CachePolicy};
 use relight::model::lighting::{LightSetting, LightState};
 use relight::transport::transfer::TransferMode;
+
+use crate::common::{self, *};
 
 fn bake(dir: &std::path::Path, opts: BakeOptions) -> Baked {
     load_or_bake(dir, CachePolicy::Off, &opts, &|_, _| {}).expect("bakes")
@@ -28,6 +27,7 @@ fn surface_mean(b: &Baked, sol: &[f32], name: &str) -> [f64; 3] {
 
 #[test]
 fn furnace_closed_room_with_uniform_emission() {
+    let _gate = common::shared();
     // Every surface emits E = 10 and reflects ρ = 0.5: B = E / (1 − ρ) = 20 everywhere.
     let obj = box_faces("room", "glow", [0., 0., 0.], [3., 2.5, 2.], true);
     let s = write_scene(&obj, "newmtl glow\nKd 0.5 0.5 0.5\nKe 10 10 10\n", None);
@@ -72,6 +72,7 @@ fn unit_cube(target: Option<&str>) -> TempScene {
 
 #[test]
 fn unit_cube_face_factors_match_the_6x6_system() {
+    let _gate = common::shared();
     // Coarsest meshing (two triangles per face): the face-to-face factors, summed over the
     // triangle patches, are the classic unit-cube values to 0.1 %, and so the face-level
     // 6 × 6 solution is reproduced.
@@ -113,6 +114,7 @@ fn unit_cube_face_factors_match_the_6x6_system() {
 
 #[test]
 fn finely_meshed_cube_conserves_energy_and_departs_from_6x6() {
+    let _gate = common::shared();
     let s = unit_cube(None);
     let b = bake(s.path(), BakeOptions::default());
     let sol = b.transfer.relight(&[[1.0; 3]]);
@@ -143,6 +145,7 @@ fn finely_meshed_cube_conserves_energy_and_departs_from_6x6() {
 
 #[test]
 fn energy_balance_closed_and_open() {
+    let _gate = common::shared();
     // Closed room with a lamp: emitted = absorbed.
     let obj = box_faces("room", "wall", [0., 0., 0.], [3., 2.5, 2.], true)
         + &quad(
@@ -216,6 +219,7 @@ fn desk_room(mode: TransferMode) -> Baked {
 
 #[test]
 fn factored_and_columns_modes_agree() {
+    let _gate = common::shared();
     let f = desk_room(TransferMode::Factored);
     let c = desk_room(TransferMode::Columns);
     assert_eq!(f.transfer.mode, TransferMode::Factored);
@@ -244,6 +248,7 @@ fn factored_and_columns_modes_agree() {
 
 #[test]
 fn relighting_is_linear_and_mixes_colours_per_channel() {
+    let _gate = common::shared();
     let b = desk_room(TransferMode::Factored);
     let scene = &b.scene;
     let weights = |ceiling: LightSetting, lamp: LightSetting| {

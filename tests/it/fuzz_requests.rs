@@ -4,8 +4,6 @@
 //! panic or answer 5xx; every refusal is a 4xx problem document with a short, precise
 //! detail.
 
-mod common;
-
 use std::sync::{Arc, OnceLock};
 
 use axum::body::Body;
@@ -16,6 +14,8 @@ use proptest::test_runner::{Config, TestRunner};
 use relight::server::{router, AppState, ServerConfig};
 use serde_json::{Map, Value};
 use tower::ServiceExt;
+
+use crate::common;
 
 /// Cases per endpoint.
 const CASES: u32 = 256;
@@ -31,7 +31,7 @@ fn state() -> Arc<AppState> {
                 ..ServerConfig::default()
             })
             .unwrap();
-            s.bake_all();
+            common::bake_all(&s);
             s
         })
         .clone()
@@ -438,6 +438,7 @@ const SCENES: &[&str] = &["cornell-box", "desk-room", "office"];
 
 #[test]
 fn api_shaped_bodies_get_an_answer_or_a_4xx_problem_never_a_5xx() {
+    let _gate = common::shared();
     for ep in ENDPOINTS {
         let strategy = prop::sample::select(SCENES.to_vec()).prop_flat_map(move |scene| {
             endpoint_body(ep, scene).prop_map(move |b| {
@@ -453,6 +454,7 @@ fn api_shaped_bodies_get_an_answer_or_a_4xx_problem_never_a_5xx() {
 
 #[test]
 fn arbitrary_json_bodies_get_an_answer_or_a_4xx_problem_never_a_5xx() {
+    let _gate = common::shared();
     for ep in ENDPOINTS {
         let strategy =
             (prop::sample::select(SCENES.to_vec()), body()).prop_map(move |(scene, b)| {
@@ -467,6 +469,7 @@ fn arbitrary_json_bodies_get_an_answer_or_a_4xx_problem_never_a_5xx() {
 
 #[test]
 fn arbitrary_bytes_get_400_413_415_or_422() {
+    let _gate = common::shared();
     let strategy = (
         prop::sample::select(ENDPOINTS.to_vec()),
         prop::collection::vec(any::<u8>(), 0..256),
@@ -489,6 +492,7 @@ fn arbitrary_bytes_get_400_413_415_or_422() {
 
 #[test]
 fn arbitrary_render_png_queries_get_an_image_or_a_4xx_problem() {
+    let _gate = common::shared();
     let param = prop_oneof![
         Just("camera".to_string()),
         Just("w".to_string()),

@@ -1,13 +1,14 @@
 //! The bundled Cornell box against the independent path-traced reference
 //! (`tests/data/cornell_reference.json`, a copy of shared/reference/cornell-box/reference.json).
 
-mod common;
-
 use relight::bake::{load_or_bake, BakeOptions, CachePolicy};
 use relight::model::report::surface_averages;
 
+use crate::common;
+
 #[test]
 fn cornell_box_matches_the_path_traced_reference() {
+    let _gate = common::shared();
     let dir = common::scenes_dir().join("cornell-box");
     let b = load_or_bake(&dir, CachePolicy::Off, &BakeOptions::default(), &|_, _| {}).unwrap();
     assert!(

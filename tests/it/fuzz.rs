@@ -10,8 +10,6 @@
 //! explore other inputs and `RELIGHT_FUZZ_SCALE` (a factor, default 1) to run more cases.
 //! Each test prints its case count and time.
 
-mod common;
-
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -19,6 +17,8 @@ use proptest::prelude::*;
 use proptest::test_runner::{Config, RngSeed, TestCaseError, TestRunner};
 use relight::photometry::parse_ies;
 use relight::scene::{parse_mtl_str, parse_obj_str, parse_scene_toml, Scene, SceneError};
+
+use crate::common;
 
 /// Numbers that stress parsers and range checks.
 const NUMBERS: &[&str] = &[
@@ -453,6 +453,7 @@ fn run<S: Strategy>(
 
 #[test]
 fn obj_reader_never_panics_and_names_file_and_line() {
+    let _gate = common::shared();
     let materials: Vec<String> = ["white", "red", "green", "light", "wall", "floor", "lamp"]
         .iter()
         .map(|s| s.to_string())
@@ -490,6 +491,7 @@ fn obj_reader_never_panics_and_names_file_and_line() {
 
 #[test]
 fn mtl_reader_never_panics_and_names_file_and_line() {
+    let _gate = common::shared();
     run("mtl", 20_000, input(seeds("mtl"), MTL_LINES), |bytes| {
         let text = String::from_utf8_lossy(&bytes);
         let path = "fuzz/scene.mtl";
@@ -509,6 +511,7 @@ fn mtl_reader_never_panics_and_names_file_and_line() {
 
 #[test]
 fn scene_toml_reader_never_panics_and_names_the_file() {
+    let _gate = common::shared();
     run(
         "scene.toml",
         20_000,
@@ -526,6 +529,7 @@ fn scene_toml_reader_never_panics_and_names_the_file() {
 
 #[test]
 fn ies_reader_never_panics_and_names_file_and_line() {
+    let _gate = common::shared();
     run("ies", 20_000, input(seeds("ies"), IES_LINES), |bytes| {
         let text = String::from_utf8_lossy(&bytes);
         let path = "fuzz/x.ies";
@@ -563,6 +567,7 @@ fn scene_with(src: &Path, replace: &str, bytes: &[u8]) -> tempfile::TempDir {
 
 #[test]
 fn scene_load_never_panics_and_names_the_scene() {
+    let _gate = common::shared();
     // End to end, on disk: the office (OBJ, MTL, scene.toml with luminaires and grids, IES).
     let office = scenes().join("office");
     let files = ["office.obj", "office.mtl", "scene.toml", "downlight.ies"];

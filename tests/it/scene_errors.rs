@@ -1,9 +1,8 @@
 //! Broken scenes give clear errors that name the file and line or object; none panics.
 
-mod common;
-
-use common::*;
 use relight::scene::Scene;
+
+use crate::common::{self, *};
 
 fn load_err(obj: &str, mtl: &str, toml: Option<&str>) -> String {
     let s = write_scene(obj, mtl, toml);
@@ -17,6 +16,7 @@ const TRI: &str = "o floor\nusemtl grey\nv 0 0 0\nv 1 0 0\nv 0 0 1\nf 1 3 2\n";
 
 #[test]
 fn missing_mtl_names_the_obj_line() {
+    let _gate = common::shared();
     let s = write_scene(TRI, GREY_MTL, None);
     let obj = std::fs::read_to_string(s.path().join("scene.obj")).unwrap();
     std::fs::write(
@@ -33,6 +33,7 @@ fn missing_mtl_names_the_obj_line() {
 
 #[test]
 fn nan_coordinates_name_the_line() {
+    let _gate = common::shared();
     let e = load_err(
         "o floor\nusemtl grey\nv 0 0 0\nv nan 0 0\nv 0 0 1\nf 1 3 2\n",
         GREY_MTL,
@@ -44,6 +45,7 @@ fn nan_coordinates_name_the_line() {
 
 #[test]
 fn face_index_out_of_range_names_the_line() {
+    let _gate = common::shared();
     let e = load_err(
         "o floor\nusemtl grey\nv 0 0 0\nv 1 0 0\nf 1 2 7\n",
         GREY_MTL,
@@ -57,6 +59,7 @@ fn face_index_out_of_range_names_the_line() {
 
 #[test]
 fn degenerate_triangles_are_skipped_with_a_warning() {
+    let _gate = common::shared();
     let obj = format!("{TRI}o sliver\nusemtl grey\nv 0 1 0\nv 1 1 0\nv 2 1 0\nf 4 5 6\n");
     let s = write_scene(&obj, GREY_MTL, None);
     let scene = Scene::load(s.path()).unwrap();
@@ -73,6 +76,7 @@ fn degenerate_triangles_are_skipped_with_a_warning() {
 
 #[test]
 fn reflectance_of_one_or_more_is_rejected() {
+    let _gate = common::shared();
     let e = load_err(TRI, "newmtl grey\nKd 1.0 0.5 0.5\n", None);
     assert!(
         e.contains("scene.mtl:2") && e.contains("grey") && e.contains("[0, 1)"),
@@ -82,6 +86,7 @@ fn reflectance_of_one_or_more_is_rejected() {
 
 #[test]
 fn unknown_material_names_the_line() {
+    let _gate = common::shared();
     let e = load_err(
         "o floor\nusemtl chrome\nv 0 0 0\nv 1 0 0\nv 0 0 1\nf 1 3 2\n",
         GREY_MTL,
@@ -92,6 +97,7 @@ fn unknown_material_names_the_line() {
 
 #[test]
 fn unknown_light_reference_names_the_light() {
+    let _gate = common::shared();
     let toml = "[[lights]]\nid = \"desk\"\nsurfaces = [\"lampshade\"]\n";
     let e = load_err(TRI, GREY_MTL, Some(toml));
     assert!(
@@ -102,18 +108,21 @@ fn unknown_light_reference_names_the_light() {
 
 #[test]
 fn empty_scene_is_an_error() {
+    let _gate = common::shared();
     let e = load_err("# nothing here\n", GREY_MTL, None);
     assert!(e.contains("no usable triangles"), "{e}");
 }
 
 #[test]
 fn malformed_scene_toml_names_the_line() {
+    let _gate = common::shared();
     let e = load_err(TRI, GREY_MTL, Some("name = \"x\"\n[mesh]\nmax_edg = 0.1\n"));
     assert!(e.contains("scene.toml") && e.contains("max_edg"), "{e}");
 }
 
 #[test]
 fn folder_without_obj_is_an_error() {
+    let _gate = common::shared();
     let dir = tempfile::tempdir().unwrap();
     let e = Scene::load(dir.path()).unwrap_err().to_string();
     assert!(e.contains("no .obj"), "{e}");
@@ -121,6 +130,7 @@ fn folder_without_obj_is_an_error() {
 
 #[test]
 fn obj_without_scene_toml_gets_one_group_per_emissive_material() {
+    let _gate = common::shared();
     let obj = format!("{TRI}o lamp\nusemtl glow\nv 0 1 0\nv 0 1 1\nv 1 1 0\nf 4 5 6\n");
     let s = write_scene(
         &obj,
@@ -134,6 +144,7 @@ fn obj_without_scene_toml_gets_one_group_per_emissive_material() {
 
 #[test]
 fn millimetre_models_are_scaled_to_metres() {
+    let _gate = common::shared();
     let s = write_scene(TRI, GREY_MTL, Some("units = \"mm\"\n"));
     let scene = Scene::load(s.path()).unwrap();
     let max_x = scene.triangles[0].p.iter().map(|p| p.x).fold(0.0, f64::max);
@@ -142,6 +153,7 @@ fn millimetre_models_are_scaled_to_metres() {
 
 #[test]
 fn bad_luminaires_and_grids_get_precise_errors() {
+    let _gate = common::shared();
     let lum = |extra: &str| format!("[[luminaires]]\nid = \"l\"\nposition = [0, 2, 0]\n{extra}\n");
     let cases: Vec<(String, &str)> = vec![
         (lum("lumens = 100\nies = \"missing.ies\""), "missing.ies"),
@@ -223,6 +235,7 @@ fn with_obj_line(s: &TempScene, from: &str, to: &str) {
 
 #[test]
 fn mtllib_outside_the_scene_folder_is_refused() {
+    let _gate = common::shared();
     let outside = tempfile::tempdir().unwrap();
     let evil = outside.path().join("evil.mtl");
     std::fs::write(&evil, GREY_MTL).unwrap();
@@ -266,6 +279,7 @@ fn mtllib_outside_the_scene_folder_is_refused() {
 
 #[test]
 fn ies_outside_the_scene_folder_is_refused() {
+    let _gate = common::shared();
     let outside = tempfile::tempdir().unwrap();
     std::fs::write(
         outside.path().join("x.ies"),
@@ -304,6 +318,7 @@ fn mkfifo(p: &std::path::Path) {
 #[cfg(unix)]
 #[test]
 fn fifo_as_obj_mtl_or_ies_is_refused_without_blocking() {
+    let _gate = common::shared();
     let t0 = std::time::Instant::now();
     // MTL
     let s = write_scene(TRI, GREY_MTL, None);
@@ -336,6 +351,7 @@ fn fifo_as_obj_mtl_or_ies_is_refused_without_blocking() {
 
 #[test]
 fn directory_named_like_an_obj_is_refused() {
+    let _gate = common::shared();
     let dir = tempfile::tempdir().unwrap();
     std::fs::create_dir(dir.path().join("x.obj")).unwrap();
     let e = Scene::load(dir.path()).unwrap_err().to_string();
@@ -353,6 +369,7 @@ fn directory_named_like_an_obj_is_refused() {
 
 #[test]
 fn empty_files_give_clean_errors() {
+    let _gate = common::shared();
     let s = write_scene("", "", None);
     std::fs::write(s.path().join("scene.obj"), "").unwrap();
     let e = Scene::load(s.path()).unwrap_err().to_string();
@@ -376,6 +393,7 @@ fn empty_files_give_clean_errors() {
 
 #[test]
 fn non_utf8_bytes_name_the_line() {
+    let _gate = common::shared();
     let s = write_scene(TRI, GREY_MTL, None);
     let p = s.path().join("scene.obj");
     let mut bytes = std::fs::read(&p).unwrap();
@@ -399,6 +417,7 @@ fn non_utf8_bytes_name_the_line() {
 
 #[test]
 fn files_over_their_size_limit_are_refused() {
+    let _gate = common::shared();
     let s = write_scene(TRI, GREY_MTL, None);
     // A sparse file one byte over the limit: refused from its size, never read.
     let f = std::fs::OpenOptions::new()
@@ -423,6 +442,7 @@ fn files_over_their_size_limit_are_refused() {
 
 #[test]
 fn kd_with_one_value_does_not_panic() {
+    let _gate = common::shared();
     // One value means grey (MTL specification); it used to make tobj panic.
     let s = write_scene(TRI, "newmtl grey\nKd 0.5\n", None);
     let scene = Scene::load(s.path()).unwrap();
@@ -439,6 +459,7 @@ fn kd_with_one_value_does_not_panic() {
 
 #[test]
 fn unparsable_mtl_line_is_an_error_not_a_silent_drop() {
+    let _gate = common::shared();
     let obj = format!("{TRI}o lamp\nusemtl glow\nv 0 1 0\nv 0 1 1\nv 1 1 0\nf 4 5 6\n");
     // `Ns abc` made tobj drop every material, so emitters vanished. relight reads every
     // numeric statement, used or not: a damaged one is an error naming file and line.
@@ -501,6 +522,7 @@ fn unparsable_mtl_line_is_an_error_not_a_silent_drop() {
 
 #[test]
 fn obj_statements_tobj_would_misread_are_refused() {
+    let _gate = common::shared();
     for (line, needle) in [
         ("l 1 2 3", "line elements"),
         ("v 1 2", "vertex needs 3 coordinates"),
@@ -561,6 +583,7 @@ fn obj_statements_tobj_would_misread_are_refused() {
 
 #[test]
 fn huge_numbers_are_refused_not_turned_into_null() {
+    let _gate = common::shared();
     // OBJ coordinates: finite in f32 and within ±1e5 m after scaling.
     for (v, needle) in [
         ("v 3e38 0 0", "within ±1e5 m"),
@@ -657,6 +680,7 @@ fn huge_numbers_are_refused_not_turned_into_null() {
 
 #[test]
 fn ies_values_and_counts_are_bounded() {
+    let _gate = common::shared();
     let ies = |header: &str, rest: &str| format!("IESNA:LM-63-2002\nTILT=NONE\n{header}\n{rest}");
     let ok_rest = "1 1 20\n0 45 90\n0\n1000 707.1 0\n";
     let cases = [
@@ -725,6 +749,7 @@ fn ies_values_and_counts_are_bounded() {
 
 #[test]
 fn errors_name_scene_relative_paths() {
+    let _gate = common::shared();
     let cases: Vec<(String, String, Option<String>)> = vec![
         (format!("{TRI}v nan 0 0\n"), GREY_MTL.into(), None),
         (TRI.into(), "newmtl grey\nKd 2 0 0\n".into(), None),
@@ -768,6 +793,7 @@ fn errors_name_scene_relative_paths() {
 
 #[test]
 fn scene_wide_counts_are_bounded() {
+    let _gate = common::shared();
     // Luminaires: each adds shadow rays to every patch and grid point.
     let mut toml = String::new();
     for i in 0..=limits::MAX_LUMINAIRES {

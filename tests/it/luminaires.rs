@@ -1,12 +1,11 @@
 //! Point luminaires, IES photometry, calculation grids and energy balance, checked against
 //! closed forms in the style of CIE 171:2006 (test cases for lighting programs).
 
-mod common;
-
-use common::*;
 use relight::bake::{load_or_bake, BakeOptions, Baked, CachePolicy};
 use relight::color::luminance64;
 use relight::model::grid::GridResponse;
+
+use crate::common::{self, *};
 
 fn bake(s: &TempScene) -> Baked {
     load_or_bake(
@@ -43,6 +42,7 @@ fn floor(size: f64) -> String {
 /// CIE 171 §5.2 style: a point source over a black plane, E = I cos θ / d².
 #[test]
 fn point_source_over_a_plane_follows_the_inverse_square_cosine_law() {
+    let _gate = common::shared();
     let toml = r#"
 transfer = "columns"
 [mesh]
@@ -88,6 +88,7 @@ points = [[0, 0, 0], [1, 0, 0], [2, 0, 0], [4, 0, 0], [0, 0, 3], [-2.5, 0, 1.5]]
 /// `c0` = +x, C = 90° along aim × c0 = +z).
 #[test]
 fn an_ies_file_reproduces_its_candela_values() {
+    let _gate = common::shared();
     let ies = "IESNA:LM-63-2002\n[TEST] bilateral table\nTILT=NONE\n\
         1 -1 2 4 3 1 2 0 0 0\n1 1 10\n0 30 60 90\n0 90 180\n\
         500 450 300 100\n\
@@ -151,6 +152,7 @@ points = [POINTS]
 /// closed-form point-to-rectangle configuration factor.
 #[test]
 fn diffuse_area_source_gives_the_closed_form_illuminance() {
+    let _gate = common::shared();
     let c = 2.0;
     let obj = floor(6.0)
         + &quad(
@@ -211,6 +213,7 @@ points = [[0, 0, 0], [0.5, 0, 0.5], [1.5, 0, 0]]
 /// Φ / (A (1 − ρ)); the direct part alone averages Φ / A.
 #[test]
 fn interreflection_in_an_empty_cube_meets_the_flux_balance() {
+    let _gate = common::shared();
     let rho = 0.5;
     let toml = r#"
 transfer = "factored"
@@ -264,6 +267,7 @@ points = [[2, 0, 2]]
 /// every surface included) in the bundled office with its open window.
 #[test]
 fn office_lumens_in_equal_absorbed_plus_escaped() {
+    let _gate = common::shared();
     let dir = scenes_dir().join("office");
     let b = load_or_bake(&dir, CachePolicy::Off, &BakeOptions::default(), &|_, _| {}).unwrap();
     for w in [[[1.0; 3], [1.0; 3]], [[0.3, 0.3, 0.3], [1.0, 0.8, 0.6]]] {

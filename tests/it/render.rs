@@ -1,11 +1,10 @@
 //! The renderer: known pixel values, no cracks, depth order, false colour, and the Cornell
 //! box against the path-traced reference image.
 
-mod common;
-
-use common::*;
 use relight::bake::{load_or_bake, BakeOptions, CachePolicy};
 use relight::render::{self, Camera, GroupImages, Shading, ToneMap, ViewBuffer};
+
+use crate::common::{self, *};
 
 fn cam(pos: [f32; 3], target: [f32; 3], fov: f32, w: u32, h: u32) -> Camera {
     Camera {
@@ -20,6 +19,7 @@ fn cam(pos: [f32; 3], target: [f32; 3], fov: f32, w: u32, h: u32) -> Camera {
 
 #[test]
 fn constant_radiosity_renders_its_exact_value_without_cracks() {
+    let _gate = common::shared();
     // A finely meshed wall, every patch at B = π·0.5 → radiance 0.5 everywhere it covers.
     let obj = quad(
         "wall",
@@ -55,6 +55,7 @@ fn constant_radiosity_renders_its_exact_value_without_cracks() {
 
 #[test]
 fn the_z_buffer_puts_the_near_block_in_front() {
+    let _gate = common::shared();
     // A bright near square in front of a dark far wall.
     let obj = quad(
         "far",
@@ -104,6 +105,7 @@ fn the_z_buffer_puts_the_near_block_in_front() {
 
 #[test]
 fn false_colour_maps_known_values_to_known_colours() {
+    let _gate = common::shared();
     // Log scale 1..100 lux: 1 → the first stop, 100 → the last, 10 → the middle.
     let mut img = vec![[0.0f32; 3]; 96];
     img[..3].copy_from_slice(&[[1.0; 3], [10.0; 3], [100.0; 3]]);
@@ -118,6 +120,7 @@ fn false_colour_maps_known_values_to_known_colours() {
 
 #[test]
 fn cornell_box_image_matches_the_path_traced_reference() {
+    let _gate = common::shared();
     let dir = scenes_dir().join("cornell-box");
     let b = load_or_bake(&dir, CachePolicy::Off, &BakeOptions::default(), &|_, _| {}).unwrap();
     let shading = Shading::new(&b.mesh);

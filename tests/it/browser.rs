@@ -3,9 +3,8 @@
 //! Needs Debian's `chromium` and `chromium-driver` (`.ci/run` installs them). Without them
 //! the test says so and passes, unless `RELIGHT_REQUIRE_BROWSER=1` (set by CI), where a
 //! missing browser fails it. Timings are reported (stderr and
-//! `target/tmp/browser-report.json`), never asserted.
-
-mod common;
+//! `target/tmp/browser-report.json`), never asserted; the test holds `common::alone()` so
+//! that no other test competes for the cores meanwhile.
 
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
@@ -13,6 +12,8 @@ use std::time::{Duration, Instant};
 
 use relight::server::{router, AppState, ServerConfig, DEFAULT_BODY_LIMIT};
 use serde_json::{json, Value};
+
+use crate::common;
 
 /// A chromedriver child process, killed on drop.
 struct Driver(Child);
@@ -211,6 +212,7 @@ async fn the_page_relights_live_in_headless_chromium() {
         eprintln!("SKIPPED the browser test: {msg}");
         return;
     };
+    let _gate = common::alone();
     // The server, on a loopback port, with every scene baked first.
     let (scene_dir, cache) = scenes();
     let state = AppState::new(ServerConfig {

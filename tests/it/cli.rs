@@ -1,10 +1,8 @@
 //! The command line, run as a user would.
 
-mod common;
-
 use std::process::Command;
 
-use common::*;
+use crate::common::{self, *};
 
 fn relight() -> Command {
     Command::new(env!("CARGO_BIN_EXE_relight"))
@@ -30,6 +28,7 @@ fn room_obj() -> String {
 
 #[test]
 fn radiosity_json_on_a_bare_obj_and_mtl_folder() {
+    let _gate = common::shared();
     let s = write_scene(&room_obj(), ROOM_MTL, None);
     let cache = tempfile::tempdir().unwrap();
     let out = relight()
@@ -68,6 +67,7 @@ fn radiosity_json_on_a_bare_obj_and_mtl_folder() {
 
 #[test]
 fn bad_input_is_a_clear_error_not_a_panic() {
+    let _gate = common::shared();
     let out = relight()
         .args(["radiosity", "/nonexistent/scene"])
         .output()
@@ -104,6 +104,7 @@ fn bad_input_is_a_clear_error_not_a_panic() {
 
 #[test]
 fn info_lists_the_bundled_scenes() {
+    let _gate = common::shared();
     let out = relight()
         .args(["info", "--scenes"])
         .arg(scenes_dir())
@@ -165,6 +166,7 @@ fn listing(dir: &std::path::Path) -> Vec<(std::ffi::OsString, std::time::SystemT
 
 #[tokio::test]
 async fn read_only_replicas_serve_a_baked_cache_and_never_bake() {
+    let _gate = common::shared();
     // A scenes folder with one small room.
     let scenes = tempfile::tempdir().unwrap();
     let room = scenes.path().join("room");
@@ -265,6 +267,7 @@ async fn read_only_replicas_serve_a_baked_cache_and_never_bake() {
 async fn radiosity_grid_equals_the_http_grid_answer() {
     use http_body_util::BodyExt;
     use tower::ServiceExt;
+    let _gate = common::shared();
     let cache = tempfile::tempdir().unwrap();
     let out = relight()
         .args(["radiosity", scenes_dir().join("office").to_str().unwrap()])
