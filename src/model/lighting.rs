@@ -146,23 +146,27 @@ impl LightState {
             })?;
             let (intensity, color) =
                 parse_value(val).map_err(|e| LightError::Syntax(format!("'{arg}': {e}")))?;
-            state.set(scene, id, intensity, color)?;
+            // Out-of-range values become inf here and are refused by `set`.
+            state.set(
+                scene,
+                id,
+                intensity.map(|x| x as f32),
+                color.map(|c| c.map(|x| x as f32)),
+            )?;
         }
         Ok(state)
     }
 }
 
 /// The text form of one group's setting: `I` (intensity; the group keeps its colour) or
-/// `R,G,B` (intensity 1 and this colour). Numbers are checked later by
-/// [`LightState::set`].
-pub fn parse_value(val: &str) -> Result<(Option<f32>, Option<Rgb>), String> {
+/// `R,G,B` (intensity 1 and this colour), in f64 so that callers check ranges before
+/// narrowing. Numbers are checked later ([`LightState::set`], or the server's limits).
+pub fn parse_value(val: &str) -> Result<(Option<f64>, Option<[f64; 3]>), String> {
     let nums: Result<Vec<f64>, _> = val.split(',').map(|v| v.trim().parse::<f64>()).collect();
-    let nums = nums.map_err(|_| "not numbers".to_string())?;
-    // Out-of-range values become inf here and are refused by the checks.
-    let f = |x: f64| x as f32;
+    let nums = nums.map_err(|_| "not a number".to_string())?;
     match nums.as_slice() {
-        [v] => Ok((Some(f(*v)), None)),
-        [r, g, b] => Ok((Some(1.0), Some([f(*r), f(*g), f(*b)]))),
+        [v] => Ok((Some(*v), None)),
+        [r, g, b] => Ok((Some(1.0), Some([*r, *g, *b]))),
         _ => Err("give one intensity or three RGB values".into()),
     }
 }

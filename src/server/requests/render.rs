@@ -13,6 +13,7 @@ use utoipa::{PartialSchema, ToSchema};
 
 use super::lighting::{lighting, Direction, Emission, LightSetting, Lights, Position, Triple};
 use super::{choice_impls, object_only, raw, schema_ref, some, Choice};
+use crate::model::lighting::parse_value;
 use crate::model::Lighting;
 use crate::render::pipeline::{
     RenderOptions, MAX_FOV_DEG, MAX_RANGE_LUX, MIN_FOV_DEG, MIN_RANGE_LUX,
@@ -323,12 +324,17 @@ impl RenderRequest {
                 _ => match k.strip_prefix("light.") {
                     // light.ID=0.5 or light.ID=r,g,b
                     Some(g) => {
-                        let parts: Vec<&str> = v.split(',').collect();
-                        let s = if parts.len() == 3 {
-                            let c = [num(parts[0])?, num(parts[1])?, num(parts[2])?];
-                            LightSetting::colored(Triple(c))
-                        } else {
-                            LightSetting::Intensity(num(v)?)
+                        let bad = |e: String| {
+                            AppError::BadRequest(format!(
+                                "query parameter {}={}: {e}",
+                                shorten(k),
+                                shorten(v)
+                            ))
+                        };
+                        // The one text grammar of a setting, as on the command line.
+                        let s = match parse_value(v).map_err(bad)? {
+                            (_, Some(c)) => LightSetting::colored(Triple(c)),
+                            (i, None) => LightSetting::Intensity(i.unwrap_or(1.0)),
                         };
                         lights.insert(g.to_string(), s);
                     }
