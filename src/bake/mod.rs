@@ -14,13 +14,16 @@ use crate::geometry::bvh::Bvh;
 pub mod cache;
 
 use crate::geometry::mesh::Mesh;
-use crate::scene::{Scene, SceneError};
+use crate::scene::{Scene, SceneError, TransferChoice};
 use crate::transport::formfactor::{self, FormFactorOptions};
-use crate::transport::transfer::{Transfer, TransferMode};
+use crate::transport::hierarchy::{Hierarchy, HierarchyOptions, BYTES_PER_LINK};
+use crate::transport::transfer::{Coupling, Transfer, TransferMode};
 use cache::CacheError;
 
-/// Largest patch count a dense transfer is built for (F alone is 4·n² bytes).
-pub const DEFAULT_MAX_PATCHES: usize = 30_000;
+/// Largest patch count the mesher builds, whatever the mode: a bound on meshing memory
+/// (about 1 KiB per patch). The real limit of a scene is the memory budget, checked from
+/// the estimated patch count before meshing and from the real one after.
+pub const DEFAULT_MAX_PATCHES: usize = 4_000_000;
 
 #[derive(Debug, thiserror::Error)]
 pub enum BakeError {
@@ -87,10 +90,7 @@ fn file_name(p: &Path) -> String {
 }
 
 fn mode_name(m: TransferMode) -> &'static str {
-    match m {
-        TransferMode::Factored => "factored",
-        TransferMode::Columns => "columns",
-    }
+    m.name()
 }
 
 pub use crate::budget::human_bytes;
@@ -118,6 +118,15 @@ pub const BAKE_BYTES_PER_PATCH: u64 = 2048;
 pub const BAKE_BYTES_PER_PATCH_GROUP: u64 = 128;
 /// Fixed overhead of a bake (BVH over small scenes, thread stacks, scratch).
 pub const BAKE_BYTES_BASE: u64 = 32 << 20;
+/// Hierarchical mode: links per patch assumed by the estimates (measured counts are in
+/// the README's sizing table; this bounds them).
+pub const HIER_LINKS_PER_PATCH: u64 = 400;
+/// Hierarchical mode: bytes per link while baking (the 16-byte links of refinement, sorted
+/// in place, then the 9-byte stored links) and when loaded (9).
+pub const HIER_BAKE_BYTES_PER_LINK: u64 = 25;
+/// Hierarchical mode: bytes per patch and light group of the sweeps (node-major sources,
+/// radiosity, gathered irradiance over ~2n nodes, and the extracted columns).
+pub const HIER_BYTES_PER_PATCH_GROUP: u64 = 160;
 
 /// Estimated peak memory of baking `patches` patches in `mode` with `groups` light groups
 /// and `lu_count` distinct reflectance channels (1–3: channels with identical ρ over all
@@ -128,6 +137,9 @@ pub const BAKE_BYTES_BASE: u64 = 32 << 20;
 ///   with `F` at the end of the solve (and while the cache entry is written, which streams
 ///   them without copies): `4·n²·(1 + lu_count)`.
 /// - **Columns** keeps only `F` (Jacobi needs no factorization): `4·n²`.
+/// - **Hierarchical** holds no n × n matrix: [`HIER_LINKS_PER_PATCH`] links per patch at
+///   [`HIER_BAKE_BYTES_PER_LINK`] bytes, and [`HIER_BYTES_PER_PATCH_GROUP`] per patch and
+///   group for the sweeps, instead of the per-group term below.
 /// - Plus [`BAKE_BYTES_PER_PATCH`]·n, [`BAKE_BYTES_PER_PATCH_GROUP`]·n·groups and
 ///   [`BAKE_BYTES_BASE`].
 ///
@@ -143,6 +155,16 @@ pub fn estimate_bake_bytes(
     let matrices = match mode {
         TransferMode::Factored => square.saturating_mul(1 + lu_count.clamp(1, 3) as u64),
         TransferMode::Columns => square,
+        TransferMode::Hierarchical => {
+            return n
+                .saturating_mul(HIER_LINKS_PER_PATCH * HIER_BAKE_BYTES_PER_LINK)
+                .saturating_add(n.saturating_mul(BAKE_BYTES_PER_PATCH))
+                .saturating_add(
+                    n.saturating_mul(groups.max(1) as u64)
+                        .saturating_mul(HIER_BYTES_PER_PATCH_GROUP),
+                )
+                .saturating_add(BAKE_BYTES_BASE)
+        }
     };
     matrices
         .saturating_add(n.saturating_mul(BAKE_BYTES_PER_PATCH))
@@ -165,6 +187,16 @@ pub fn estimate_load_bytes(
 ) -> u64 {
     match mode {
         TransferMode::Factored => estimate_bake_bytes(patches, mode, groups, lu_count),
+        TransferMode::Hierarchical => {
+            let n = patches as u64;
+            n.saturating_mul(HIER_LINKS_PER_PATCH * BYTES_PER_LINK)
+                .saturating_add(n.saturating_mul(BAKE_BYTES_PER_PATCH))
+                .saturating_add(
+                    n.saturating_mul(groups.max(1) as u64)
+                        .saturating_mul(BAKE_BYTES_PER_PATCH_GROUP),
+                )
+                .saturating_add(BAKE_BYTES_BASE)
+        }
         TransferMode::Columns => {
             let n = patches as u64;
             n.saturating_mul(BAKE_BYTES_PER_PATCH)
@@ -255,11 +287,16 @@ impl<'a> CachePolicy<'a> {
 #[derive(Debug, Clone, Copy)]
 pub struct BakeOptions {
     pub ff: FormFactorOptions,
+    /// Refinement of the hierarchical mode.
+    pub hier: HierarchyOptions,
     pub max_patches: usize,
     /// Overrides the scene's mesh size (metres), for convergence studies.
     pub max_edge: Option<f64>,
     /// Overrides the scene's transfer mode.
     pub mode: Option<TransferMode>,
+    /// Overrides the scene's transfer choice (`auto` included) when `mode` is None: the
+    /// CLI's `--transfer`.
+    pub choice: Option<TransferChoice>,
     /// Most bytes a bake (or a cached load) may need, by [`estimate_bake_bytes`] /
     /// [`estimate_load_bytes`]; a scene above it fails before the large allocations with
     /// [`BakeError::OverBudget`]. None: unlimited.
@@ -270,9 +307,11 @@ impl Default for BakeOptions {
     fn default() -> Self {
         BakeOptions {
             ff: FormFactorOptions::default(),
+            hier: HierarchyOptions::default(),
             max_patches: DEFAULT_MAX_PATCHES,
             max_edge: None,
             mode: None,
+            choice: None,
             memory_budget: None,
         }
     }
@@ -339,13 +378,23 @@ pub fn scene_bvh(scene: &Scene) -> Bvh {
     Bvh::new(&tris)
 }
 
+/// Unit front normals of the scene's triangles (counter-clockwise), for the closure rays.
+fn triangle_fronts(scene: &Scene) -> Vec<glam::DVec3> {
+    scene
+        .triangles
+        .iter()
+        .map(|t| (t.p[1] - t.p[0]).cross(t.p[2] - t.p[0]).normalize_or_zero())
+        .collect()
+}
+
 /// Settings that change the result, as stored in the cache header and hashed into its key.
 pub fn settings_json(scene: &Scene, opts: &BakeOptions, max_edge: f64) -> serde_json::Value {
     serde_json::json!({
         "max_edge_m": max_edge,
         "form_factors": opts.ff,
+        "hierarchy": opts.hier,
         "transfer": opts.mode.map(|m| serde_json::to_value(m).unwrap_or_default())
-            .unwrap_or_else(|| serde_json::to_value(scene.transfer).unwrap_or_default()),
+            .unwrap_or_else(|| serde_json::to_value(opts.choice.unwrap_or(scene.transfer)).unwrap_or_default()),
         "column_tol": crate::transport::transfer::COLUMN_TOL,
     })
 }
@@ -382,6 +431,25 @@ impl Prepared {
             max,
             estimated,
         };
+        // The memory budget, from the lower bound of the patch count, before meshing.
+        if let Some(budget) = opts.memory_budget {
+            let at_least = crate::geometry::mesh::estimate_patches(&scene, max_edge)
+                .min(usize::MAX as u64) as usize;
+            let mode = opts.mode.unwrap_or_else(|| {
+                TransferMode::resolve(opts.choice.unwrap_or(scene.transfer), at_least)
+            });
+            let needed = estimate_bake_bytes(at_least, mode, scene.lights.len(), 1);
+            if needed > budget {
+                return Err(BakeError::OverBudget {
+                    scene: scene.id.clone(),
+                    needed,
+                    budget,
+                    patches: at_least,
+                    mode,
+                    action: "bake",
+                });
+            }
+        }
         let mesh = Mesh::try_build_with(&scene, max_edge, opts.max_patches)
             .map_err(|e| too_large(e.at_least, e.limit, e.estimated))?;
         let n = mesh.len();
@@ -390,7 +458,7 @@ impl Prepared {
         }
         let mode = opts
             .mode
-            .unwrap_or_else(|| TransferMode::resolve(scene.transfer, n));
+            .unwrap_or_else(|| TransferMode::resolve(opts.choice.unwrap_or(scene.transfer), n));
         let settings = settings_json(&scene, opts, max_edge);
         let entry = match policy.dir() {
             None => None,
@@ -469,13 +537,30 @@ pub fn load_or_bake(
     }
     p.check_budget(opts, p.memory.bake, "bake")?;
     let t0 = Instant::now();
-    let f = formfactor::compute(&p.mesh, &p.bvh, &opts.ff, &|x| {
-        progress(Stage::FormFactors, x)
-    });
+    let ff_progress = |x| progress(Stage::FormFactors, x);
+    let direct = crate::transport::direct::group_direct(&p.scene, &p.mesh, &p.bvh);
+    let coupling = match p.mode {
+        TransferMode::Hierarchical => {
+            let front = triangle_fronts(&p.scene);
+            let rho = crate::transport::transfer::patch_rho(&p.scene, &p.mesh);
+            let sources = crate::transport::transfer::all_sources(&p.scene, &p.mesh, &direct);
+            let (h, escape) = Hierarchy::build(
+                &p.mesh,
+                &rho,
+                &sources,
+                &p.bvh,
+                &front,
+                opts.hier,
+                opts.ff,
+                &ff_progress,
+            );
+            Coupling::Links(Box::new(h), escape)
+        }
+        _ => Coupling::Dense(formfactor::compute(&p.mesh, &p.bvh, &opts.ff, &ff_progress)),
+    };
     stats.form_factor_s = t0.elapsed().as_secs_f64();
     let t1 = Instant::now();
-    let direct = crate::transport::direct::group_direct(&p.scene, &p.mesh, &p.bvh);
-    let transfer = Transfer::build(&p.scene, &p.mesh, f, &direct, p.mode, &|x| {
+    let transfer = Transfer::build(&p.scene, &p.mesh, coupling, &direct, p.mode, &|x| {
         progress(Stage::Solving, x)
     });
     stats.solve_s = t1.elapsed().as_secs_f64();

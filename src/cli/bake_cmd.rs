@@ -33,6 +33,9 @@ pub struct BakeArgs {
     /// a child process).
     #[arg(long, hide = true)]
     progress_json: bool,
+    /// Transfer mode, overriding scene.toml: auto, factored, columns or hierarchical.
+    #[arg(long, value_parser = super::parse_transfer)]
+    transfer: Option<relight::scene::TransferChoice>,
 }
 
 pub fn run(a: BakeArgs) -> Result<()> {
@@ -44,6 +47,7 @@ pub fn run(a: BakeArgs) -> Result<()> {
         force,
         memory_budget,
         progress_json,
+        transfer,
     } = a;
     let cache = cache.unwrap_or_else(bake::default_cache_dir);
     let budget = memory_budget.unwrap_or_else(relight::budget::default_budget);
@@ -54,7 +58,7 @@ pub fn run(a: BakeArgs) -> Result<()> {
         let Some(dir) = scene else {
             anyhow::bail!("--progress-json bakes one scene folder");
         };
-        return match bake_child(&dir, &cache, budget) {
+        return match bake_child(&dir, &cache, budget, transfer) {
             Ok(()) => Ok(()),
             Err(e) => {
                 outln!("{}", serde_json::json!({ "error": format!("{e:#}") }));
@@ -71,7 +75,7 @@ pub fn run(a: BakeArgs) -> Result<()> {
     };
     let mut failed = 0;
     for d in dirs {
-        if let Err(e) = bake_one(&d, &cache, force, budget) {
+        if let Err(e) = bake_one(&d, &cache, force, budget, transfer) {
             eprintln!("error: {e:#}");
             failed += 1;
         }
@@ -84,9 +88,15 @@ pub fn run(a: BakeArgs) -> Result<()> {
 
 /// `relight bake DIR --progress-json`: bakes into the cache, reporting progress as JSON
 /// lines (`{"progress": 0.42}`) for the server that started this process.
-fn bake_child(dir: &Path, cache: &Path, budget: u64) -> Result<()> {
+fn bake_child(
+    dir: &Path,
+    cache: &Path,
+    budget: u64,
+    transfer: Option<relight::scene::TransferChoice>,
+) -> Result<()> {
     let opts = BakeOptions {
         memory_budget: Some(budget),
+        choice: transfer,
         ..Default::default()
     };
     use std::sync::atomic::{AtomicU64, Ordering};
@@ -103,7 +113,13 @@ fn bake_child(dir: &Path, cache: &Path, budget: u64) -> Result<()> {
     Ok(())
 }
 
-fn bake_one(dir: &Path, cache: &Path, force: bool, budget: u64) -> Result<()> {
+fn bake_one(
+    dir: &Path,
+    cache: &Path,
+    force: bool,
+    budget: u64,
+    transfer: Option<relight::scene::TransferChoice>,
+) -> Result<()> {
     let label = dir
         .file_name()
         .map(|s| s.to_string_lossy().into_owned())
@@ -120,6 +136,7 @@ fn bake_one(dir: &Path, cache: &Path, force: bool, budget: u64) -> Result<()> {
     };
     let opts = BakeOptions {
         memory_budget: Some(budget),
+        choice: transfer,
         ..Default::default()
     };
     let baked = bake::load_or_bake(dir, policy, &opts, &progress)?;
@@ -138,6 +155,29 @@ fn bake_one(dir: &Path, cache: &Path, force: bool, budget: u64) -> Result<()> {
         outln!("solve          {:.2} s", s.solve_s);
     }
     outln!("residual       {:.2e}", s.residual);
+    if let Some(h) = &baked.transfer.hierarchy {
+        let st = &h.stats;
+        outln!(
+            "links          {} ({:.1} per patch, {:.1} per node; {} patch to patch)",
+            st.links,
+            st.links as f64 / h.n.max(1) as f64,
+            st.links as f64 / h.nodes().max(1) as f64,
+            st.leaf_links
+        );
+        outln!(
+            "closure        |S - (1 - escape)| mean {:.2e}, max {:.2e}; sigma {:.4}..{:.4}",
+            st.closure_mean,
+            st.closure_max,
+            st.sigma_min,
+            st.sigma_max
+        );
+        outln!(
+            "hierarchy      refine {:.2} s, closure rays {:.2} s, {} sweeps",
+            st.refine_s,
+            st.closure_s,
+            baked.transfer.info.sweeps
+        );
+    }
     outln!(
         "cache          {:.1} MB  {}",
         s.cache_bytes as f64 / 1e6,

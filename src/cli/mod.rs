@@ -58,3 +58,9 @@ pub fn load_model(dir: &Path, cache: Option<PathBuf>, opts: &BakeOptions) -> Res
     }
     Ok(Model::new(baked))
 }
+
+/// `--transfer auto|factored|columns|hierarchical`: overrides scene.toml's `transfer`.
+pub fn parse_transfer(s: &str) -> Result<relight::scene::TransferChoice, String> {
+    serde_json::from_value(serde_json::Value::String(s.to_ascii_lowercase()))
+        .map_err(|_| format!("unknown transfer '{s}': use auto, factored, columns or hierarchical"))
+}

@@ -30,11 +30,15 @@ pub struct RadiosityArgs {
     /// Override the mesh size (longest patch edge, metres).
     #[arg(long)]
     max_edge: Option<f64>,
+    /// Transfer mode, overriding scene.toml: auto, factored, columns or hierarchical.
+    #[arg(long, value_parser = super::parse_transfer)]
+    transfer: Option<relight::scene::TransferChoice>,
 }
 
 pub fn run(a: RadiosityArgs) -> Result<()> {
     let opts = BakeOptions {
         max_edge: a.max_edge,
+        choice: a.transfer,
         ..Default::default()
     };
     let model = load_model(&a.scene, a.cache, &opts)?;

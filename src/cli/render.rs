@@ -39,10 +39,17 @@ pub struct RenderArgs {
     falsecolor: bool,
     #[arg(long, env = "RELIGHT_CACHE")]
     cache: Option<PathBuf>,
+    /// Transfer mode, overriding scene.toml: auto, factored, columns or hierarchical.
+    #[arg(long, value_parser = super::parse_transfer)]
+    transfer: Option<relight::scene::TransferChoice>,
 }
 
 pub fn run(a: RenderArgs) -> Result<()> {
-    let model = load_model(&a.scene, a.cache.clone(), &BakeOptions::default())?;
+    let opts = BakeOptions {
+        choice: a.transfer,
+        ..Default::default()
+    };
+    let model = load_model(&a.scene, a.cache.clone(), &opts)?;
     let scene = &model.baked.scene;
     let def = match &a.camera {
         Some(id) => scene

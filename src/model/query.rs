@@ -105,15 +105,18 @@ impl Model {
             })
     }
 
-    /// Refuses per-patch emission unless the transfer is factored.
+    /// Refuses per-patch emission unless the transfer is factored (an exact solve) or
+    /// hierarchical (sweeps over the links).
     pub fn require_factored(&self) -> Result<(), QueryError> {
         let t = &self.baked.transfer;
         match t.mode {
             TransferMode::Factored if t.factored.is_some() => Ok(()),
+            TransferMode::Hierarchical if t.hierarchy.is_some() => Ok(()),
             m => Err(QueryError::NeedsFactored {
                 scene: self.baked.scene.id.clone(),
                 mode: match m {
                     TransferMode::Factored => "factored (without its factors)",
+                    TransferMode::Hierarchical => "hierarchical (without its links)",
                     TransferMode::Columns => "columns",
                 },
             }),

@@ -160,6 +160,7 @@ pub enum TransferChoice {
     Auto,
     Factored,
     Columns,
+    Hierarchical,
 }
 
 /// `scene.toml` as read from a scene folder.

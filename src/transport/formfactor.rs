@@ -90,7 +90,7 @@ pub fn point_to_polygon(x: DVec3, n: DVec3, poly: &[DVec3]) -> f64 {
 }
 
 /// Barycentric midpoint-rule points for 4^level sub-triangles (levels 0..=4).
-fn quadrature_tables() -> [Vec<DVec3>; 5] {
+pub(crate) fn quadrature_tables() -> [Vec<DVec3>; 5] {
     fn rec(a: DVec3, b: DVec3, c: DVec3, level: u32, out: &mut Vec<DVec3>) {
         if level == 0 {
             out.push((a + b + c) / 3.0);
@@ -110,14 +110,14 @@ fn quadrature_tables() -> [Vec<DVec3>; 5] {
 }
 
 /// Small deterministic generator (SplitMix64) for ray sampling.
-struct Rng(u64);
+pub(crate) struct Rng(u64);
 
 impl Rng {
-    fn new(i: usize, j: usize) -> Rng {
+    pub(crate) fn new(i: usize, j: usize) -> Rng {
         Rng((i as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15)
             ^ (j as u64).wrapping_mul(0xC2B2_AE3D_27D4_EB4F))
     }
-    fn next_f64(&mut self) -> f64 {
+    pub(crate) fn next_f64(&mut self) -> f64 {
         self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
         let mut z = self.0;
         z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
@@ -129,7 +129,7 @@ impl Rng {
 
 /// A point of triangle `c` from the unit square, uniformly distributed, pulled slightly
 /// inside so it never lies on an edge shared with a neighbour.
-fn sample_triangle(c: &[DVec3; 3], mut u: f64, mut v: f64) -> DVec3 {
+pub(crate) fn sample_triangle(c: &[DVec3; 3], mut u: f64, mut v: f64) -> DVec3 {
     if u + v > 1.0 {
         u = 1.0 - u;
         v = 1.0 - v;
@@ -140,17 +140,17 @@ fn sample_triangle(c: &[DVec3; 3], mut u: f64, mut v: f64) -> DVec3 {
 }
 
 /// Precomputed per-patch data for the pair loop.
-struct PatchGeo {
-    c: [DVec3; 3],
-    centroid: DVec3,
-    n: DVec3,
-    area: f64,
-    size: f64,
-    source: u32,
+pub(crate) struct PatchGeo {
+    pub c: [DVec3; 3],
+    pub centroid: DVec3,
+    pub n: DVec3,
+    pub area: f64,
+    pub size: f64,
+    pub source: u32,
 }
 
 /// Mean point-to-polygon factor from `level`-quadrature points on `a` to triangle `b`.
-fn directed(a: &PatchGeo, b: &PatchGeo, pts: &[DVec3]) -> f64 {
+pub(crate) fn directed(a: &PatchGeo, b: &PatchGeo, pts: &[DVec3]) -> f64 {
     let mut s = 0.0;
     for w in pts {
         let x = a.c[0] * w.x + a.c[1] * w.y + a.c[2] * w.z;
@@ -164,7 +164,7 @@ fn directed(a: &PatchGeo, b: &PatchGeo, pts: &[DVec3]) -> f64 {
 }
 
 /// Largest signed height of `b`'s corners above `a`'s plane.
-fn height_above(a: &PatchGeo, b: &PatchGeo) -> f64 {
+pub(crate) fn height_above(a: &PatchGeo, b: &PatchGeo) -> f64 {
     b.c.iter()
         .map(|p| a.n.dot(*p - a.centroid))
         .fold(f64::NEG_INFINITY, f64::max)
@@ -212,7 +212,7 @@ pub fn compute(
 }
 
 /// Corners, centroid, normal, area, size and source triangle of every patch.
-fn patch_geometry(mesh: &Mesh) -> Vec<PatchGeo> {
+pub(crate) fn patch_geometry(mesh: &Mesh) -> Vec<PatchGeo> {
     (0..mesh.len())
         .map(|i| {
             let p = &mesh.patches[i];
@@ -247,27 +247,44 @@ fn coupling(
     if height_above(a, b) <= tol || height_above(b, a) <= tol {
         return 0.0;
     }
-    let d = a.centroid.distance(b.centroid);
-    let level = |own: f64, other: f64| -> usize {
-        let r = d / own.max(other * 0.5);
-        match r {
-            r if r > 8.0 => 0,
-            r if r > 4.0 => 1,
-            r if r > 2.0 => 2,
-            r if r > 1.0 => 3,
-            _ => 4,
-        }
-    };
-    let fij = directed(a, b, &quad[level(a.size, b.size)]);
-    let fji = directed(b, a, &quad[level(b.size, a.size)]);
+    let fij = directed(a, b, &quad[quadrature_level(a, b)]);
+    let fji = directed(b, a, &quad[quadrature_level(b, a)]);
     let g = 0.5 * (a.area * fij + b.area * fji);
     if g <= 0.0 {
         return 0.0;
     }
     let fmax = (g / a.area).max(g / b.area);
+    (g * visible_fraction(a, b, Rng::new(i, j), fmax, bvh, opts)) as f32
+}
+
+/// Quadrature level (0..=4) for points on `own` seeing `other`: finer as the pair gets
+/// closer relative to its size.
+pub(crate) fn quadrature_level(own: &PatchGeo, other: &PatchGeo) -> usize {
+    let d = own.centroid.distance(other.centroid);
+    let r = d / own.size.max(other.size * 0.5);
+    match r {
+        r if r > 8.0 => 0,
+        r if r > 4.0 => 1,
+        r if r > 2.0 => 2,
+        r if r > 1.0 => 3,
+        _ => 4,
+    }
+}
+
+/// The unblocked fraction of segments between stratified random points of `a` and `b`.
+/// A pair with factor `fmax` gets `fmax · rays_per_ff` rays within the options' bounds;
+/// probes first, and a pair the probes see as partly hidden gets the full budget, so
+/// shadow boundaries are resolved where they are.
+pub(crate) fn visible_fraction(
+    a: &PatchGeo,
+    b: &PatchGeo,
+    mut rng: Rng,
+    fmax: f64,
+    bvh: &Bvh,
+    opts: &FormFactorOptions,
+) -> f64 {
     let rays = ((fmax * opts.rays_per_ff).ceil() as u32)
         .clamp(opts.probe_rays, opts.max_rays.max(opts.probe_rays));
-    let mut rng = Rng::new(i, j);
     let cast = |count: u32, rng: &mut Rng| -> u32 {
         let mut free = 0u32;
         // Stratify the first sample coordinate of both ends over the rays.
@@ -285,8 +302,6 @@ fn coupling(
         }
         free
     };
-    // Probe first; a pair the probes see as partly hidden gets the full budget of rays,
-    // so shadow boundaries are resolved where they are.
     let probes = opts.probe_rays.min(rays);
     let mut free = cast(probes, &mut rng);
     let mut total = probes;
@@ -300,7 +315,7 @@ fn coupling(
         free += cast(budget - total, &mut rng);
         total = budget;
     }
-    (g * free as f64 / total as f64) as f32
+    free as f64 / total.max(1) as f64
 }
 
 /// Passes 2 and 3: `F_ji = G_ij / A_j` into the lower triangle, then `F_ij = G_ij / A_i`

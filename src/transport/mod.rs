@@ -1,11 +1,13 @@
 //! Light transport: form factors with occlusion ([`formfactor`]), the direct light of
-//! point luminaires ([`direct`]), the dense solves ([`solve`]), the baked, immutable
+//! point luminaires ([`direct`]), the dense solves ([`solve`]), the links of
+//! hierarchical radiosity ([`hierarchy`]), the baked, immutable
 //! [`transfer`], and illuminance gathered at arbitrary points ([`probe`]).
 //!
 //! Exitance and radiosity are in lm/m², illuminance in lux, flux in lm.
 
 pub mod direct;
 pub mod formfactor;
+pub mod hierarchy;
 pub mod probe;
 pub mod solve;
 pub mod transfer;

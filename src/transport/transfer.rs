@@ -1,13 +1,17 @@
 //! The baked transfer: everything needed to relight a scene, immutable once built.
 //!
-//! Two modes:
+//! Three modes:
 //! - **factored**: an LU factorization of `(I − ρF)` per distinct reflectance channel,
 //!   plus `F` itself. Any per-patch emission vector is solved exactly
 //!   ([`Transfer::solve`]); light groups are served from precomputed columns as well.
 //! - **columns**: only the response columns of the light groups (from Jacobi iteration to
 //!   a relative tolerance of [`COLUMN_TOL`]); `F` is not kept.
+//! - **hierarchical**: no n × n matrix at all. The form factors are links of a cluster
+//!   hierarchy ([`crate::transport::hierarchy`]), about linear in n; the group columns are
+//!   solved by gather/push/pull sweeps to [`HIERARCHY_TOL`], and a per-patch emission is
+//!   solved on demand the same way.
 //!
-//! In both modes every light group g has three interleaved RGB columns (n × 3 floats),
+//! In every mode every light group g has three interleaved RGB columns (n × 3 floats),
 //! computed for the group at intensity 1 and colour (1, 1, 1):
 //! `e_g` its emission (lm/m²), `b_g` the radiosity it causes (lm/m²) and `h_g` the
 //! incident illuminance it causes (lux). A lighting state with per-group RGB weights
@@ -19,28 +23,47 @@ use serde::Serialize;
 use crate::color::Rgb;
 use crate::geometry::mesh::Mesh;
 use crate::scene::{Scene, TransferChoice};
+use crate::transport::hierarchy::Hierarchy;
 use crate::transport::solve::{self, ChannelLu};
 
 /// Relative tolerance of the iterative column solver.
 pub const COLUMN_TOL: f64 = 1e-7;
 /// Largest patch count for which `auto` picks the factored mode.
 pub const AUTO_FACTORED_MAX: usize = 6000;
+/// Largest patch count for which `auto` picks the columns mode; above it, hierarchical.
+pub const AUTO_COLUMNS_MAX: usize = 15_000;
+/// Relative tolerance of the hierarchical sweeps (largest change over largest value).
+pub const HIERARCHY_TOL: f64 = 1e-6;
+/// Most sweeps of a hierarchical solve (the error shrinks by ρ_max per sweep).
+pub const HIERARCHY_MAX_SWEEPS: usize = 1000;
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, serde::Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum TransferMode {
     Factored,
     Columns,
+    Hierarchical,
 }
 
 impl TransferMode {
+    /// The lowercase name used in scene.toml, the CLI and the API.
+    pub fn name(self) -> &'static str {
+        match self {
+            TransferMode::Factored => "factored",
+            TransferMode::Columns => "columns",
+            TransferMode::Hierarchical => "hierarchical",
+        }
+    }
+
     /// Resolves a scene's choice for `n` patches.
     pub fn resolve(choice: TransferChoice, n: usize) -> TransferMode {
         match choice {
             TransferChoice::Factored => TransferMode::Factored,
             TransferChoice::Columns => TransferMode::Columns,
+            TransferChoice::Hierarchical => TransferMode::Hierarchical,
             TransferChoice::Auto if n <= AUTO_FACTORED_MAX => TransferMode::Factored,
-            TransferChoice::Auto => TransferMode::Columns,
+            TransferChoice::Auto if n <= AUTO_COLUMNS_MAX => TransferMode::Columns,
+            TransferChoice::Auto => TransferMode::Hierarchical,
         }
     }
 }
@@ -94,7 +117,17 @@ pub struct Transfer {
     pub escape: Vec<f32>,
     pub groups: Vec<GroupColumns>,
     pub factored: Option<Factored>,
+    /// Hierarchical-mode links.
+    pub hierarchy: Option<Hierarchy>,
     pub info: SolveInfo,
+}
+
+/// The form factors a transfer is built from.
+pub enum Coupling {
+    /// Row-major n × n (factored and columns modes).
+    Dense(Vec<f32>),
+    /// Links, with each patch's escape fraction (hierarchical mode).
+    Links(Box<Hierarchy>, Vec<f32>),
 }
 
 impl Transfer {
@@ -104,6 +137,9 @@ impl Transfer {
         let mut b = 12 * self.rho.capacity() as u64 + f32s(&self.area) + f32s(&self.escape);
         for g in &self.groups {
             b += f32s(&g.e) + f32s(&g.b) + f32s(&g.h);
+        }
+        if let Some(h) = &self.hierarchy {
+            b += h.bytes();
         }
         if let Some(f) = &self.factored {
             b += f32s(&f.f);
@@ -157,6 +193,32 @@ pub fn group_emission(scene: &Scene, mesh: &Mesh) -> Vec<Vec<f32>> {
         }
     }
     cols
+}
+
+/// Diffuse reflectance per patch and channel.
+pub fn patch_rho(scene: &Scene, mesh: &Mesh) -> Vec<Rgb> {
+    mesh.patches
+        .iter()
+        .map(|p| scene.materials[p.material as usize].kd)
+        .collect()
+}
+
+/// Per patch, the source term `E + ρ D` of all groups at intensity 1 and colour white,
+/// mean of R, G and B, lm/m².
+pub fn all_sources(scene: &Scene, mesh: &Mesh, direct: &[Option<Vec<f32>>]) -> Vec<f64> {
+    let rho = patch_rho(scene, mesh);
+    let emission = group_emission(scene, mesh);
+    let mut out = vec![0f64; mesh.len()];
+    for (gi, col) in emission.iter().enumerate() {
+        let d = direct.get(gi).and_then(|d| d.as_deref());
+        for (i, o) in out.iter_mut().enumerate() {
+            for c in 0..3 {
+                let first = d.map_or(0.0, |d| rho[i][c] * d[3 * i + c]);
+                *o += (col[3 * i + c] + first) as f64 / 3.0;
+            }
+        }
+    }
+    out
 }
 
 /// The sources `E + ρ D` as an n × 3G matrix, column 3g + c: emission plus the first
@@ -218,21 +280,117 @@ impl Transfer {
     /// `direct[g]` is the direct illuminance of group g's point luminaires (lux, n × 3 at
     /// unit weight; None without luminaires). It enters as the first reflection: the
     /// group's source is `E + ρ D`, and its incident illuminance `H = D + F B`.
+    /// `coupling` is the dense `F` for the factored and columns modes, the links for the
+    /// hierarchical mode.
     pub fn build(
         scene: &Scene,
         mesh: &Mesh,
+        coupling: Coupling,
+        direct: &[Option<Vec<f32>>],
+        mode: TransferMode,
+        progress: &(dyn Fn(f64) + Sync),
+    ) -> Transfer {
+        let rho = patch_rho(scene, mesh);
+        let area: Vec<f32> = mesh.patches.iter().map(|p| p.area as f32).collect();
+        match coupling {
+            Coupling::Dense(f) => {
+                Self::build_dense(scene, mesh, f, rho, area, direct, mode, progress)
+            }
+            Coupling::Links(h, escape) => {
+                Self::build_links(scene, mesh, *h, escape, rho, area, direct, progress)
+            }
+        }
+    }
+
+    /// The hierarchical mode: the group columns from sweeps over the links.
+    #[allow(clippy::too_many_arguments)]
+    fn build_links(
+        scene: &Scene,
+        mesh: &Mesh,
+        hier: Hierarchy,
+        escape: Vec<f32>,
+        rho: Vec<Rgb>,
+        area: Vec<f32>,
+        direct: &[Option<Vec<f32>>],
+        progress: &(dyn Fn(f64) + Sync),
+    ) -> Transfer {
+        let n = mesh.len();
+        let emission = group_emission(scene, mesh);
+        let g = emission.len();
+        let c = 3 * g;
+        // Sources E + ρD, row-major n × 3G.
+        let mut src = vec![0f32; n * c];
+        for (gi, col) in emission.iter().enumerate() {
+            let d = direct.get(gi).and_then(|d| d.as_deref());
+            for i in 0..n {
+                for ch in 0..3 {
+                    let first = d.map_or(0.0, |d| rho[i][ch] * d[3 * i + ch]);
+                    src[i * c + 3 * gi + ch] = col[3 * i + ch] + first;
+                }
+            }
+        }
+        let sol = if c == 0 {
+            None
+        } else {
+            Some(hier.solve(&rho, &src, c, HIERARCHY_TOL, HIERARCHY_MAX_SWEEPS, progress))
+        };
+        let pick = |x: &[f32], gi: usize| -> Vec<f32> {
+            (0..n)
+                .flat_map(|i| (0..3).map(move |ch| x[i * c + 3 * gi + ch]))
+                .collect()
+        };
+        let groups = (0..g)
+            .map(|gi| {
+                let sol = sol.as_ref().expect("groups imply columns");
+                let d = direct.get(gi).and_then(|d| d.as_deref());
+                let mut hcol = pick(&sol.h, gi);
+                if let Some(d) = d {
+                    for (hv, dv) in hcol.iter_mut().zip(d) {
+                        *hv += dv;
+                    }
+                }
+                let (flux, landed) =
+                    crate::transport::direct::group_flux(&scene.lights[gi], &area, d);
+                GroupColumns {
+                    e: emission[gi].clone(),
+                    b: pick(&sol.b, gi),
+                    h: hcol,
+                    flux,
+                    landed,
+                }
+            })
+            .collect();
+        let info = SolveInfo {
+            residual: sol.as_ref().map_or(0.0, |s| s.residual),
+            sweeps: sol.as_ref().map_or(0, |s| s.sweeps),
+        };
+        progress(1.0);
+        Transfer {
+            mode: TransferMode::Hierarchical,
+            n,
+            rho,
+            area,
+            escape,
+            groups,
+            factored: None,
+            hierarchy: Some(hier),
+            info,
+        }
+    }
+
+    /// The factored and columns modes, from the dense `F`.
+    #[allow(clippy::too_many_arguments)]
+    fn build_dense(
+        scene: &Scene,
+        mesh: &Mesh,
         f: Vec<f32>,
+        rho: Vec<Rgb>,
+        area: Vec<f32>,
         direct: &[Option<Vec<f32>>],
         mode: TransferMode,
         progress: &(dyn Fn(f64) + Sync),
     ) -> Transfer {
         let n = mesh.len();
-        let rho: Vec<Rgb> = mesh
-            .patches
-            .iter()
-            .map(|p| scene.materials[p.material as usize].kd)
-            .collect();
-        let area: Vec<f32> = mesh.patches.iter().map(|p| p.area as f32).collect();
         let escape: Vec<f32> = crate::transport::formfactor::row_sums(&f, n)
             .into_iter()
             .map(|s| (1.0 - s).max(0.0) as f32)
@@ -249,7 +407,7 @@ impl Transfer {
                 let b = solve_refined(&lus, channel_lu, &f, e.as_ref(), &rho_of_col);
                 (b, Some((lus, channel_lu)), 0)
             }
-            TransferMode::Columns => {
+            TransferMode::Columns | TransferMode::Hierarchical => {
                 let (b, sweeps) =
                     solve::jacobi(&f, n, e.as_ref(), &rho_of_col, COLUMN_TOL, 2000, progress);
                 (b, None, sweeps)
@@ -287,6 +445,7 @@ impl Transfer {
             escape,
             groups,
             factored,
+            hierarchy: None,
             info: SolveInfo { residual, sweeps },
         }
     }
@@ -342,14 +501,32 @@ impl Transfer {
         s
     }
 
-    /// Exact solution for an arbitrary per-patch emission (lm/m², n × 3 interleaved).
-    /// Only in factored mode; `None` otherwise.
+    /// Solution for an arbitrary per-patch emission (lm/m², n × 3 interleaved): exact
+    /// with the stored factors (factored mode), or by sweeps over the links to
+    /// [`HIERARCHY_TOL`] (hierarchical mode); `None` in columns mode.
     pub fn solve(&self, emission: &[f32]) -> Option<Solution> {
-        let fac = self.factored.as_ref()?;
         let n = self.n;
         if emission.len() != 3 * n {
             return None;
         }
+        if let Some(h) = &self.hierarchy {
+            let sol = h.solve(
+                &self.rho,
+                emission,
+                3,
+                HIERARCHY_TOL,
+                HIERARCHY_MAX_SWEEPS,
+                &|_| {},
+            );
+            return Some(Solution {
+                e: emission.to_vec(),
+                b: sol.b,
+                h: sol.h,
+                luminaire_flux: [0.0; 3],
+                direct_escaped: [0.0; 3],
+            });
+        }
+        let fac = self.factored.as_ref()?;
         let mut x = Mat::<f32>::zeros(n, 3);
         for i in 0..n {
             for c in 0..3 {

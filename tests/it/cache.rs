@@ -144,14 +144,21 @@ use relight::transport::transfer::TransferMode;
 fn patch_limit_is_checked_before_meshing() {
     let _gate = common::shared();
     // target_patches = 1,000,000 (the largest scene.toml accepts): refused from the
-    // estimate, in milliseconds, instead of meshing for minutes.
+    // estimate, in milliseconds, instead of meshing for minutes: by a patch limit, and by
+    // the memory budget (the limit a bake really has).
     let s = write_scene(
         &box_faces("room", "wall", [0., 0., 0.], [4., 3., 3.], true),
         "newmtl wall\nKd 0.5 0.5 0.5\n",
         Some("[mesh]\ntarget_patches = 1000000\n"),
     );
+    let limited = BakeOptions {
+        max_patches: 30_000,
+        ..Default::default()
+    };
     let t0 = std::time::Instant::now();
-    let e = load(s.path(), CachePolicy::Off).err().unwrap();
+    let e = load_or_bake(s.path(), CachePolicy::Off, &limited, &|_, _| {})
+        .err()
+        .unwrap();
     assert!(t0.elapsed().as_secs_f64() < 2.0, "{:?}", t0.elapsed());
     match &e {
         BakeError::TooLarge {
@@ -161,7 +168,7 @@ fn patch_limit_is_checked_before_meshing() {
             ..
         } => {
             assert!(*estimated);
-            assert_eq!(*max, relight::bake::DEFAULT_MAX_PATCHES);
+            assert_eq!(*max, 30_000);
             // About 1e6 / 2.2 (the bound is below the real count, never above).
             assert!(*patches > 300_000 && *patches < 1_000_000, "{patches}");
         }
@@ -172,6 +179,29 @@ fn patch_limit_is_checked_before_meshing() {
         msg.contains("would give at least") && msg.contains("the limit of 30000"),
         "{msg}"
     );
+    // Without a patch limit, the memory budget refuses it before meshing.
+    let budgeted = BakeOptions {
+        memory_budget: Some(1 << 30),
+        ..Default::default()
+    };
+    let t0 = std::time::Instant::now();
+    let e = load_or_bake(s.path(), CachePolicy::Off, &budgeted, &|_, _| {})
+        .err()
+        .unwrap();
+    assert!(t0.elapsed().as_secs_f64() < 2.0, "{:?}", t0.elapsed());
+    match &e {
+        BakeError::OverBudget {
+            patches,
+            mode,
+            needed,
+            ..
+        } => {
+            assert!(*patches > 300_000, "{patches}");
+            assert_eq!(*mode, TransferMode::Hierarchical);
+            assert!(*needed > 1 << 30);
+        }
+        other => panic!("{other}"),
+    }
     // A tiny max_edge override (CLI --max-edge) is refused the same way; a non-positive one
     // is an error of its own.
     let s = small_scene();

@@ -26,6 +26,7 @@ mod cornell;
 mod fuzz;
 mod fuzz_requests;
 mod hardening;
+mod hierarchical;
 mod http;
 mod luminaires;
 mod render;

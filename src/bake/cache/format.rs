@@ -4,12 +4,13 @@
 
 use serde::{Deserialize, Serialize};
 
+use crate::transport::hierarchy::HierarchyStats;
 use crate::transport::transfer::{SolveInfo, TransferMode};
 
 /// The first 8 bytes of every cache file.
 pub(super) const MAGIC: &[u8; 8] = b"RLTRANS\0";
 /// Bump when the file layout changes.
-pub(super) const FORMAT_VERSION: u32 = 2;
+pub(super) const FORMAT_VERSION: u32 = 3;
 /// Bump when the numbers a bake produces change (meshing, form factors, solver).
 pub(super) const ALGORITHM_VERSION: u32 = 1;
 /// Largest JSON header accepted, bytes.
@@ -46,6 +47,11 @@ pub struct Header {
     pub channel_lu: Option<[u8; 3]>,
     pub lu_count: usize,
     pub info: SolveInfo,
+    /// Hierarchical mode: the number of links, and how the hierarchy was built.
+    #[serde(default)]
+    pub links: u64,
+    #[serde(default)]
+    pub hierarchy: Option<HierarchyStats>,
     pub sections: Vec<Section>,
 }
 
@@ -83,6 +89,26 @@ pub(super) fn expected_sections(h: &Header) -> Option<Vec<(String, Kind, u64)>> 
             if h.lu_count != 0 {
                 return None;
             }
+        }
+        TransferMode::Hierarchical => {
+            if h.lu_count != 0 || n == 0 {
+                return None;
+            }
+            let links = h.links;
+            out.push((
+                "children".to_string(),
+                Kind::Floats,
+                (n - 1).checked_mul(8)?,
+            ));
+            out.push(("offsets".to_string(), Kind::Floats, n.checked_mul(8)?));
+            out.push(("src".to_string(), Kind::Floats, links.checked_mul(4)?));
+            out.push(("k".to_string(), Kind::Floats, links.checked_mul(4)?));
+            out.push((
+                "vis".to_string(),
+                Kind::Floats,
+                links.div_ceil(4).checked_mul(4)?,
+            ));
+            out.push(("sigma".to_string(), Kind::Floats, vec1));
         }
         TransferMode::Factored => {
             if !(1..=3).contains(&h.lu_count) {

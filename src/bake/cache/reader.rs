@@ -13,6 +13,7 @@ use super::format::{
     expected_sections, Header, Kind, Section, FORMAT_VERSION, MAGIC, MAX_HEADER_BYTES, PREAMBLE,
 };
 use super::CacheError;
+use crate::transport::hierarchy::Hierarchy;
 use crate::transport::solve::ChannelLu;
 use crate::transport::transfer::{Factored, GroupColumns, Transfer, TransferMode};
 
@@ -247,8 +248,12 @@ fn assemble(path: &Path, h: &Header, mut s: Sections) -> Result<Transfer, CacheE
         });
     }
     let factored = match h.mode {
-        TransferMode::Columns => None,
+        TransferMode::Columns | TransferMode::Hierarchical => None,
         TransferMode::Factored => Some(factored(h, &mut take, &mut s.lus, &corrupt)?),
+    };
+    let hierarchy = match h.mode {
+        TransferMode::Hierarchical => Some(hierarchy(h, &area, &mut take, &corrupt)?),
+        _ => None,
     };
     Ok(Transfer {
         mode: h.mode,
@@ -258,8 +263,40 @@ fn assemble(path: &Path, h: &Header, mut s: Sections) -> Result<Transfer, CacheE
         escape,
         groups,
         factored,
+        hierarchy,
         info: h.info,
     })
+}
+
+/// The links of a hierarchical entry, checked for consistency.
+fn hierarchy(
+    h: &Header,
+    area: &[f32],
+    take: &mut impl FnMut(&str) -> Result<Vec<f32>, CacheError>,
+    corrupt: &impl Fn(String) -> CacheError,
+) -> Result<Hierarchy, CacheError> {
+    let words = |v: Vec<f32>| -> Vec<u32> { bytemuck::cast_slice::<f32, u32>(&v).to_vec() };
+    let children: Vec<[u32; 2]> = words(take("children")?)
+        .chunks_exact(2)
+        .map(|c| [c[0], c[1]])
+        .collect();
+    let offsets = words(take("offsets")?);
+    let src = words(take("src")?);
+    let k = take("k")?;
+    let mut vis = bytemuck::cast_slice::<f32, u8>(&take("vis")?).to_vec();
+    vis.truncate(src.len());
+    let sigma = take("sigma")?;
+    Hierarchy::from_parts(
+        area,
+        children,
+        offsets,
+        src,
+        k,
+        vis,
+        sigma,
+        h.hierarchy.unwrap_or_default(),
+    )
+    .ok_or_else(|| corrupt("the hierarchy's links are inconsistent".into()))
 }
 
 /// The factorization of a factored entry: its LUs with their permutations, the channel

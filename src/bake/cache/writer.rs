@@ -86,6 +86,8 @@ pub fn write(
         channel_lu: t.factored.as_ref().map(|f| f.channel_lu),
         lu_count: t.factored.as_ref().map_or(0, |f| f.lus.len()),
         info: t.info,
+        links: t.hierarchy.as_ref().map_or(0, |h| h.src.len() as u64),
+        hierarchy: t.hierarchy.as_ref().map(|h| h.stats),
         sections: section_table(&all),
     };
     let hjson = serde_json::to_vec(&header).map_err(|e| io(std::io::Error::other(e)))?;
@@ -129,6 +131,23 @@ fn sections_of(t: &Transfer) -> Vec<(String, Data<'_>)> {
     }
     if let Some(f) = &t.factored {
         all.push(("f".into(), Data::Slice(bytemuck::cast_slice(&f.f))));
+    }
+    if let Some(h) = &t.hierarchy {
+        all.push((
+            "children".into(),
+            Data::Slice(bytemuck::cast_slice(&h.children)),
+        ));
+        all.push((
+            "offsets".into(),
+            Data::Slice(bytemuck::cast_slice(&h.offsets)),
+        ));
+        all.push(("src".into(), Data::Slice(bytemuck::cast_slice(&h.src))));
+        all.push(("k".into(), Data::Slice(bytemuck::cast_slice(&h.k))));
+        // Padded with zeros to whole 4-byte words.
+        let mut vis = h.vis.clone();
+        vis.resize(h.vis.len().div_ceil(4) * 4, 0);
+        all.push(("vis".into(), Data::Bytes(vis)));
+        all.push(("sigma".into(), Data::Slice(bytemuck::cast_slice(&h.sigma))));
     }
     all
 }

@@ -1,0 +1,372 @@
+//! Clustered hierarchical radiosity (Hanrahan, Salzman & Aupperle 1991; clusters after
+//! Smits, Arvo & Greenberg 1994): the form factors as links between nodes of a cluster
+//! tree instead of an n × n matrix.
+//!
+//! - [`tree`]: patches → coplanar clusters → mixed clusters, one root.
+//! - [`refine`]: links from receiver nodes to source nodes, refined by an error oracle
+//!   (the spread of the factor over sample pairs, visibility included) until below ε.
+//! - [`closure`]: each patch's factor sum checked against rays and rescaled.
+//! - [`Hierarchy::solve`]: gather, push and pull (Jacobi) to a stated tolerance.
+//!
+//! Storage is compact: per link a u32 source, an f32 factor and a u8 visibility, grouped
+//! by receiver (CSR offsets); per internal node its two children; per patch σ.
+
+pub mod closure;
+pub mod refine;
+pub mod tree;
+
+use std::time::Instant;
+
+use glam::DVec3;
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+
+use crate::color::Rgb;
+use crate::geometry::bvh::Bvh;
+use crate::geometry::mesh::Mesh;
+use crate::transport::formfactor::{patch_geometry, FormFactorOptions};
+pub use refine::HierarchyOptions;
+use tree::Tree;
+
+/// Bytes per link in memory and in the cache: source u32, factor f32, visibility u8, and
+/// the receiver's u32 while the links are sorted.
+pub const BYTES_PER_LINK: u64 = 9;
+
+/// Figures of a hierarchy's construction.
+#[derive(Debug, Clone, Copy, Default, Serialize, Deserialize, PartialEq)]
+pub struct HierarchyStats {
+    pub nodes: u64,
+    pub links: u64,
+    /// Links between two patches.
+    pub leaf_links: u64,
+    /// Mean and largest |S_i − (1 − escape_i)| before closure: how far the links' factor
+    /// sums were from the rays' estimate.
+    pub closure_mean: f64,
+    pub closure_max: f64,
+    /// Range of the closure scale σ.
+    pub sigma_min: f64,
+    pub sigma_max: f64,
+    /// Seconds for refinement and for the closure rays.
+    pub refine_s: f64,
+    pub closure_s: f64,
+}
+
+/// The links of a scene, immutable once built.
+#[derive(Clone)]
+pub struct Hierarchy {
+    /// Patches (leaves).
+    pub n: usize,
+    /// Children of internal node `n + k`; parents come after their children.
+    pub children: Vec<[u32; 2]>,
+    /// Links of receiver node r are `offsets[r] .. offsets[r + 1]`.
+    pub offsets: Vec<u32>,
+    pub src: Vec<u32>,
+    /// Factor of each link: irradiance at the receiver (lux) per lm/m² of the source.
+    pub k: Vec<f32>,
+    /// Visible fraction of each link, 0..=255.
+    pub vis: Vec<u8>,
+    /// Closure scale of each patch's gathered irradiance.
+    pub sigma: Vec<f32>,
+    /// Area of every node, m² (from the patches; not stored).
+    pub area: Vec<f32>,
+    pub stats: HierarchyStats,
+}
+
+/// A solve's result, per patch and column (row-major n × C).
+pub struct HierarchySolution {
+    /// Radiosity, lm/m².
+    pub b: Vec<f32>,
+    /// Irradiance gathered through the links, lux (direct light not included).
+    pub h: Vec<f32>,
+    pub sweeps: usize,
+    /// Largest relative residual `‖S − (B − ρH)‖∞ / ‖S‖∞` over the columns.
+    pub residual: f64,
+}
+
+impl Hierarchy {
+    /// Builds the tree and its links, and the closure. Returns the hierarchy and every
+    /// patch's escape fraction. `front[t]` is the unit front normal of scene triangle t;
+    /// `sources[i]` is patch i's source term (lm/m², emission plus the first reflection
+    /// of luminaire light, all groups at intensity 1, mean of R, G, B), which steers the
+    /// refinement towards bright sources.
+    #[allow(clippy::too_many_arguments)]
+    pub fn build(
+        mesh: &Mesh,
+        rho: &[Rgb],
+        sources: &[f64],
+        bvh: &Bvh,
+        front: &[DVec3],
+        opts: HierarchyOptions,
+        ff: FormFactorOptions,
+        progress: &(dyn Fn(f64) + Sync),
+    ) -> (Hierarchy, Vec<f32>) {
+        let t0 = Instant::now();
+        let tree = Tree::build(mesh);
+        let geo = patch_geometry(mesh);
+        let glow = glow(mesh, rho, sources);
+        let mut links = refine::refine(&tree, &glow, &geo, bvh, opts, ff, &|x| progress(0.9 * x));
+        let refine_s = t0.elapsed().as_secs_f64();
+        links.par_sort_unstable_by_key(|l| (l.r, l.s));
+        let nodes = tree.nodes();
+        let mut offsets = vec![0u32; nodes + 1];
+        for l in &links {
+            offsets[l.r as usize + 1] += 1;
+        }
+        for k in 0..nodes {
+            offsets[k + 1] += offsets[k];
+        }
+        let leaf_links = links
+            .iter()
+            .filter(|l| (l.r as usize) < tree.n && (l.s as usize) < tree.n)
+            .count() as u64;
+        let mut h = Hierarchy {
+            n: tree.n,
+            children: tree.children.clone(),
+            offsets,
+            src: links.iter().map(|l| l.s).collect(),
+            k: links.iter().map(|l| l.k).collect(),
+            vis: links.iter().map(|l| l.vis).collect(),
+            sigma: vec![1.0; tree.n],
+            area: tree.area.iter().map(|&a| a as f32).collect(),
+            stats: HierarchyStats::default(),
+        };
+        drop(links);
+        let t1 = Instant::now();
+        let sums = h.factor_sums();
+        let hits = closure::hit_fraction(&geo, bvh, front, opts.closure_rays);
+        let (sigma, escape) = closure::combine(&sums, &hits, opts.closure_rays);
+        let gaps: Vec<f64> = sums.iter().zip(&hits).map(|(s, h)| (s - h).abs()).collect();
+        h.stats = HierarchyStats {
+            nodes: nodes as u64,
+            links: h.src.len() as u64,
+            leaf_links,
+            closure_mean: gaps.iter().sum::<f64>() / gaps.len().max(1) as f64,
+            closure_max: gaps.iter().copied().fold(0.0, f64::max),
+            sigma_min: sigma
+                .iter()
+                .map(|&x| x as f64)
+                .fold(f64::INFINITY, f64::min),
+            sigma_max: sigma.iter().map(|&x| x as f64).fold(0.0, f64::max),
+            refine_s,
+            closure_s: t1.elapsed().as_secs_f64(),
+        };
+        h.sigma = sigma;
+        progress(1.0);
+        (h, escape)
+    }
+
+    /// Rebuilds a hierarchy from its stored parts; None when they are inconsistent.
+    #[allow(clippy::too_many_arguments)]
+    pub fn from_parts(
+        leaf_area: &[f32],
+        children: Vec<[u32; 2]>,
+        offsets: Vec<u32>,
+        src: Vec<u32>,
+        k: Vec<f32>,
+        vis: Vec<u8>,
+        sigma: Vec<f32>,
+        stats: HierarchyStats,
+    ) -> Option<Hierarchy> {
+        let n = leaf_area.len();
+        let nodes = n + children.len();
+        let links = src.len();
+        let ok = n > 0
+            && children.len() + 1 == n
+            && offsets.len() == nodes + 1
+            && offsets.first() == Some(&0)
+            && offsets.last().map(|&x| x as usize) == Some(links)
+            && offsets.windows(2).all(|w| w[0] <= w[1])
+            && k.len() == links
+            && vis.len() == links
+            && sigma.len() == n
+            && src.iter().all(|&s| (s as usize) < nodes)
+            && children
+                .iter()
+                .enumerate()
+                .all(|(i, c)| c.iter().all(|&x| (x as usize) < n + i));
+        if !ok {
+            return None;
+        }
+        let mut area = leaf_area.to_vec();
+        for c in &children {
+            area.push(area[c[0] as usize] + area[c[1] as usize]);
+        }
+        Some(Hierarchy {
+            n,
+            children,
+            offsets,
+            src,
+            k,
+            vis,
+            sigma,
+            area,
+            stats,
+        })
+    }
+
+    pub fn nodes(&self) -> usize {
+        self.n + self.children.len()
+    }
+
+    /// Bytes held.
+    pub fn bytes(&self) -> u64 {
+        8 * self.children.capacity() as u64
+            + 4 * (self.offsets.capacity() + self.src.capacity() + self.k.capacity()) as u64
+            + self.vis.capacity() as u64
+            + 4 * (self.sigma.capacity() + self.area.capacity()) as u64
+    }
+
+    /// Each patch's form-factor sum through its links and its ancestors' (before closure).
+    pub fn factor_sums(&self) -> Vec<f64> {
+        let mut g = vec![0f64; self.nodes()];
+        g.par_iter_mut().enumerate().for_each(|(r, g)| {
+            let (a, b) = (self.offsets[r] as usize, self.offsets[r + 1] as usize);
+            *g = self.k[a..b].iter().map(|&k| k as f64).sum();
+        });
+        for k in (0..self.children.len()).rev() {
+            let p = g[self.n + k];
+            for c in self.children[k] {
+                g[c as usize] += p;
+            }
+        }
+        g.truncate(self.n);
+        g
+    }
+
+    /// Area means of `c` columns from the leaves up (`x` is nodes × c; leaves filled).
+    fn pull(&self, x: &mut [f32], c: usize) {
+        for (k, ch) in self.children.iter().enumerate() {
+            let node = self.n + k;
+            let (wa, wb) = (self.area[ch[0] as usize], self.area[ch[1] as usize]);
+            let inv = 1.0 / self.area[node].max(f32::MIN_POSITIVE);
+            let (lo, hi) = x.split_at_mut(node * c);
+            let (a, b) = (ch[0] as usize * c, ch[1] as usize * c);
+            for j in 0..c {
+                hi[j] = (wa * lo[a + j] + wb * lo[b + j]) * inv;
+            }
+        }
+    }
+
+    /// `σ · Σ_links k · x_s` at every patch, links of ancestors included (push).
+    fn gather(&self, x: &[f32], c: usize) -> Vec<f32> {
+        let mut g = vec![0f32; self.nodes() * c];
+        g.par_chunks_mut(c)
+            .enumerate()
+            .with_min_len(256)
+            .for_each(|(r, acc)| {
+                let (a, b) = (self.offsets[r] as usize, self.offsets[r + 1] as usize);
+                for l in a..b {
+                    let (k, s) = (self.k[l], self.src[l] as usize * c);
+                    for (o, &v) in acc.iter_mut().zip(&x[s..s + c]) {
+                        *o += k * v;
+                    }
+                }
+            });
+        for k in (0..self.children.len()).rev() {
+            let p = (self.n + k) * c;
+            for ch in self.children[k] {
+                let q = ch as usize * c;
+                for j in 0..c {
+                    g[q + j] += g[p + j];
+                }
+            }
+        }
+        g.truncate(self.n * c);
+        g.par_chunks_mut(c)
+            .zip(&self.sigma)
+            .for_each(|(row, &s)| row.iter_mut().for_each(|v| *v *= s));
+        g
+    }
+
+    /// Solves `B = S + ρ H`, `H = σ K B` for `c` columns of sources `s` (n × c row-major,
+    /// lm/m²); column j uses the reflectance channel j % 3. Jacobi sweeps until the largest
+    /// change is at most `tol` of the largest radiosity, at most `max_sweeps`.
+    pub fn solve(
+        &self,
+        rho: &[Rgb],
+        s: &[f32],
+        c: usize,
+        tol: f64,
+        max_sweeps: usize,
+        progress: &(dyn Fn(f64) + Sync),
+    ) -> HierarchySolution {
+        let n = self.n;
+        let mut x = vec![0f32; self.nodes() * c];
+        x[..n * c].copy_from_slice(&s[..n * c]);
+        let mut sweeps = 0;
+        let mut h;
+        loop {
+            self.pull(&mut x, c);
+            h = self.gather(&x, c);
+            if sweeps >= max_sweeps {
+                break;
+            }
+            sweeps += 1;
+            let (change, top) = x[..n * c]
+                .par_chunks_mut(c)
+                .zip(s.par_chunks(c))
+                .zip(h.par_chunks(c))
+                .zip(rho.par_iter())
+                .map(|(((b, s), h), r)| {
+                    let (mut ch, mut top) = (0f32, 0f32);
+                    for j in 0..c {
+                        let v = s[j] + r[j % 3] * h[j];
+                        ch = ch.max((v - b[j]).abs());
+                        top = top.max(v.abs());
+                        b[j] = v;
+                    }
+                    (ch, top)
+                })
+                .reduce(|| (0.0, 0.0), |a, b| (a.0.max(b.0), a.1.max(b.1)));
+            progress((sweeps as f64 / 60.0).min(0.99));
+            if change as f64 <= tol * top as f64 {
+                self.pull(&mut x, c);
+                h = self.gather(&x, c);
+                break;
+            }
+        }
+        x.truncate(n * c);
+        let residual = residual(&x, s, &h, rho, c);
+        HierarchySolution {
+            b: x,
+            h,
+            sweeps,
+            residual,
+        }
+    }
+}
+
+/// Each patch's source term over the scene's mean radiosity, estimated as the sources'
+/// flux over the area, divided by (1 − ρ̄) for the interreflections (ρ̄ the area mean of
+/// the reflectance, at most 0.9).
+fn glow(mesh: &Mesh, rho: &[Rgb], sources: &[f64]) -> Vec<f32> {
+    let (mut flux, mut area, mut rho_a) = (0.0, 0.0, 0.0);
+    for ((p, s), r) in mesh.patches.iter().zip(sources).zip(rho) {
+        flux += p.area * s;
+        area += p.area;
+        rho_a += p.area * (r[0] + r[1] + r[2]) as f64 / 3.0;
+    }
+    if flux <= 0.0 || area <= 0.0 {
+        return vec![0.0; mesh.len()];
+    }
+    let mean = flux / area / (1.0 - (rho_a / area).min(0.9));
+    sources.iter().map(|&s| (s / mean) as f32).collect()
+}
+
+/// Largest relative residual `‖S − (B − ρH)‖∞ / ‖S‖∞` over the columns.
+fn residual(b: &[f32], s: &[f32], h: &[f32], rho: &[Rgb], c: usize) -> f64 {
+    let mut worst = 0f64;
+    for j in 0..c {
+        let (mut num, mut den) = (0f64, 0f64);
+        for (i, rh) in rho.iter().enumerate() {
+            let k = i * c + j;
+            let r = s[k] as f64 - (b[k] as f64 - rh[j % 3] as f64 * h[k] as f64);
+            num = num.max(r.abs());
+            den = den.max(s[k].abs() as f64);
+        }
+        if den > 0.0 {
+            worst = worst.max(num / den);
+        }
+    }
+    worst
+}
