@@ -6,15 +6,16 @@
 //!
 //! ```text
 //! cargo test --release --test it http::
-//! cargo test --release --test it -- --exact hardening::slow_clients_held_connections_forever
+//! cargo test --release --test it -- --exact hardening::resources::slow_clients_held_connections_forever
 //! ```
 //!
 //! The tests run on parallel threads of this one process. Each holds a gate for its whole
 //! run, `let _gate = common::shared();` as its first line. The few that need the machine
 //! to themselves take `common::alone()` instead, and nothing else runs meanwhile:
 //! `saturation` (health latency under load), `browser` (Chromium; it reports timings) and
-//! `hardening::spawned_work_kept_running_after_the_client_left` (it times work on rayon's
-//! global pool, which the whole process shares). A new test takes one of the two as well.
+//! `hardening::resources::spawned_work_kept_running_after_the_client_left` (it times work
+//! on rayon's global pool, which the whole process shares). A new test takes one of the
+//! two as well.
 
 mod common;
 

@@ -1,0 +1,158 @@
+//! Health, readiness, the scene list and details, patches, scenes baking or broken.
+
+use axum::body::Body;
+use axum::http::{header, Request, StatusCode};
+use relight::server::{router, AppState};
+use serde_json::Value;
+
+use super::{app, config, get, post, ready, send};
+use crate::common;
+
+#[tokio::test]
+async fn health_ready_and_scene_list() {
+    let _gate = common::shared();
+    let (s, _, b) = send(app(), Request::get("/healthz").body(Body::empty()).unwrap()).await;
+    assert_eq!((s, b.as_slice()), (StatusCode::OK, &b"ok"[..]));
+    let (s, v) = get(app(), "/readyz").await;
+    assert_eq!(s, StatusCode::OK);
+    assert_eq!(v["ready"], true);
+    let (s, v) = get(app(), "/api/scenes").await;
+    assert_eq!(s, StatusCode::OK);
+    let scenes = v["scenes"].as_array().unwrap();
+    let ids: Vec<&str> = scenes.iter().map(|s| s["id"].as_str().unwrap()).collect();
+    assert_eq!(ids, ["cornell-box", "desk-room", "office"]);
+    assert!(scenes
+        .iter()
+        .all(|s| s["status"] == "ready" && s["patches"].as_u64().unwrap() > 1000));
+    assert_eq!(scenes[1]["lights"].as_array().unwrap().len(), 2);
+}
+
+#[tokio::test]
+async fn scene_details_with_flux_surfaces_and_cameras() {
+    let _gate = common::shared();
+    let (s, v) = get(app(), "/api/scenes/cornell-box").await;
+    assert_eq!(s, StatusCode::OK);
+    let light = &v["lights"][0];
+    assert_eq!(light["id"], "ceiling");
+    // 50 lm/m² over the 0.13 m × 0.105 m light.
+    assert!(
+        (light["lumens"].as_f64().unwrap() - 0.6825).abs() < 1e-4,
+        "{light}"
+    );
+    assert!((light["emitting_area"].as_f64().unwrap() - 0.01365).abs() < 1e-6);
+    assert_eq!(v["surfaces"].as_array().unwrap().len(), 10);
+    assert_eq!(v["cameras"][0]["id"], "front");
+    assert_eq!(v["transfer"], "factored");
+    let total: u64 = v["surfaces"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|s| s["patches"]["count"].as_u64().unwrap())
+        .sum();
+    assert_eq!(total, v["patches"].as_u64().unwrap());
+    let (_, v) = get(app(), "/api/scenes/desk-room").await;
+    let lamp = v["lights"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|l| l["id"] == "lamp")
+        .unwrap();
+    assert!((lamp["lumens"].as_f64().unwrap() - 400.0).abs() < 0.01);
+}
+
+#[tokio::test]
+async fn unknown_scene_is_a_404_problem() {
+    let _gate = common::shared();
+    let (s, h, b) = send(
+        app(),
+        Request::get("/api/scenes/atlantis")
+            .body(Body::empty())
+            .unwrap(),
+    )
+    .await;
+    assert_eq!(s, StatusCode::NOT_FOUND);
+    assert_eq!(h[header::CONTENT_TYPE], "application/problem+json");
+    let v: Value = serde_json::from_slice(&b).unwrap();
+    assert_eq!(v["status"], 404);
+    assert!(v["detail"].as_str().unwrap().contains("atlantis"));
+    let (s, _, _) = post(app(), "/api/scenes/atlantis/radiosity", "{}").await;
+    assert_eq!(s, StatusCode::NOT_FOUND);
+    let (s, _) = get(app(), "/api/nothing-here").await;
+    assert_eq!(s, StatusCode::NOT_FOUND);
+}
+
+#[tokio::test]
+async fn patches_as_json_and_binary() {
+    let _gate = common::shared();
+    let r = ready("cornell-box");
+    let n = r.baked.mesh.len();
+    let (s, v) = get(app(), "/api/scenes/cornell-box/patches").await;
+    assert_eq!(s, StatusCode::OK);
+    let list = v["patches"].as_array().unwrap();
+    assert_eq!(list.len(), n);
+    assert_eq!(list[0]["surface"], "floor");
+    let req = Request::get("/api/scenes/cornell-box/patches")
+        .header(header::ACCEPT, "application/octet-stream")
+        .body(Body::empty())
+        .unwrap();
+    let (s, h, b) = send(app(), req).await;
+    assert_eq!(s, StatusCode::OK);
+    assert_eq!(h[header::CONTENT_TYPE], "application/octet-stream");
+    assert_eq!(b.len(), 32 * n);
+    let words: &[u32] = bytemuck::cast_slice(&b);
+    let last = n - 1;
+    assert_eq!(words[8 * last], r.baked.mesh.patches[last].surface);
+    let area: f64 = (0..n)
+        .map(|i| f32::from_bits(words[8 * i + 1]) as f64)
+        .sum();
+    // The areas of shared/reference/cornell-box/scene.json sum to 1.92070 m².
+    assert!((area - 1.92070).abs() < 1e-4, "total area {area}");
+}
+
+#[tokio::test]
+async fn baking_scenes_answer_503_with_progress() {
+    let _gate = common::shared();
+    let s = AppState::new(config(
+        common::scenes_dir(),
+        std::env::temp_dir().join("never"),
+    ))
+    .unwrap();
+    let (st, v) = get(router(s.clone()), "/readyz").await;
+    assert_eq!(st, StatusCode::SERVICE_UNAVAILABLE);
+    assert_eq!(v["ready"], false);
+    let (st, h, v) = post(router(s.clone()), "/api/scenes/cornell-box/radiosity", "{}").await;
+    assert_eq!(st, StatusCode::SERVICE_UNAVAILABLE);
+    assert_eq!(h[header::CONTENT_TYPE], "application/problem+json");
+    assert!(v["progress"].is_number() && v["detail"].as_str().unwrap().contains("retry"));
+    let (st, v) = get(router(s), "/api/scenes").await;
+    assert_eq!(st, StatusCode::OK);
+    assert_eq!(v["scenes"][0]["status"], "queued");
+}
+
+#[tokio::test]
+async fn a_broken_scene_is_listed_as_failed_and_the_others_serve() {
+    let _gate = common::shared();
+    let dir = tempfile::tempdir().unwrap();
+    let bad = dir.path().join("broken");
+    std::fs::create_dir(&bad).unwrap();
+    std::fs::write(
+        bad.join("b.obj"),
+        "mtllib b.mtl\no t\nusemtl m\nv 0 0 0\nv 1 0 0\nv 0 0 1\nf 1 3 2\n",
+    )
+    .unwrap();
+    std::fs::write(bad.join("b.mtl"), "newmtl m\nKd 1.5 0.5 0.5\n").unwrap();
+    relight::bench::write_group_room(&dir.path().join("good"), 1, 300).unwrap();
+    let s = AppState::new(config(dir.path().into(), dir.path().join("cache"))).unwrap();
+    s.bake_all();
+    let (st, v) = get(router(s.clone()), "/readyz").await;
+    assert_eq!(st, StatusCode::OK, "failed scenes count as settled");
+    let (_, v2) = get(router(s.clone()), "/api/scenes").await;
+    let broken = &v2["scenes"][0];
+    assert_eq!(broken["status"], "failed", "{v}");
+    assert!(broken["error"].as_str().unwrap().contains("b.mtl:2"));
+    let (st, _, v) = post(router(s.clone()), "/api/scenes/broken/radiosity", "{}").await;
+    assert_eq!(st, StatusCode::SERVICE_UNAVAILABLE);
+    assert!(v["detail"].as_str().unwrap().contains("failed to load"));
+    let (st, _, _) = post(router(s), "/api/scenes/good/radiosity", "{}").await;
+    assert_eq!(st, StatusCode::OK);
+}
