@@ -50,7 +50,7 @@ impl ViewBuffer {
     /// are resolved, plus the rows and the joined buffer (8 bytes per shading-vertex weight,
     /// twice, and 8 bytes per pixel of offsets and picking ids). Pixels blend
     /// [`EST_WEIGHTS_PER_PIXEL`] vertex weights on average in this estimate; a view of the
-    /// Cornell box averages 2.9 (`tests/it/hardening.rs` checks the bound).
+    /// Cornell box averages 2.9 (`tests/it/hardening/resources.rs` checks the bound).
     pub fn estimate_bytes(cam: &Camera) -> u64 {
         let s = samples_per_side(cam) as u64;
         let px = cam.width as u64 * cam.height as u64;
