@@ -79,7 +79,7 @@ fn scene_status() -> RefOr<Schema> {
 }
 
 fn transfer_mode() -> RefOr<Schema> {
-    raw(json!({"type": "string", "enum": ["factored", "columns"]}))
+    raw(json!({"type": "string", "enum": ["factored", "columns", "hierarchical"]}))
 }
 
 /// A scene's slot: its status and, once ready, its size and light groups.
