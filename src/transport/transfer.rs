@@ -26,7 +26,10 @@ pub const COLUMN_TOL: f64 = 1e-7;
 /// Largest patch count for which `auto` picks the factored mode.
 pub const AUTO_FACTORED_MAX: usize = 6000;
 
+/// How a transfer is kept: `factored` (LU factors: any per-patch emission is solved
+/// exactly) or `columns` (the light groups' response columns only).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, serde::Deserialize)]
+#[cfg_attr(feature = "server", derive(utoipa::ToSchema))]
 #[serde(rename_all = "lowercase")]
 pub enum TransferMode {
     Factored,

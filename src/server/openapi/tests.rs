@@ -97,16 +97,26 @@ fn validate(doc: &Value, schema: &Value, v: &Value, at: &str) -> Result<(), Stri
             return fail("not in the enum");
         }
     }
+    if let (Some(x), Some(lo)) = (v.as_f64(), schema["minimum"].as_f64()) {
+        if x < lo {
+            return fail("below the minimum");
+        }
+    }
+    if let (Some(x), Some(hi)) = (v.as_f64(), schema["maximum"].as_f64()) {
+        if x > hi {
+            return fail("above the maximum");
+        }
+    }
     for (key, all) in [("oneOf", false), ("anyOf", false), ("allOf", true)] {
         if let Some(list) = schema[key].as_array() {
-            let results: Vec<bool> = list
+            let valid = list
                 .iter()
-                .map(|s| validate(doc, s, v, at).is_ok())
-                .collect();
-            let ok = if all {
-                results.iter().all(|&b| b)
-            } else {
-                results.iter().any(|&b| b)
+                .filter(|s| validate(doc, s, v, at).is_ok())
+                .count();
+            let ok = match key {
+                "oneOf" => valid == 1,
+                _ if all => valid == list.len(),
+                _ => valid > 0,
             };
             if !ok {
                 return fail(&format!("fails {key}"));
@@ -155,12 +165,32 @@ fn check(name: &str, answer: impl serde::Serialize) {
     let v = serde_json::to_value(answer).unwrap();
     let schema = json!({"$ref": format!("#/components/schemas/{name}")});
     if let Err(e) = validate(&doc, &schema, &v, name) {
-        panic!("the schema {name} does not describe the model's answer: {e}");
+        panic!("the schema {name} does not describe the answer: {e}");
     }
 }
 
-/// The answers' schemas are written apart from the model's serde types: they must
-/// describe what those types serialize to.
+/// Every object an answer reaches lists all its keys.
+#[test]
+fn answers_are_closed() {
+    let s = spec();
+    for name in [
+        "SceneList",
+        "SceneDetails",
+        "GroupInfo",
+        "BatchResponse",
+        "Power",
+    ] {
+        let schema = &s["components"]["schemas"][name];
+        assert_eq!(schema["additionalProperties"], false, "{name}");
+    }
+    let units = &s["components"]["schemas"]["SceneDetails"]["properties"]["units"];
+    assert_eq!(units["additionalProperties"], false);
+    // Requests keep their own rules.
+    let radiosity = &s["components"]["schemas"]["RadiosityRequest"];
+    assert_eq!(radiosity["additionalProperties"], false);
+}
+
+/// The model's answer types, with every optional part present and absent.
 #[test]
 fn answer_schemas_describe_the_model_types() {
     use crate::model::optimize::{Achieved, LevelAnswer, OptimizeAnswer, TargetAnswer};
@@ -179,6 +209,13 @@ fn answer_schemas_describe_the_model_types() {
         watts: None,
     };
     check("GroupInfo", &group);
+    check(
+        "GroupInfo",
+        crate::model::GroupInfo {
+            watts: Some(10.0),
+            ..group
+        },
+    );
     let grid = GridAnswer {
         name: "Desk".into(),
         unit: "lx",
@@ -191,6 +228,14 @@ fn answer_schemas_describe_the_model_types() {
         min_max: 0.33,
         values: vec![0.5, 1.5],
     };
+    check("GridStats", &grid);
+    check(
+        "GridStats",
+        GridAnswer {
+            layout: None,
+            ..grid.clone()
+        },
+    );
     let lux = Lux::new([1.0, 2.0, 3.0]);
     let power = LuminairePower {
         luminaire_lumens: 100.0,
