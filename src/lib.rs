@@ -18,5 +18,7 @@ pub mod photometry;
 pub mod render;
 pub mod scene;
 #[cfg(feature = "server")]
+pub(crate) mod schema;
+#[cfg(feature = "server")]
 pub mod server;
 pub mod transport;

@@ -14,6 +14,11 @@
 //!   statistics, illuminance at points and on grids, luminaire power.
 //! - [`optimize`]: least-flux dimming levels under grid targets.
 //! - [`report`]: per-surface averages and the power balance.
+//! - [`info`]: what the scene is made of (units, bounds, luminaires, grids, surfaces,
+//!   patches), for clients.
+//!
+//! With the `server` feature, the answer types derive `utoipa::ToSchema`: the OpenAPI
+//! document describes them as they serialize (see `crate::schema`).
 //!
 //! Errors are [`QueryError`]s: always the client's mistake (a 4xx over HTTP), never a bug.
 
@@ -25,6 +30,7 @@ use crate::color::luminance64;
 
 pub mod error;
 pub mod grid;
+pub mod info;
 pub mod lighting;
 pub mod optimize;
 pub mod query;
@@ -35,11 +41,15 @@ pub use lighting::{LightSetting, LightState, Lighting};
 
 /// Light-group facts (defaults from `scene.toml`, emitting area, flux at unit weight).
 #[derive(Debug, Clone, serde::Serialize)]
+#[cfg_attr(feature = "server", derive(utoipa::ToSchema))]
 pub struct GroupInfo {
     pub id: String,
     pub name: String,
-    /// Default intensity and colour.
+    /// Default intensity.
+    #[cfg_attr(feature = "server", schema(value_type = f64))]
     pub intensity: f32,
+    /// Default colour.
+    #[cfg_attr(feature = "server", schema(value_type = crate::schema::Rgb))]
     pub color: [f32; 3],
     /// Area of the emitting patches, m².
     pub emitting_area: f64,
@@ -47,7 +57,9 @@ pub struct GroupInfo {
     pub lumens: f64,
     /// Point luminaires in the group.
     pub luminaires: usize,
-    /// Electrical power of the luminaires at intensity 1, W, when every one gives it.
+    /// Electrical power of the luminaires at intensity 1, W, when every one gives it; else
+    /// null.
+    #[cfg_attr(feature = "server", schema(required = true))]
     pub watts: Option<f64>,
 }
 

@@ -177,9 +177,12 @@ impl GridTarget {
 
 /// One group's level in an optimized state.
 #[derive(Debug, Clone, Serialize)]
+#[cfg_attr(feature = "server", derive(utoipa::ToSchema))]
 pub struct LevelAnswer {
     /// Dimming factor (for free groups, the optimized level in [0, 1]).
     pub intensity: f64,
+    /// The group's colour (its default).
+    #[cfg_attr(feature = "server", schema(value_type = crate::schema::Rgb))]
     pub color: Rgb,
     /// Whether the optimizer chose this level.
     pub free: bool,
@@ -187,32 +190,51 @@ pub struct LevelAnswer {
 
 /// What a grid achieves under the optimized levels (lux; U₀ a ratio).
 #[derive(Debug, Clone, Copy, Serialize)]
+#[cfg_attr(feature = "server", derive(utoipa::ToSchema))]
 pub struct Achieved {
+    /// Eavg, lx.
     pub avg: f64,
+    /// Emin, lx.
     pub min: f64,
+    /// U₀ = Emin / Eavg.
     pub u0: f64,
 }
 
 /// One target with what the levels achieve.
 #[derive(Debug, Clone, Serialize)]
+#[cfg_attr(feature = "server", derive(utoipa::ToSchema))]
 pub struct TargetAnswer {
+    /// Grid id.
     pub grid: String,
+    /// Least Eavg asked, lx; null when not asked.
+    #[cfg_attr(feature = "server", schema(required = true))]
     pub eavg_min: Option<f64>,
+    /// Least Emin asked, lx; null when not asked.
+    #[cfg_attr(feature = "server", schema(required = true))]
     pub emin_min: Option<f64>,
+    /// Least U₀ asked; null when not asked.
+    #[cfg_attr(feature = "server", schema(required = true))]
     pub u0_min: Option<f64>,
+    #[cfg_attr(feature = "server", schema(inline))]
     pub achieved: Achieved,
+    /// Whether `achieved` meets every bound.
     pub met: bool,
 }
 
-/// The optimizer's answer.
+/// The optimizer's answer: the levels, flux, power and achieved statistics.
 #[derive(Debug, Clone, Serialize)]
+#[cfg_attr(feature = "server", derive(utoipa::ToSchema), schema(as = OptimizeResponse))]
 pub struct OptimizeAnswer {
     /// Every group's level, keyed by group id.
+    #[cfg_attr(feature = "server", schema(inline))]
     pub lights: BTreeMap<String, LevelAnswer>,
     /// Total luminous flux of the state, lm.
     pub lumens: f64,
     pub power: LuminairePower,
+    /// One per target, in request order.
+    #[cfg_attr(feature = "server", schema(inline))]
     pub targets: Vec<TargetAnswer>,
+    /// The targets' grids in the optimized state, by grid id.
     pub grids: BTreeMap<String, GridAnswer>,
     /// Time to build and solve the LP, ms.
     pub solve_ms: f64,

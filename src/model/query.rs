@@ -28,32 +28,41 @@ pub enum Quantity {
     Illuminance,
 }
 
-/// One grid's answer for a lighting state (lux).
+/// One grid's statistics for a lighting state, lux.
 #[derive(Debug, Clone, Serialize)]
+#[cfg_attr(feature = "server", derive(utoipa::ToSchema), schema(as = GridStats))]
 pub struct GridAnswer {
     pub name: String,
     /// Always `"lx"`.
+    #[cfg_attr(feature = "server", schema(schema_with = crate::schema::lx))]
     pub unit: &'static str,
     pub count: usize,
     /// Columns × rows for rectangular work planes.
+    #[cfg_attr(feature = "server", schema(schema_with = crate::schema::layout, required = true))]
     pub layout: Option<[usize; 2]>,
+    /// Eavg, lx.
     pub avg: f64,
+    /// Emin, lx.
     pub min: f64,
+    /// Emax, lx.
     pub max: f64,
     /// Emin / Eavg.
     pub u0: f64,
     /// Emin / Emax.
     pub min_max: f64,
     /// Luminous illuminance at each point, lx, in grid order.
+    #[cfg_attr(feature = "server", schema(value_type = Vec<f64>))]
     pub values: Vec<f32>,
 }
 
 /// Flux and electrical power of the point luminaires in a lighting state.
 #[derive(Debug, Clone, Copy, Serialize)]
+#[cfg_attr(feature = "server", derive(utoipa::ToSchema))]
 pub struct LuminairePower {
     /// lm.
     pub luminaire_lumens: f64,
-    /// W, dimming assumed proportional; None when a luminaire gives no wattage.
+    /// W, dimming assumed proportional; null when a luminaire gives no wattage.
+    #[cfg_attr(feature = "server", schema(required = true))]
     pub luminaire_watts: Option<f64>,
 }
 
@@ -68,15 +77,21 @@ pub struct IlluminanceQuery {
     pub grids: Vec<usize>,
 }
 
-/// The answer to an [`IlluminanceQuery`], lux throughout.
+/// Illuminance answers, lux: at points, per surface and per grid.
 #[derive(Debug, Clone, Serialize)]
+#[cfg_attr(feature = "server", derive(utoipa::ToSchema), schema(as = IlluminanceResponse))]
 pub struct IlluminanceAnswer {
     /// Always `"lx"`.
+    #[cfg_attr(feature = "server", schema(schema_with = crate::schema::lx))]
     pub unit: &'static str,
+    /// In request order.
     pub points: Vec<Lux>,
+    /// By surface id.
     pub surfaces: BTreeMap<String, SurfaceIlluminance>,
+    /// By grid id.
     pub grids: BTreeMap<String, GridAnswer>,
-    /// Luminaire flux and power (group states only).
+    /// The luminaires' flux and power in this state; null for a per-patch emission.
+    #[cfg_attr(feature = "server", schema(required = true))]
     pub power: Option<LuminairePower>,
 }
 

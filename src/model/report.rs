@@ -12,12 +12,15 @@ use crate::transport::transfer::{Power, Solution, Transfer};
 
 /// Area-weighted averages over one surface.
 #[derive(Debug, Clone, Serialize)]
+#[cfg_attr(feature = "server", derive(utoipa::ToSchema))]
 pub struct SurfaceAverage {
     /// Area, m² (both sides for two-sided surfaces).
     pub area: f64,
     /// Mean radiosity, lm/m² per channel.
+    #[cfg_attr(feature = "server", schema(value_type = crate::schema::Rgb))]
     pub radiosity: [f64; 3],
     /// Mean incident illuminance, lux per channel.
+    #[cfg_attr(feature = "server", schema(value_type = crate::schema::Rgb))]
     pub illuminance: [f64; 3],
 }
 
@@ -66,16 +69,24 @@ pub fn surface_averages(
     out
 }
 
-/// The power balance with luminous totals.
+/// The power balance, lm: per channel and luminous totals.
 #[derive(Debug, Clone, Serialize)]
+#[cfg_attr(feature = "server", derive(utoipa::ToSchema), schema(as = Power))]
 pub struct PowerReport {
-    /// Per channel, lm.
+    /// Emitted flux per channel, lm.
+    #[cfg_attr(feature = "server", schema(value_type = crate::schema::Rgb))]
     pub emitted: [f64; 3],
+    /// Absorbed flux per channel, lm.
+    #[cfg_attr(feature = "server", schema(value_type = crate::schema::Rgb))]
     pub absorbed: [f64; 3],
+    /// Flux that escapes the scene, per channel, lm.
+    #[cfg_attr(feature = "server", schema(value_type = crate::schema::Rgb))]
     pub escaped: [f64; 3],
-    /// Luminous totals, lm.
+    /// Luminous emitted flux, lm.
     pub emitted_lm: f64,
+    /// Luminous absorbed flux, lm.
     pub absorbed_lm: f64,
+    /// Luminous escaped flux, lm.
     pub escaped_lm: f64,
     /// (emitted − absorbed − escaped) / emitted, luminous.
     pub imbalance: f64,
@@ -118,8 +129,12 @@ impl Report {
 
 /// An illuminance value: luminous (lux) and per channel.
 #[derive(Debug, Clone, Copy, Serialize, PartialEq)]
+#[cfg_attr(feature = "server", derive(utoipa::ToSchema))]
 pub struct Lux {
+    /// Luminous illuminance, lx.
     pub lux: f64,
+    /// Per channel, lx.
+    #[cfg_attr(feature = "server", schema(value_type = crate::schema::Rgb))]
     pub rgb: [f64; 3],
 }
 
@@ -135,6 +150,7 @@ impl Lux {
 /// Illuminance statistics of one surface: area-weighted mean, the darkest and brightest
 /// patch (by luminous value), and the uniformity Emin / Eavg.
 #[derive(Debug, Clone, Serialize)]
+#[cfg_attr(feature = "server", derive(utoipa::ToSchema))]
 pub struct SurfaceIlluminance {
     /// m².
     pub area: f64,

@@ -7,11 +7,19 @@ use super::SceneToml;
 
 /// A camera preset, in metres.
 #[derive(Debug, Clone, Serialize)]
+#[cfg_attr(feature = "server", derive(utoipa::ToSchema))]
 pub struct CameraDef {
     pub id: String,
+    /// Eye, m.
+    #[cfg_attr(feature = "server", schema(value_type = crate::schema::Rgb))]
     pub position: [f64; 3],
+    /// The point looked at, m.
+    #[cfg_attr(feature = "server", schema(value_type = crate::schema::Rgb))]
     pub target: [f64; 3],
+    /// Up direction.
+    #[cfg_attr(feature = "server", schema(value_type = crate::schema::Rgb))]
     pub up: [f64; 3],
+    /// Vertical field of view, degrees.
     pub fov_deg: f64,
 }
 

@@ -3,7 +3,11 @@
 
 use axum::http::{header, StatusCode};
 use axum::response::{IntoResponse, Response};
-use serde_json::json;
+use axum::Json;
+use serde::Serialize;
+use utoipa::openapi::schema::Schema;
+use utoipa::openapi::RefOr;
+use utoipa::ToSchema;
 
 #[derive(Debug, thiserror::Error)]
 pub enum AppError {
@@ -66,25 +70,43 @@ impl From<crate::model::QueryError> for AppError {
     }
 }
 
+/// RFC 9457 problem document.
+#[derive(Serialize, ToSchema)]
+pub(crate) struct ProblemDetails {
+    #[schema(schema_with = about_blank)]
+    r#type: &'static str,
+    title: &'static str,
+    #[schema(minimum = 400, maximum = 599)]
+    status: u16,
+    detail: String,
+    /// 503 while a scene bakes: its progress.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    #[schema(nullable = false, minimum = 0, maximum = 1)]
+    progress: Option<f64>,
+}
+
+fn about_blank() -> RefOr<Schema> {
+    crate::schema::words(&["about:blank"])
+}
+
 impl IntoResponse for AppError {
     fn into_response(self) -> Response {
         let status = self.status();
         if status.is_server_error() && status != StatusCode::SERVICE_UNAVAILABLE {
             tracing::error!("internal error: {self}");
         }
-        let mut body = json!({
-            "type": "about:blank",
-            "title": status.canonical_reason().unwrap_or("Error"),
-            "status": status.as_u16(),
-            "detail": self.to_string(),
-        });
-        if let AppError::Unavailable {
-            progress: Some(p), ..
-        } = &self
-        {
-            body["progress"] = json!(p);
-        }
-        let mut resp = (status, body.to_string()).into_response();
+        let progress = match &self {
+            AppError::Unavailable { progress, .. } => *progress,
+            _ => None,
+        };
+        let body = ProblemDetails {
+            r#type: "about:blank",
+            title: status.canonical_reason().unwrap_or("Error"),
+            status: status.as_u16(),
+            detail: self.to_string(),
+            progress,
+        };
+        let mut resp = (status, Json(body)).into_response();
         resp.headers_mut().insert(
             header::CONTENT_TYPE,
             header::HeaderValue::from_static("application/problem+json"),

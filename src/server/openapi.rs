@@ -1,7 +1,12 @@
 //! The OpenAPI 3.1 description of the API, served at `/api/openapi.json`, generated from
 //! the code: the operations from the handlers' `#[utoipa::path]` attributes (in
 //! [`super::routes`]), the request bodies from the types the handlers deserialize
-//! ([`super::requests`]), with the limits from the constants the checks use.
+//! ([`super::requests`]), with the limits from the constants the checks use, and the
+//! answers from the types the handlers serialize: the query model's (`crate::model`,
+//! deriving `ToSchema` with the `server` feature) and the server's own (scene listings,
+//! readiness, batches, problem documents). Only the JSON of per-patch radiosity is
+//! written by hand, for speed; `routes::radiosity::RadiosityResponse` describes it.
+//! `tests` checks real answers against the document.
 //!
 //! The document is checked against the running server by schemathesis
 //! (`tests/schemathesis/run.sh`, run by `.ci/run`): every status code, content type,
@@ -18,16 +23,14 @@ use utoipa::openapi::schema::Schema;
 use utoipa::openapi::{ContentBuilder, Ref, RefOr, Required};
 use utoipa::{IntoParams, IntoResponses, Modify, OpenApi, PartialSchema, ToResponse, ToSchema};
 
+use super::error::ProblemDetails;
 use super::requests::bodies::{LightingState, Point, Target};
 use super::requests::lighting::{Color, Direction, Emission, LightSetting, Lights, Position};
 use super::requests::render::Exposure;
 use super::requests::{raw, BatchRequest, IlluminanceRequest, OptimizeRequest};
 use super::requests::{RadiosityRequest, RenderRequest};
 use super::routes;
-
-mod schemas;
-
-pub(crate) use schemas::*;
+use crate::schema::Rgb;
 
 /// The `{id}` of every scene route.
 #[derive(IntoParams)]
@@ -321,7 +324,75 @@ pub(crate) fn spec() -> Value {
     {
         h.insert("required".into(), json!(true));
     }
+    close_answers(&mut doc);
     doc
+}
+
+/// Answers are closed: an answer object has the keys its schema lists and no other.
+/// Said here once for every schema an answer reaches, rather than by each answer type
+/// (serde's `deny_unknown_fields`, which utoipa reads, is for types that are deserialized).
+fn close_answers(doc: &mut Value) {
+    const COMPONENT: &str = "#/components/schemas/";
+    fn refs(v: &Value, out: &mut Vec<String>) {
+        match v {
+            Value::Object(m) => {
+                for (k, x) in m {
+                    match (k.as_str(), x) {
+                        ("$ref", Value::String(r)) => {
+                            out.extend(r.strip_prefix(COMPONENT).map(String::from))
+                        }
+                        _ => refs(x, out),
+                    }
+                }
+            }
+            Value::Array(a) => a.iter().for_each(|x| refs(x, out)),
+            _ => {}
+        }
+    }
+    // Closes an object schema and the schemas inside it.
+    fn close(schema: &mut Value) {
+        let Some(m) = schema.as_object_mut() else {
+            return;
+        };
+        if let Some(props) = m.get_mut("properties").and_then(Value::as_object_mut) {
+            props.values_mut().for_each(close);
+            m.entry("additionalProperties")
+                .or_insert(Value::Bool(false));
+        }
+        for key in ["items", "additionalProperties", "not"] {
+            if let Some(s) = m.get_mut(key) {
+                close(s);
+            }
+        }
+        for key in ["oneOf", "anyOf", "allOf"] {
+            if let Some(Value::Array(a)) = m.get_mut(key) {
+                a.iter_mut().for_each(close);
+            }
+        }
+    }
+    // Every schema an answer reaches: from the operations' and the shared responses.
+    let mut todo = vec![];
+    for path in doc["paths"]
+        .as_object()
+        .into_iter()
+        .flat_map(|p| p.values())
+    {
+        for op in path.as_object().into_iter().flat_map(|o| o.values()) {
+            refs(&op["responses"], &mut todo);
+        }
+    }
+    refs(&doc["components"]["responses"], &mut todo);
+    let mut answers = std::collections::BTreeSet::new();
+    while let Some(name) = todo.pop() {
+        if answers.insert(name.clone()) {
+            refs(&doc["components"]["schemas"][&name], &mut todo);
+        }
+    }
+    for name in answers {
+        if let Some(schema) = doc["components"]["schemas"].get_mut(&name) {
+            close(schema);
+        }
+    }
 }
 
 #[cfg(test)]

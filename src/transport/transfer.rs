@@ -37,7 +37,10 @@ pub const HIERARCHY_TOL: f64 = 1e-6;
 /// Most sweeps of a hierarchical solve (the error shrinks by ρ_max per sweep).
 pub const HIERARCHY_MAX_SWEEPS: usize = 1000;
 
+/// How a transfer is kept: `factored` (LU factors: any per-patch emission is solved
+/// exactly) or `columns` (the light groups' response columns only).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, serde::Deserialize)]
+#[cfg_attr(feature = "server", derive(utoipa::ToSchema))]
 #[serde(rename_all = "lowercase")]
 pub enum TransferMode {
     Factored,

@@ -17,8 +17,7 @@ use std::marker::PhantomData;
 
 use serde::de::{Deserialize, Deserializer, Visitor};
 use serde_json::Value;
-use utoipa::openapi::extensions::Extensions;
-use utoipa::openapi::schema::{Object, Schema, SchemaType};
+use utoipa::openapi::schema::Schema;
 use utoipa::openapi::RefOr;
 
 pub(crate) mod bodies;
@@ -27,6 +26,8 @@ pub(crate) mod render;
 
 pub(crate) use bodies::{BatchRequest, IlluminanceRequest, OptimizeRequest, RadiosityRequest};
 pub(crate) use render::RenderRequest;
+// Schemas written as JSON Schema, for the union types that have their own deserializers.
+pub(crate) use crate::schema::raw;
 
 /// For optional fields: present means a value of `T`, never `null` (serde's `Option`
 /// would take `null` for absent). Use with `#[serde(default, deserialize_with = "some")]`.
@@ -62,19 +63,6 @@ macro_rules! object_only {
     };
 }
 pub(crate) use object_only;
-
-/// A schema written as JSON Schema: for the union types that have their own
-/// deserializers (number or object, array or object, …), with limits from the constants
-/// the checks use.
-pub(crate) fn raw(v: Value) -> RefOr<Schema> {
-    let Value::Object(m) = v else {
-        panic!("a schema is a JSON object")
-    };
-    let mut o = Object::new();
-    o.schema_type = SchemaType::AnyValue;
-    o.extensions = Some(Extensions::from_iter(m));
-    Schema::Object(o).into()
-}
 
 /// A `$ref` to a component schema.
 pub(crate) fn schema_ref(name: &str) -> Value {

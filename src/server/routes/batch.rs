@@ -2,6 +2,7 @@
 //! each answered with surface illuminance (lux), the power balance (lm), and optionally
 //! grids and per-patch radiosity (lm/m²).
 
+use std::collections::BTreeMap;
 use std::sync::Arc;
 
 use axum::body::Bytes;
@@ -10,16 +11,54 @@ use axum::extract::State;
 use axum::http::HeaderMap;
 use axum::response::IntoResponse;
 use axum::Json;
-use serde_json::json;
+use serde::Serialize;
+use utoipa::ToSchema;
 
 use super::ApiResult;
-use crate::model::query::BYTES_PER_PATCH_ANSWER;
-use crate::model::report::PowerReport;
+use crate::model::query::{GridAnswer, BYTES_PER_PATCH_ANSWER};
+use crate::model::report::{PowerReport, SurfaceIlluminance};
 use crate::model::Lighting;
-use crate::server::openapi::{BatchResponse, PostErrors, SceneIdParam};
+use crate::schema::{lm, lm_per_m2, lx};
+use crate::server::openapi::{PostErrors, SceneIdParam};
 use crate::server::parse::{begin, SceneId};
 use crate::server::requests::BatchRequest;
 use crate::server::{AppError, AppState};
+
+/// The units of the results.
+#[derive(Serialize, ToSchema)]
+pub(crate) struct BatchUnits {
+    #[schema(schema_with = lx)]
+    illuminance: &'static str,
+    #[schema(schema_with = lm_per_m2)]
+    radiosity: &'static str,
+    #[schema(schema_with = lm)]
+    power: &'static str,
+}
+
+/// One lighting state's answer.
+#[derive(Serialize, ToSchema)]
+pub(crate) struct BatchResult {
+    /// Illuminance statistics, lx, by surface id.
+    surfaces: BTreeMap<String, SurfaceIlluminance>,
+    power: PowerReport,
+    /// With radiosity = true: B per patch, lm/m², in patch order.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    #[schema(nullable = false, value_type = Option<Vec<crate::schema::Rgb>>)]
+    radiosity: Option<Vec<[f32; 3]>>,
+    /// With grids: by grid id.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    #[schema(nullable = false)]
+    grids: Option<BTreeMap<String, GridAnswer>>,
+}
+
+/// One result per state, in request order.
+#[derive(Serialize, ToSchema)]
+pub(crate) struct BatchResponse {
+    #[schema(inline)]
+    unit: BatchUnits,
+    #[schema(inline)]
+    results: Vec<BatchResult>,
+}
 
 #[utoipa::path(post, path = "/api/scenes/{id}/batch", operation_id = "batch", tag = "scenes",
     summary = "Up to 1000 lighting states in one request, each with surface illuminance statistics and the power balance.",
@@ -39,7 +78,7 @@ pub(crate) async fn batch(
     let with_radiosity = body.radiosity;
     let states = &body.states;
     // Memory: every emission state holds a per-patch vector; every answer holds its
-    // surfaces, grids and (when asked) radiosity as JSON values, then as text.
+    // surfaces, grids and (when asked) radiosity, then as text.
     let n = ready.patches() as u64;
     let emission_states = states.iter().filter(|s| s.is_emission()).count() as u64;
     let grid_points: u64 = grids.iter().map(|&g| ready.grids[g].len() as u64).sum();
@@ -58,26 +97,32 @@ pub(crate) async fn batch(
                 let at = |e: AppError| AppError::Invalid(format!("states[{k}]: {e}"));
                 let l = s.lighting(&r).map_err(at)?;
                 let sol = r.solve(&l)?;
-                let mut v = json!({
-                    "surfaces": r.surface_stats(&surfaces, &sol.h),
-                    "power": PowerReport::new(r.baked.transfer.power(&sol)),
-                });
-                if with_radiosity {
-                    let rgb: &[[f32; 3]] = bytemuck::cast_slice(&sol.b);
-                    v["radiosity"] = json!(rgb);
-                }
-                if !grids.is_empty() {
+                let radiosity = with_radiosity
+                    .then(|| bytemuck::cast_slice::<f32, [f32; 3]>(&sol.b).to_vec());
+                let grid_answers = if grids.is_empty() {
+                    None
+                } else {
                     let Lighting::Groups(w) = l else {
                         return Err(at(AppError::Invalid(
                             "grids need light-group states (per-patch emission has no grid columns)".into(),
                         )));
                     };
-                    v["grids"] = json!(r.grid_answers(&grids, &w));
-                }
-                results.push(v);
+                    Some(r.grid_answers(&grids, &w))
+                };
+                results.push(BatchResult {
+                    surfaces: r.surface_stats(&surfaces, &sol.h),
+                    power: PowerReport::new(r.baked.transfer.power(&sol)),
+                    radiosity,
+                    grids: grid_answers,
+                });
             }
             Ok(results)
         })
         .await?;
-    Ok(Json(json!({ "unit": {"illuminance": "lx", "radiosity": "lm/m2", "power": "lm"}, "results": results })).into_response())
+    let unit = BatchUnits {
+        illuminance: "lx",
+        radiosity: "lm/m2",
+        power: "lm",
+    };
+    Ok(Json(BatchResponse { unit, results }).into_response())
 }

@@ -11,7 +11,8 @@ use axum::response::IntoResponse;
 use axum::Json;
 
 use super::ApiResult;
-use crate::server::openapi::{IlluminanceResponse, PostErrors, SceneIdParam};
+use crate::model::query::IlluminanceAnswer;
+use crate::server::openapi::{PostErrors, SceneIdParam};
 use crate::server::parse::{begin, SceneId};
 use crate::server::requests::IlluminanceRequest;
 use crate::server::AppState;
@@ -22,7 +23,7 @@ use crate::server::AppState;
     request_body(content = IlluminanceRequest, content_type = "application/json",
         description = "An empty body gives every surface in the default lighting state.",
         example = json!({"lights": {"ceiling": {"intensity": 0.8, "color": [1.0, 0.9, 0.8]}}, "surfaces": ["floor"]})),
-    responses((status = 200, description = "Illuminance answers in lux.", body = IlluminanceResponse), PostErrors))]
+    responses((status = 200, description = "Illuminance answers in lux.", body = IlluminanceAnswer), PostErrors))]
 pub(crate) async fn illuminance(
     State(state): State<Arc<AppState>>,
     SceneId(id): SceneId,

@@ -11,7 +11,8 @@ use axum::response::IntoResponse;
 use axum::Json;
 
 use super::ApiResult;
-use crate::server::openapi::{OptimizeResponse, PostErrors, SceneIdParam};
+use crate::model::optimize::OptimizeAnswer;
+use crate::server::openapi::{PostErrors, SceneIdParam};
 use crate::server::parse::{begin, SceneId};
 use crate::server::requests::OptimizeRequest;
 use crate::server::AppState;
@@ -22,7 +23,7 @@ use crate::server::AppState;
     request_body(content = OptimizeRequest, content_type = "application/json",
         description = "Targets per grid, the free groups and the state of the others.",
         example = json!({"targets": [{"grid": "desk", "eavg_min": 500, "u0_min": 0.6}]})),
-    responses((status = 200, description = "The levels, flux, power and achieved statistics.", body = OptimizeResponse), PostErrors))]
+    responses((status = 200, description = "The levels, flux, power and achieved statistics.", body = OptimizeAnswer), PostErrors))]
 pub(crate) async fn optimize(
     State(state): State<Arc<AppState>>,
     SceneId(id): SceneId,

@@ -11,15 +11,45 @@ use axum::extract::State;
 use axum::http::{header, HeaderMap};
 use axum::response::{IntoResponse, Response};
 use serde_json::Value;
+use utoipa::openapi::schema::Schema;
+use utoipa::openapi::RefOr;
+use utoipa::ToSchema;
 
 use super::{binary, wants_binary, ApiResult};
 use crate::model::query::{Quantity, BYTES_PER_PATCH_ANSWER};
 use crate::model::report::{surface_averages, SurfaceAverage};
 use crate::model::Lighting;
-use crate::server::openapi::{PostErrors, RadiosityBinary, RadiosityResponse, SceneIdParam};
+use crate::schema::{words, Rgb};
+use crate::server::openapi::{PostErrors, RadiosityBinary, SceneIdParam};
 use crate::server::parse::{begin, SceneId};
 use crate::server::requests::RadiosityRequest;
 use crate::server::{AppError, AppState};
+
+fn radiosity_unit() -> RefOr<Schema> {
+    words(&["lm/m2", "lx"])
+}
+
+// Only describes the answer: `radiosity_text` writes it by hand (tests check the two
+// agree).
+/// Per-patch radiosity (or incident illuminance), with per-surface averages on request.
+#[derive(ToSchema)]
+#[allow(dead_code)]
+pub(crate) struct RadiosityResponse {
+    scene: String,
+    /// Number of patches.
+    patches: usize,
+    #[schema(schema_with = radiosity_unit)]
+    unit: &'static str,
+    /// quantity = radiosity: B per patch, lm/m².
+    #[schema(nullable = false, value_type = Option<Vec<Rgb>>)]
+    radiosity: Option<Vec<[f32; 3]>>,
+    /// quantity = illuminance: H per patch, lx.
+    #[schema(nullable = false, value_type = Option<Vec<Rgb>>)]
+    illuminance: Option<Vec<[f32; 3]>>,
+    /// With surfaces = true: by surface id.
+    #[schema(nullable = false, inline)]
+    surfaces: Option<BTreeMap<String, SurfaceAverage>>,
+}
 
 #[utoipa::path(post, path = "/api/scenes/{id}/radiosity", operation_id = "radiosity", tag = "scenes",
     summary = "Per-patch radiosity for a lighting state (group settings, or a per-patch emission in factored mode).",
@@ -95,6 +125,20 @@ fn radiosity_json(
     values: &[f32],
     surfaces: Option<BTreeMap<String, SurfaceAverage>>,
 ) -> Response {
+    match radiosity_text(scene, unit, key, values, surfaces) {
+        Ok(text) => ([(header::CONTENT_TYPE, "application/json")], text).into_response(),
+        Err(e) => AppError::Internal(e.to_string()).into_response(),
+    }
+}
+
+/// The text of a [`RadiosityResponse`].
+fn radiosity_text(
+    scene: &str,
+    unit: &str,
+    key: &str,
+    values: &[f32],
+    surfaces: Option<BTreeMap<String, SurfaceAverage>>,
+) -> serde_json::Result<String> {
     let n = values.len() / 3;
     let mut out = String::with_capacity(40 * n + 256);
     out.push_str(&format!(
@@ -122,11 +166,8 @@ fn radiosity_json(
     out.push(']');
     if let Some(s) = surfaces {
         out.push_str(",\"surfaces\":");
-        match serde_json::to_string(&s) {
-            Ok(text) => out.push_str(&text),
-            Err(e) => return AppError::Internal(e.to_string()).into_response(),
-        }
+        out.push_str(&serde_json::to_string(&s)?);
     }
     out.push('}');
-    ([(header::CONTENT_TYPE, "application/json")], out).into_response()
+    Ok(out)
 }

@@ -8,42 +8,159 @@ use axum::extract::State;
 use axum::http::{header, HeaderMap};
 use axum::response::{IntoResponse, Response};
 use axum::Json;
-use serde_json::{json, Value};
+use serde::Serialize;
+use utoipa::openapi::schema::Schema;
+use utoipa::openapi::RefOr;
+use utoipa::ToSchema;
 
 use super::{binary, wants_binary, ApiResult};
+use crate::model::info::{Bounds, GridInfo, LuminaireInfo, PatchInfo, SurfaceInfo, Units};
+use crate::model::GroupInfo;
+use crate::scene::CameraDef;
+use crate::schema::words;
 use crate::server::openapi::{
-    MeshBinary, Patches, PatchesBinary, SceneDetails, SceneErrors, SceneIdParam, SceneList,
-    SizedGetErrors,
+    MeshBinary, PatchesBinary, SceneErrors, SceneIdParam, SizedGetErrors,
 };
 use crate::server::parse::SceneId;
 use crate::server::{AppState, Ready, SceneSlot};
+use crate::transport::transfer::TransferMode;
 
-pub(super) fn scene_summary(slot: &SceneSlot) -> Value {
-    let (status, ready, error) = slot.status();
-    let mut v = json!({
-        "id": slot.id,
-        "name": ready.as_ref().map_or(slot.id.clone(), |r| r.baked.scene.name.clone()),
-        "status": status,
-        "progress": slot.progress(),
-    });
-    if let Some(r) = ready {
-        v["patches"] = json!(r.baked.transfer.n);
-        v["lights"] = json!(r.groups);
-        v["transfer"] = json!(r.baked.transfer.mode);
+fn scene_status() -> RefOr<Schema> {
+    words(&["queued", "baking", "ready", "failed"])
+}
+
+fn ready_status() -> RefOr<Schema> {
+    words(&["ready"])
+}
+
+/// A scene's slot: its status and, once ready, its size and light groups.
+#[derive(Serialize, ToSchema)]
+pub(crate) struct SceneSummary {
+    id: String,
+    name: String,
+    #[schema(schema_with = scene_status)]
+    status: &'static str,
+    /// Bake progress.
+    #[schema(minimum = 0, maximum = 1)]
+    progress: f64,
+    /// Ready scenes.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    #[schema(nullable = false)]
+    patches: Option<usize>,
+    /// Ready scenes.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    #[schema(nullable = false)]
+    lights: Option<Vec<GroupInfo>>,
+    /// Ready scenes.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    #[schema(nullable = false, inline)]
+    transfer: Option<TransferMode>,
+    /// Failed scenes.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    #[schema(nullable = false)]
+    error: Option<String>,
+}
+
+impl SceneSummary {
+    pub(super) fn of(slot: &SceneSlot) -> SceneSummary {
+        let (status, ready, error) = slot.status();
+        SceneSummary {
+            id: slot.id.clone(),
+            name: ready
+                .as_ref()
+                .map_or(slot.id.clone(), |r| r.baked.scene.name.clone()),
+            status,
+            progress: slot.progress(),
+            patches: ready.as_ref().map(|r| r.baked.transfer.n),
+            lights: ready.as_ref().map(|r| r.groups.clone()),
+            transfer: ready.as_ref().map(|r| r.baked.transfer.mode),
+            error,
+        }
     }
-    if let Some(e) = error {
-        v["error"] = json!(e);
+
+    /// Every slot's summary.
+    pub(super) fn all(state: &AppState) -> Vec<SceneSummary> {
+        state.slots.iter().map(|s| SceneSummary::of(s)).collect()
     }
-    v
+}
+
+/// Every scene.
+#[derive(Serialize, ToSchema)]
+pub(crate) struct SceneList {
+    scenes: Vec<SceneSummary>,
 }
 
 #[utoipa::path(get, path = "/api/scenes", operation_id = "listScenes", tag = "scenes",
     summary = "All scenes with status (queued, baking with progress 0..1, ready, failed with error), patch count and light groups.",
     responses((status = 200, description = "Scene list.", body = SceneList)))]
-pub(crate) async fn list_scenes(State(state): State<Arc<AppState>>) -> Json<Value> {
-    Json(json!({
-        "scenes": state.slots.iter().map(|s| scene_summary(s)).collect::<Vec<_>>()
-    }))
+pub(crate) async fn list_scenes(State(state): State<Arc<AppState>>) -> Json<SceneList> {
+    Json(SceneList {
+        scenes: SceneSummary::all(&state),
+    })
+}
+
+/// How the scene was baked.
+#[derive(Serialize, ToSchema)]
+pub(crate) struct BakeInfo {
+    /// Time to bake or load the scene, s.
+    seconds: f64,
+    /// Whether the transfer was read from the cache.
+    from_cache: bool,
+    /// Largest relative residual of the solve over the light groups' columns.
+    residual: f64,
+}
+
+/// Light groups, cameras, luminaires, grids, surfaces, bounds, units and transfer mode.
+#[derive(Serialize, ToSchema)]
+pub(crate) struct SceneDetails {
+    id: String,
+    name: String,
+    #[schema(schema_with = ready_status)]
+    status: &'static str,
+    /// Number of patches.
+    patches: usize,
+    #[schema(inline)]
+    transfer: TransferMode,
+    #[schema(inline)]
+    units: Units,
+    #[schema(inline)]
+    bounds: Bounds,
+    lights: Vec<GroupInfo>,
+    #[schema(inline)]
+    cameras: Vec<CameraDef>,
+    #[schema(inline)]
+    luminaires: Vec<LuminaireInfo>,
+    #[schema(inline)]
+    grids: Vec<GridInfo>,
+    #[schema(inline)]
+    surfaces: Vec<SurfaceInfo>,
+    #[schema(inline)]
+    bake: BakeInfo,
+}
+
+impl SceneDetails {
+    fn of(r: &Ready) -> SceneDetails {
+        let b = &r.baked;
+        SceneDetails {
+            id: b.scene.id.clone(),
+            name: b.scene.name.clone(),
+            status: "ready",
+            patches: b.transfer.n,
+            transfer: b.transfer.mode,
+            units: r.units(),
+            bounds: r.bounds(),
+            lights: r.groups.clone(),
+            cameras: b.scene.cameras.clone(),
+            luminaires: r.luminaires(),
+            grids: r.grid_infos(),
+            surfaces: r.surface_infos(),
+            bake: BakeInfo {
+                seconds: r.bake_seconds,
+                from_cache: b.stats.from_cache,
+                residual: b.transfer.info.residual,
+            },
+        }
+    }
 }
 
 #[utoipa::path(get, path = "/api/scenes/{id}", operation_id = "sceneDetails", tag = "scenes",
@@ -55,51 +172,14 @@ pub(crate) async fn scene_details(
     SceneId(id): SceneId,
 ) -> ApiResult {
     let r = state.slot(&id)?.ready()?;
-    let b = &r.baked;
-    let (lo, hi) = b.scene.bounds();
-    let surfaces: Vec<Value> = b
-        .scene
-        .surfaces
-        .iter()
-        .enumerate()
-        .map(|(k, s)| {
-            let range = &b.mesh.surface_patches[k];
-            let area: f64 = range.clone().map(|i| b.mesh.patches[i as usize].area).sum();
-            json!({
-                "id": s.name, "index": k, "area": area,
-                "patches": {"start": range.start, "end": range.end, "count": range.len()},
-                "two_sided": s.two_sided,
-            })
-        })
-        .collect();
-    Ok(Json(json!({
-        "id": b.scene.id,
-        "name": b.scene.name,
-        "status": "ready",
-        "patches": b.transfer.n,
-        "transfer": b.transfer.mode,
-        "units": {"length": "m", "source_units": b.scene.units, "scale_to_m": b.scene.scale,
-                  "radiosity": "lm/m2", "illuminance": "lx", "flux": "lm"},
-        "bounds": {"min": lo.to_array(), "max": hi.to_array()},
-        "lights": r.groups,
-        "cameras": b.scene.cameras,
-        "luminaires": b.scene.lights.iter().flat_map(|g| g.luminaires.iter().map(move |l| json!({
-            "id": l.id, "group": g.id, "position": l.position.to_array(), "aim": l.aim.to_array(),
-            "lumens": l.lumens, "watts": l.watts,
-            "distribution": match &l.distribution {
-                crate::photometry::Distribution::Isotropic => "isotropic",
-                crate::photometry::Distribution::Spot { .. } => "spot",
-                crate::photometry::Distribution::Ies(_) => "ies",
-            },
-        }))).collect::<Vec<_>>(),
-        "grids": r.grids.iter().map(|g| json!({
-            "id": g.grid.id, "name": g.grid.name, "count": g.len(), "layout": g.grid.layout,
-            "normal": g.grid.normal, "points": g.grid.points,
-        })).collect::<Vec<_>>(),
-        "surfaces": surfaces,
-        "bake": {"seconds": r.bake_seconds, "from_cache": b.stats.from_cache, "residual": b.transfer.info.residual},
-    }))
-    .into_response())
+    Ok(Json(SceneDetails::of(&r)).into_response())
+}
+
+/// Per patch, in patch order.
+#[derive(Serialize, ToSchema)]
+pub(crate) struct Patches<'a> {
+    #[schema(inline)]
+    patches: Vec<PatchInfo<'a>>,
 }
 
 #[utoipa::path(get, path = "/api/scenes/{id}/patches", operation_id = "patches", tag = "scenes",
@@ -145,20 +225,10 @@ fn patch_list(r: &Ready, binary_out: bool) -> Response {
             "per patch 32 bytes LE: u32 surface, f32 area m2, f32x3 centroid m, f32x3 normal",
         );
     }
-    let names = &r.baked.scene.surfaces;
-    let list: Vec<Value> = m
-        .patches
-        .iter()
-        .map(|p| {
-            json!({
-                "surface": names[p.surface as usize].name,
-                "area": p.area,
-                "centroid": p.centroid.to_array(),
-                "normal": p.normal.to_array(),
-            })
-        })
-        .collect();
-    Json(json!({ "patches": list })).into_response()
+    Json(Patches {
+        patches: r.patch_infos(),
+    })
+    .into_response()
 }
 
 /// The shading mesh (layout in [`crate::render::Shading::mesh_bytes`]).

@@ -7,10 +7,11 @@ use axum::extract::State;
 use axum::http::{header, StatusCode};
 use axum::response::{IntoResponse, Response};
 use axum::Json;
-use serde_json::{json, Value};
+use serde::Serialize;
+use utoipa::ToSchema;
 
-use super::scenes::scene_summary;
-use crate::server::openapi::{Document, HealthText, MetricsText, Readiness};
+use super::scenes::SceneSummary;
+use crate::server::openapi::{Document, HealthText, MetricsText};
 use crate::server::{AppError, AppState};
 
 #[utoipa::path(get, path = "/healthz", operation_id = "healthz", tag = "service",
@@ -81,6 +82,13 @@ pub(crate) async fn openapi() -> Response {
         .into_response()
 }
 
+/// Whether every scene is ready or failed, with every scene's status.
+#[derive(Serialize, ToSchema)]
+pub(crate) struct Readiness {
+    ready: bool,
+    scenes: Vec<SceneSummary>,
+}
+
 #[utoipa::path(get, path = "/readyz", operation_id = "readyz", tag = "service",
     summary = "Readiness: 200 once every scene is ready or failed, else 503 with every scene's status and progress.",
     responses(
@@ -88,12 +96,12 @@ pub(crate) async fn openapi() -> Response {
         (status = 503, description = "Some scene is still queued or baking.", body = Readiness),
     ))]
 pub(crate) async fn readyz(State(state): State<Arc<AppState>>) -> Response {
-    let scenes: Vec<Value> = state.slots.iter().map(|s| scene_summary(s)).collect();
+    let scenes = SceneSummary::all(&state);
     let ready = state.settled();
     let status = if ready {
         StatusCode::OK
     } else {
         StatusCode::SERVICE_UNAVAILABLE
     };
-    (status, Json(json!({ "ready": ready, "scenes": scenes }))).into_response()
+    (status, Json(Readiness { ready, scenes })).into_response()
 }
