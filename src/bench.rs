@@ -26,9 +26,15 @@ pub struct BenchResult {
     pub cache_mb: f64,
     /// Median time of one relight (radiosity of all patches for all groups), microseconds.
     pub relight_us: f64,
-    /// Median time of one exact solve of an arbitrary emission vector (factored only), ms.
+    /// Median time of one solve of an arbitrary emission vector (exact in factored mode,
+    /// sweeps in hierarchical mode; none in columns mode), ms.
     pub solve_emission_ms: Option<f64>,
     pub peak_rss_mb: f64,
+    /// Bytes the loaded transfer holds (what a read-only replica keeps), MB.
+    pub transfer_mb: f64,
+    /// Hierarchical mode: links, and links per patch.
+    pub links: Option<u64>,
+    pub links_per_patch: Option<f64>,
 }
 
 /// Peak resident set size of this process, MB (Linux; 0 elsewhere).
@@ -77,7 +83,8 @@ pub fn run_case(case: &str, dir: &Path, opts: &BakeOptions) -> anyhow::Result<Be
         samples.push(s.elapsed().as_secs_f64() * 1e6);
         std::hint::black_box(&out);
     }
-    let solve_emission_ms = t.factored.as_ref().map(|_| {
+    let solvable = t.factored.is_some() || t.hierarchy.is_some();
+    let solve_emission_ms = solvable.then(|| {
         let e: Vec<f32> = (0..3 * t.n).map(|i| (i % 5) as f32).collect();
         median(
             (0..5)
@@ -102,6 +109,12 @@ pub fn run_case(case: &str, dir: &Path, opts: &BakeOptions) -> anyhow::Result<Be
         relight_us: median(samples),
         solve_emission_ms,
         peak_rss_mb: peak_rss_mb(),
+        transfer_mb: t.bytes() as f64 / 1e6,
+        links: t.hierarchy.as_ref().map(|h| h.stats.links),
+        links_per_patch: t
+            .hierarchy
+            .as_ref()
+            .map(|h| h.stats.links as f64 / h.n.max(1) as f64),
     })
 }
 

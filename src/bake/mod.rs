@@ -120,7 +120,7 @@ pub const BAKE_BYTES_PER_PATCH_GROUP: u64 = 128;
 pub const BAKE_BYTES_BASE: u64 = 32 << 20;
 /// Hierarchical mode: links per patch assumed by the estimates (measured counts are in
 /// the README's sizing table; this bounds them).
-pub const HIER_LINKS_PER_PATCH: u64 = 400;
+pub const HIER_LINKS_PER_PATCH: u64 = 600;
 /// Hierarchical mode: bytes per link while baking (the 16-byte links of refinement, sorted
 /// in place, then the 9-byte stored links) and when loaded (9).
 pub const HIER_BAKE_BYTES_PER_LINK: u64 = 25;

@@ -18,18 +18,47 @@ pub struct BenchArgs {
     /// Print the case's figures as JSON (used between the parent and its subprocesses).
     #[arg(long)]
     json: bool,
-    /// Only write the 8-group benchmark room (about 10,000 patches) into this folder.
+    /// Only write the 8-group benchmark room (about 10,000 patches, or --patches) into
+    /// this folder.
     #[arg(long, value_name = "DIR")]
     make_scene: Option<PathBuf>,
+    /// With --make-scene: the room's target patch count (at most 1,000,000).
+    #[arg(long, value_name = "N")]
+    patches: Option<usize>,
+    /// Bench this scene folder as one case (e.g. scenes/office-floor).
+    #[arg(long, value_name = "DIR")]
+    scene: Option<PathBuf>,
+    /// Transfer mode of every case, overriding scene.toml and the cases' defaults: auto,
+    /// factored, columns or hierarchical.
+    #[arg(long, value_parser = super::parse_transfer)]
+    transfer: Option<relight::scene::TransferChoice>,
 }
 
 pub fn run(a: BenchArgs) -> Result<()> {
     if let Some(dir) = a.make_scene {
-        relight::bench::write_group_room(&dir, 8, BENCH_ROOM_TARGET)?;
+        let target = a.patches.unwrap_or(BENCH_ROOM_TARGET);
+        anyhow::ensure!(
+            (1..=1_000_000).contains(&target),
+            "--patches {target}: give 1 to 1,000,000"
+        );
+        relight::bench::write_group_room(&dir, 8, target)?;
         outln!("wrote {}", dir.display());
         return Ok(());
     }
-    bench(a.case, &a.scenes, a.json)
+    if let Some(dir) = a.scene {
+        let opts = BakeOptions {
+            choice: a.transfer,
+            ..Default::default()
+        };
+        let label = dir
+            .file_name()
+            .map(|s| s.to_string_lossy().into_owned())
+            .unwrap_or_default();
+        let r = relight::bench::run_case(&label, &dir, &opts)?;
+        outln!("{}", serde_json::to_string_pretty(&r)?);
+        return Ok(());
+    }
+    bench(a.case, &a.scenes, a.json, a.transfer)
 }
 
 /// `target_patches` that gives the 8-group room just over 10,000 patches.
@@ -37,7 +66,12 @@ const BENCH_ROOM_TARGET: usize = 8_200;
 
 const BENCH_CASES: [&str; 3] = ["cornell", "cornell-10k", "groups-10k"];
 
-fn bench(case: Option<String>, scenes: &Path, json: bool) -> Result<()> {
+fn bench(
+    case: Option<String>,
+    scenes: &Path,
+    json: bool,
+    transfer: Option<relight::scene::TransferChoice>,
+) -> Result<()> {
     let Some(case) = case else {
         outln!(
             "{:<12} {:>7} {:>3} {:>9} {:>8} {:>8} {:>9} {:>9} {:>9} {:>10} {:>10} {:>9}",
@@ -55,10 +89,13 @@ fn bench(case: Option<String>, scenes: &Path, json: bool) -> Result<()> {
             "peak MB"
         );
         for c in BENCH_CASES {
-            let out = std::process::Command::new(std::env::current_exe()?)
-                .args(["bench", "--json", "--case", c, "--scenes"])
-                .arg(scenes)
-                .output()?;
+            let mut cmd = std::process::Command::new(std::env::current_exe()?);
+            cmd.args(["bench", "--json", "--case", c, "--scenes"])
+                .arg(scenes);
+            if let Some(t) = transfer {
+                cmd.args(["--transfer", t.name()]);
+            }
+            let out = cmd.output()?;
             anyhow::ensure!(
                 out.status.success(),
                 "case {c} failed: {}",
@@ -106,6 +143,14 @@ fn bench(case: Option<String>, scenes: &Path, json: bool) -> Result<()> {
             "unknown case '{other}': use one of {}",
             BENCH_CASES.join(", ")
         ),
+    };
+    let opts = match transfer {
+        Some(t) => BakeOptions {
+            mode: None,
+            choice: Some(t),
+            ..opts
+        },
+        None => opts,
     };
     let r = relight::bench::run_case(&case, &dir, &opts)?;
     if json {

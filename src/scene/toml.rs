@@ -163,6 +163,18 @@ pub enum TransferChoice {
     Hierarchical,
 }
 
+impl TransferChoice {
+    /// The lowercase name used in scene.toml and on the command line.
+    pub fn name(self) -> &'static str {
+        match self {
+            TransferChoice::Auto => "auto",
+            TransferChoice::Factored => "factored",
+            TransferChoice::Columns => "columns",
+            TransferChoice::Hierarchical => "hierarchical",
+        }
+    }
+}
+
 /// `scene.toml` as read from a scene folder.
 pub(crate) struct TomlFile {
     /// The name errors use (`<scene id>/scene.toml`), also when there is no such file.

@@ -32,7 +32,8 @@ pub const COLUMN_TOL: f64 = 1e-7;
 pub const AUTO_FACTORED_MAX: usize = 6000;
 /// Largest patch count for which `auto` picks the columns mode; above it, hierarchical.
 pub const AUTO_COLUMNS_MAX: usize = 15_000;
-/// Relative tolerance of the hierarchical sweeps (largest change over largest value).
+/// Relative tolerance of the hierarchical sweeps (per column, the largest change over the
+/// largest reflected radiosity).
 pub const HIERARCHY_TOL: f64 = 1e-6;
 /// Most sweeps of a hierarchical solve (the error shrinks by ρ_max per sweep).
 pub const HIERARCHY_MAX_SWEEPS: usize = 1000;

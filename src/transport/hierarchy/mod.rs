@@ -279,8 +279,9 @@ impl Hierarchy {
     }
 
     /// Solves `B = S + ρ H`, `H = σ K B` for `c` columns of sources `s` (n × c row-major,
-    /// lm/m²); column j uses the reflectance channel j % 3. Jacobi sweeps until the largest
-    /// change is at most `tol` of the largest radiosity, at most `max_sweeps`.
+    /// lm/m²); column j uses the reflectance channel j % 3. Jacobi sweeps until, in every
+    /// column, the largest change is at most `tol` of the largest reflected radiosity ρH
+    /// (emitters' own exitance does not set the scale), at most `max_sweeps`.
     pub fn solve(
         &self,
         rho: &[Rgb],
@@ -302,24 +303,36 @@ impl Hierarchy {
                 break;
             }
             sweeps += 1;
+            // Per column: the largest change and the largest reflected radiosity ρH.
+            let zero = || (vec![0f32; c], vec![0f32; c]);
             let (change, top) = x[..n * c]
                 .par_chunks_mut(c)
                 .zip(s.par_chunks(c))
                 .zip(h.par_chunks(c))
                 .zip(rho.par_iter())
-                .map(|(((b, s), h), r)| {
-                    let (mut ch, mut top) = (0f32, 0f32);
+                .fold(zero, |(mut ch, mut top), (((b, s), h), r)| {
                     for j in 0..c {
-                        let v = s[j] + r[j % 3] * h[j];
-                        ch = ch.max((v - b[j]).abs());
-                        top = top.max(v.abs());
+                        let reflected = r[j % 3] * h[j];
+                        let v = s[j] + reflected;
+                        ch[j] = ch[j].max((v - b[j]).abs());
+                        top[j] = top[j].max(reflected.abs());
                         b[j] = v;
                     }
                     (ch, top)
                 })
-                .reduce(|| (0.0, 0.0), |a, b| (a.0.max(b.0), a.1.max(b.1)));
+                .reduce(zero, |mut a, b| {
+                    for j in 0..c {
+                        a.0[j] = a.0[j].max(b.0[j]);
+                        a.1[j] = a.1[j].max(b.1[j]);
+                    }
+                    a
+                });
+            let converged = change
+                .iter()
+                .zip(&top)
+                .all(|(&ch, &t)| ch as f64 <= tol * t as f64);
             progress((sweeps as f64 / 60.0).min(0.99));
-            if change as f64 <= tol * top as f64 {
+            if converged {
                 self.pull(&mut x, c);
                 h = self.gather(&x, c);
                 break;

@@ -69,7 +69,7 @@ pub struct Link {
 /// Nodes closer than this times the sum of their sizes (bounding-box diagonals) are not
 /// estimated from samples: the kernel may peak between the samples there, and a spread
 /// that misses the peak would accept an underestimate.
-const NEAR: f64 = 1.0;
+const NEAR: f64 = 2.0;
 
 /// Most visibility rays of one link estimate.
 const MAX_LINK_RAYS: u32 = 128;
