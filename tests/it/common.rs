@@ -213,9 +213,32 @@ impl Solved {
 
 pub const GREY_MTL: &str = "newmtl grey\nKd 0.5 0.5 0.5\n";
 
-/// The bundled scenes folder.
-pub fn scenes_dir() -> PathBuf {
+/// Bundled scenes the tests do not serve: too large to bake in CI (`relight bench`
+/// measures them; `office_floor` checks that it loads).
+pub const LARGE_SCENES: [&str; 1] = ["office-floor"];
+
+/// The repository's `scenes/` folder.
+pub fn bundled_scenes() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes")
+}
+
+/// The bundled scenes the tests serve: every folder of `scenes/` but [`LARGE_SCENES`],
+/// as symbolic links in a folder of the test target directory.
+pub fn scenes_dir() -> PathBuf {
+    static DIR: std::sync::OnceLock<PathBuf> = std::sync::OnceLock::new();
+    DIR.get_or_init(|| {
+        let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("bundled-scenes");
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).unwrap();
+        for e in std::fs::read_dir(bundled_scenes()).unwrap().flatten() {
+            let name = e.file_name();
+            if e.path().is_dir() && !LARGE_SCENES.iter().any(|l| name == *l) {
+                std::os::unix::fs::symlink(e.path(), dir.join(&name)).unwrap();
+            }
+        }
+        dir
+    })
+    .clone()
 }
 
 /// A loopback TCP port that was free a moment ago.

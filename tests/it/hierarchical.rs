@@ -196,3 +196,44 @@ fn hierarchical_solves_per_patch_emission_and_survives_the_cache() {
         assert!((relit.h[k] - solved.h[k]).abs() < 1e-5 * scale, "H at {k}");
     }
 }
+
+#[test]
+fn office_floor_is_a_real_size_scene() {
+    let _gate = common::shared();
+    // The bundled office floor (scenes/office-floor, written by its make_scene.py) is what
+    // the hierarchical mode is for; the tests do not bake it (`relight bench --scene`
+    // measures it), but it must load and mesh to the size the README states.
+    let dir = common::bundled_scenes().join("office-floor");
+    let scene = relight::scene::Scene::load(&dir).unwrap();
+    let mesh = relight::geometry::mesh::Mesh::build(&scene);
+    assert!(mesh.len() >= 150_000, "{} patches", mesh.len());
+    let luminaires: usize = scene.lights.iter().map(|g| g.luminaires.len()).sum();
+    assert!(luminaires >= 40, "{luminaires} luminaires");
+    assert!(scene.lights.len() >= 8, "{} groups", scene.lights.len());
+    assert!(scene.grids.len() >= 3, "{} grids", scene.grids.len());
+    assert!(scene.cameras.len() >= 2);
+    assert_eq!(scene.transfer, relight::scene::TransferChoice::Hierarchical);
+    // Every luminaire hangs inside the floor's bounds, below the ceiling.
+    let (lo, hi) = mesh.vertices.iter().fold(
+        ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]),
+        |(lo, hi), v| {
+            (
+                [lo[0].min(v.x), lo[1].min(v.y), lo[2].min(v.z)],
+                [hi[0].max(v.x), hi[1].max(v.y), hi[2].max(v.z)],
+            )
+        },
+    );
+    assert!(
+        hi[0] - lo[0] >= 25.0 && hi[2] - lo[2] >= 12.0,
+        "{lo:?} {hi:?}"
+    );
+    for g in &scene.lights {
+        for l in &g.luminaires {
+            let p = l.position;
+            assert!(
+                p.y < hi[1] && p.y > lo[1] && p.x > lo[0] && p.x < hi[0],
+                "{p:?}"
+            );
+        }
+    }
+}
