@@ -1,0 +1,159 @@
+//! Memory estimates of a bake and of a cached load, per transfer mode, checked against
+//! the memory budget before the large allocations.
+
+use serde::Serialize;
+
+use crate::geometry::mesh::Mesh;
+use crate::scene::Scene;
+use crate::transport::hierarchy::BYTES_PER_LINK;
+use crate::transport::transfer::TransferMode;
+
+/// Bytes per patch besides the n×n matrices and the group columns: mesh vertices and patch
+/// records, the refinement's edge map, form-factor patch geometry, per-patch arrays (ρ,
+/// area, escape), faer's column padding of each n×n matrix, with headroom.
+pub const BAKE_BYTES_PER_PATCH: u64 = 2048;
+/// Bytes per patch and light group: the n×3 f32 columns alive at once during a solve
+/// (emission, direct light, E, B, F·B, the refinement residual, the interleaved e/b/h of
+/// the result): at most ~100, with headroom.
+pub const BAKE_BYTES_PER_PATCH_GROUP: u64 = 128;
+/// Fixed overhead of a bake (BVH over small scenes, thread stacks, scratch).
+pub const BAKE_BYTES_BASE: u64 = 32 << 20;
+/// Hierarchical mode: links per patch assumed by the estimates (measured counts are in
+/// the README's sizing table; this bounds them).
+pub const HIER_LINKS_PER_PATCH: u64 = 600;
+/// Hierarchical mode: bytes per link while baking (the 16-byte links of refinement, sorted
+/// in place, then the 9-byte stored links) and when loaded (9).
+pub const HIER_BAKE_BYTES_PER_LINK: u64 = 25;
+/// Hierarchical mode: bytes per patch and light group of the sweeps (node-major sources,
+/// radiosity, gathered irradiance over ~2n nodes, and the extracted columns).
+pub const HIER_BYTES_PER_PATCH_GROUP: u64 = 160;
+
+/// Estimated peak memory of baking `patches` patches in `mode` with `groups` light groups
+/// and `lu_count` distinct reflectance channels (1–3: channels with identical ρ over all
+/// patches share one factorization; see [`memory_estimate`]).
+///
+/// - **Both modes** hold the dense form factors `F`: 4·n² bytes (f32, n × n).
+/// - **Factored** adds one LU of `(I − ρF)ᵀ` per distinct channel, 4·n² bytes each, all alive
+///   with `F` at the end of the solve (and while the cache entry is written, which streams
+///   them without copies): `4·n²·(1 + lu_count)`.
+/// - **Columns** keeps only `F` (Jacobi needs no factorization): `4·n²`.
+/// - **Hierarchical** holds no n × n matrix: [`HIER_LINKS_PER_PATCH`] links per patch at
+///   [`HIER_BAKE_BYTES_PER_LINK`] bytes, and [`HIER_BYTES_PER_PATCH_GROUP`] per patch and
+///   group for the sweeps, instead of the per-group term below.
+/// - Plus [`BAKE_BYTES_PER_PATCH`]·n, [`BAKE_BYTES_PER_PATCH_GROUP`]·n·groups and
+///   [`BAKE_BYTES_BASE`].
+///
+/// Measured peaks (`benches/sizing.sh`) are within this estimate.
+pub fn estimate_bake_bytes(
+    patches: usize,
+    mode: TransferMode,
+    groups: usize,
+    lu_count: usize,
+) -> u64 {
+    let n = patches as u64;
+    let square = 4u64.saturating_mul(n).saturating_mul(n);
+    let matrices = match mode {
+        TransferMode::Factored => square.saturating_mul(1 + lu_count.clamp(1, 3) as u64),
+        TransferMode::Columns => square,
+        TransferMode::Hierarchical => {
+            return n
+                .saturating_mul(HIER_LINKS_PER_PATCH * HIER_BAKE_BYTES_PER_LINK)
+                .saturating_add(n.saturating_mul(BAKE_BYTES_PER_PATCH))
+                .saturating_add(
+                    n.saturating_mul(groups.max(1) as u64)
+                        .saturating_mul(HIER_BYTES_PER_PATCH_GROUP),
+                )
+                .saturating_add(BAKE_BYTES_BASE)
+        }
+    };
+    matrices
+        .saturating_add(n.saturating_mul(BAKE_BYTES_PER_PATCH))
+        .saturating_add(
+            n.saturating_mul(groups.max(1) as u64)
+                .saturating_mul(BAKE_BYTES_PER_PATCH_GROUP),
+        )
+        .saturating_add(BAKE_BYTES_BASE)
+}
+
+/// Estimated peak memory of loading a baked transfer from the cache: in factored mode `F`
+/// and the LUs (read straight into their final buffers), `4·n²·(1 + lu_count)`; in columns
+/// mode only the group columns. Plus the same per-patch, per-group and base terms as
+/// [`estimate_bake_bytes`].
+pub fn estimate_load_bytes(
+    patches: usize,
+    mode: TransferMode,
+    groups: usize,
+    lu_count: usize,
+) -> u64 {
+    match mode {
+        TransferMode::Factored => estimate_bake_bytes(patches, mode, groups, lu_count),
+        TransferMode::Hierarchical => {
+            let n = patches as u64;
+            n.saturating_mul(HIER_LINKS_PER_PATCH * BYTES_PER_LINK)
+                .saturating_add(n.saturating_mul(BAKE_BYTES_PER_PATCH))
+                .saturating_add(
+                    n.saturating_mul(groups.max(1) as u64)
+                        .saturating_mul(BAKE_BYTES_PER_PATCH_GROUP),
+                )
+                .saturating_add(BAKE_BYTES_BASE)
+        }
+        TransferMode::Columns => {
+            let n = patches as u64;
+            n.saturating_mul(BAKE_BYTES_PER_PATCH)
+                .saturating_add(
+                    n.saturating_mul(groups.max(1) as u64)
+                        .saturating_mul(BAKE_BYTES_PER_PATCH_GROUP),
+                )
+                .saturating_add(BAKE_BYTES_BASE)
+        }
+    }
+}
+
+/// Memory estimates for one meshed scene.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+pub struct MemoryEstimate {
+    pub patches: usize,
+    pub mode: TransferMode,
+    pub groups: usize,
+    /// Distinct reflectance channels (LU factorizations in factored mode).
+    pub lu_count: usize,
+    /// Peak bytes of a bake ([`estimate_bake_bytes`]).
+    pub bake: u64,
+    /// Peak bytes of a load from the cache ([`estimate_load_bytes`]).
+    pub load: u64,
+}
+
+/// Estimates the memory a scene's bake and cached load need, from its mesh: the patch
+/// count, the light groups, and how many reflectance channels differ (ρ of R, G and B
+/// compared over the materials the patches use, as the solver does).
+pub fn memory_estimate(scene: &Scene, mesh: &Mesh, mode: TransferMode) -> MemoryEstimate {
+    let mut used = vec![false; scene.materials.len()];
+    for p in &mesh.patches {
+        if let Some(u) = used.get_mut(p.material as usize) {
+            *u = true;
+        }
+    }
+    let kd: Vec<[f32; 3]> = scene
+        .materials
+        .iter()
+        .zip(&used)
+        .filter(|(_, &u)| u)
+        .map(|(m, _)| m.kd)
+        .collect();
+    let same = |a: usize, b: usize| kd.iter().all(|k| k[a] == k[b]);
+    let mut distinct: Vec<usize> = Vec::new();
+    for c in 0..3 {
+        if !distinct.iter().any(|&d| same(d, c)) {
+            distinct.push(c);
+        }
+    }
+    let (n, groups, lu_count) = (mesh.len(), scene.lights.len(), distinct.len());
+    MemoryEstimate {
+        patches: n,
+        mode,
+        groups,
+        lu_count,
+        bake: estimate_bake_bytes(n, mode, groups, lu_count),
+        load: estimate_load_bytes(n, mode, groups, lu_count),
+    }
+}

@@ -1,0 +1,335 @@
+//! Building a [`Transfer`]: the sources of the light groups, then the dense solves
+//! (factored: LU per reflectance channel with one step of refinement; columns: Jacobi) or
+//! the sweeps over the links (hierarchical).
+
+use faer::Mat;
+
+use super::*;
+use crate::transport::solve::{self, ChannelLu};
+
+/// Per-group RGB emission columns for `mesh`, at intensity 1 and colour (1, 1, 1).
+pub fn group_emission(scene: &Scene, mesh: &Mesh) -> Vec<Vec<f32>> {
+    let n = mesh.len();
+    let mut cols = vec![vec![0f32; 3 * n]; scene.lights.len()];
+    for (i, p) in mesh.patches.iter().enumerate() {
+        if let Some(g) = p.group {
+            let ke = scene.materials[p.material as usize].ke;
+            let s = scene.lights[g as usize].ke_scale;
+            for c in 0..3 {
+                cols[g as usize][3 * i + c] = (ke[c] as f64 * s) as f32;
+            }
+        }
+    }
+    cols
+}
+
+/// Diffuse reflectance per patch and channel.
+pub fn patch_rho(scene: &Scene, mesh: &Mesh) -> Vec<Rgb> {
+    mesh.patches
+        .iter()
+        .map(|p| scene.materials[p.material as usize].kd)
+        .collect()
+}
+
+/// Per patch, the source term `E + ρ D` of all groups at intensity 1 and colour white,
+/// mean of R, G and B, lm/m².
+pub fn all_sources(scene: &Scene, mesh: &Mesh, direct: &[Option<Vec<f32>>]) -> Vec<f64> {
+    let rho = patch_rho(scene, mesh);
+    let emission = group_emission(scene, mesh);
+    let mut out = vec![0f64; mesh.len()];
+    for (gi, col) in emission.iter().enumerate() {
+        let d = direct.get(gi).and_then(|d| d.as_deref());
+        for (i, o) in out.iter_mut().enumerate() {
+            for c in 0..3 {
+                let first = d.map_or(0.0, |d| rho[i][c] * d[3 * i + c]);
+                *o += (col[3 * i + c] + first) as f64 / 3.0;
+            }
+        }
+    }
+    out
+}
+
+/// The sources `E + ρ D` as an n × 3G matrix, column 3g + c: emission plus the first
+/// reflection of the group's luminaires' direct illuminance D (lux).
+fn source_matrix(emission: &[Vec<f32>], direct: &[Option<Vec<f32>>], rho: &[Rgb]) -> Mat<f32> {
+    let n = rho.len();
+    let mut e = Mat::<f32>::zeros(n, 3 * emission.len());
+    for (gi, col) in emission.iter().enumerate() {
+        let d = direct.get(gi).and_then(|d| d.as_deref());
+        for i in 0..n {
+            for c in 0..3 {
+                let first = d.map_or(0.0, |d| rho[i][c] * d[3 * i + c]);
+                e[(i, 3 * gi + c)] = col[3 * i + c] + first;
+            }
+        }
+    }
+    e
+}
+
+/// One LU of `(I − ρF)ᵀ` per distinct reflectance channel, and each channel's LU index.
+fn factor_channels(
+    f: &[f32],
+    rho_ch: &[Vec<f32>; 3],
+    n: usize,
+    progress: &(dyn Fn(f64) + Sync),
+) -> (Vec<ChannelLu>, [u8; 3]) {
+    let mut channel_lu = [0u8; 3];
+    let mut distinct: Vec<usize> = Vec::new();
+    for c in 0..3 {
+        match distinct.iter().position(|&d| rho_ch[d] == rho_ch[c]) {
+            Some(k) => channel_lu[c] = k as u8,
+            None => {
+                channel_lu[c] = distinct.len() as u8;
+                distinct.push(c);
+            }
+        }
+    }
+    let mut lus = Vec::new();
+    for (k, &c) in distinct.iter().enumerate() {
+        lus.push(ChannelLu::factor(f, &rho_ch[c], n));
+        progress(0.9 * (k + 1) as f64 / distinct.len() as f64);
+    }
+    (lus, channel_lu)
+}
+
+/// The largest relative residual `‖E − (B − ρ F B)‖∞ / ‖E‖∞` over the columns.
+fn max_residual(e: &Mat<f32>, b: &Mat<f32>, h: &Mat<f32>, rho_of_col: &[&[f32]]) -> f64 {
+    let n = e.nrows();
+    let mut residual = 0f64;
+    for (k, rho) in rho_of_col.iter().enumerate() {
+        let col = |m: &Mat<f32>| -> Vec<f32> { (0..n).map(|i| m[(i, k)]).collect() };
+        residual = residual.max(solve::relative_residual(&col(e), &col(b), &col(h), rho));
+    }
+    residual
+}
+
+impl Transfer {
+    /// Solves the scene for its light groups (and factors it in factored mode).
+    /// `direct[g]` is the direct illuminance of group g's point luminaires (lux, n × 3 at
+    /// unit weight; None without luminaires). It enters as the first reflection: the
+    /// group's source is `E + ρ D`, and its incident illuminance `H = D + F B`.
+    /// `coupling` is the dense `F` for the factored and columns modes, the links for the
+    /// hierarchical mode.
+    pub fn build(
+        scene: &Scene,
+        mesh: &Mesh,
+        coupling: Coupling,
+        direct: &[Option<Vec<f32>>],
+        mode: TransferMode,
+        progress: &(dyn Fn(f64) + Sync),
+    ) -> Transfer {
+        let rho = patch_rho(scene, mesh);
+        let area: Vec<f32> = mesh.patches.iter().map(|p| p.area as f32).collect();
+        match coupling {
+            Coupling::Dense(f) => {
+                Self::build_dense(scene, mesh, f, rho, area, direct, mode, progress)
+            }
+            Coupling::Links(h, escape) => {
+                Self::build_links(scene, mesh, *h, escape, rho, area, direct, progress)
+            }
+        }
+    }
+
+    /// The hierarchical mode: the group columns from sweeps over the links.
+    #[allow(clippy::too_many_arguments)]
+    fn build_links(
+        scene: &Scene,
+        mesh: &Mesh,
+        hier: Hierarchy,
+        escape: Vec<f32>,
+        rho: Vec<Rgb>,
+        area: Vec<f32>,
+        direct: &[Option<Vec<f32>>],
+        progress: &(dyn Fn(f64) + Sync),
+    ) -> Transfer {
+        let n = mesh.len();
+        let emission = group_emission(scene, mesh);
+        let g = emission.len();
+        let c = 3 * g;
+        // Sources E + ρD, row-major n × 3G.
+        let mut src = vec![0f32; n * c];
+        for (gi, col) in emission.iter().enumerate() {
+            let d = direct.get(gi).and_then(|d| d.as_deref());
+            for i in 0..n {
+                for ch in 0..3 {
+                    let first = d.map_or(0.0, |d| rho[i][ch] * d[3 * i + ch]);
+                    src[i * c + 3 * gi + ch] = col[3 * i + ch] + first;
+                }
+            }
+        }
+        let sol = if c == 0 {
+            None
+        } else {
+            Some(hier.solve(&rho, &src, c, HIERARCHY_TOL, HIERARCHY_MAX_SWEEPS, progress))
+        };
+        let pick = |x: &[f32], gi: usize| -> Vec<f32> {
+            (0..n)
+                .flat_map(|i| (0..3).map(move |ch| x[i * c + 3 * gi + ch]))
+                .collect()
+        };
+        let groups = (0..g)
+            .map(|gi| {
+                let sol = sol.as_ref().expect("groups imply columns");
+                let d = direct.get(gi).and_then(|d| d.as_deref());
+                let mut hcol = pick(&sol.h, gi);
+                if let Some(d) = d {
+                    for (hv, dv) in hcol.iter_mut().zip(d) {
+                        *hv += dv;
+                    }
+                }
+                let (flux, landed) =
+                    crate::transport::direct::group_flux(&scene.lights[gi], &area, d);
+                GroupColumns {
+                    e: emission[gi].clone(),
+                    b: pick(&sol.b, gi),
+                    h: hcol,
+                    flux,
+                    landed,
+                }
+            })
+            .collect();
+        let info = SolveInfo {
+            residual: sol.as_ref().map_or(0.0, |s| s.residual),
+            sweeps: sol.as_ref().map_or(0, |s| s.sweeps),
+        };
+        progress(1.0);
+        Transfer {
+            mode: TransferMode::Hierarchical,
+            n,
+            rho,
+            area,
+            escape,
+            groups,
+            factored: None,
+            hierarchy: Some(hier),
+            info,
+        }
+    }
+
+    /// The factored and columns modes, from the dense `F`.
+    #[allow(clippy::too_many_arguments)]
+    fn build_dense(
+        scene: &Scene,
+        mesh: &Mesh,
+        f: Vec<f32>,
+        rho: Vec<Rgb>,
+        area: Vec<f32>,
+        direct: &[Option<Vec<f32>>],
+        mode: TransferMode,
+        progress: &(dyn Fn(f64) + Sync),
+    ) -> Transfer {
+        let n = mesh.len();
+        let escape: Vec<f32> = crate::transport::formfactor::row_sums(&f, n)
+            .into_iter()
+            .map(|s| (1.0 - s).max(0.0) as f32)
+            .collect();
+        let rho_ch: [Vec<f32>; 3] = std::array::from_fn(|c| rho.iter().map(|r| r[c]).collect());
+        let emission = group_emission(scene, mesh);
+        let g = emission.len();
+        let e = source_matrix(&emission, direct, &rho);
+        let rho_of_col: Vec<&[f32]> = (0..3 * g).map(|k| rho_ch[k % 3].as_slice()).collect();
+
+        let (b, lus, sweeps) = match mode {
+            TransferMode::Factored => {
+                let (lus, channel_lu) = factor_channels(&f, &rho_ch, n, progress);
+                let b = solve_refined(&lus, channel_lu, &f, e.as_ref(), &rho_of_col);
+                (b, Some((lus, channel_lu)), 0)
+            }
+            TransferMode::Columns | TransferMode::Hierarchical => {
+                let (b, sweeps) =
+                    solve::jacobi(&f, n, e.as_ref(), &rho_of_col, COLUMN_TOL, 2000, progress);
+                (b, None, sweeps)
+            }
+        };
+        let h = solve::apply_f(&f, n, b.as_ref());
+        let residual = max_residual(&e, &b, &h, &rho_of_col);
+        let groups = (0..g)
+            .map(|gi| {
+                let d = direct.get(gi).and_then(|d| d.as_deref());
+                let mut hcol = solve::interleave(h.as_ref(), [3 * gi, 3 * gi + 1, 3 * gi + 2]);
+                if let Some(d) = d {
+                    for (hv, dv) in hcol.iter_mut().zip(d) {
+                        *hv += dv;
+                    }
+                }
+                let (flux, landed) =
+                    crate::transport::direct::group_flux(&scene.lights[gi], &area, d);
+                GroupColumns {
+                    e: emission[gi].clone(),
+                    b: solve::interleave(b.as_ref(), [3 * gi, 3 * gi + 1, 3 * gi + 2]),
+                    h: hcol,
+                    flux,
+                    landed,
+                }
+            })
+            .collect();
+        let factored = lus.map(|(lus, channel_lu)| Factored { lus, channel_lu, f });
+        progress(1.0);
+        Transfer {
+            mode,
+            n,
+            rho,
+            area,
+            escape,
+            groups,
+            factored,
+            hierarchy: None,
+            info: SolveInfo { residual, sweeps },
+        }
+    }
+}
+
+/// Solves `(I − ρF) X = E` for the columns of `e` (column k uses channel k % 3), with one
+/// step of iterative refinement.
+pub fn solve_refined(
+    lus: &[ChannelLu],
+    channel_lu: [u8; 3],
+    f: &[f32],
+    e: faer::MatRef<'_, f32>,
+    rho_of_col: &[&[f32]],
+) -> Mat<f32> {
+    let n = e.nrows();
+    let mut x = e.to_owned();
+    solve_cols(lus, channel_lu, x.as_mut());
+    // r = E − (X − ρ F X); X += (I − ρF)⁻¹ r
+    let fx = solve::apply_f(f, n, x.as_ref());
+    let mut r = Mat::<f32>::zeros(n, e.ncols());
+    for k in 0..e.ncols() {
+        let rho = rho_of_col[k];
+        for i in 0..n {
+            r[(i, k)] = e[(i, k)] - (x[(i, k)] - rho[i] * fx[(i, k)]);
+        }
+    }
+    solve_cols(lus, channel_lu, r.as_mut());
+    for k in 0..e.ncols() {
+        for i in 0..n {
+            x[(i, k)] += r[(i, k)];
+        }
+    }
+    x
+}
+
+/// Solves in place; column k is solved with the factorization of channel k % 3.
+pub(super) fn solve_cols(lus: &[ChannelLu], channel_lu: [u8; 3], mut x: faer::MatMut<'_, f32>) {
+    let k = x.ncols();
+    let n = x.nrows();
+    for c in 0..3 {
+        let cols: Vec<usize> = (c..k).step_by(3).collect();
+        if cols.is_empty() {
+            continue;
+        }
+        // Gather the channel's columns, solve them together, scatter back.
+        let mut m = Mat::<f32>::zeros(n, cols.len());
+        for (a, &col) in cols.iter().enumerate() {
+            for i in 0..n {
+                m[(i, a)] = x[(i, col)];
+            }
+        }
+        lus[channel_lu[c] as usize].solve_in_place(m.as_mut());
+        for (a, &col) in cols.iter().enumerate() {
+            for i in 0..n {
+                x[(i, col)] = m[(i, a)];
+            }
+        }
+    }
+}
