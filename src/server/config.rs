@@ -41,9 +41,9 @@ pub struct ServerConfig {
 }
 
 /// Default longest request time.
-pub const DEFAULT_REQUEST_TIMEOUT: Duration = Duration::from_secs(60);
+pub(crate) const DEFAULT_REQUEST_TIMEOUT: Duration = Duration::from_secs(60);
 /// Default longest time to send request headers.
-pub const DEFAULT_HEADER_TIMEOUT: Duration = Duration::from_secs(10);
+pub(crate) const DEFAULT_HEADER_TIMEOUT: Duration = Duration::from_secs(10);
 /// Default most open connections.
 pub const DEFAULT_MAX_CONNECTIONS: usize = 1024;
 

@@ -19,7 +19,7 @@ use super::{AppError, AppState};
 use crate::budget::BudgetError;
 
 /// How many heavy requests may wait for a permit, per permit.
-pub const QUEUE_PER_PERMIT: usize = 4;
+pub(crate) const QUEUE_PER_PERMIT: usize = 4;
 
 pub use crate::model::Cancel;
 
@@ -58,7 +58,7 @@ impl Drop for Waiting<'_> {
 impl AppState {
     /// Runs `f` on the blocking pool under the concurrency limit and the memory budget
     /// (`bytes` = the work's estimated peak, described by `what` in refusals).
-    pub async fn heavy<T: Send + 'static>(
+    pub(crate) async fn heavy<T: Send + 'static>(
         self: &Arc<Self>,
         bytes: u64,
         what: &str,
@@ -124,7 +124,7 @@ fn overloaded(max: usize, why: &str) -> AppError {
 }
 
 /// Default number of heavy requests running at once: the cores available.
-pub fn default_max_concurrent() -> usize {
+pub(crate) fn default_max_concurrent() -> usize {
     std::thread::available_parallelism()
         .map(|n| n.get())
         .unwrap_or(2)
@@ -132,4 +132,4 @@ pub fn default_max_concurrent() -> usize {
 }
 
 /// Default time a heavy request may wait for a slot.
-pub const DEFAULT_QUEUE_WAIT: Duration = Duration::from_secs(2);
+pub(crate) const DEFAULT_QUEUE_WAIT: Duration = Duration::from_secs(2);

@@ -17,7 +17,7 @@ struct Histogram {
 }
 
 #[derive(Default)]
-pub struct Metrics {
+pub(crate) struct Metrics {
     /// (method, route) → latency histogram.
     latency: Mutex<BTreeMap<(String, String), Histogram>>,
     /// (method, route, status) → count.
@@ -32,7 +32,7 @@ fn lock<T>(m: &Mutex<T>) -> std::sync::MutexGuard<'_, T> {
 
 /// The method as a metrics label: the standard methods by name, anything else as
 /// "other", so that no client can create new series at will.
-pub fn method_label(m: &axum::http::Method) -> &'static str {
+pub(crate) fn method_label(m: &axum::http::Method) -> &'static str {
     use axum::http::Method;
     match *m {
         Method::GET => "GET",
@@ -47,7 +47,7 @@ pub fn method_label(m: &axum::http::Method) -> &'static str {
 }
 
 impl Metrics {
-    pub fn observe(&self, method: &str, route: &str, status: u16, seconds: f64) {
+    pub(crate) fn observe(&self, method: &str, route: &str, status: u16, seconds: f64) {
         {
             let mut l = lock(&self.latency);
             let h = l.entry((method.into(), route.into())).or_default();
@@ -64,7 +64,7 @@ impl Metrics {
             .or_default() += 1;
     }
 
-    pub fn bake_done(&self, scene: &str, seconds: f64, from_cache: bool) {
+    pub(crate) fn bake_done(&self, scene: &str, seconds: f64, from_cache: bool) {
         lock(&self.bakes).insert(scene.into(), (seconds, from_cache));
     }
 

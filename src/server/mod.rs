@@ -13,7 +13,7 @@ pub mod metrics;
 pub mod openapi;
 pub mod parse;
 mod requests;
-pub mod routes;
+pub(crate) mod routes;
 pub mod serve;
 mod state;
 pub mod views;

@@ -55,7 +55,7 @@ impl Ready {
     }
 
     /// The shading mesh as served by `GET /api/scenes/{id}/mesh`, built on first use.
-    pub fn mesh_bytes(&self) -> axum::body::Bytes {
+    pub(crate) fn mesh_bytes(&self) -> axum::body::Bytes {
         self.mesh_bytes
             .get_or_init(|| self.shading().mesh_bytes(&self.baked.mesh).into())
             .clone()
@@ -303,7 +303,7 @@ fn scrub_paths(msg: &str, cfg: &ServerConfig) -> String {
 pub struct AppState {
     pub config: ServerConfig,
     pub slots: Vec<Arc<SceneSlot>>,
-    pub metrics: metrics::Metrics,
+    pub(crate) metrics: metrics::Metrics,
     /// View buffers per (scene, camera, size), an LRU bounded in bytes.
     pub views: std::sync::Mutex<views::ViewCache>,
     /// The memory budget every heavy request reserves from.
