@@ -54,7 +54,10 @@ async fn render_memory_is_estimated_and_budgeted() {
 #[tokio::test]
 async fn the_same_camera_was_built_twice_at_once() {
     let _gate = common::shared();
-    let st = with(|_| {});
+    // Four renders of one camera at once: some wait for a render permit. On a loaded CI
+    // machine that wait can pass the default 2 s queue limit (a 503, tested elsewhere);
+    // this test is about the shared view buffer, so the wait is unbounded here.
+    let st = with(|c| c.queue_wait = std::time::Duration::from_secs(120));
     let body = r#"{"width": 300, "height": 200, "camera": {"position": [0.3, 0.3, -0.8], "target": [0.28, 0.27, 0.28], "fov_deg": 50}}"#;
     let tasks: Vec<_> = (0..4)
         .map(|_| {
