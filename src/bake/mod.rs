@@ -412,9 +412,11 @@ pub fn load_or_bake(
     };
     stats.form_factor_s = t0.elapsed().as_secs_f64();
     let t1 = Instant::now();
-    let transfer = Transfer::build(&p.scene, &p.mesh, coupling, &direct, p.mode, &|x| {
-        progress(Stage::Solving, x)
+    let mut transfer = Transfer::build(&p.scene, &p.mesh, coupling, &direct, p.mode, &|x| {
+        progress(Stage::Solving, 0.95 * x)
     });
+    transfer.grids =
+        crate::transport::probe::grid_columns(&p.scene, &p.mesh, &p.bvh, &transfer.groups);
     stats.solve_s = t1.elapsed().as_secs_f64();
     stats.residual = transfer.info.residual;
     if let (Some((path, key)), Some(dir), false) = (
@@ -453,6 +455,12 @@ fn try_cache(
     }
     let t0 = Instant::now();
     match cache::read(path, key, p.mesh.fingerprint()) {
+        Ok(transfer) if !grids_match(&p.scene, &transfer) => {
+            let note = "the cached grids differ from scene.toml's; rebaking";
+            tracing::warn!("{}: {note}", path.display());
+            stats.cache_note = Some(note.into());
+            Ok(None)
+        }
         Ok(transfer) => {
             stats.from_cache = true;
             stats.load_s = t0.elapsed().as_secs_f64();
@@ -483,6 +491,15 @@ fn try_cache(
             Ok(None)
         }
     }
+}
+
+/// True when the transfer holds one response per grid of the scene and light group, each
+/// with the grid's number of points.
+fn grids_match(scene: &Scene, t: &Transfer) -> bool {
+    t.grids.len() == scene.grids.len()
+        && scene.grids.iter().zip(&t.grids).all(|(g, cols)| {
+            cols.len() == t.groups.len() && cols.iter().all(|c| c.len() == 3 * g.points.len())
+        })
 }
 
 /// Default cache folder: `$RELIGHT_CACHE`, else `$XDG_CACHE_HOME/relight`, else

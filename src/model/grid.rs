@@ -2,19 +2,15 @@
 //!
 //! The illuminance at a grid point is the direct light of the luminaires, exact per point
 //! with shadow rays, plus the light gathered from the solved patches (see
-//! [`crate::transport::probe`]). Both are linear in the group weights, so each grid keeps one RGB
-//! column per light group (lux at unit weight). A lighting state's grid is then a
-//! weighted sum: microseconds for a thousand points.
+//! [`crate::transport::probe::grid_columns`]). Both are linear in the group weights, so
+//! the bake keeps one RGB column per grid and light group (lux at unit weight) in the
+//! transfer and its cache entry. A lighting state's grid is then a weighted sum:
+//! microseconds for a thousand points.
 
-use glam::DVec3;
-use rayon::prelude::*;
 use serde::Serialize;
 
 use crate::color::{luminance, Rgb};
-use crate::geometry::bvh::Bvh;
-use crate::geometry::mesh::Mesh;
 use crate::scene::{Grid, Scene};
-use crate::transport::transfer::Transfer;
 
 /// A grid with its per-group responses.
 pub struct GridResponse {
@@ -38,59 +34,16 @@ pub struct GridStats {
 }
 
 impl GridResponse {
-    /// Precomputes every grid of the scene for every light group.
-    pub fn build_all(scene: &Scene, mesh: &Mesh, bvh: &Bvh, t: &Transfer) -> Vec<GridResponse> {
-        if scene.grids.is_empty() {
-            return vec![];
-        }
-        // Importance for the gather's ray budget: every group's radiosity at unit weight.
-        let mut importance = vec![0f32; 3 * t.n];
-        for g in &t.groups {
-            for (a, b) in importance.iter_mut().zip(&g.b) {
-                *a += b;
-            }
-        }
+    /// Every grid of the scene with its per-group responses, as baked into the transfer
+    /// (`Transfer::grids`, [`crate::transport::probe::grid_columns`]).
+    pub fn build_all(scene: &Scene, columns: Vec<Vec<Vec<f32>>>) -> Vec<GridResponse> {
         scene
             .grids
             .iter()
-            .map(|grid| {
-                let n = DVec3::from_array(grid.normal);
-                let rows: Vec<Vec<[f32; 3]>> = grid
-                    .points
-                    .par_iter()
-                    .map(|p| {
-                        let x = DVec3::from_array(*p);
-                        let w =
-                            crate::transport::probe::gather_weights(mesh, bvh, &importance, x, n);
-                        scene
-                            .lights
-                            .iter()
-                            .zip(&t.groups)
-                            .map(|(light, g)| {
-                                let mut e = crate::transport::direct::point_illuminance(
-                                    bvh,
-                                    &light.luminaires,
-                                    x,
-                                    n,
-                                );
-                                for &(j, wj) in &w {
-                                    let bj = &g.b[3 * j as usize..3 * j as usize + 3];
-                                    for (ec, &b) in e.iter_mut().zip(bj) {
-                                        *ec += wj * b as f64;
-                                    }
-                                }
-                                e.map(|v| v as f32)
-                            })
-                            .collect()
-                    })
-                    .collect();
-                let per_group = (0..t.groups.len())
-                    .map(|g| rows.iter().flat_map(|r| r[g]).collect())
-                    .collect();
-                GridResponse {
-                    grid: grid.clone(),
-                    per_group,
-                }
+            .zip(columns)
+            .map(|(grid, per_group)| GridResponse {
+                grid: grid.clone(),
+                per_group,
             })
             .collect()
     }

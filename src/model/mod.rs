@@ -76,12 +76,12 @@ pub struct Model {
 const SCENE_BYTES_PER_PATCH: u64 = 400;
 
 impl Model {
-    /// Precomputes the group facts and the grids' per-group responses (direct light with
-    /// shadow rays plus the gather from every group's radiosity).
-    pub fn new(baked: Baked) -> Model {
+    /// Gathers the group facts and the grids' per-group responses (baked into the
+    /// transfer).
+    pub fn new(mut baked: Baked) -> Model {
         let groups = group_infos(&baked);
-        let grids =
-            grid::GridResponse::build_all(&baked.scene, &baked.mesh, &baked.bvh, &baked.transfer);
+        let columns = std::mem::take(&mut baked.transfer.grids);
+        let grids = grid::GridResponse::build_all(&baked.scene, columns);
         Model {
             baked,
             groups,

@@ -10,7 +10,9 @@ use rayon::prelude::*;
 
 use crate::geometry::bvh::Bvh;
 use crate::geometry::mesh::Mesh;
+use crate::scene::Scene;
 use crate::transport::formfactor::point_to_polygon;
+use crate::transport::transfer::GroupColumns;
 
 /// Rays every contributing patch gets first.
 const PROBE_RAYS: u32 = 4;
@@ -111,6 +113,65 @@ pub fn gather_weights(
                 rays = want;
             }
             (free > 0).then(|| (j as u32, ff * free as f64 / rays as f64))
+        })
+        .collect()
+}
+
+/// Per grid of the scene and per light group: the illuminance at each grid point (lux,
+/// points × 3 interleaved) for the group at unit weight: its luminaires' direct light with
+/// shadow rays plus the gather ([`gather_weights`]) from its radiosity column `b`.
+pub fn grid_columns(
+    scene: &Scene,
+    mesh: &Mesh,
+    bvh: &Bvh,
+    groups: &[GroupColumns],
+) -> Vec<Vec<Vec<f32>>> {
+    if scene.grids.is_empty() {
+        return vec![];
+    }
+    // Importance for the gather's ray budget: every group's radiosity at unit weight.
+    let mut importance = vec![0f32; 3 * mesh.len()];
+    for g in groups {
+        for (a, b) in importance.iter_mut().zip(&g.b) {
+            *a += b;
+        }
+    }
+    scene
+        .grids
+        .iter()
+        .map(|grid| {
+            let n = DVec3::from_array(grid.normal);
+            let rows: Vec<Vec<[f32; 3]>> = grid
+                .points
+                .par_iter()
+                .map(|p| {
+                    let x = DVec3::from_array(*p);
+                    let w = gather_weights(mesh, bvh, &importance, x, n);
+                    scene
+                        .lights
+                        .iter()
+                        .zip(groups)
+                        .map(|(light, g)| {
+                            let mut e = crate::transport::direct::point_illuminance(
+                                bvh,
+                                &light.luminaires,
+                                x,
+                                n,
+                            );
+                            for &(j, wj) in &w {
+                                let bj = &g.b[3 * j as usize..3 * j as usize + 3];
+                                for (ec, &b) in e.iter_mut().zip(bj) {
+                                    *ec += wj * b as f64;
+                                }
+                            }
+                            e.map(|v| v as f32)
+                        })
+                        .collect()
+                })
+                .collect();
+            (0..groups.len())
+                .map(|g| rows.iter().flat_map(|r| r[g]).collect())
+                .collect()
         })
         .collect()
 }

@@ -54,6 +54,33 @@ fn second_load_comes_from_the_cache_and_is_identical() {
     assert!(names[0].ends_with(".rlt"));
 }
 
+/// Grid responses are part of the bake: the cache entry holds them, so a cached load
+/// gathers nothing and answers the same numbers.
+#[test]
+fn grid_responses_are_baked_into_the_cache() {
+    let _gate = common::shared();
+    let s = small_scene();
+    let toml = "[mesh]\ntarget_patches = 600\n[[grids]]\nid = \"floor\"\npoints = [[0.5, 0.0, 0.5], [1.0, 0.0, 1.0], [1.5, 0.0, 0.5]]\n";
+    std::fs::write(s.path().join("scene.toml"), toml).unwrap();
+    let cache = tempfile::tempdir().unwrap();
+    let a = load(s.path(), CachePolicy::ReadWrite(cache.path())).unwrap();
+    assert_eq!(a.transfer.grids.len(), 1);
+    assert_eq!(a.transfer.grids[0].len(), 1);
+    assert_eq!(a.transfer.grids[0][0].len(), 9);
+    // A 1.6 lm panel 2 m above, in a closed 2 m box of ρ ≈ 0.5: a fraction of a lux.
+    assert!(
+        a.transfer.grids[0][0].iter().all(|&v| v > 0.02 && v < 2.0),
+        "{:?}",
+        a.transfer.grids[0][0]
+    );
+    let header = relight::bake::cache::read_header(a.stats.cache_path.as_ref().unwrap()).unwrap();
+    assert_eq!(header.grid_points, vec![3]);
+    assert!(header.sections.iter().any(|s| s.name == "grid0g0"));
+    let b = load(s.path(), CachePolicy::ReadWrite(cache.path())).unwrap();
+    assert!(b.stats.from_cache);
+    assert_eq!(a.transfer.grids, b.transfer.grids);
+}
+
 #[test]
 fn corrupt_entry_is_detected_and_rebaked() {
     let _gate = common::shared();
@@ -398,6 +425,12 @@ fn cache_section_lengths_are_checked_before_allocating() {
     let (s, cache, path) = cached();
     edit_header(&path, |h| h["groups"] = serde_json::json!(1u64 << 50));
     reject(&path, &s, cache.path(), "invalid");
+    // Grids of a billion points each, which the section table does not list.
+    let (s, cache, path) = cached();
+    edit_header(&path, |h| {
+        h["grid_points"] = serde_json::json!(vec![1u64 << 30; 4])
+    });
+    reject(&path, &s, cache.path(), "");
     // A section renamed, or listed twice.
     let (s, cache, path) = cached();
     edit_header(&path, |h| {

@@ -10,7 +10,7 @@ use crate::transport::transfer::{SolveInfo, TransferMode};
 /// The first 8 bytes of every cache file.
 pub(super) const MAGIC: &[u8; 8] = b"RLTRANS\0";
 /// Bump when the file layout changes.
-pub(super) const FORMAT_VERSION: u32 = 3;
+pub(super) const FORMAT_VERSION: u32 = 4;
 /// Bump when the numbers a bake produces change (meshing, form factors, solver).
 pub(super) const ALGORITHM_VERSION: u32 = 1;
 /// Largest JSON header accepted, bytes.
@@ -52,6 +52,9 @@ pub struct Header {
     pub links: u64,
     #[serde(default)]
     pub hierarchy: Option<HierarchyStats>,
+    /// Points of each calculation grid (one section per grid and group).
+    #[serde(default)]
+    pub grid_points: Vec<usize>,
     pub sections: Vec<Section>,
 }
 
@@ -82,6 +85,19 @@ pub(super) fn expected_sections(h: &Header) -> Option<Vec<(String, Kind, u64)>> 
     for g in 0..h.groups {
         for c in ["e", "b", "h"] {
             out.push((format!("{c}{g}"), Kind::Floats, vec3));
+        }
+    }
+    // Every grid needs one section per group, listed in the (bounded) header.
+    if h.grid_points.len().saturating_mul(h.groups) > h.sections.len() {
+        return None;
+    }
+    for (i, &points) in h.grid_points.iter().enumerate() {
+        for g in 0..h.groups {
+            out.push((
+                grid_section(i, g),
+                Kind::Floats,
+                (points as u64).checked_mul(12)?,
+            ));
         }
     }
     match h.mode {
@@ -122,4 +138,9 @@ pub(super) fn expected_sections(h: &Header) -> Option<Vec<(String, Kind, u64)>> 
         }
     }
     Some(out)
+}
+
+/// The section of grid `i`'s response to group `g`.
+pub(super) fn grid_section(i: usize, g: usize) -> String {
+    format!("grid{i}g{g}")
 }

@@ -10,7 +10,8 @@ use std::path::Path;
 use xxhash_rust::xxh3::Xxh3;
 
 use super::format::{
-    expected_sections, Header, Kind, Section, FORMAT_VERSION, MAGIC, MAX_HEADER_BYTES, PREAMBLE,
+    expected_sections, grid_section, Header, Kind, Section, FORMAT_VERSION, MAGIC,
+    MAX_HEADER_BYTES, PREAMBLE,
 };
 use super::CacheError;
 use crate::transport::hierarchy::Hierarchy;
@@ -247,6 +248,14 @@ fn assemble(path: &Path, h: &Header, mut s: Sections) -> Result<Transfer, CacheE
             landed: h.group_flux.get(g).map_or([0.0; 3], |f| f[1]),
         });
     }
+    let mut grids = Vec::new();
+    for i in 0..h.grid_points.len() {
+        grids.push(
+            (0..h.groups)
+                .map(|g| take(&grid_section(i, g)))
+                .collect::<Result<Vec<_>, _>>()?,
+        );
+    }
     let factored = match h.mode {
         TransferMode::Columns | TransferMode::Hierarchical => None,
         TransferMode::Factored => Some(factored(h, &mut take, &mut s.lus, &corrupt)?),
@@ -264,6 +273,7 @@ fn assemble(path: &Path, h: &Header, mut s: Sections) -> Result<Transfer, CacheE
         groups,
         factored,
         hierarchy,
+        grids,
         info: h.info,
     })
 }

@@ -9,7 +9,7 @@ use std::path::Path;
 use xxhash_rust::xxh3::Xxh3;
 
 use super::folder::temp_path;
-use super::format::{Header, Section, ALGORITHM_VERSION, FORMAT_VERSION, MAGIC};
+use super::format::{grid_section, Header, Section, ALGORITHM_VERSION, FORMAT_VERSION, MAGIC};
 use super::CacheError;
 use crate::transport::solve::ChannelLu;
 use crate::transport::transfer::Transfer;
@@ -88,6 +88,11 @@ pub fn write(
         info: t.info,
         links: t.hierarchy.as_ref().map_or(0, |h| h.src.len() as u64),
         hierarchy: t.hierarchy.as_ref().map(|h| h.stats),
+        grid_points: t
+            .grids
+            .iter()
+            .map(|g| g.first().map_or(0, |c| c.len() / 3))
+            .collect(),
         sections: section_table(&all),
     };
     let hjson = serde_json::to_vec(&header).map_err(|e| io(std::io::Error::other(e)))?;
@@ -128,6 +133,11 @@ fn sections_of(t: &Transfer) -> Vec<(String, Data<'_>)> {
         all.push((format!("e{g}"), Data::Slice(bytemuck::cast_slice(&col.e))));
         all.push((format!("b{g}"), Data::Slice(bytemuck::cast_slice(&col.b))));
         all.push((format!("h{g}"), Data::Slice(bytemuck::cast_slice(&col.h))));
+    }
+    for (i, grid) in t.grids.iter().enumerate() {
+        for (g, col) in grid.iter().enumerate() {
+            all.push((grid_section(i, g), Data::Slice(bytemuck::cast_slice(col))));
+        }
     }
     if let Some(f) = &t.factored {
         all.push(("f".into(), Data::Slice(bytemuck::cast_slice(&f.f))));

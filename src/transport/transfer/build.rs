@@ -31,39 +31,48 @@ pub fn patch_rho(scene: &Scene, mesh: &Mesh) -> Vec<Rgb> {
         .collect()
 }
 
+/// Per group, the source `E + ρ D` (lm/m², n × 3 interleaved, intensity 1, colour white):
+/// the group's emission plus the first reflection of its luminaires' direct illuminance
+/// D (lux). Every mode solves for these.
+pub fn group_sources(
+    emission: &[Vec<f32>],
+    direct: &[Option<Vec<f32>>],
+    rho: &[Rgb],
+) -> Vec<Vec<f32>> {
+    emission
+        .iter()
+        .enumerate()
+        .map(|(gi, col)| {
+            let mut s = col.clone();
+            if let Some(d) = direct.get(gi).and_then(|d| d.as_deref()) {
+                for (i, r) in rho.iter().enumerate() {
+                    for c in 0..3 {
+                        s[3 * i + c] += r[c] * d[3 * i + c];
+                    }
+                }
+            }
+            s
+        })
+        .collect()
+}
+
 /// Per patch, the source term `E + ρ D` of all groups at intensity 1 and colour white,
 /// mean of R, G and B, lm/m².
 pub fn all_sources(scene: &Scene, mesh: &Mesh, direct: &[Option<Vec<f32>>]) -> Vec<f64> {
     let rho = patch_rho(scene, mesh);
-    let emission = group_emission(scene, mesh);
     let mut out = vec![0f64; mesh.len()];
-    for (gi, col) in emission.iter().enumerate() {
-        let d = direct.get(gi).and_then(|d| d.as_deref());
-        for (i, o) in out.iter_mut().enumerate() {
-            for c in 0..3 {
-                let first = d.map_or(0.0, |d| rho[i][c] * d[3 * i + c]);
-                *o += (col[3 * i + c] + first) as f64 / 3.0;
-            }
+    for s in group_sources(&group_emission(scene, mesh), direct, &rho) {
+        for (o, c) in out.iter_mut().zip(s.chunks_exact(3)) {
+            *o += (c[0] as f64 + c[1] as f64 + c[2] as f64) / 3.0;
         }
     }
     out
 }
 
-/// The sources `E + ρ D` as an n × 3G matrix, column 3g + c: emission plus the first
-/// reflection of the group's luminaires' direct illuminance D (lux).
+/// The sources as an n × 3G matrix, column 3g + c (see [`group_sources`]).
 fn source_matrix(emission: &[Vec<f32>], direct: &[Option<Vec<f32>>], rho: &[Rgb]) -> Mat<f32> {
-    let n = rho.len();
-    let mut e = Mat::<f32>::zeros(n, 3 * emission.len());
-    for (gi, col) in emission.iter().enumerate() {
-        let d = direct.get(gi).and_then(|d| d.as_deref());
-        for i in 0..n {
-            for c in 0..3 {
-                let first = d.map_or(0.0, |d| rho[i][c] * d[3 * i + c]);
-                e[(i, 3 * gi + c)] = col[3 * i + c] + first;
-            }
-        }
-    }
-    e
+    let s = group_sources(emission, direct, rho);
+    Mat::from_fn(rho.len(), 3 * s.len(), |i, k| s[k / 3][3 * i + k % 3])
 }
 
 /// One LU of `(I − ρF)ᵀ` per distinct reflectance channel, and each channel's LU index.
@@ -148,13 +157,9 @@ impl Transfer {
         let c = 3 * g;
         // Sources E + ρD, row-major n × 3G.
         let mut src = vec![0f32; n * c];
-        for (gi, col) in emission.iter().enumerate() {
-            let d = direct.get(gi).and_then(|d| d.as_deref());
-            for i in 0..n {
-                for ch in 0..3 {
-                    let first = d.map_or(0.0, |d| rho[i][ch] * d[3 * i + ch]);
-                    src[i * c + 3 * gi + ch] = col[3 * i + ch] + first;
-                }
+        for (gi, col) in group_sources(&emission, direct, &rho).iter().enumerate() {
+            for (i, v) in col.chunks_exact(3).enumerate() {
+                src[i * c + 3 * gi..i * c + 3 * gi + 3].copy_from_slice(v);
             }
         }
         let sol = if c == 0 {
@@ -202,6 +207,7 @@ impl Transfer {
             groups,
             factored: None,
             hierarchy: Some(hier),
+            grids: vec![],
             info,
         }
     }
@@ -274,6 +280,7 @@ impl Transfer {
             groups,
             factored,
             hierarchy: None,
+            grids: vec![],
             info: SolveInfo { residual, sweeps },
         }
     }

@@ -126,6 +126,10 @@ pub struct Transfer {
     pub factored: Option<Factored>,
     /// Hierarchical-mode links.
     pub hierarchy: Option<Hierarchy>,
+    /// Per calculation grid of the scene (in `scene.grids` order) and per light group:
+    /// the illuminance at each grid point (lux, points × 3 interleaved) at unit weight
+    /// ([`crate::transport::probe::grid_columns`]).
+    pub grids: Vec<Vec<Vec<f32>>>,
     pub info: SolveInfo,
 }
 
@@ -148,6 +152,7 @@ impl Transfer {
         if let Some(h) = &self.hierarchy {
             b += h.bytes();
         }
+        b += self.grids.iter().flatten().map(f32s).sum::<u64>();
         if let Some(f) = &self.factored {
             b += f32s(&f.f);
             for lu in &f.lus {
