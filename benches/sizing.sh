@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Sizing sweep: bake time and peak memory, and a replica's memory after a cached load,
-# against patch count, for both transfer modes. Prints a Markdown table.
+# against patch count, for every transfer mode. Prints a Markdown table.
 #   cargo build --release && bash benches/sizing.sh [relight-binary]
+# SPECS="mode:target ..." picks other rows (e.g. SPECS="hierarchical:20000").
 set -euo pipefail
 BIN=${1:-target/release/relight}
 WORK=$(mktemp -d)
@@ -9,7 +10,8 @@ trap 'rm -rf "$WORK"' EXIT
 peak() { grep "Maximum resident" "$1" | awk '{printf "%.0f", $6/1024}'; }
 echo "| mode | target | patches | cold bake (s) | bake peak (MB) | cached load peak (MB) | cache file (MB) |"
 echo "|---|---|---|---|---|---|---|"
-for spec in factored:2000 factored:4000 factored:8000 columns:2500 columns:5000 columns:10000 columns:20000; do
+SPECS=${SPECS:-"factored:2000 factored:4000 factored:8000 columns:2500 columns:5000 columns:10000 columns:20000 hierarchical:5000 hierarchical:10000 hierarchical:20000 hierarchical:100000"}
+for spec in $SPECS; do
   mode=${spec%%:*}; target=${spec##*:}
   dir="$WORK/room-$mode-$target"
   "$BIN" bench --make-scene "$dir" >/dev/null

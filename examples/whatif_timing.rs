@@ -1,9 +1,17 @@
 //! Lighting-design what-if timings (medians): `cargo run --release --example whatif_timing`.
 //!
-//! - the office bake, cold (form factors, direct light per luminaire, columns);
+//! - the office bake, cold (form factors, direct light per luminaire, columns, grids);
 //! - a grid answer for ~1,000 points per lighting state;
 //! - an optimization over 8 light groups.
+//!
+//! `cargo run --release --example whatif_timing -- office-floor [CACHE_DIR]` times the
+//! same questions on `scenes/office-floor` (177k patches, hierarchical), loaded from
+//! `CACHE_DIR` (default `target/tmp/office-floor-cache`; baked there first if missing):
+//! grid answers, illuminance at points, surface statistics and an optimization.
+use std::path::PathBuf;
 use std::time::Instant;
+
+use glam::DVec3;
 
 use relight::bake::{load_or_bake, BakeOptions, CachePolicy};
 use relight::model::optimize::GridTarget;
@@ -15,6 +23,14 @@ fn median(mut v: Vec<f64>) -> f64 {
 }
 
 fn main() {
+    let args: Vec<String> = std::env::args().collect();
+    if args.get(1).map(String::as_str) == Some("office-floor") {
+        let cache = args.get(2).map_or(
+            PathBuf::from("target/tmp/office-floor-cache"),
+            PathBuf::from,
+        );
+        return office_floor(&cache);
+    }
     let opts = BakeOptions::default();
     let t = Instant::now();
     let office = load_or_bake(
@@ -35,11 +51,9 @@ fn main() {
             .map(|g| g.luminaires.len())
             .sum::<usize>()
     );
-    let t = Instant::now();
     let office = Model::new(office);
     println!(
-        "office grids precomputed: {:.2} s ({} points)",
-        t.elapsed().as_secs_f64(),
+        "office grids (baked): {} points",
         office.grids.iter().map(|g| g.len()).sum::<usize>()
     );
 
@@ -89,5 +103,118 @@ fn main() {
         0.6 * full_avg,
         g.len(),
         median(times)
+    );
+}
+
+/// Median milliseconds of `runs` calls of `f`.
+fn time_ms(runs: usize, mut f: impl FnMut(usize)) -> f64 {
+    median(
+        (0..runs)
+            .map(|k| {
+                let t = Instant::now();
+                f(k);
+                t.elapsed().as_secs_f64() * 1e3
+            })
+            .collect(),
+    )
+}
+
+fn office_floor(cache: &std::path::Path) {
+    let t = Instant::now();
+    let baked = load_or_bake(
+        "scenes/office-floor".as_ref(),
+        CachePolicy::ReadWrite(cache),
+        &BakeOptions::default(),
+        &|_, _| {},
+    )
+    .unwrap();
+    println!(
+        "office-floor: {} patches, {} groups, loaded in {:.2} s (from cache: {})",
+        baked.transfer.n,
+        baked.scene.lights.len(),
+        t.elapsed().as_secs_f64(),
+        baked.stats.from_cache
+    );
+    let m = Model::new(baked);
+    let groups = m.baked.scene.lights.len();
+    let state = |k: usize| -> Vec<[f32; 3]> {
+        (0..groups)
+            .map(|i| [((k + i) % 10) as f32 / 10.0 + 0.1; 3])
+            .collect()
+    };
+    let all: Vec<usize> = (0..m.grids.len()).collect();
+    let points: usize = m.grids.iter().map(|g| g.len()).sum();
+    let ms = time_ms(200, |k| {
+        std::hint::black_box(m.grid_answers(&all, &state(k)));
+    });
+    println!(
+        "grid answers: all {} grids, {points} points: median {ms:.3} ms",
+        all.len()
+    );
+    for (gi, g) in m.grids.iter().enumerate() {
+        let ms = time_ms(200, |k| {
+            std::hint::black_box(m.grid_answer(gi, &state(k)));
+        });
+        println!(
+            "grid answer {}: {} points: median {ms:.3} ms",
+            g.grid.id,
+            g.len()
+        );
+    }
+    let mut b = vec![0f32; 3 * m.patches()];
+    let mut h = vec![0f32; 3 * m.patches()];
+    let ms = time_ms(50, |k| {
+        m.per_patch_groups(
+            &state(k),
+            relight::model::query::Quantity::Radiosity,
+            &mut b,
+        );
+    });
+    println!("per-patch radiosity for a new state: median {ms:.3} ms");
+    let surfaces: Vec<usize> = (0..m.baked.scene.surfaces.len()).collect();
+    let ms = time_ms(50, |k| {
+        m.per_patch_groups(
+            &state(k),
+            relight::model::query::Quantity::Illuminance,
+            &mut h,
+        );
+        std::hint::black_box(m.surface_stats(&surfaces, &h));
+    });
+    println!(
+        "illuminance statistics of all {} surfaces for a new state: median {ms:.3} ms",
+        surfaces.len()
+    );
+    let w = state(0);
+    m.per_patch_groups(&w, relight::model::query::Quantity::Radiosity, &mut b);
+    let g = &m.grids[0].grid;
+    let n = DVec3::from_array(g.normal);
+    let ms = time_ms(10, |k| {
+        let x = DVec3::from_array(g.points[k % g.points.len()]);
+        std::hint::black_box(m.point_illuminance(&b, Some(&w), x, n));
+    });
+    println!(
+        "illuminance at one point (gather over every patch, with occlusion): median {ms:.1} ms"
+    );
+    let full: Vec<f64> = (0..m.grids.len())
+        .map(|gi| m.grid_answer(gi, &vec![[1.0; 3]; groups]).avg)
+        .collect();
+    let targets: Vec<GridTarget> = full
+        .iter()
+        .enumerate()
+        .map(|(gi, &avg)| GridTarget {
+            grid: gi,
+            eavg_min: Some(0.6 * avg),
+            emin_min: None,
+            u0_min: Some(0.4),
+        })
+        .collect();
+    let base = vec![[1.0f32; 3]; groups];
+    let free: Vec<usize> = (0..groups).collect();
+    let ms = time_ms(10, |_| {
+        std::hint::black_box(m.optimize(&base, &free, &targets).unwrap());
+    });
+    println!(
+        "optimize: {groups} groups, Eavg ≥ 60 % of full and U0 ≥ 0.4 on {} grids ({points} points): median {ms:.2} ms",
+        targets.len()
     );
 }

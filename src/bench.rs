@@ -35,6 +35,41 @@ pub struct BenchResult {
     /// Hierarchical mode: links, and links per patch.
     pub links: Option<u64>,
     pub links_per_patch: Option<f64>,
+    /// Shadow-ray throughput of one core on this scene's BVH: occlusion tests between
+    /// random points of random patches (as the form factors and links trace them),
+    /// millions per second.
+    pub mrays_per_core: f64,
+}
+
+/// Occlusion tests per second on one thread, millions: segments between uniformly
+/// random points of uniformly random patches, each test skipping its two triangles.
+pub fn ray_throughput(
+    mesh: &crate::geometry::mesh::Mesh,
+    bvh: &crate::geometry::bvh::Bvh,
+    rays: usize,
+) -> f64 {
+    use crate::transport::formfactor::{sample_triangle, Rng};
+    let n = mesh.len();
+    if n < 2 {
+        return 0.0;
+    }
+    let mut rng = Rng::new(1, 2);
+    let pick = |rng: &mut Rng| -> (glam::Vec3A, u32) {
+        let i = ((rng.next_f64() * n as f64) as usize).min(n - 1);
+        let c = mesh.corners(i);
+        let x = sample_triangle(&c, rng.next_f64(), rng.next_f64());
+        (glam::Vec3A::from(x.as_vec3()), mesh.patches[i].source)
+    };
+    let pairs: Vec<_> = (0..rays)
+        .map(|_| (pick(&mut rng), pick(&mut rng)))
+        .collect();
+    let t = Instant::now();
+    let mut blocked = 0usize;
+    for ((a, sa), (b, sb)) in &pairs {
+        blocked += usize::from(bvh.occluded(*a, *b, [*sa, *sb]));
+    }
+    std::hint::black_box(blocked);
+    rays as f64 / t.elapsed().as_secs_f64() / 1e6
 }
 
 /// Peak resident set size of this process, MB (Linux; 0 elsewhere).
@@ -115,6 +150,7 @@ pub fn run_case(case: &str, dir: &Path, opts: &BakeOptions) -> anyhow::Result<Be
             .hierarchy
             .as_ref()
             .map(|h| h.stats.links as f64 / h.n.max(1) as f64),
+        mrays_per_core: ray_throughput(&baked.mesh, &baked.bvh, 1_000_000),
     })
 }
 

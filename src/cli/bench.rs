@@ -74,7 +74,7 @@ fn bench(
 ) -> Result<()> {
     let Some(case) = case else {
         outln!(
-            "{:<12} {:>7} {:>3} {:>9} {:>8} {:>8} {:>9} {:>9} {:>9} {:>10} {:>10} {:>9}",
+            "{:<12} {:>7} {:>3} {:>9} {:>8} {:>8} {:>9} {:>9} {:>9} {:>10} {:>10} {:>9} {:>8}",
             "case",
             "patches",
             "grp",
@@ -86,7 +86,8 @@ fn bench(
             "cache MB",
             "relight µs",
             "solve E ms",
-            "peak MB"
+            "peak MB",
+            "Mrays/s"
         );
         for c in BENCH_CASES {
             let mut cmd = std::process::Command::new(std::env::current_exe()?);
@@ -104,7 +105,7 @@ fn bench(
             let r: serde_json::Value = serde_json::from_slice(&out.stdout)?;
             let f = |k: &str| r[k].as_f64().unwrap_or(f64::NAN);
             outln!(
-                "{:<12} {:>7} {:>3} {:>9} {:>8.2} {:>8.2} {:>9.2} {:>9.3} {:>9.1} {:>10.1} {:>10} {:>9.0}",
+                "{:<12} {:>7} {:>3} {:>9} {:>8.2} {:>8.2} {:>9.2} {:>9.3} {:>9.1} {:>10.1} {:>10} {:>9.0} {:>8.2}",
                 c,
                 r["patches"],
                 r["groups"],
@@ -119,6 +120,7 @@ fn bench(
                     .as_f64()
                     .map_or("-".to_string(), |v| format!("{v:.1}")),
                 f("peak_rss_mb"),
+                f("mrays_per_core"),
             );
         }
         return Ok(());

@@ -215,82 +215,8 @@ async fn the_page_relights_live_in_headless_chromium() {
     let _gate = common::alone();
     // The server, on a loopback port, with every scene baked first.
     let (scene_dir, cache) = scenes();
-    let state = AppState::new(ServerConfig {
-        addr: "127.0.0.1:0".parse().unwrap(),
-        scenes: scene_dir,
-        cache,
-        read_only: false,
-        static_dir: Path::new(env!("CARGO_MANIFEST_DIR")).join("static"),
-        cors_origins: vec![],
-        body_limit: DEFAULT_BODY_LIMIT,
-        ..ServerConfig::default()
-    })
-    .unwrap();
-    let st = state.clone();
-    tokio::task::spawn_blocking(move || st.bake_all())
-        .await
-        .unwrap();
-    assert!(state.slots.iter().all(|s| s.status().0 == "ready"));
-    let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await.unwrap();
-    let site = format!("http://{}", listener.local_addr().unwrap());
-    let server = tokio::spawn(async move { axum::serve(listener, router(state)).await });
-
-    // chromedriver and a headless Chromium session.
-    let port = common::free_port();
-    let _driver = Driver(
-        Command::new(&driver_bin)
-            .arg(format!("--port={port}"))
-            .stdout(Stdio::null())
-            .stderr(Stdio::null())
-            .spawn()
-            .expect("start chromedriver"),
-    );
-    let http = reqwest::Client::new();
-    let wd = format!("http://127.0.0.1:{port}");
-    let t = Instant::now();
-    while http.get(format!("{wd}/status")).send().await.is_err() {
-        assert!(
-            t.elapsed() < Duration::from_secs(20),
-            "chromedriver did not start"
-        );
-        tokio::time::sleep(Duration::from_millis(50)).await;
-    }
-    let profile = tempfile::tempdir().unwrap();
-    let caps = json!({"capabilities": {"alwaysMatch": {
-        "browserName": "chrome",
-        "goog:loggingPrefs": {"browser": "ALL"},
-        "goog:chromeOptions": {
-            "binary": browser_bin,
-            "args": ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic",
-                     "--no-first-run", "--disable-background-networking",
-                     "--disable-component-update", "--disable-sync",
-                     "--window-size=1400,900", "--use-angle=swiftshader",
-                     "--enable-unsafe-swiftshader",
-                     format!("--user-data-dir={}", profile.path().display())]
-        }
-    }}});
-    let v: Value = http
-        .post(format!("{wd}/session"))
-        .json(&caps)
-        .send()
-        .await
-        .unwrap()
-        .json()
-        .await
-        .unwrap();
-    let sid = v["value"]["sessionId"]
-        .as_str()
-        .unwrap_or_else(|| panic!("no session: {v}"))
-        .to_string();
-    let s = Session {
-        http: http.clone(),
-        base: format!("{wd}/session/{sid}"),
-    };
-    s.post(
-        "/timeouts",
-        json!({"script": 60000, "pageLoad": 30000, "implicit": 0}),
-    )
-    .await;
+    let (site, server) = serve(scene_dir, cache).await;
+    let (s, _driver, _profile) = open_session(&driver_bin, &browser_bin).await;
 
     // ---- Load the page on the Cornell box; wait for both views.
     s.post("/url", json!({"url": format!("{site}/#scene=cornell-box")}))
@@ -501,6 +427,169 @@ async fn the_page_relights_live_in_headless_chromium() {
         serde_json::to_string_pretty(&report).unwrap(),
     )
     .unwrap();
+    s.cmd(reqwest::Method::DELETE, "", Value::Null).await;
+    server.abort();
+}
+
+/// Serves `scenes` (baked first, every one ready) on a loopback port; returns the site's
+/// address and the server task.
+async fn serve(
+    scenes: PathBuf,
+    cache: PathBuf,
+) -> (String, tokio::task::JoinHandle<std::io::Result<()>>) {
+    let state = AppState::new(ServerConfig {
+        addr: "127.0.0.1:0".parse().unwrap(),
+        scenes,
+        cache,
+        read_only: false,
+        static_dir: Path::new(env!("CARGO_MANIFEST_DIR")).join("static"),
+        cors_origins: vec![],
+        body_limit: DEFAULT_BODY_LIMIT,
+        ..ServerConfig::default()
+    })
+    .unwrap();
+    let st = state.clone();
+    tokio::task::spawn_blocking(move || st.bake_all())
+        .await
+        .unwrap();
+    assert!(state.slots.iter().all(|s| s.status().0 == "ready"));
+    let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await.unwrap();
+    let site = format!("http://{}", listener.local_addr().unwrap());
+    let server = tokio::spawn(async move { axum::serve(listener, router(state)).await });
+    (site, server)
+}
+
+/// chromedriver and a headless Chromium session (software WebGL), with its profile folder.
+async fn open_session(
+    driver_bin: &Path,
+    browser_bin: &Path,
+) -> (Session, Driver, tempfile::TempDir) {
+    let port = common::free_port();
+    let driver = Driver(
+        Command::new(driver_bin)
+            .arg(format!("--port={port}"))
+            .stdout(Stdio::null())
+            .stderr(Stdio::null())
+            .spawn()
+            .expect("start chromedriver"),
+    );
+    let http = reqwest::Client::new();
+    let wd = format!("http://127.0.0.1:{port}");
+    let t = Instant::now();
+    while http.get(format!("{wd}/status")).send().await.is_err() {
+        assert!(
+            t.elapsed() < Duration::from_secs(20),
+            "chromedriver did not start"
+        );
+        tokio::time::sleep(Duration::from_millis(50)).await;
+    }
+    let profile = tempfile::tempdir().unwrap();
+    let caps = json!({"capabilities": {"alwaysMatch": {
+        "browserName": "chrome",
+        "goog:loggingPrefs": {"browser": "ALL"},
+        "goog:chromeOptions": {
+            "binary": browser_bin,
+            "args": ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic",
+                     "--no-first-run", "--disable-background-networking",
+                     "--disable-component-update", "--disable-sync",
+                     "--window-size=1400,900", "--use-angle=swiftshader",
+                     "--enable-unsafe-swiftshader",
+                     format!("--user-data-dir={}", profile.path().display())]
+        }
+    }}});
+    let v: Value = http
+        .post(format!("{wd}/session"))
+        .json(&caps)
+        .send()
+        .await
+        .unwrap()
+        .json()
+        .await
+        .unwrap();
+    let sid = v["value"]["sessionId"]
+        .as_str()
+        .unwrap_or_else(|| panic!("no session: {v}"))
+        .to_string();
+    let s = Session {
+        http: http.clone(),
+        base: format!("{wd}/session/{sid}"),
+    };
+    s.post(
+        "/timeouts",
+        json!({"script": 120000, "pageLoad": 60000, "implicit": 0}),
+    )
+    .await;
+    (s, driver, profile)
+}
+
+/// The page on `scenes/office-floor` (177k patches): the 3D view's frame rate and the
+/// time from a slider move to the redrawn view. A measurement, not a check, so ignored
+/// in `cargo test`: run it with
+/// `cargo test --release --test it browser::office_floor_page -- --ignored --nocapture`.
+/// The first run bakes the scene (minutes) into `target/tmp/office-floor-cache`.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+#[ignore = "a measurement on the large bundled scene; minutes on a cold cache"]
+async fn office_floor_page_frame_rate() {
+    let Some((driver_bin, browser_bin)) = find_driver() else {
+        panic!("chromium/chromedriver not found (apt-get install chromium chromium-driver)");
+    };
+    let _gate = common::alone();
+    let root = Path::new(env!("CARGO_TARGET_TMPDIR"));
+    let scenes = root.join("office-floor-scenes");
+    std::fs::create_dir_all(&scenes).unwrap();
+    let link = scenes.join("office-floor");
+    if !link.exists() {
+        std::os::unix::fs::symlink(
+            Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/office-floor"),
+            &link,
+        )
+        .unwrap();
+    }
+    let (site, server) = serve(scenes, root.join("office-floor-cache")).await;
+    let mesh = reqwest::get(format!("{site}/api/scenes/office-floor/mesh"))
+        .await
+        .unwrap()
+        .bytes()
+        .await
+        .unwrap();
+    let (s, _driver, _profile) = open_session(&driver_bin, &browser_bin).await;
+    let t = Instant::now();
+    s.post(
+        "/url",
+        json!({"url": format!("{site}/#scene=office-floor")}),
+    )
+    .await;
+    s.wait_for(
+        "window.relight && window.relight.ready && window.relight.stats.glFrames > 0 \
+         && window.relight.stats.glVersion === window.relight.state.version",
+        "the office floor",
+    )
+    .await;
+    let load_s = t.elapsed().as_secs_f64();
+    let fps = s
+        .js_async("const done = arguments[arguments.length - 1]; window.relight.measureFps(180).then(done);")
+        .await;
+    // Slider to redrawn 3D view: fetch of the binary radiosity plus the vertex colours.
+    let mut lat = Vec::new();
+    for (k, pct) in [40u32, 100, 60, 80, 20, 100].into_iter().enumerate() {
+        let t = Instant::now();
+        let v = set_slider(&s, ".light[data-id='s1'] .pct", pct).await;
+        s.wait_for(
+            &format!("window.relight.stats.glVersion >= {v}"),
+            &format!("the redrawn view {k}"),
+        )
+        .await;
+        lat.push(t.elapsed().as_secs_f64() * 1e3);
+    }
+    let errors = s.console_errors().await;
+    assert!(errors.is_empty(), "console errors: {errors:#?}");
+    let report = json!({
+        "mesh_bytes": mesh.len(),
+        "page_load_to_first_frame_s": load_s,
+        "fps_orbit": fps,
+        "slider_to_view_ms": lat,
+    });
+    eprintln!("office-floor page: {report:#}");
     s.cmd(reqwest::Method::DELETE, "", Value::Null).await;
     server.abort();
 }
