@@ -102,6 +102,16 @@ export async function loadScene(id) {
   }
   const details = await dr.json();
   const buf = await mr.arrayBuffer();
+  // Large scenes also have a coarser preview mesh, drawn while the camera moves (the
+  // server makes one above 60,000 patches).
+  let previewBuf = null;
+  if (details.patches > PREVIEW_ABOVE) {
+    const pr = await fetch(sceneUrl("/mesh/preview"));
+    if (pr.ok) previewBuf = await pr.arrayBuffer();
+  }
   if (state.scene !== id) return null;
-  return { details, buf };
+  return { details, buf, previewBuf };
 }
+
+/** Scenes with more patches than this have a preview mesh (render/preview.rs). */
+const PREVIEW_ABOVE = 60000;

@@ -41,13 +41,13 @@ async function selectScene(id, hash = {}) {
   $("#lights").replaceChildren();
   $("#scene-info").textContent = "";
   const loaded = await loadScene(id);
-  if (loaded) showScene(loaded.details, loaded.buf, hash);
+  if (loaded) showScene(loaded.details, loaded.buf, loaded.previewBuf, hash);
 }
 
 /** Shows a loaded scene: fresh state (with the URL hash applied), controls and views. */
-function showScene(details, buf, hash) {
+function showScene(details, buf, previewBuf, hash) {
   state.details = details;
-  loadMesh(buf);
+  loadMesh(buf, previewBuf);
   resetSurfaceCache();
   resetForScene(hash);
   $("#scene-info").textContent = `${details.patches.toLocaleString()} patches · ${details.transfer} transfer`;

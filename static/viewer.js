@@ -160,6 +160,13 @@ export function pick(m, cam, aspect, x, y) {
 
 // ------------------------------------------------------------------- drawing
 
+/** Moving frames aim at this interval (ms), rendering fewer pixels when they miss it. */
+const TARGET_FRAME_MS = 33;
+/** Smallest fraction of the full resolution (per axis) a moving frame renders. */
+const MIN_RES_SCALE = 0.3;
+/** A camera that has not moved for this long (ms) is still: the view is redrawn sharp. */
+const STILL_MS = 200;
+
 const VS = `#version 300 es
 in vec3 a_pos;
 in vec3 a_val;
@@ -222,22 +229,65 @@ export class Viewer {
     this.logRange = [0, 1];
     this.pending = false;
     this.onchange = null; // called after the camera moves
+    // Adaptive resolution while the camera moves: large meshes in software WebGL draw
+    // slowly, so moving frames render fewer pixels (down to MIN_RES_SCALE of the full
+    // resolution) to keep about TARGET_FRAME_MS; the view is redrawn sharp once it
+    // stays still for STILL_MS.
+    this.motion = false;
+    this.resScale = 1;
+    this.lastDraw = null;
+    this.stillTimer = null;
   }
 
-  setMesh(m) {
+  /** Marks the camera as moving; a sharp frame follows once it stops. */
+  moving() {
+    this.motion = true;
+    clearTimeout(this.stillTimer);
+    this.stillTimer = setTimeout(() => {
+      this.motion = false;
+      this.lastDraw = null;
+      this.redraw();
+    }, STILL_MS);
+  }
+
+  /** Adapts the moving-frame resolution to the interval since the last moving frame. */
+  adaptResolution(now) {
+    if (this.lastDraw !== null) {
+      const dt = now - this.lastDraw;
+      if (dt > 1.25 * TARGET_FRAME_MS) this.resScale = Math.max(MIN_RES_SCALE, this.resScale * 0.85);
+      else if (dt < 0.6 * TARGET_FRAME_MS) this.resScale = Math.min(1, this.resScale * 1.1);
+    }
+    this.lastDraw = now;
+  }
+
+  /** The mesh to draw, and optionally its coarser preview (drawn while the camera moves;
+   *  see GET /api/scenes/{id}/mesh/preview). */
+  setMesh(m, preview = null) {
     const gl = this.gl;
-    if (this.vao) gl.deleteVertexArray(this.vao);
-    for (const b of this.buffers || []) gl.deleteBuffer(b);
-    this.vao = gl.createVertexArray();
-    gl.bindVertexArray(this.vao);
+    for (const d of [this.full, this.previewDraw]) {
+      if (!d) continue;
+      gl.deleteVertexArray(d.vao);
+      for (const b of d.buffers) gl.deleteBuffer(b);
+    }
+    this.full = this.upload(m);
+    this.previewDraw = preview ? this.upload(preview) : null;
+    this.mesh = m;
+    this.preview = preview;
+  }
+
+  /** A vertex array for mesh `m`: positions, per-vertex values (updated later), indices. */
+  upload(m) {
+    const gl = this.gl;
+    const vao = gl.createVertexArray();
+    gl.bindVertexArray(vao);
     const pos = gl.createBuffer();
     gl.bindBuffer(gl.ARRAY_BUFFER, pos);
     gl.bufferData(gl.ARRAY_BUFFER, m.pos, gl.STATIC_DRAW);
     const lp = gl.getAttribLocation(this.prog, "a_pos");
     gl.enableVertexAttribArray(lp);
     gl.vertexAttribPointer(lp, 3, gl.FLOAT, false, 0, 0);
-    this.val = gl.createBuffer();
-    gl.bindBuffer(gl.ARRAY_BUFFER, this.val);
+    const val = gl.createBuffer();
+    gl.bindBuffer(gl.ARRAY_BUFFER, val);
     gl.bufferData(gl.ARRAY_BUFFER, new Float32Array(3 * m.nv), gl.DYNAMIC_DRAW);
     const lv = gl.getAttribLocation(this.prog, "a_val");
     gl.enableVertexAttribArray(lv);
@@ -246,15 +296,19 @@ export class Viewer {
     gl.bindBuffer(gl.ELEMENT_ARRAY_BUFFER, idx);
     gl.bufferData(gl.ELEMENT_ARRAY_BUFFER, m.tri, gl.STATIC_DRAW);
     gl.bindVertexArray(null);
-    this.buffers = [pos, this.val, idx];
-    this.mesh = m;
+    return { vao, val, buffers: [pos, val, idx], count: 3 * m.nt };
   }
 
-  /** New per-vertex values (radiosity lm/m², or illuminance lx in false colour). */
-  setValues(values) {
+  /** New per-vertex values (radiosity lm/m², or illuminance lx in false colour) of the
+   *  mesh, and of the preview when there is one. */
+  setValues(values, previewValues = null) {
     const gl = this.gl;
-    gl.bindBuffer(gl.ARRAY_BUFFER, this.val);
+    gl.bindBuffer(gl.ARRAY_BUFFER, this.full.val);
     gl.bufferSubData(gl.ARRAY_BUFFER, 0, values);
+    if (this.previewDraw && previewValues) {
+      gl.bindBuffer(gl.ARRAY_BUFFER, this.previewDraw.val);
+      gl.bufferSubData(gl.ARRAY_BUFFER, 0, previewValues);
+    }
     this.redraw();
   }
 
@@ -269,7 +323,11 @@ export class Viewer {
 
   draw() {
     const gl = this.gl, c = this.canvas;
-    const dpr = window.devicePixelRatio || 1;
+    let dpr = window.devicePixelRatio || 1;
+    if (this.motion) {
+      this.adaptResolution(performance.now());
+      dpr *= this.resScale;
+    }
     const w = Math.max(1, Math.round(c.clientWidth * dpr)), h = Math.max(1, Math.round(c.clientHeight * dpr));
     if (c.width !== w || c.height !== h) {
       c.width = w;
@@ -290,8 +348,9 @@ export class Viewer {
     gl.uniform1i(this.u.u_mode, this.mode);
     gl.uniform1f(this.u.u_k, Math.pow(2, this.exposure) / Math.PI);
     gl.uniform2f(this.u.u_log, this.logRange[0], this.logRange[1]);
-    gl.bindVertexArray(this.vao);
-    gl.drawElements(gl.TRIANGLES, 3 * this.mesh.nt, gl.UNSIGNED_INT, 0);
+    const lod = this.motion && this.previewDraw ? this.previewDraw : this.full;
+    gl.bindVertexArray(lod.vao);
+    gl.drawElements(gl.TRIANGLES, lod.count, gl.UNSIGNED_INT, 0);
     gl.bindVertexArray(null);
     if (this.afterDraw) this.afterDraw();
   }
@@ -354,6 +413,7 @@ export class Viewer {
   }
 
   turnAboutTarget(dyaw, dpitch) {
+    this.moving();
     const t = target(this.cam);
     this.cam.yaw += dyaw;
     this.cam.pitch = Math.max(-1.5, Math.min(1.5, this.cam.pitch + dpitch));
@@ -361,12 +421,14 @@ export class Viewer {
   }
 
   look(dyaw, dpitch) {
+    this.moving();
     this.cam.yaw += dyaw;
     this.cam.pitch = Math.max(-1.5, Math.min(1.5, this.cam.pitch + dpitch));
     this.moved();
   }
 
   dolly(f) {
+    this.moving();
     const t = target(this.cam);
     this.cam.dist = Math.max(this.mesh.diag * 1e-3, this.cam.dist * f);
     this.cam.pos = sub(t, scale(forward(this.cam), this.cam.dist));
@@ -390,6 +452,7 @@ export class Viewer {
       if (keys.has("e")) mv = add(mv, [0, 1, 0]);
       if (keys.has("q")) mv = sub(mv, [0, 1, 0]);
       if (mv[0] || mv[1] || mv[2]) {
+        this.moving();
         this.cam.pos = add(this.cam.pos, scale(mv, speed));
         this.moved();
         requestAnimationFrame(step);
@@ -407,8 +470,8 @@ export class Viewer {
 
   /**
    * Orbits for `frames` animation frames and reports the frame rate the page achieved
-   * (capped by the display's refresh), then times single draws up to a pixel read-back,
-   * which is what the renderer could sustain.
+   * (capped by the display's refresh) and the resolution scale the moving frames settled
+   * at, then times single full-resolution draws up to a pixel read-back.
    */
   async measureFps(frames = 120) {
     const gl = this.gl;
@@ -426,10 +489,12 @@ export class Viewer {
       };
       requestAnimationFrame(frame);
     });
+    const movingScale = this.resScale;
     // Reading a pixel back waits until the frame is really drawn.
     const costs = [], px = new Uint8Array(4);
     for (let i = 0; i < 30; i++) {
       this.turnAboutTarget(0.01, 0);
+      this.motion = false;
       const t0 = performance.now();
       this.draw();
       gl.readPixels(0, 0, 1, 1, gl.RGBA, gl.UNSIGNED_BYTE, px);
@@ -444,8 +509,10 @@ export class Viewer {
       fps: 1000 / mean,
       frameMsP50: q(times, 0.5),
       frameMsP95: q(times, 0.95),
-      drawMsP50: q(costs, 0.5),
+      movingResolutionScale: movingScale,
+      fullDrawMsP50: q(costs, 0.5),
       triangles: this.mesh.nt,
+      previewTriangles: this.preview ? this.preview.nt : null,
     };
   }
 }

@@ -27,6 +27,7 @@ mod falsecolor;
 mod font;
 mod groups;
 pub mod pipeline;
+pub mod preview;
 mod raster;
 mod shading;
 mod tonemap;

@@ -12,7 +12,7 @@ use crate::color::Rgb;
 use crate::geometry::mesh::Mesh;
 
 /// Patches meeting at a vertex at a sharper angle than this are shaded separately.
-const CREASE_DEG: f64 = 30.0;
+pub(super) const CREASE_DEG: f64 = 30.0;
 
 /// Per-corner shading vertices and their patch weights (CSR).
 pub struct Shading {
@@ -70,6 +70,11 @@ impl Shading {
         }
     }
 
+    /// The shading vertex of each patch corner.
+    pub fn corners(&self) -> &[[u32; 3]] {
+        &self.corner
+    }
+
     /// Number of shading vertices.
     pub fn len(&self) -> usize {
         self.start.len() - 1
@@ -97,13 +102,38 @@ impl Shading {
     /// A vertex colour is `Σ weight · B[patch]` over per-patch radiosity from the radiosity
     /// endpoint, exactly as the server's renderer shades.
     pub fn mesh_bytes(&self, mesh: &Mesh) -> Vec<u8> {
-        let (nv, nt, nw) = (self.len(), self.corner.len(), self.patch.len());
+        let weights = (0..self.len()).map(|v| self.blend(v as u32).collect());
+        self.write_mesh(mesh, weights)
+    }
+
+    /// The preview mesh (see [`super::preview`]) in the layout of [`Shading::mesh_bytes`]:
+    /// `coarse` with its shading `coarse_shading`, each vertex blending patches of `fine`
+    /// (whose shading is `self`), so the radiosity of the fine patches colours it.
+    pub fn preview_bytes(&self, fine: &Mesh, coarse: &Mesh, coarse_shading: &Shading) -> Vec<u8> {
+        let w = super::preview::preview_weights(fine, self, coarse, coarse_shading);
+        coarse_shading.write_mesh(coarse, w.into_iter())
+    }
+
+    /// This shading's vertices and triangles over `mesh`, with the given patch weights
+    /// per shading vertex.
+    fn write_mesh(&self, mesh: &Mesh, weights: impl Iterator<Item = Vec<(u32, f32)>>) -> Vec<u8> {
+        let (nv, nt) = (self.len(), self.corner.len());
         let mut pos = vec![[0f32; 3]; nv];
         for (p, c) in mesh.patches.iter().zip(&self.corner) {
             for k in 0..3 {
                 pos[c[k] as usize] = mesh.vertices[p.v[k] as usize].as_vec3().to_array();
             }
         }
+        let mut start = vec![0u32];
+        let (mut patch, mut weight) = (Vec::new(), Vec::new());
+        for list in weights {
+            for (q, w) in list {
+                patch.push(q);
+                weight.push(w);
+            }
+            start.push(patch.len() as u32);
+        }
+        let nw = patch.len();
         let mut out = Vec::with_capacity(20 + 12 * nv + 16 * nt + 4 * (nv + 1) + 8 * nw);
         out.extend_from_slice(b"RLMESH01");
         for n in [nv, nt, nw] {
@@ -117,10 +147,29 @@ impl Shading {
         words(&mut out, &mut pos.iter().flatten().map(|v| v.to_bits()));
         words(&mut out, &mut self.corner.iter().flatten().copied());
         words(&mut out, &mut mesh.patches.iter().map(|p| p.surface));
-        words(&mut out, &mut self.start.iter().copied());
-        words(&mut out, &mut self.patch.iter().copied());
-        words(&mut out, &mut self.weight.iter().map(|w| w.to_bits()));
+        words(&mut out, &mut start.iter().copied());
+        words(&mut out, &mut patch.iter().copied());
+        words(&mut out, &mut weight.iter().map(|w| w.to_bits()));
         out
+    }
+
+    /// The patches shading vertex `v` blends, with their weights.
+    pub(super) fn blend(&self, v: u32) -> impl Iterator<Item = (u32, f32)> + '_ {
+        let r = self.start[v as usize] as usize..self.start[v as usize + 1] as usize;
+        self.patch[r.clone()]
+            .iter()
+            .copied()
+            .zip(self.weight[r].iter().copied())
+    }
+
+    /// A patch with shading vertex `v` at one of its corners, and which corner.
+    pub(super) fn first_corner(&self, v: u32) -> (u32, usize) {
+        let p = self.patch[self.start[v as usize] as usize];
+        let k = self.corner[p as usize]
+            .iter()
+            .position(|&c| c == v)
+            .unwrap_or(0);
+        (p, k)
     }
 
     /// Vertex values from per-patch values (n × 3 interleaved).

@@ -87,6 +87,10 @@ pub fn router(state: Arc<AppState>) -> Router {
         .route("/api/scenes/{id}/patches", get(routes::scenes::patches))
         .route("/api/scenes/{id}/mesh", get(routes::scenes::mesh))
         .route(
+            "/api/scenes/{id}/mesh/preview",
+            get(routes::scenes::mesh_preview),
+        )
+        .route(
             "/api/scenes/{id}/radiosity",
             post(routes::radiosity::radiosity),
         )

@@ -266,6 +266,7 @@ impl Modify for Constraints {
         routes::scenes::scene_details,
         routes::scenes::patches,
         routes::scenes::mesh,
+        routes::scenes::mesh_preview,
         routes::render::render_get,
         routes::radiosity::radiosity,
         routes::illuminance::illuminance,

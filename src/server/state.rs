@@ -20,6 +20,7 @@ pub struct Ready {
     pub bake_seconds: f64,
     shading: std::sync::OnceLock<crate::render::Shading>,
     mesh_bytes: std::sync::OnceLock<axum::body::Bytes>,
+    preview_bytes: std::sync::OnceLock<axum::body::Bytes>,
     /// This scene's share of the memory budget, held while it is loaded.
     _pin: Option<crate::budget::Pin>,
 }
@@ -45,6 +46,7 @@ impl Ready {
             bake_seconds,
             shading: std::sync::OnceLock::new(),
             mesh_bytes: std::sync::OnceLock::new(),
+            preview_bytes: std::sync::OnceLock::new(),
         }
     }
 
@@ -58,6 +60,20 @@ impl Ready {
     pub(crate) fn mesh_bytes(&self) -> axum::body::Bytes {
         self.mesh_bytes
             .get_or_init(|| self.shading().mesh_bytes(&self.baked.mesh).into())
+            .clone()
+    }
+
+    /// The preview mesh as served by `GET /api/scenes/{id}/mesh/preview` (the full mesh
+    /// for scenes small enough to draw whole), built on first use.
+    pub(crate) fn preview_bytes(&self) -> axum::body::Bytes {
+        self.preview_bytes
+            .get_or_init(|| {
+                let fine = &self.baked.mesh;
+                match crate::render::preview::preview_mesh(&self.baked.scene, fine) {
+                    Some((coarse, cs)) => self.shading().preview_bytes(fine, &coarse, &cs).into(),
+                    None => self.mesh_bytes(),
+                }
+            })
             .clone()
     }
 }

@@ -7,9 +7,11 @@ import { $, luminance, fmtLux } from "../util.js";
 import { state, imageCamera, lightingJson } from "../state.js";
 import { postJson, problem, singleFlight } from "../api.js";
 
-/** The 3D viewer (null until createViewer succeeds) and the current scene's mesh. */
+/** The 3D viewer (null until createViewer succeeds), the current scene's mesh and its
+ *  preview (large scenes only). */
 export let viewer = null;
 export let mesh = null;
+let preview = null;
 
 /** Creates the viewer on `canvas`; throws if WebGL2 is unavailable. */
 export function createViewer(canvas) {
@@ -17,14 +19,16 @@ export function createViewer(canvas) {
   return viewer;
 }
 
-/** Parses the scene's binary mesh (GET /api/scenes/{id}/mesh). */
-export function loadMesh(buf) {
+/** Parses the scene's binary mesh (GET /api/scenes/{id}/mesh) and its preview, if any
+ *  (GET /api/scenes/{id}/mesh/preview). */
+export function loadMesh(buf, previewBuf = null) {
   mesh = parseMesh(buf);
+  preview = previewBuf ? parseMesh(previewBuf) : null;
 }
 
 /** Puts the loaded mesh in the viewer, with the camera from the hash's `v` if valid. */
 export function showMesh(v) {
-  viewer.setMesh(mesh);
+  viewer.setMesh(mesh, preview);
   viewer.cam = initialViewerCamera(v);
   viewer.redraw();
 }
@@ -61,7 +65,7 @@ export const glFlight = singleFlight(async (signal) => {
   }
   $("#legend").hidden = !state.falsecolor;
   viewer.exposure = state.exposure ?? autoExposure(values);
-  viewer.setValues(values);
+  viewer.setValues(values, preview ? vertexValues(preview, perPatch) : null);
   await new Promise((res) => requestAnimationFrame(() => res()));
   const st = window.relight.stats;
   st.glVersion = version;

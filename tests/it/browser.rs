@@ -552,6 +552,14 @@ async fn office_floor_page_frame_rate() {
         .bytes()
         .await
         .unwrap();
+    let t = Instant::now();
+    let preview = reqwest::get(format!("{site}/api/scenes/office-floor/mesh/preview"))
+        .await
+        .unwrap()
+        .bytes()
+        .await
+        .unwrap();
+    let preview_s = t.elapsed().as_secs_f64();
     let (s, _driver, _profile) = open_session(&driver_bin, &browser_bin).await;
     let t = Instant::now();
     s.post(
@@ -585,6 +593,8 @@ async fn office_floor_page_frame_rate() {
     assert!(errors.is_empty(), "console errors: {errors:#?}");
     let report = json!({
         "mesh_bytes": mesh.len(),
+        "preview_mesh_bytes": preview.len(),
+        "preview_first_request_s": preview_s,
         "page_load_to_first_frame_s": load_s,
         "fps_orbit": fps,
         "slider_to_view_ms": lat,

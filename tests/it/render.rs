@@ -218,3 +218,57 @@ fn cornell_box_image_matches_the_path_traced_reference() {
     // Measured 0.0397 (the reference's own noise is 0.012); fails if it grows.
     assert!(rel_rmse < 0.045, "rel. RMSE {rel_rmse}");
 }
+
+/// The preview mesh's vertices take the full mesh's Gouraud value where they sit: with a
+/// per-patch radiosity that is linear in position, every preview vertex reads that linear
+/// function at its own position, up to the fine patches' size.
+#[test]
+fn preview_vertices_read_the_fine_shading_at_their_position() {
+    let _gate = common::shared();
+    let obj = box_faces("room", "grey", [0., 0., 0.], [4., 3., 5.], true);
+    let s = write_scene(&obj, GREY_MTL, None);
+    let scene = relight::scene::Scene::load(s.path()).unwrap();
+    let fine = relight::geometry::mesh::Mesh::build_with(&scene, 0.12);
+    let coarse = relight::geometry::mesh::Mesh::build_with(&scene, 0.5);
+    assert!(
+        coarse.len() * 8 < fine.len(),
+        "{} {}",
+        coarse.len(),
+        fine.len()
+    );
+    let (fs, cs) = (Shading::new(&fine), Shading::new(&coarse));
+    let f = |p: glam::DVec3| 1.0 + 0.3 * p.x + 0.2 * p.y - 0.1 * p.z;
+    let rad: Vec<f32> = fine
+        .patches
+        .iter()
+        .flat_map(|p| [f(p.centroid) as f32; 3])
+        .collect();
+    let w = render::preview::preview_weights(&fine, &fs, &coarse, &cs);
+    assert_eq!(w.len(), cs.len());
+    // Positions of the preview's shading vertices, from its triangles' corners.
+    let mut pos = vec![glam::DVec3::ZERO; cs.len()];
+    for (p, c) in coarse.patches.iter().zip(cs.corners()) {
+        for k in 0..3 {
+            pos[c[k] as usize] = coarse.vertices[p.v[k] as usize];
+        }
+    }
+    let mut worst = 0f64;
+    for (v, list) in w.iter().enumerate() {
+        assert!(
+            !list.is_empty(),
+            "vertex {v} at {:?} found no fine patch",
+            pos[v]
+        );
+        let sum: f32 = list.iter().map(|&(_, x)| x).sum();
+        assert!((sum - 1.0).abs() < 1e-5, "weights sum to {sum}");
+        let got: f64 = list
+            .iter()
+            .map(|&(q, x)| x as f64 * rad[3 * q as usize] as f64)
+            .sum();
+        worst = worst.max((got - f(pos[v])).abs());
+    }
+    // |∇f| = 0.37 per metre; a fine shading vertex averages patch centroids within one
+    // edge (0.12 m) of it.
+    assert!(worst < 0.37 * 0.12, "worst {worst}");
+    assert!(worst > 0.0);
+}

@@ -248,7 +248,12 @@ pub(crate) async fn mesh(State(state): State<Arc<AppState>>, SceneId(id): SceneI
     let bytes = state
         .heavy(200 * n, "the shading mesh", move |_| Ok(r.mesh_bytes()))
         .await?;
-    Ok((
+    Ok(mesh_response(bytes))
+}
+
+/// A mesh buffer with its layout header.
+fn mesh_response(bytes: axum::body::Bytes) -> Response {
+    (
         [
             (header::CONTENT_TYPE, "application/octet-stream".to_string()),
             (
@@ -259,5 +264,28 @@ pub(crate) async fn mesh(State(state): State<Arc<AppState>>, SceneId(id): SceneI
         ],
         bytes,
     )
-        .into_response())
+        .into_response()
+}
+
+/// The preview mesh (see [`crate::render::preview`]).
+#[utoipa::path(get, path = "/api/scenes/{id}/mesh/preview", operation_id = "meshPreview", tag = "scenes",
+    summary = "A coarser shading mesh (about 30,000 triangles) for drawing while the camera moves, in the layout of /mesh. Its vertex weights refer to the scene's patches, so the same per-patch radiosity colours it. Scenes of at most 60,000 patches answer their full mesh.",
+    params(SceneIdParam),
+    responses(
+        (status = 200, description = "One binary buffer.",
+            headers(("X-Relight-Layout" = String, description = "The layout of the bytes.")),
+            content((MeshBinary = "application/octet-stream"))),
+        SizedGetErrors,
+    ))]
+pub(crate) async fn mesh_preview(
+    State(state): State<Arc<AppState>>,
+    SceneId(id): SceneId,
+) -> ApiResult {
+    let r = state.slot(&id)?.ready()?;
+    // Meshing again and locating every preview vertex: once per scene, off the runtime.
+    let n = r.baked.mesh.len() as u64;
+    let bytes = state
+        .heavy(400 * n, "the preview mesh", move |_| Ok(r.preview_bytes()))
+        .await?;
+    Ok(mesh_response(bytes))
 }
