@@ -13,12 +13,13 @@ use serde::Serialize;
 use crate::geometry::bvh::Bvh;
 pub mod cache;
 mod memory;
+pub mod shard;
 pub use memory::*;
 
 use crate::geometry::mesh::Mesh;
 use crate::scene::{Scene, SceneError, TransferChoice};
 use crate::transport::formfactor::{self, FormFactorOptions};
-use crate::transport::hierarchy::{Hierarchy, HierarchyOptions};
+use crate::transport::hierarchy::{HierarchyOptions, Plan};
 use crate::transport::transfer::{Coupling, Transfer, TransferMode};
 use cache::CacheError;
 
@@ -76,6 +77,9 @@ pub enum BakeError {
         #[source]
         source: CacheError,
     },
+    /// A sharded bake's shards are missing, foreign, corrupt or do not fit together.
+    #[error("{scene}: {message}")]
+    Shards { scene: String, message: String },
     /// `path` is the scene id (errors never show absolute paths).
     #[error("{path}: cannot read scene files for the cache key: {source}")]
     Io {
@@ -231,7 +235,7 @@ pub fn scene_bvh(scene: &Scene) -> Bvh {
 }
 
 /// Unit front normals of the scene's triangles (counter-clockwise), for the closure rays.
-fn triangle_fronts(scene: &Scene) -> Vec<glam::DVec3> {
+pub fn triangle_fronts(scene: &Scene) -> Vec<glam::DVec3> {
     scene
         .triangles
         .iter()
@@ -393,26 +397,43 @@ pub fn load_or_bake(
     let direct = crate::transport::direct::group_direct(&p.scene, &p.mesh, &p.bvh);
     let coupling = match p.mode {
         TransferMode::Hierarchical => {
-            let front = triangle_fronts(&p.scene);
-            let rho = crate::transport::transfer::patch_rho(&p.scene, &p.mesh);
-            let sources = crate::transport::transfer::all_sources(&p.scene, &p.mesh, &direct);
-            let (h, escape) = Hierarchy::build(
-                &p.mesh,
-                &rho,
-                &sources,
-                &p.bvh,
-                &front,
-                opts.hier,
-                opts.ff,
-                &ff_progress,
-            );
+            let (plan, front) = hierarchy_plan(&p, &direct);
+            let all = plan.plane_roots().to_vec();
+            let part = plan.part(&all, &p.bvh, &front, opts.hier, opts.ff, &ff_progress);
+            let (h, escape) = plan
+                .assemble(vec![part], opts.hier)
+                .expect("one part over every plane covers the scene");
             Coupling::Links(Box::new(h), escape)
         }
         _ => Coupling::Dense(formfactor::compute(&p.mesh, &p.bvh, &opts.ff, &ff_progress)),
     };
     stats.form_factor_s = t0.elapsed().as_secs_f64();
+    finish(p, coupling, &direct, cache_policy, stats, progress)
+}
+
+/// The hierarchical mode's starting point (tree, geometry, the sources' glow) and the
+/// scene triangles' front normals for the closure rays.
+fn hierarchy_plan(p: &Prepared, direct: &[Option<Vec<f32>>]) -> (Plan, Vec<glam::DVec3>) {
+    let rho = crate::transport::transfer::patch_rho(&p.scene, &p.mesh);
+    let sources = crate::transport::transfer::all_sources(&p.scene, &p.mesh, direct);
+    (
+        Plan::new(&p.mesh, &rho, &sources),
+        triangle_fronts(&p.scene),
+    )
+}
+
+/// The rest of every bake, from the form factors on: the solve, the grids' responses
+/// and the cache entry.
+fn finish(
+    p: Prepared,
+    coupling: Coupling,
+    direct: &[Option<Vec<f32>>],
+    cache_policy: CachePolicy<'_>,
+    mut stats: BakeStats,
+    progress: &(dyn Fn(Stage, f64) + Sync),
+) -> Result<Baked, BakeError> {
     let t1 = Instant::now();
-    let mut transfer = Transfer::build(&p.scene, &p.mesh, coupling, &direct, p.mode, &|x| {
+    let mut transfer = Transfer::build(&p.scene, &p.mesh, coupling, direct, p.mode, &|x| {
         progress(Stage::Solving, 0.95 * x)
     });
     transfer.grids =

@@ -36,6 +36,16 @@ pub struct BakeArgs {
     /// Transfer mode, overriding scene.toml: auto, factored, columns or hierarchical.
     #[arg(long, value_parser = super::parse_transfer)]
     transfer: Option<relight::scene::TransferChoice>,
+    /// Compute only shard K of N of a hierarchical bake into a shard file in the cache
+    /// folder (`/N` takes K from JOB_COMPLETION_INDEX). Then `--merge`.
+    #[arg(long, value_name = "K/N", value_parser = relight::bake::shard::ShardId::parse, conflicts_with_all = ["all", "merge", "force"])]
+    shard: Option<relight::bake::shard::ShardId>,
+    /// Merge the shard files of a sharded bake into the cache entry (all N must be done).
+    #[arg(long, conflicts_with_all = ["all", "force"])]
+    merge: bool,
+    /// With --merge: only print which shards are done, running or missing.
+    #[arg(long, requires = "merge")]
+    status: bool,
 }
 
 pub fn run(a: BakeArgs) -> Result<()> {
@@ -48,9 +58,23 @@ pub fn run(a: BakeArgs) -> Result<()> {
         memory_budget,
         progress_json,
         transfer,
+        shard,
+        merge,
+        status,
     } = a;
     let cache = cache.unwrap_or_else(bake::default_cache_dir);
     let budget = memory_budget.unwrap_or_else(relight::budget::default_budget);
+    if shard.is_some() || merge {
+        let Some(dir) = scene else {
+            anyhow::bail!("--shard and --merge take one scene folder");
+        };
+        let opts = BakeOptions {
+            memory_budget: Some(budget),
+            choice: transfer,
+            ..Default::default()
+        };
+        return sharded(&dir, &cache, &opts, shard, status);
+    }
     if progress_json {
         // The server's child: the kernel's OOM killer should pick this process
         // before the server.
@@ -182,6 +206,72 @@ fn bake_one(
         "cache          {:.1} MB  {}",
         s.cache_bytes as f64 / 1e6,
         s.cache_path
+            .as_ref()
+            .map(|p| p.display().to_string())
+            .unwrap_or_default()
+    );
+    Ok(())
+}
+
+/// `--shard K/N`, `--merge` and `--merge --status`.
+fn sharded(
+    dir: &Path,
+    cache: &Path,
+    opts: &BakeOptions,
+    shard: Option<relight::bake::shard::ShardId>,
+    status: bool,
+) -> Result<()> {
+    use relight::bake::shard;
+    if let Some(id) = shard {
+        let last = std::sync::atomic::AtomicU64::new(u64::MAX);
+        let progress = |x: f64| {
+            let pct = (x * 100.0) as u64;
+            if last.swap(pct, std::sync::atomic::Ordering::Relaxed) != pct {
+                eprintln!("shard {}/{}: {pct} %", id.k, id.n);
+            }
+        };
+        let r = shard::bake_shard(dir, cache, id, opts, &progress)?;
+        outln!(
+            "shard {}/{}: {} planes, {} patches, {} links, {:.1} s, {:.1} MB  {}",
+            id.k,
+            id.n,
+            r.planes,
+            r.patches,
+            r.links,
+            r.seconds,
+            r.bytes as f64 / 1e6,
+            r.path.display()
+        );
+        return Ok(());
+    }
+    if status {
+        for s in shard::status(dir, cache, opts, None)? {
+            outln!(
+                "shard {}/{}  {:<8} {:.0} %",
+                s.shard,
+                s.shards,
+                s.state,
+                100.0 * s.progress
+            );
+        }
+        return Ok(());
+    }
+    let t = std::time::Instant::now();
+    let baked = shard::merge(dir, cache, opts, &|_, _| {})?;
+    outln!(
+        "merged         {} patches, {} links in {:.1} s (solve {:.1} s); cache {:.1} MB  {}",
+        baked.stats.patches,
+        baked
+            .transfer
+            .hierarchy
+            .as_ref()
+            .map_or(0, |h| h.stats.links),
+        t.elapsed().as_secs_f64(),
+        baked.stats.solve_s,
+        baked.stats.cache_bytes as f64 / 1e6,
+        baked
+            .stats
+            .cache_path
             .as_ref()
             .map(|p| p.display().to_string())
             .unwrap_or_default()

@@ -237,3 +237,68 @@ fn office_floor_is_a_real_size_scene() {
         }
     }
 }
+
+/// A hierarchical bake split into parts (as sharded bakes split it over machines) gives
+/// the same links, closure and radiosity, bit for bit, for 1, 3 and 7 parts.
+#[test]
+fn parts_of_a_hierarchical_bake_assemble_to_the_same_bits() {
+    use relight::transport::hierarchy::{HierarchyOptions, Plan};
+    let _gate = common::shared();
+    let s = closed_room();
+    let scene = relight::scene::Scene::load(s.path()).unwrap();
+    let mesh = relight::geometry::mesh::Mesh::build(&scene);
+    let bvh = relight::bake::scene_bvh(&scene);
+    let front = relight::bake::triangle_fronts(&scene);
+    let direct = relight::transport::direct::group_direct(&scene, &mesh, &bvh);
+    let rho = relight::transport::transfer::patch_rho(&scene, &mesh);
+    let sources = relight::transport::transfer::all_sources(&scene, &mesh, &direct);
+    let opts = HierarchyOptions::default();
+    let ff = relight::transport::formfactor::FormFactorOptions::default();
+    let src: Vec<f32> = sources.iter().flat_map(|&v| [v as f32; 3]).collect();
+    let mut first = None;
+    for n in [1usize, 3, 7] {
+        let plan = Plan::new(&mesh, &rho, &sources);
+        let shards = plan.shards(n);
+        assert_eq!(shards.len(), n);
+        assert_eq!(
+            shards.iter().map(Vec::len).sum::<usize>(),
+            plan.plane_roots().len()
+        );
+        let parts: Vec<_> = shards
+            .iter()
+            .map(|roots| plan.part(roots, &bvh, &front, opts, ff, &|_| {}))
+            .collect();
+        let (h, escape) = plan.assemble(parts, opts).unwrap();
+        let b = h.solve(&rho, &src, 3, 1e-6, 1000, &|_| {}).b;
+        let bits = |v: &[f32]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+        let got = (
+            h.offsets.clone(),
+            h.src.clone(),
+            bits(&h.k),
+            h.vis.clone(),
+            bits(&h.sigma),
+            bits(&escape),
+            bits(&b),
+        );
+        match &first {
+            None => first = Some(got),
+            Some(want) => assert!(*want == got, "{n} parts differ from one"),
+        }
+    }
+    // A part missing, or a plane covered twice, is refused with its root named.
+    let plan = Plan::new(&mesh, &rho, &sources);
+    let shards = plan.shards(3);
+    let parts: Vec<_> = shards[..2]
+        .iter()
+        .map(|roots| plan.part(roots, &bvh, &front, opts, ff, &|_| {}))
+        .collect();
+    let err = plan.assemble(parts, opts).err().unwrap();
+    assert!(err.contains("no part covers plane root"), "{err}");
+    let plan = Plan::new(&mesh, &rho, &sources);
+    let twice = plan.part(&shards[0], &bvh, &front, opts, ff, &|_| {});
+    let err = plan
+        .assemble(vec![twice.clone(), twice], opts)
+        .err()
+        .unwrap();
+    assert!(err.contains("repeated"), "{err}");
+}

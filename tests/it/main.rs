@@ -33,4 +33,5 @@ mod luminaires;
 mod render;
 mod saturation;
 mod scene_errors;
+mod shards;
 mod solver;

@@ -53,7 +53,7 @@ pub fn remove_stale_temps(dir: &Path) -> usize {
 
 /// A fresh temporary name in `dir` for writing the entry `path`:
 /// `.relight-tmp-<pid>-<nonce>-<entry>`.
-pub(super) fn temp_path(dir: &Path, path: &Path) -> PathBuf {
+pub(crate) fn temp_path(dir: &Path, path: &Path) -> PathBuf {
     dir.join(format!(
         "{TEMP_PREFIX}{}-{:x}-{}",
         std::process::id(),

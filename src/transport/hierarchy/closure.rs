@@ -21,15 +21,23 @@ use crate::transport::formfactor::{sample_triangle, PatchGeo, Rng};
 /// Relative standard deviation assumed for a patch's link sum.
 const LINK_SUM_REL_SD: f64 = 0.01;
 
-/// Per patch: the fraction of cosine-weighted rays that hit the front of a triangle.
-/// `front[t]` is the unit front normal of scene triangle t.
-pub(crate) fn hit_fraction(geo: &[PatchGeo], bvh: &Bvh, front: &[DVec3], rays: u32) -> Vec<f64> {
+/// For each patch of `patches`: the fraction of cosine-weighted rays that hit the front of
+/// a triangle. `front[t]` is the unit front normal of scene triangle t. Each patch's rays
+/// depend on its index only, so any subset gives the same values.
+pub(crate) fn hit_fraction(
+    geo: &[PatchGeo],
+    bvh: &Bvh,
+    front: &[DVec3],
+    rays: u32,
+    patches: &[u32],
+) -> Vec<f64> {
     let side = (rays.max(1) as f64).sqrt().ceil() as u32;
     let total = side * side;
-    geo.par_iter()
-        .enumerate()
+    patches
+        .par_iter()
         .with_min_len(64)
-        .map(|(i, g)| {
+        .map(|&i| {
+            let (i, g) = (i as usize, &geo[i as usize]);
             let mut rng = Rng::new(i, usize::MAX);
             let (t1, t2) = tangents(g.n);
             let lift = 1e-6 * (1.0 + g.centroid.abs().max_element()) + 1e-6 * g.size;

@@ -84,77 +84,6 @@ pub struct HierarchySolution {
 }
 
 impl Hierarchy {
-    /// Builds the tree and its links, and the closure. Returns the hierarchy and every
-    /// patch's escape fraction. `front[t]` is the unit front normal of scene triangle t;
-    /// `sources[i]` is patch i's source term (lm/m², emission plus the first reflection
-    /// of luminaire light, all groups at intensity 1, mean of R, G, B), which steers the
-    /// refinement towards bright sources.
-    #[allow(clippy::too_many_arguments)]
-    pub fn build(
-        mesh: &Mesh,
-        rho: &[Rgb],
-        sources: &[f64],
-        bvh: &Bvh,
-        front: &[DVec3],
-        opts: HierarchyOptions,
-        ff: FormFactorOptions,
-        progress: &(dyn Fn(f64) + Sync),
-    ) -> (Hierarchy, Vec<f32>) {
-        let t0 = Instant::now();
-        let tree = Tree::build(mesh);
-        let geo = patch_geometry(mesh);
-        let glow = glow(mesh, rho, sources);
-        let mut links = refine::refine(&tree, &glow, &geo, bvh, opts, ff, &|x| progress(0.9 * x));
-        let refine_s = t0.elapsed().as_secs_f64();
-        links.par_sort_unstable_by_key(|l| (l.r, l.s));
-        let nodes = tree.nodes();
-        let mut offsets = vec![0u32; nodes + 1];
-        for l in &links {
-            offsets[l.r as usize + 1] += 1;
-        }
-        for k in 0..nodes {
-            offsets[k + 1] += offsets[k];
-        }
-        let leaf_links = links
-            .iter()
-            .filter(|l| (l.r as usize) < tree.n && (l.s as usize) < tree.n)
-            .count() as u64;
-        let mut h = Hierarchy {
-            n: tree.n,
-            children: tree.children.clone(),
-            offsets,
-            src: links.iter().map(|l| l.s).collect(),
-            k: links.iter().map(|l| l.k).collect(),
-            vis: links.iter().map(|l| l.vis).collect(),
-            sigma: vec![1.0; tree.n],
-            area: tree.area.iter().map(|&a| a as f32).collect(),
-            stats: HierarchyStats::default(),
-        };
-        drop(links);
-        let t1 = Instant::now();
-        let sums = h.factor_sums();
-        let hits = closure::hit_fraction(&geo, bvh, front, opts.closure_rays);
-        let (sigma, escape) = closure::combine(&sums, &hits, opts.closure_rays);
-        let gaps: Vec<f64> = sums.iter().zip(&hits).map(|(s, h)| (s - h).abs()).collect();
-        h.stats = HierarchyStats {
-            nodes: nodes as u64,
-            links: h.src.len() as u64,
-            leaf_links,
-            closure_mean: gaps.iter().sum::<f64>() / gaps.len().max(1) as f64,
-            closure_max: gaps.iter().copied().fold(0.0, f64::max),
-            sigma_min: sigma
-                .iter()
-                .map(|&x| x as f64)
-                .fold(f64::INFINITY, f64::min),
-            sigma_max: sigma.iter().map(|&x| x as f64).fold(0.0, f64::max),
-            refine_s,
-            closure_s: t1.elapsed().as_secs_f64(),
-        };
-        h.sigma = sigma;
-        progress(1.0);
-        (h, escape)
-    }
-
     /// Rebuilds a hierarchy from its stored parts; None when they are inconsistent.
     #[allow(clippy::too_many_arguments)]
     pub fn from_parts(
@@ -346,6 +275,195 @@ impl Hierarchy {
             sweeps,
             residual,
         }
+    }
+}
+
+/// The receivers' share of a hierarchical bake: the links of the receivers under some
+/// plane roots, and the closure rays' hit fraction of their patches. A bake is the union
+/// of parts that cover every plane once ([`Plan::shards`]); the parts can be computed
+/// apart (a sharded bake) and give the same hierarchy in any grouping.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Part {
+    /// The plane roots covered.
+    pub roots: Vec<u32>,
+    pub links: Vec<refine::Link>,
+    /// (patch, hit fraction) for every patch under `roots`.
+    pub hits: Vec<(u32, f64)>,
+    /// Seconds for refinement and for the closure rays.
+    pub refine_s: f64,
+    pub closure_s: f64,
+}
+
+/// What every part of a bake starts from: the cluster tree, the patch geometry and the
+/// sources' glow (see [`refine::refine`]). Deterministic for a given mesh and sources.
+pub struct Plan {
+    tree: Tree,
+    geo: Vec<crate::transport::formfactor::PatchGeo>,
+    glow: Vec<f32>,
+}
+
+impl Plan {
+    pub fn new(mesh: &Mesh, rho: &[Rgb], sources: &[f64]) -> Plan {
+        Plan {
+            tree: Tree::build(mesh),
+            geo: patch_geometry(mesh),
+            glow: glow(mesh, rho, sources),
+        }
+    }
+
+    /// Every plane's subtree root (the units parts are made of).
+    pub fn plane_roots(&self) -> &[u32] {
+        &self.tree.plane_roots
+    }
+
+    /// The plane roots dealt into `n` shards of similar work: largest planes (by patch
+    /// count) first, each to the shard with the fewest patches so far. Deterministic.
+    pub fn shards(&self, n: usize) -> Vec<Vec<u32>> {
+        let n = n.max(1);
+        let leaves = |r: u32| {
+            let (a, b) = self.tree.span[r as usize];
+            (b - a) as u64
+        };
+        let mut roots = self.tree.plane_roots.clone();
+        roots.sort_by_key(|&r| (std::cmp::Reverse(leaves(r)), r));
+        let mut shards = vec![Vec::new(); n];
+        let mut load = vec![0u64; n];
+        for r in roots {
+            let k = (0..n).min_by_key(|&k| (load[k], k)).unwrap_or(0);
+            load[k] += leaves(r);
+            shards[k].push(r);
+        }
+        for s in &mut shards {
+            s.sort_unstable();
+        }
+        shards
+    }
+
+    /// The links and closure hits of the receivers under `roots`.
+    pub fn part(
+        &self,
+        roots: &[u32],
+        bvh: &Bvh,
+        front: &[DVec3],
+        opts: HierarchyOptions,
+        ff: FormFactorOptions,
+        progress: &(dyn Fn(f64) + Sync),
+    ) -> Part {
+        let t0 = Instant::now();
+        let t = &self.tree;
+        let links = refine::refine(t, &self.glow, &self.geo, bvh, roots, opts, ff, progress);
+        let refine_s = t0.elapsed().as_secs_f64();
+        let t1 = Instant::now();
+        let mut mine = vec![false; t.planes.len()];
+        for &r in roots {
+            if let Some(m) = mine.get_mut(t.plane[r as usize] as usize) {
+                *m = true;
+            }
+        }
+        let patches: Vec<u32> = (0..t.n as u32)
+            .filter(|&i| mine[t.plane[i as usize] as usize])
+            .collect();
+        let hits = closure::hit_fraction(&self.geo, bvh, front, opts.closure_rays, &patches);
+        Part {
+            roots: roots.to_vec(),
+            links,
+            hits: patches.into_iter().zip(hits).collect(),
+            refine_s,
+            closure_s: t1.elapsed().as_secs_f64(),
+        }
+    }
+
+    /// The hierarchy from parts that cover every plane exactly once, and every patch's
+    /// escape fraction; an error names what is missing or repeated. Links are sorted by
+    /// (receiver, source), so the result does not depend on how the planes were grouped.
+    pub fn assemble(
+        self,
+        parts: Vec<Part>,
+        opts: HierarchyOptions,
+    ) -> Result<(Hierarchy, Vec<f32>), String> {
+        let tree = self.tree;
+        let mut covered = vec![false; tree.nodes()];
+        for r in parts.iter().flat_map(|p| &p.roots) {
+            let Some(c) = covered.get_mut(*r as usize) else {
+                return Err(format!("node {r} is not in the tree"));
+            };
+            if *c || !tree.plane_roots.contains(r) {
+                return Err(format!("plane root {r} is repeated or not a plane root"));
+            }
+            *c = true;
+        }
+        if let Some(r) = tree.plane_roots.iter().find(|&&r| !covered[r as usize]) {
+            return Err(format!("no part covers plane root {r}"));
+        }
+        let nodes = tree.nodes();
+        let mut hits = vec![f64::NAN; tree.n];
+        let (mut refine_s, mut closure_s) = (0.0, 0.0);
+        let mut links = Vec::with_capacity(parts.iter().map(|p| p.links.len()).sum());
+        for p in parts {
+            for (i, h) in p.hits {
+                match hits.get_mut(i as usize) {
+                    Some(slot) if slot.is_nan() => *slot = h,
+                    _ => return Err(format!("patch {i} has no or two hit fractions")),
+                }
+            }
+            if p.links
+                .iter()
+                .any(|l| l.r as usize >= nodes || l.s as usize >= nodes)
+            {
+                return Err("a link names a node outside the tree".into());
+            }
+            refine_s += p.refine_s;
+            closure_s += p.closure_s;
+            links.extend(p.links);
+        }
+        if let Some(i) = hits.iter().position(|h| h.is_nan()) {
+            return Err(format!("patch {i} has no hit fraction"));
+        }
+        // A total order, so that the stored links (and every sum over them) are the same
+        // bits however the parts were grouped.
+        links.par_sort_unstable_by_key(|l| (l.r, l.s, l.k.to_bits(), l.vis));
+        let mut offsets = vec![0u32; nodes + 1];
+        for l in &links {
+            offsets[l.r as usize + 1] += 1;
+        }
+        for k in 0..nodes {
+            offsets[k + 1] += offsets[k];
+        }
+        let leaf_links = links
+            .iter()
+            .filter(|l| (l.r as usize) < tree.n && (l.s as usize) < tree.n)
+            .count() as u64;
+        let mut h = Hierarchy {
+            n: tree.n,
+            children: tree.children.clone(),
+            offsets,
+            src: links.iter().map(|l| l.s).collect(),
+            k: links.iter().map(|l| l.k).collect(),
+            vis: links.iter().map(|l| l.vis).collect(),
+            sigma: vec![1.0; tree.n],
+            area: tree.area.iter().map(|&a| a as f32).collect(),
+            stats: HierarchyStats::default(),
+        };
+        drop(links);
+        let sums = h.factor_sums();
+        let (sigma, escape) = closure::combine(&sums, &hits, opts.closure_rays);
+        let gaps: Vec<f64> = sums.iter().zip(&hits).map(|(s, h)| (s - h).abs()).collect();
+        h.stats = HierarchyStats {
+            nodes: nodes as u64,
+            links: h.src.len() as u64,
+            leaf_links,
+            closure_mean: gaps.iter().sum::<f64>() / gaps.len().max(1) as f64,
+            closure_max: gaps.iter().copied().fold(0.0, f64::max),
+            sigma_min: sigma
+                .iter()
+                .map(|&x| x as f64)
+                .fold(f64::INFINITY, f64::min),
+            sigma_max: sigma.iter().map(|&x| x as f64).fold(0.0, f64::max),
+            refine_s,
+            closure_s,
+        };
+        h.sigma = sigma;
+        Ok((h, escape))
     }
 }
 

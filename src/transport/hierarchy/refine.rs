@@ -58,7 +58,7 @@ impl Default for HierarchyOptions {
 
 /// One link: receiver `r` gathers `k · B_s` (lux per lm/m² of the source's mean
 /// radiosity); `vis` is the visible fraction of its rays, 0..=255.
-#[derive(Debug, Clone, Copy)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Link {
     pub r: u32,
     pub s: u32,
@@ -89,19 +89,21 @@ struct Ctx<'a> {
     quad: [Vec<DVec3>; 5],
 }
 
-/// All links of the tree, in no particular order. `progress` gets the finished fraction
-/// of receiver area.
+/// The links of every receiver under the plane roots `roots`, in no particular order.
+/// `progress` gets the finished fraction of their receiver area.
 ///
 /// `glow[i]` is patch i's own source term (emission plus first reflection of luminaire
 /// light, all groups at intensity 1) over the scene's mean radiosity. A link from a
 /// source node whose brightest leaf has glow w must keep its spread below ε / (1 + w):
 /// the error that matters is the factor's error times the source's radiosity (Hanrahan's
 /// BF refinement), estimated before the solve from the sources.
+#[allow(clippy::too_many_arguments)]
 pub(crate) fn refine(
     tree: &Tree,
     glow: &[f32],
     geo: &[PatchGeo],
     bvh: &Bvh,
+    roots: &[u32],
     opts: HierarchyOptions,
     ff: FormFactorOptions,
     progress: &(dyn Fn(f64) + Sync),
@@ -120,10 +122,10 @@ pub(crate) fn refine(
         ff,
         quad: quadrature_tables(),
     };
-    let total: f64 = tree.area[..tree.n].iter().sum();
+    let total: f64 = roots.iter().map(|&p| tree.area[p as usize]).sum();
     let done = AtomicU64::new(0);
     let root = tree.root();
-    let mut roots = tree.plane_roots.clone();
+    let mut roots = roots.to_vec();
     // Largest planes first, for load balance.
     roots.sort_by(|a, b| tree.area[*b as usize].total_cmp(&tree.area[*a as usize]));
     let parts: Vec<Vec<Link>> = roots
