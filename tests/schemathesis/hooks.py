@@ -47,7 +47,7 @@ def _mesh_length(body):
 def octet_stream(ctx, response):
     body = response.content
     path = ctx.operation.path
-    if path.endswith("/mesh"):
+    if path.endswith("/mesh") or path.endswith("/mesh/preview"):
         want = _mesh_length(body)
     else:
         n = _header(response, "x-relight-patches")
