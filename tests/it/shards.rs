@@ -137,6 +137,25 @@ fn missing_renamed_corrupt_and_mixed_shards_are_named() {
     run_shards(&s, cache.path(), 2, &[0]);
     let e = merge_err(&s, cache.path());
     assert!(e.contains("different counts") && e.contains("2, 3"), "{e}");
+    let stray = shards_in(cache.path())
+        .into_iter()
+        .find(|p| p.to_string_lossy().contains("-of-2"))
+        .unwrap();
+    std::fs::remove_file(stray).unwrap();
+    // Shard 0 of another scene's bake (other reflectances) under this bake's name.
+    let other = room();
+    std::fs::write(
+        other.path().join("scene.mtl"),
+        std::fs::read_to_string(s.path().join("scene.mtl"))
+            .unwrap()
+            .replace("Kd 0.7 0.7 0.7", "Kd 0.6 0.6 0.6"),
+    )
+    .unwrap();
+    let elsewhere = tempfile::tempdir().unwrap();
+    run_shards(&other, elsewhere.path(), 3, &[0]);
+    std::fs::copy(&shards_in(elsewhere.path())[0], &shards_in(cache.path())[0]).unwrap();
+    let e = merge_err(&s, cache.path());
+    assert!(e.contains("shard 0 of 3") && e.contains("foreign"), "{e}");
 }
 
 #[test]
