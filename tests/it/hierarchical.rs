@@ -17,7 +17,7 @@ fn bake(dir: &std::path::Path, mode: TransferMode) -> Baked {
 
 /// A closed 2 × 1.5 × 1 m room with a block on the floor and a lamp panel under the
 /// ceiling facing down.
-fn closed_room() -> TempScene {
+pub(crate) fn closed_room() -> TempScene {
     let mut obj = box_faces("room", "white", [0., 0., 0.], [2., 1.5, 1.], true);
     obj += &box_faces("block", "grey", [0.3, 0., 0.3], [0.7, 0.5, 0.6], false);
     obj += &quad(

@@ -8,26 +8,11 @@ use relight::bake::shard::{self, ShardId};
 use relight::bake::{load_or_bake, BakeError, BakeOptions, CachePolicy};
 use relight::scene::TransferChoice;
 
-use crate::common::{self, box_faces, quad, write_scene, TempScene};
+use crate::common::{self, TempScene};
 
-/// A closed room with a block and a lamp panel: a few hundred planes' worth of shadows.
+/// The closed room with a block and a lamp panel of the hierarchical tests.
 fn room() -> TempScene {
-    let mut obj = box_faces("room", "white", [0., 0., 0.], [2., 1.5, 1.], true);
-    obj += &box_faces("block", "grey", [0.3, 0., 0.3], [0.7, 0.5, 0.6], false);
-    obj += &quad(
-        "lamp",
-        "lamp",
-        [
-            [0.8, 1.49, 0.4],
-            [1.2, 1.49, 0.4],
-            [1.2, 1.49, 0.6],
-            [0.8, 1.49, 0.6],
-        ],
-        [0., -1., 0.],
-    );
-    let mtl = "newmtl white\nKd 0.7 0.7 0.7\nnewmtl grey\nKd 0.4 0.5 0.3\n\
-               newmtl lamp\nKd 0 0 0\nKe 20 20 20\n";
-    write_scene(&obj, mtl, Some("[mesh]\ntarget_patches = 1200\n"))
+    crate::hierarchical::closed_room()
 }
 
 fn opts() -> BakeOptions {
@@ -196,16 +181,21 @@ fn cli_shards_read_the_job_completion_index_and_merge() {
     let _gate = common::shared();
     let s = room();
     let cache = tempfile::tempdir().unwrap();
-    let relight = || Command::new(env!("CARGO_BIN_EXE_relight"));
+    // `relight bake ROOM --transfer hierarchical ARGS --cache CACHE`.
+    let bake = |args: &[&str]| {
+        let mut c = Command::new(env!("CARGO_BIN_EXE_relight"));
+        c.args([
+            "bake",
+            s.path().to_str().unwrap(),
+            "--transfer",
+            "hierarchical",
+        ])
+        .args(args)
+        .args(["--cache", cache.path().to_str().unwrap()]);
+        c
+    };
     for k in 0..2 {
-        let out = relight()
-            .args([
-                "bake",
-                s.path().to_str().unwrap(),
-                "--transfer",
-                "hierarchical",
-            ])
-            .args(["--shard", "/2", "--cache", cache.path().to_str().unwrap()])
+        let out = bake(&["--shard", "/2"])
             .env("JOB_COMPLETION_INDEX", k.to_string())
             .output()
             .unwrap();
@@ -217,36 +207,13 @@ fn cli_shards_read_the_job_completion_index_and_merge() {
         let text = String::from_utf8_lossy(&out.stdout);
         assert!(text.contains(&format!("shard {k}/2:")), "{text}");
     }
-    let out = relight()
-        .args([
-            "bake",
-            s.path().to_str().unwrap(),
-            "--transfer",
-            "hierarchical",
-        ])
-        .args([
-            "--merge",
-            "--status",
-            "--cache",
-            cache.path().to_str().unwrap(),
-        ])
-        .output()
-        .unwrap();
+    let out = bake(&["--merge", "--status"]).output().unwrap();
     let text = String::from_utf8_lossy(&out.stdout);
     assert!(
         text.contains("shard 0/2  done") && text.contains("shard 1/2  done"),
         "{text}"
     );
-    let out = relight()
-        .args([
-            "bake",
-            s.path().to_str().unwrap(),
-            "--transfer",
-            "hierarchical",
-        ])
-        .args(["--merge", "--cache", cache.path().to_str().unwrap()])
-        .output()
-        .unwrap();
+    let out = bake(&["--merge"]).output().unwrap();
     assert!(
         out.status.success(),
         "{}",
@@ -254,7 +221,7 @@ fn cli_shards_read_the_job_completion_index_and_merge() {
     );
     assert!(String::from_utf8_lossy(&out.stdout).contains("merged"));
     // Without JOB_COMPLETION_INDEX, `/2` is a clear error.
-    let out = relight()
+    let out = Command::new(env!("CARGO_BIN_EXE_relight"))
         .args(["bake", s.path().to_str().unwrap(), "--shard", "/2"])
         .env_remove("JOB_COMPLETION_INDEX")
         .output()

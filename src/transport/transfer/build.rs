@@ -175,22 +175,8 @@ impl Transfer {
         let groups = (0..g)
             .map(|gi| {
                 let sol = sol.as_ref().expect("groups imply columns");
-                let d = direct.get(gi).and_then(|d| d.as_deref());
-                let mut hcol = pick(&sol.h, gi);
-                if let Some(d) = d {
-                    for (hv, dv) in hcol.iter_mut().zip(d) {
-                        *hv += dv;
-                    }
-                }
-                let (flux, landed) =
-                    crate::transport::direct::group_flux(&scene.lights[gi], &area, d);
-                GroupColumns {
-                    e: emission[gi].clone(),
-                    b: pick(&sol.b, gi),
-                    h: hcol,
-                    flux,
-                    landed,
-                }
+                let (b, h) = (pick(&sol.b, gi), pick(&sol.h, gi));
+                GroupColumns::new(scene, gi, &emission, b, h, direct, &area)
             })
             .collect();
         let info = SolveInfo {
@@ -251,22 +237,12 @@ impl Transfer {
         let residual = max_residual(&e, &b, &h, &rho_of_col);
         let groups = (0..g)
             .map(|gi| {
-                let d = direct.get(gi).and_then(|d| d.as_deref());
-                let mut hcol = solve::interleave(h.as_ref(), [3 * gi, 3 * gi + 1, 3 * gi + 2]);
-                if let Some(d) = d {
-                    for (hv, dv) in hcol.iter_mut().zip(d) {
-                        *hv += dv;
-                    }
-                }
-                let (flux, landed) =
-                    crate::transport::direct::group_flux(&scene.lights[gi], &area, d);
-                GroupColumns {
-                    e: emission[gi].clone(),
-                    b: solve::interleave(b.as_ref(), [3 * gi, 3 * gi + 1, 3 * gi + 2]),
-                    h: hcol,
-                    flux,
-                    landed,
-                }
+                let cols = [3 * gi, 3 * gi + 1, 3 * gi + 2];
+                let (bg, hg) = (
+                    solve::interleave(b.as_ref(), cols),
+                    solve::interleave(h.as_ref(), cols),
+                );
+                GroupColumns::new(scene, gi, &emission, bg, hg, direct, &area)
             })
             .collect();
         let factored = lus.map(|(lus, channel_lu)| Factored { lus, channel_lu, f });
@@ -282,6 +258,36 @@ impl Transfer {
             hierarchy: None,
             grids: vec![],
             info: SolveInfo { residual, sweeps },
+        }
+    }
+}
+
+impl GroupColumns {
+    /// Group `gi`'s columns from its solved radiosity `b` and reflected illuminance `h`
+    /// (n × 3): `h` gets the group's direct light added, and the luminaires' flux is
+    /// summed over the patch `area`s.
+    fn new(
+        scene: &Scene,
+        gi: usize,
+        emission: &[Vec<f32>],
+        b: Vec<f32>,
+        mut h: Vec<f32>,
+        direct: &[Option<Vec<f32>>],
+        area: &[f32],
+    ) -> GroupColumns {
+        let d = direct.get(gi).and_then(|d| d.as_deref());
+        if let Some(d) = d {
+            for (hv, dv) in h.iter_mut().zip(d) {
+                *hv += dv;
+            }
+        }
+        let (flux, landed) = crate::transport::direct::group_flux(&scene.lights[gi], area, d);
+        GroupColumns {
+            e: emission[gi].clone(),
+            b,
+            h,
+            flux,
+            landed,
         }
     }
 }
