@@ -361,9 +361,13 @@ fn read_shard(path: &Path, key: &str, fingerprint: u64, id: ShardId) -> Result<P
 fn find_shards(cache: &Path, scene_id: &str, key: &str) -> Result<Vec<(ShardId, PathBuf)>, String> {
     let prefix = format!("{scene_id}-{key}.shard-");
     let mut found: Vec<(ShardId, PathBuf)> = Vec::new();
-    let entries =
-        std::fs::read_dir(cache).map_err(|e| format!("cannot list the cache folder: {e}"))?;
-    for e in entries.flatten() {
+    // A cache folder that does not exist yet holds no shards.
+    let entries = match std::fs::read_dir(cache) {
+        Ok(rd) => Some(rd),
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => None,
+        Err(e) => return Err(format!("cannot list the cache folder: {e}")),
+    };
+    for e in entries.into_iter().flatten().flatten() {
         let name = e.file_name().to_string_lossy().into_owned();
         let Some(rest) = name
             .strip_prefix(&prefix)
