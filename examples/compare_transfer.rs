@@ -100,15 +100,21 @@ fn main() {
             let o = &ours[name.as_str()];
             let area = r["area_m2"].as_f64().unwrap_or(0.0);
             let mut mean = 0.0;
+            let mut signed = [0.0; 3];
             for c in 0..3 {
                 let want = r["radiosity_B"][c].as_f64().unwrap_or(f64::NAN);
                 let rel = (o.radiosity[c] - want) / want;
+                signed[c] = 100.0 * rel;
                 mean += rel.abs() / 3.0;
                 if rel.abs() > worst {
                     worst = rel.abs();
                     wname = name.clone();
                 }
             }
+            println!(
+                "  {m:<12} {name:<20} {:>7.3} {:>7.3} {:>7.3} %",
+                signed[0], signed[1], signed[2]
+            );
             wsum += area * mean;
             asum += area;
         }

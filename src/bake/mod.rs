@@ -415,7 +415,18 @@ pub fn load_or_bake(
 /// scene triangles' front normals for the closure rays.
 fn hierarchy_plan(p: &Prepared, direct: &[Option<Vec<f32>>]) -> (Plan, Vec<glam::DVec3>) {
     let rho = crate::transport::transfer::patch_rho(&p.scene, &p.mesh);
-    let sources = crate::transport::transfer::all_sources(&p.scene, &p.mesh, direct);
+    let mut sources = crate::transport::transfer::all_sources(&p.scene, &p.mesh, direct);
+    let mut emission = vec![0f64; p.mesh.len()];
+    for col in crate::transport::transfer::group_emission(&p.scene, &p.mesh) {
+        for (e, c) in emission.iter_mut().zip(col.chunks_exact(3)) {
+            *e += (c[0] as f64 + c[1] as f64 + c[2] as f64) / 3.0;
+        }
+    }
+    let bounce =
+        crate::transport::hierarchy::emitter_bounce(&p.scene, &p.mesh, &p.bvh, &rho, &emission);
+    for (s, b) in sources.iter_mut().zip(bounce) {
+        *s += b;
+    }
     (
         Plan::new(&p.mesh, &rho, &sources),
         triangle_fronts(&p.scene),

@@ -114,6 +114,43 @@ impl Bvh {
         }
     }
 
+    /// Appends to `out` the id of every triangle whose bounding box overlaps the box
+    /// `lo..hi` (boxes touching at a face count).
+    pub fn overlapping(&self, lo: Vec3A, hi: Vec3A, out: &mut Vec<u32>) {
+        if self.tris.is_empty() {
+            return;
+        }
+        let mut stack = [0u32; 64];
+        let mut sp = 0usize;
+        let mut node = 0u32;
+        loop {
+            let n = &self.nodes[node as usize];
+            if n.lo.cmple(hi).all() && lo.cmple(n.hi).all() {
+                if n.count > 0 {
+                    for k in n.first..n.first + n.count {
+                        let t = &self.tris[k as usize];
+                        let (a, b, c) = (t.v0, t.v0 + t.e1, t.v0 + t.e2);
+                        if a.min(b).min(c).cmple(hi).all() && lo.cmple(a.max(b).max(c)).all() {
+                            out.push(self.ids[k as usize]);
+                        }
+                    }
+                } else {
+                    if sp < stack.len() {
+                        stack[sp] = n.first + 1;
+                        sp += 1;
+                    }
+                    node = n.first;
+                    continue;
+                }
+            }
+            if sp == 0 {
+                return;
+            }
+            sp -= 1;
+            node = stack[sp];
+        }
+    }
+
     /// Distance parameter of the nearest hit along `from + t·d`, t in (tmin, tmax), with
     /// the id of the triangle hit.
     pub fn nearest(&self, from: Vec3A, d: Vec3A, tmin: f32, tmax: f32) -> Option<(f32, u32)> {

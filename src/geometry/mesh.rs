@@ -14,7 +14,9 @@
 use std::collections::HashMap;
 use std::ops::Range;
 
-use glam::DVec3;
+use glam::{DVec3, Vec3A};
+
+use crate::geometry::bvh::Bvh;
 
 use crate::scene::{is_two_sided, Scene};
 
@@ -95,6 +97,8 @@ impl Mesh {
         let mut vertices = Vec::new();
         let mut patches = Vec::new();
         let mut surface_patches = Vec::with_capacity(scene.surfaces.len());
+        let contacts = Contacts::new(scene);
+        let found = std::cell::RefCell::new(Vec::new());
         // Triangles of each surface, in scene order.
         let mut by_surface: Vec<Vec<u32>> = vec![Vec::new(); scene.surfaces.len()];
         for (t, tri) in scene.triangles.iter().enumerate() {
@@ -111,6 +115,10 @@ impl Mesh {
                     .map_err(|n| too_many(patches.len() + n))?;
                 r.refine(max_edge, budget)
                     .map_err(|n| too_many(patches.len() + n))?;
+                r.refine_where(max_edge / CONTACT_DIVISOR, budget, |r, t| {
+                    contacts.cut(&r.corners(t), &mut found.borrow_mut())
+                })
+                .map_err(|n| too_many(patches.len() + n))?;
                 let base = vertices.len() as u32;
                 vertices.extend_from_slice(&r.pos);
                 let front: Vec<usize> = (0..r.tris.len()).filter(|&t| r.alive[t]).collect();
@@ -256,6 +264,118 @@ fn make_patch(vertices: &[DVec3], v: [u32; 3], tri: &crate::scene::Triangle, src
         normal: cr.normalize(),
         source: src,
     }
+}
+
+/// Contact refinement: a patch that another scene triangle touches or crosses along a
+/// line through its interior (a block standing on a floor, a desk against a wall, a column
+/// through a ceiling) is refined until its edges are at most `max_edge / CONTACT_DIVISOR`.
+/// Such a patch is partly buried or in a contact shadow, and one radiosity value per patch
+/// would spread that darkness (or hide it) over the whole patch; the finer patches follow
+/// the contact line.
+pub const CONTACT_DIVISOR: f64 = 4.0;
+
+/// The scene's triangles in a BVH, to find the ones that cut a patch.
+struct Contacts<'a> {
+    scene: &'a Scene,
+    bvh: Bvh,
+}
+
+impl<'a> Contacts<'a> {
+    fn new(scene: &'a Scene) -> Contacts<'a> {
+        let tris: Vec<[Vec3A; 3]> = scene
+            .triangles
+            .iter()
+            .map(|t| t.p.map(|p| Vec3A::from(p.as_vec3())))
+            .collect();
+        Contacts {
+            scene,
+            bvh: Bvh::new(&tris),
+        }
+    }
+
+    /// True when some scene triangle cuts the triangle `p` (see [`cuts`]). `found` is
+    /// scratch space.
+    fn cut(&self, p: &[DVec3; 3], found: &mut Vec<u32>) -> bool {
+        let lo = p[0].min(p[1]).min(p[2]);
+        let hi = p[0].max(p[1]).max(p[2]);
+        // The BVH is f32: widen the box by more than its rounding.
+        let pad = 1e-5 * (1.0 + lo.abs().max(hi.abs()).max_element());
+        found.clear();
+        self.bvh.overlapping(
+            Vec3A::from((lo - pad).as_vec3()),
+            Vec3A::from((hi + pad).as_vec3()),
+            found,
+        );
+        found
+            .iter()
+            .any(|&q| cuts(p, &self.scene.triangles[q as usize].p))
+    }
+}
+
+/// True when triangle `q` touches or crosses the interior of triangle `p` along a
+/// segment: a contact line. Touching only `p`'s boundary or a single point, and lying in
+/// `p`'s plane, do not count.
+fn cuts(p: &[DVec3; 3], q: &[DVec3; 3]) -> bool {
+    let nn = (p[1] - p[0]).cross(p[2] - p[0]);
+    let len = nn.length();
+    if len == 0.0 {
+        return false;
+    }
+    let n = nn / len;
+    let size = p
+        .iter()
+        .chain(q)
+        .flat_map(|a| p.iter().chain(q).map(move |b| a.distance_squared(*b)))
+        .fold(0.0, f64::max)
+        .sqrt();
+    let tol = 1e-6 * size;
+    let d = q.map(|x| n.dot(x - p[0]));
+    if d.iter().all(|&x| x > tol) || d.iter().all(|&x| x < -tol) || d.iter().all(|x| x.abs() <= tol)
+    {
+        return false;
+    }
+    // Where q meets p's plane: its corners on the plane and its edges crossing it.
+    let mut pts = [DVec3::ZERO; 6];
+    let mut m = 0;
+    for k in 0..3 {
+        if d[k].abs() <= tol {
+            pts[m] = q[k];
+            m += 1;
+        }
+        let (a, b) = (k, (k + 1) % 3);
+        if (d[a] > tol && d[b] < -tol) || (d[a] < -tol && d[b] > tol) {
+            pts[m] = q[a] + (q[b] - q[a]) * (d[a] / (d[a] - d[b]));
+            m += 1;
+        }
+    }
+    let (mut a, mut b, mut far) = (DVec3::ZERO, DVec3::ZERO, 0.0);
+    for i in 0..m {
+        for j in i + 1..m {
+            let l = pts[i].distance_squared(pts[j]);
+            if l > far {
+                (a, b, far) = (pts[i], pts[j], l);
+            }
+        }
+    }
+    if far.sqrt() <= tol {
+        return false;
+    }
+    // Clip the segment a→b to p's interior, shrunk by tol.
+    let (mut t0, mut t1) = (0.0f64, 1.0f64);
+    for k in 0..3 {
+        let inward = n.cross(p[(k + 1) % 3] - p[k]).normalize();
+        let fa = inward.dot(a - p[k]) - tol;
+        let fb = inward.dot(b - p[k]) - tol;
+        if fa <= 0.0 && fb <= 0.0 {
+            return false;
+        }
+        if fa < 0.0 {
+            t0 = t0.max(fa / (fa - fb));
+        } else if fb < 0.0 {
+            t1 = t1.min(fa / (fa - fb));
+        }
+    }
+    (t1 - t0) * far.sqrt() > tol
 }
 
 type EdgeKey = (u32, u32);
@@ -428,32 +548,52 @@ impl Refiner {
     /// so no hanging vertex is ever created) until every edge is at most `h`. Stops with
     /// the live triangle count as soon as it exceeds `limit`.
     fn refine(&mut self, h: f64, limit: usize) -> Result<(), usize> {
+        self.refine_where(h, limit, |_, _| true)
+    }
+
+    /// Rivara refinement of the triangles `wanted` picks (given the refiner and the
+    /// triangle), until their edges are at most `h`. Triangles created by a split are
+    /// asked again, so the refinement follows whatever `wanted` marks.
+    fn refine_where(
+        &mut self,
+        h: f64,
+        limit: usize,
+        wanted: impl Fn(&Refiner, u32) -> bool,
+    ) -> Result<(), usize> {
         let h2 = h * h * (1.0 + 1e-9);
         let mut t = 0u32;
         while (t as usize) < self.tris.len() {
-            while self.alive[t as usize] && self.len2(self.longest(t)) > h2 {
-                let mut cur = t;
-                loop {
-                    let e = self.longest(cur);
-                    let next = self.edges[&e]
-                        .iter()
-                        .copied()
-                        .find(|&n| n != cur && self.longest(n) != e);
-                    match next {
-                        Some(n) => cur = n,
-                        None => {
-                            self.bisect(e);
-                            if self.live > limit {
-                                return Err(self.live);
-                            }
-                            break;
-                        }
-                    }
+            while self.alive[t as usize] && self.len2(self.longest(t)) > h2 && wanted(self, t) {
+                self.bisect_path(t);
+                if self.live > limit {
+                    return Err(self.live);
                 }
             }
             t += 1;
         }
         Ok(())
+    }
+
+    /// One step of Rivara bisection for `t`: walks the longest-edge propagation path from
+    /// `t` to an edge that is the longest of all its triangles and bisects it.
+    fn bisect_path(&mut self, t: u32) {
+        let mut cur = t;
+        loop {
+            let e = self.longest(cur);
+            let next = self.edges[&e]
+                .iter()
+                .copied()
+                .find(|&n| n != cur && self.longest(n) != e);
+            match next {
+                Some(n) => cur = n,
+                None => return self.bisect(e),
+            }
+        }
+    }
+
+    /// The corners of triangle `t`.
+    fn corners(&self, t: u32) -> [DVec3; 3] {
+        self.tris[t as usize].map(|k| self.pos[k as usize])
     }
 
     /// Splits edge `e` at its midpoint, in every triangle that has it.
@@ -496,19 +636,22 @@ mod tests {
         s
     }
 
-    /// Every interior edge must be shared by exactly two patches: no hanging vertices.
+    /// Every interior edge must be shared by exactly two patches: no hanging vertices
+    /// (within a surface: surfaces do not share vertices).
     fn assert_conforming(m: &Mesh) {
         let mut count: Map<(u32, u32), usize> = Map::new();
+        let mut surface = vec![u32::MAX; m.vertices.len()];
         for p in &m.patches {
             for k in 0..3 {
                 *count.entry(key(p.v[k], p.v[(k + 1) % 3])).or_default() += 1;
+                surface[p.v[k] as usize] = p.surface;
             }
         }
         // A vertex lying strictly inside some edge would be a hanging node.
         for &(a, b) in count.keys() {
             let (pa, pb) = (m.vertices[a as usize], m.vertices[b as usize]);
             for (i, &pv) in m.vertices.iter().enumerate() {
-                if i as u32 == a || i as u32 == b {
+                if i as u32 == a || i as u32 == b || surface[i] != surface[a as usize] {
                     continue;
                 }
                 let d = pb - pa;
@@ -555,5 +698,102 @@ mod tests {
         let a = Mesh::build_with(&s, 0.25);
         let b = Mesh::build_with(&s, 0.25);
         assert_eq!(a.fingerprint(), b.fingerprint());
+    }
+
+    /// The 2 × 2 m floor with a 0.4 m box standing on it (sides only, no bottom), whose
+    /// walls cross the floor's interior along the footprint's outline.
+    fn floor_with_box(x0: f64) -> Scene {
+        let dir = tempfile::tempdir().unwrap();
+        let mut obj = String::from("mtllib m.mtl\no floor\nusemtl w\n");
+        obj += "v 0 0 0\nv 2 0 0\nv 2 0 2\nv 0 0 2\nf 1 4 3 2\n";
+        obj += "o box\nusemtl w\n";
+        let (a, b) = (x0, x0 + 0.4);
+        for (x, z) in [(a, a), (b, a), (b, b), (a, b)] {
+            obj += &format!("v {x} 0 {z}\nv {x} 0.4 {z}\n");
+        }
+        // Four sides, facing out (vertices 5..12: bottom/top pairs around the footprint).
+        obj += "f 5 7 8 6\nf 7 9 10 8\nf 9 11 12 10\nf 11 5 6 12\n";
+        std::fs::write(dir.path().join("s.obj"), obj).unwrap();
+        std::fs::write(dir.path().join("m.mtl"), "newmtl w\nKd 0.5 0.5 0.5\n").unwrap();
+        let s = Scene::load(dir.path()).unwrap();
+        std::mem::forget(dir);
+        s
+    }
+
+    #[test]
+    fn a_box_on_the_floor_refines_the_patches_its_outline_crosses() {
+        let s = floor_with_box(0.8);
+        let h = 0.5;
+        let m = Mesh::build_with(&s, h);
+        assert_conforming(&m);
+        let floor = m.surface_patches[0].clone();
+        let (mut crossing, mut coarse) = (0, 0);
+        for i in floor.clone() {
+            let c = m.corners(i as usize);
+            let longest = (0..3)
+                .map(|k| c[k].distance(c[(k + 1) % 3]))
+                .fold(0.0, f64::max);
+            // A patch with corners strictly on both sides of the line x = 0.8 (within the
+            // footprint's z range) straddles the box's wall.
+            let z_in = c.iter().all(|p| p.z > 0.8 && p.z < 1.2);
+            let sides = (
+                c.iter().any(|p| p.x < 0.8 - 1e-9),
+                c.iter().any(|p| p.x > 0.8 + 1e-9),
+            );
+            if z_in && sides.0 && sides.1 {
+                crossing += 1;
+                assert!(
+                    longest <= h / CONTACT_DIVISOR + 1e-9,
+                    "patch {i}: edge {longest}"
+                );
+            }
+            coarse += usize::from(longest > h / 2.0);
+        }
+        assert!(crossing > 0);
+        // Away from the box the floor keeps its coarse patches.
+        assert!(coarse > 10, "{coarse} coarse patches");
+        let plain = Mesh::build_with(&square_scene(false), h);
+        assert!(m.surface_patches[0].len() > plain.len() + 20);
+        let area: f64 = floor.map(|i| m.patches[i as usize].area).sum();
+        assert!((area - 4.0).abs() < 1e-9);
+    }
+
+    #[test]
+    fn walls_meeting_a_floor_at_its_edge_or_coplanar_faces_do_not_cut() {
+        let p = [
+            DVec3::ZERO,
+            DVec3::new(0.0, 0.0, 1.0),
+            DVec3::new(1.0, 0.0, 0.0),
+        ];
+        // A wall standing on the edge z = 0... of the triangle: touches its boundary only.
+        let wall = [
+            DVec3::ZERO,
+            DVec3::new(1.0, 0.0, 0.0),
+            DVec3::new(0.0, 1.0, 0.0),
+        ];
+        assert!(!cuts(&p, &wall));
+        // Coplanar and overlapping.
+        let flat = [
+            DVec3::new(0.1, 0.0, 0.1),
+            DVec3::new(0.5, 0.0, 0.1),
+            DVec3::new(0.1, 0.0, 0.5),
+        ];
+        assert!(!cuts(&p, &flat));
+        // Wholly above.
+        let above = wall.map(|v| v + DVec3::Y * 0.1);
+        assert!(!cuts(&p, &above));
+        // Standing inside: its bottom edge crosses the interior.
+        let inside = wall.map(|v| v + DVec3::new(0.0, 0.0, 0.2));
+        assert!(cuts(&p, &inside));
+        // Piercing through the plane.
+        let through = inside.map(|v| v - DVec3::Y * 0.5);
+        assert!(cuts(&p, &through));
+        // Touching at one corner only.
+        let point = [
+            DVec3::new(0.2, 0.0, 0.2),
+            DVec3::new(0.2, 1.0, 0.2),
+            DVec3::new(0.3, 1.0, 0.2),
+        ];
+        assert!(!cuts(&p, &point));
     }
 }

@@ -40,7 +40,8 @@ pub fn illuminance_at(mesh: &Mesh, bvh: &Bvh, b: &[f32], x: DVec3, n: DVec3) -> 
 ///
 /// Pass 1 finds every patch that can contribute and its unoccluded share of
 /// `importance`; pass 2 traces visibility, giving a partly hidden patch rays in proportion
-/// to its share, so penumbrae of bright sources are resolved finely.
+/// to its share, so penumbrae of bright sources are resolved finely. A patch whose share
+/// is worth more than [`MIN_RAYS`] gets them without probing first.
 pub fn gather_weights(
     mesh: &Mesh,
     bvh: &Bvh,
@@ -100,15 +101,20 @@ pub fn gather_weights(
                 }
                 free
             };
-            let mut free = cast(PROBE_RAYS);
-            let mut rays = PROBE_RAYS;
-            if free != 0 && free != PROBE_RAYS {
-                let share = if total > 0.0 {
-                    ff * crate::color::luminance64(bj) / total
-                } else {
-                    0.0
-                };
-                let want = ((share * RAYS_PER_SHARE).ceil() as u32).clamp(MIN_RAYS, MAX_RAYS);
+            let share = if total > 0.0 {
+                ff * crate::color::luminance64(bj) / total
+            } else {
+                0.0
+            };
+            let want = ((share * RAYS_PER_SHARE).ceil() as u32).clamp(MIN_RAYS, MAX_RAYS);
+            // A patch worth more than the minimum gets its full budget at once: probes
+            // that all agree could hide a penumbra across a bright patch.
+            let (mut free, mut rays) = if share * RAYS_PER_SHARE > MIN_RAYS as f64 {
+                (cast(want), want)
+            } else {
+                (cast(PROBE_RAYS), PROBE_RAYS)
+            };
+            if rays == PROBE_RAYS && free != 0 && free != PROBE_RAYS {
                 free += cast(want - PROBE_RAYS);
                 rays = want;
             }

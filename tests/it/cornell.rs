@@ -59,10 +59,10 @@ fn cornell_box_matches_the_path_traced_reference() {
         asum += area;
     }
     let mean = wsum / asum;
-    // Measured at 4252 patches: mean 0.30 %, worst 1.9 % (short block sides). The limits
-    // leave room for nothing but noise; a regression trips them.
-    assert!(mean < 0.005, "area-weighted mean |rel. err| {mean:.4}");
-    assert!(worst < 0.025, "worst |rel. err| {worst:.4}");
+    // Measured at 5498 patches (contact lines refined): mean 0.11 %, worst 0.61 % (short
+    // block sides). The limits are the targets (0.3 %, 1 %).
+    assert!(mean < 0.003, "area-weighted mean |rel. err| {mean:.4}");
+    assert!(worst < 0.01, "worst |rel. err| {worst:.4}");
     // The power balance of the reference: the light emits 0.6825 W per channel.
     let p = b.transfer.power(&sol);
     for c in 0..3 {

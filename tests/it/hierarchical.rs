@@ -49,18 +49,26 @@ fn hierarchical_closed_room_conserves_energy_and_agrees_with_factored() {
     let hier = h.transfer.hierarchy.as_ref().expect("links");
     assert!(h.transfer.factored.is_none());
     // Every patch's form factors sum to 1 in a closed scene (after closure), except where
-    // a patch sees the lamp's back face (the ceiling above it): light lost there.
+    // a patch sees the lamp's back face (the ceiling above it) or the inside of the
+    // bottomless block (floor patches reaching under it): light lost there.
     let sums = hier.factor_sums();
-    let closed = sums
+    let under_block = |i: usize| {
+        h.mesh
+            .corners(i)
+            .iter()
+            .any(|p| p.y.abs() < 1e-9 && (0.3..=0.7).contains(&p.x) && (0.3..=0.6).contains(&p.z))
+    };
+    let open: Vec<usize> = (0..sums.len()).filter(|&i| !under_block(i)).collect();
+    let closed = open
         .iter()
-        .zip(&hier.sigma)
-        .filter(|(s, g)| (**s * **g as f64 - 1.0).abs() < 1e-3)
+        .filter(|&&i| (sums[i] * hier.sigma[i] as f64 - 1.0).abs() < 1e-3)
         .count();
     assert!(
-        closed as f64 > 0.9 * sums.len() as f64,
+        closed as f64 > 0.9 * open.len() as f64,
         "{closed} of {} patches sum to 1",
-        sums.len()
+        open.len()
     );
+    assert!(open.len() > sums.len() * 3 / 4);
     // Before closure the links alone are within a few per cent on average.
     assert!(hier.stats.closure_mean < 0.05, "{:?}", hier.stats);
     // Fewer links than the n² pairs.
@@ -146,9 +154,17 @@ fn hierarchical_cornell_box_matches_the_reference() {
         wsum += area * mean;
         asum += area;
     }
-    // Measured: mean 0.52 %, worst 2.1 % (the factored mode: 0.35 %, 2.0 %).
-    assert!(wsum / asum < 0.008, "mean |rel. err| {}", wsum / asum);
-    assert!(worst < 0.03, "worst |rel. err| {worst}");
+    // Measured: mean 0.21 %, worst 0.58 % (the factored mode: 0.11 %, 0.61 %). The
+    // limits are the targets.
+    assert!(wsum / asum < 0.003, "mean |rel. err| {}", wsum / asum);
+    assert!(worst < 0.01, "worst |rel. err| {worst}");
+    // Light in = light absorbed + light out through the front, per channel (measured:
+    // 0.07 % apart; the links are not exactly reciprocal).
+    let p = b.transfer.power(&sol);
+    for c in 0..3 {
+        let rel = (p.emitted[c] - p.absorbed[c] - p.escaped[c]) / p.emitted[c];
+        assert!(rel.abs() < 0.002, "imbalance {rel}");
+    }
 }
 
 #[test]
