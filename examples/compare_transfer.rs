@@ -1,8 +1,8 @@
 //! Compares the transfer modes of one scene per surface, and the Cornell box against its
 //! path-traced reference (`tests/data/cornell_reference.json`).
 //!
-//! `cargo run --release --example compare_transfer -- [SCENE_DIR] [MODE_A] [MODE_B]`
-//! (default: scenes/cornell-box factored hierarchical). Prints per surface the mean
+//! `cargo run --release --example compare_transfer -- [SCENE_DIR] [MODE_A] [MODE_B]
+//! [MAX_EDGE]` (default: scenes/cornell-box factored hierarchical, the scene's meshing). Prints per surface the mean
 //! radiosity (lm/m²) of both modes and their relative difference, the power balance (lm),
 //! and for the Cornell box each mode's error against the reference.
 
@@ -13,11 +13,12 @@ use relight::bake::{load_or_bake, BakeOptions, Baked, CachePolicy};
 use relight::model::report::surface_averages;
 use relight::scene::TransferChoice;
 
-fn bake(dir: &std::path::Path, mode: &str) -> Baked {
+fn bake(dir: &std::path::Path, mode: &str, max_edge: Option<f64>) -> Baked {
     let choice: TransferChoice =
         serde_json::from_value(serde_json::Value::String(mode.into())).expect("mode");
     let opts = BakeOptions {
         choice: Some(choice),
+        max_edge,
         ..Default::default()
     };
     let t = Instant::now();
@@ -39,7 +40,10 @@ fn main() {
     let dir = PathBuf::from(args.get(1).map_or("scenes/cornell-box", |s| s.as_str()));
     let ma = args.get(2).map_or("factored", |s| s.as_str());
     let mb = args.get(3).map_or("hierarchical", |s| s.as_str());
-    let (a, b) = (bake(&dir, ma), bake(&dir, mb));
+    let max_edge = args
+        .get(4)
+        .map(|s| s.parse::<f64>().expect("max_edge in metres"));
+    let (a, b) = (bake(&dir, ma, max_edge), bake(&dir, mb, max_edge));
     let on = vec![[1.0f32; 3]; a.transfer.group_count()];
     let (sa, sb) = (a.transfer.relight(&on), b.transfer.relight(&on));
     let (ra, rb) = (
