@@ -21,6 +21,17 @@ pub const MAX_OBJ_TRIANGLES: usize = 1_000_000;
 pub const MAX_MTLLIBS: usize = 64;
 /// Most materials (`newmtl`) over all the material libraries of a scene.
 pub const MAX_MATERIALS: usize = 10_000;
+/// Largest diffuse reflectance a lenient load gives a material: a `Kd` (or a textured
+/// `Kd`) with a channel of 1 or more is scaled so its largest channel is this, keeping its
+/// colour (`strict = true` refuses it instead).
+pub const MAX_KD: f32 = 0.95;
+/// Largest texture file (`map_Kd`) read, bytes.
+pub const MAX_TEXTURE_BYTES: u64 = 64 << 20;
+/// Largest texture decoded, pixels (width × height), and largest side.
+pub const MAX_TEXTURE_PIXELS: u64 = 16 << 20;
+pub const MAX_TEXTURE_SIDE: u32 = 16_384;
+/// Most textures one scene averages.
+pub const MAX_TEXTURES: usize = 1_000;
 
 /// Largest absolute coordinate, metres (after unit scaling): OBJ vertices, luminaire and
 /// camera positions, grid corners and points.

@@ -123,6 +123,35 @@ impl SceneDir {
         Ok(canon)
     }
 
+    /// Like [`SceneDir::resolve`], but a file that is simply not there (a plain relative
+    /// name, nothing in the way) is `None`, for lenient loads. A name that leaves the
+    /// folder is still an error.
+    pub fn resolve_lenient(
+        &self,
+        name: &str,
+        referrer: &Path,
+        line: usize,
+        what: &str,
+    ) -> Result<Option<PathBuf>, SceneError> {
+        let plain = !name.is_empty()
+            && !name.contains('\0')
+            && !Path::new(name).is_absolute()
+            && Path::new(name).components().all(|c| {
+                matches!(
+                    c,
+                    std::path::Component::Normal(_) | std::path::Component::CurDir
+                )
+            });
+        if plain {
+            if let Err(e) = std::fs::symlink_metadata(self.root.join(name)) {
+                if e.kind() == std::io::ErrorKind::NotFound {
+                    return Ok(None);
+                }
+            }
+        }
+        self.resolve(name, referrer, line, what).map(Some)
+    }
+
     /// Reads the regular file at canonical path `path` (inside the folder), refusing
     /// anything larger than `limit` bytes.
     pub fn read(&self, path: &Path, limit: u64) -> Result<Vec<u8>, SceneError> {

@@ -12,9 +12,9 @@ use serde::Serialize;
 
 use super::files::{self, SceneDir};
 use super::obj::ObjScan;
-use super::{mtl, SceneError, SceneToml};
+use super::{mtl, texture, SceneError, SceneToml};
 use crate::color::Rgb;
-use crate::limits::{MAX_MATERIALS, MAX_TEXT_BYTES};
+use crate::limits::{MAX_MATERIALS, MAX_TEXTURES, MAX_TEXTURE_BYTES, MAX_TEXT_BYTES};
 
 /// A material after validation.
 #[derive(Debug, Clone, Serialize)]
@@ -33,6 +33,8 @@ pub(crate) struct MaterialTable {
     pub(crate) materials: Vec<Material>,
     /// Material name → index into `materials`.
     pub(crate) index: HashMap<String, u32>,
+    /// Textures read so far.
+    textures: usize,
 }
 
 /// Name of the material given to objects that name none.
@@ -40,9 +42,14 @@ const DEFAULT_MATERIAL: &str = "__default";
 
 impl MaterialTable {
     /// Reads the MTL files of the OBJ's `mtllib` statements (each once, in order): relight's
-    /// own MTL reader is the only source of materials. Each file read joins `files` (for
-    /// the cache key); the readers' warnings join `warnings`. A material defined in two
-    /// files, or more than [`MAX_MATERIALS`] in all, is an error.
+    /// own MTL reader is the only source of materials. A statement may name several files
+    /// (`mtllib a.mtl b.mtl`, unless the whole text names one file). Each file read joins
+    /// `files` (for the cache key); the readers' warnings join `warnings`. A material
+    /// defined in two files, or more than [`MAX_MATERIALS`] in all, is an error.
+    ///
+    /// Lenient (unless `strict = true`): a missing MTL file or texture is a warning (its
+    /// materials turn grey, see [`MaterialTable::add_missing`]; the texture is left out).
+    /// A file outside the scene folder is always an error.
     pub(crate) fn read(
         sd: &SceneDir,
         obj_name: &Path,
@@ -55,21 +62,188 @@ impl MaterialTable {
         // Per material: the file and line that define it.
         let mut defined_in: Vec<(PathBuf, usize)> = Vec::new();
         let mut libs_read: HashSet<PathBuf> = HashSet::new();
-        for (name, line) in &scan.mtllibs {
-            let p = sd.resolve(name, obj_name, *line, "mtllib")?;
-            if !libs_read.insert(p.clone()) {
-                continue;
+        for (raw, line) in &scan.mtllibs {
+            let whole = raw.split_whitespace().count() <= 1
+                || sd
+                    .resolve_lenient(raw, obj_name, *line, "mtllib")?
+                    .is_some();
+            let names: Vec<&str> = if whole {
+                vec![raw.as_str()]
+            } else {
+                raw.split_whitespace().collect()
+            };
+            for name in names {
+                let p = if cfg.strict {
+                    sd.resolve(name, obj_name, *line, "mtllib")?
+                } else {
+                    match sd.resolve_lenient(name, obj_name, *line, "mtllib")? {
+                        Some(p) => p,
+                        None => {
+                            warnings.push(format!(
+                                "{}:{line}: mtllib '{name}' not found in the scene folder: \
+                                 its materials are grey (Kd 0.5)",
+                                obj_name.display()
+                            ));
+                            continue;
+                        }
+                    }
+                };
+                if !libs_read.insert(p.clone()) {
+                    continue;
+                }
+                let shown = sd.display(&p);
+                let text = files::to_text(&shown, sd.read(&p, MAX_TEXT_BYTES)?)?;
+                let lib = mtl::parse_mtl(&shown, &text, cfg.strict)?;
+                warnings.extend(lib.warnings);
+                for m in lib.materials {
+                    let m = table.textured(m, sd, &shown, cfg.strict, files, warnings)?;
+                    table.add(m, &shown, &mut defined_in, cfg)?;
+                }
+                files.push(p);
             }
-            let shown = sd.display(&p);
-            let text = files::to_text(&shown, sd.read(&p, MAX_TEXT_BYTES)?)?;
-            let lib = mtl::parse_mtl(&shown, &text)?;
-            warnings.extend(lib.warnings);
-            for m in lib.materials {
-                table.add(m, &shown, &mut defined_in, cfg)?;
-            }
-            files.push(p);
         }
         Ok(table)
+    }
+
+    /// `m` with its `map_Kd` texture averaged into its reflectance: `Kd` (1 if not given)
+    /// times the texture's mean linear colour ([`texture::mean_linear_rgb`]), scaled down
+    /// like a `Kd` of 1 or more if a channel reaches 1.
+    fn textured(
+        &mut self,
+        mut m: mtl::MtlMaterial,
+        sd: &SceneDir,
+        shown: &Path,
+        strict: bool,
+        files: &mut Vec<PathBuf>,
+        warnings: &mut Vec<String>,
+    ) -> Result<mtl::MtlMaterial, SceneError> {
+        let Some((name, line)) = m.map_kd.take() else {
+            return Ok(m);
+        };
+        let lenient = |problem: String, warnings: &mut Vec<String>| {
+            if strict {
+                Err(SceneError::Reference {
+                    path: shown.to_path_buf(),
+                    line,
+                    what: "map_Kd".into(),
+                    name: name.clone(),
+                    problem: format!("{problem} (strict = true)"),
+                })
+            } else {
+                warnings.push(format!(
+                    "{}:{line}: map_Kd '{name}' of material '{}' {problem}: its Kd is used alone",
+                    shown.display(),
+                    m.name
+                ));
+                Ok(m.clone())
+            }
+        };
+        let p = if strict {
+            sd.resolve(&name, shown, line, "map_Kd")?
+        } else {
+            match sd.resolve_lenient(&name, shown, line, "map_Kd")? {
+                Some(p) => p,
+                None => return lenient("is not in the scene folder".into(), warnings),
+            }
+        };
+        if self.textures >= MAX_TEXTURES {
+            return Err(SceneError::Syntax {
+                path: shown.to_path_buf(),
+                line,
+                message: format!("more than {MAX_TEXTURES} textures in the scene"),
+            });
+        }
+        self.textures += 1;
+        let bytes = sd.read(&p, MAX_TEXTURE_BYTES)?;
+        files.push(p);
+        let mean = match texture::mean_linear_rgb(&bytes) {
+            Ok(v) => v,
+            Err(e) => return lenient(format!("cannot be read ({e})"), warnings),
+        };
+        let base = if m.kd_given { m.kd } else { [1.0; 3] };
+        let kd: Rgb = std::array::from_fn(|c| base[c] * mean[c]);
+        m.kd = match mtl::clamp_kd(kd) {
+            Some(k) if strict => {
+                return Err(SceneError::BadMaterial {
+                    path: shown.to_path_buf(),
+                    line,
+                    material: m.name.clone(),
+                    message: format!(
+                        "Kd × map_Kd = {} {} {}: diffuse reflectance must be in [0, 1) per \
+                         channel (strict = true; a lenient load would use {} {} {})",
+                        kd[0], kd[1], kd[2], k[0], k[1], k[2]
+                    ),
+                });
+            }
+            Some(k) => {
+                warnings.push(format!(
+                    "{}:{line}: material '{}': Kd × map_Kd reaches 1: scaled to {} {} {}",
+                    shown.display(),
+                    m.name,
+                    k[0],
+                    k[1],
+                    k[2]
+                ));
+                k
+            }
+            None => kd,
+        };
+        Ok(m)
+    }
+
+    /// Every `usemtl` name that no MTL file defines becomes a grey material (Kd 0.5) with
+    /// one warning listing them; with `strict = true` the first is an error.
+    pub(crate) fn add_missing(
+        &mut self,
+        usemtl: &[(String, usize)],
+        obj_name: &Path,
+        cfg: &SceneToml,
+        warnings: &mut Vec<String>,
+    ) -> Result<(), SceneError> {
+        let mut missing: Vec<(String, usize)> = Vec::new();
+        for (name, line) in usemtl {
+            if self.index.contains_key(name) || missing.iter().any(|(n, _)| n == name) {
+                continue;
+            }
+            if cfg.strict {
+                return Err(SceneError::UnknownMaterial {
+                    path: obj_name.to_path_buf(),
+                    line: *line,
+                    name: name.clone(),
+                });
+            }
+            if self.materials.len() >= MAX_MATERIALS {
+                return Err(SceneError::Syntax {
+                    path: obj_name.to_path_buf(),
+                    line: *line,
+                    message: format!("more than {MAX_MATERIALS} materials in the scene"),
+                });
+            }
+            self.index.insert(name.clone(), self.materials.len() as u32);
+            self.materials.push(Material {
+                name: name.clone(),
+                kd: [0.5; 3],
+                ke: [0.0; 3],
+                two_sided: cfg.material.get(name).is_some_and(|o| o.two_sided),
+            });
+            missing.push((name.clone(), *line));
+        }
+        if !missing.is_empty() {
+            const SHOWN: usize = 8;
+            let listed: Vec<String> = missing
+                .iter()
+                .take(SHOWN)
+                .map(|(n, l)| format!("'{n}' (line {l})"))
+                .collect();
+            warnings.push(format!(
+                "{}: {} material(s) not defined in any MTL file, using grey Kd 0.5: {}{}",
+                obj_name.display(),
+                missing.len(),
+                listed.join(", "),
+                if missing.len() > SHOWN { ", …" } else { "" }
+            ));
+        }
+        Ok(())
     }
 
     /// Adds material `m` of the MTL file `shown`.

@@ -24,6 +24,7 @@ mod luminaires;
 mod materials;
 mod mtl;
 mod obj;
+mod texture;
 mod toml;
 mod triangles;
 
@@ -161,6 +162,7 @@ impl Scene {
         if let Some(p) = &toml.canon {
             files.push(p.clone());
         }
+        table.add_missing(&scan.usemtl, &obj_name, cfg, &mut warnings)?;
         table.check_options(cfg, &toml.path)?;
         let parts = obj::read_obj(&obj_name, &scan, &table.names())?;
         drop(scan);
@@ -182,6 +184,7 @@ impl Scene {
         let MaterialTable {
             materials,
             index: mat_index,
+            ..
         } = table;
 
         let names = lights::Names {

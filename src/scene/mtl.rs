@@ -4,11 +4,16 @@
 //! - `Kd r g b` (diffuse reflectance, each in [0, 1)) and `Ke r g b` (luminous exitance,
 //!   lm/m², each in [0, [`MAX_EXITANCE`]]) are parsed strictly: three numbers (or one,
 //!   meaning grey, as the MTL specification allows), finite in `f32`, in range, at most
-//!   once per material. A trailing `# comment` is allowed.
+//!   once per material. A trailing `# comment` is allowed. One exception, as exporters
+//!   write `Kd 1 1 1` all the time: a `Kd` with a channel of 1 or more is scaled so its
+//!   largest channel is [`MAX_KD`] (keeping its colour), with a warning; with `strict`
+//!   it is an error.
+//! - `map_Kd [options] FILE` records the texture (the last word of the line) for the
+//!   material table, which averages it into `Kd`.
 //! - Numeric statements relight does not use (`Ka`, `Ks`, `Tf`, `Ns`, `Ni`, `d`, `Tr`,
 //!   `illum`, the PBR extensions `Pr`, `Pm`, …) must still read as numbers, so that a
 //!   damaged line is an error naming the file and line, never silently skipped; their
-//!   values are then ignored. Texture and other statements (`map_*`, `bump`, `refl`, …)
+//!   values are then ignored. Other texture statements (`map_Ks`, `bump`, `refl`, …)
 //!   are ignored by keyword.
 //! - Misspelt `Kd`/`Ke` (`kd`, `KE`, …) are errors; any other unknown statement is ignored
 //!   with a warning, so no data is dropped silently.
@@ -19,7 +24,7 @@ use std::str::SplitWhitespace;
 
 use super::SceneError;
 use crate::color::Rgb;
-use crate::limits::{MAX_EXITANCE, MAX_MATERIALS};
+use crate::limits::{MAX_EXITANCE, MAX_KD, MAX_MATERIALS};
 
 /// One material as written in an MTL file.
 #[derive(Debug, Clone, PartialEq)]
@@ -27,10 +32,14 @@ pub struct MtlMaterial {
     pub name: String,
     /// Diffuse reflectance per channel, in [0, 1) (default 0).
     pub kd: Rgb,
+    /// Whether the file gave `Kd` (a texture alone means `Kd 1 1 1` times the texture).
+    pub kd_given: bool,
     /// Luminous exitance per channel, lm/m² (default 0).
     pub ke: Rgb,
     /// Line of the `newmtl` statement.
     pub line: usize,
+    /// `map_Kd`: the texture file as written, and its line.
+    pub map_kd: Option<(String, usize)>,
 }
 
 /// The materials of one MTL file, and what was ignored in it.
@@ -68,14 +77,17 @@ fn shorten(w: &str) -> String {
 /// Statements of the MTL format that relight does not use: ignored by keyword.
 const IGNORED: &[&str] = &["bump", "disp", "decal", "refl", "norm"];
 
-/// Parses the text of an MTL file; `path` is the display name errors use.
+/// Parses the text of an MTL file leniently; `path` is the display name errors use.
 pub fn parse_mtl_str(path: &str, text: &str) -> Result<MtlLibrary, SceneError> {
-    parse_mtl(Path::new(path), text)
+    parse_mtl(Path::new(path), text, false)
 }
 
-pub(crate) fn parse_mtl(path: &Path, text: &str) -> Result<MtlLibrary, SceneError> {
+/// Parses an MTL file. With `strict`, what a lenient read fixes with a warning (a `Kd`
+/// of 1 or more) is an error.
+pub(crate) fn parse_mtl(path: &Path, text: &str, strict: bool) -> Result<MtlLibrary, SceneError> {
     let mut p = MtlParser {
         path,
+        strict,
         lib: MtlLibrary::default(),
         given: Vec::new(),
         lines_of: HashMap::new(),
@@ -107,6 +119,7 @@ pub(crate) fn parse_mtl(path: &Path, text: &str) -> Result<MtlLibrary, SceneErro
                     ),
                 ));
             }
+            "map_Kd" => p.map_kd(line, words),
             k if NUMERIC.contains(&k) => check_numeric(k, words).map_err(|m| p.syntax(line, m))?,
             k if IGNORED.contains(&k) || k.starts_with("map_") => {}
             k => {
@@ -124,6 +137,8 @@ pub(crate) fn parse_mtl(path: &Path, text: &str) -> Result<MtlLibrary, SceneErro
 struct MtlParser<'a> {
     /// Display name for errors.
     path: &'a Path,
+    /// Errors instead of the lenient fixes.
+    strict: bool,
     lib: MtlLibrary,
     /// Per material: whether Kd / Ke were given.
     given: Vec<[bool; 2]>,
@@ -162,8 +177,10 @@ impl MtlParser<'_> {
         self.lib.materials.push(MtlMaterial {
             name: name.to_string(),
             kd: [0.0; 3],
+            kd_given: false,
             ke: [0.0; 3],
             line,
+            map_kd: None,
         });
         self.given.push([false; 2]);
         Ok(())
@@ -197,14 +214,36 @@ impl MtlParser<'_> {
         seen[slot] = true;
         let v = color_values(key, words).map_err(bad)?;
         if key == "Kd" {
-            if v.iter().any(|&x| !(0.0..1.0).contains(&x)) {
-                return Err(bad(format!(
+            let out_of_range = |strict: bool| {
+                format!(
                     "Kd {} {} {}: diffuse reflectance must be in [0, 1) per channel \
-                     (a surface cannot reflect all the light it receives)",
-                    v[0], v[1], v[2]
-                )));
+                     (a surface cannot reflect all the light it receives){}",
+                    v[0],
+                    v[1],
+                    v[2],
+                    if strict { "; strict = true" } else { "" }
+                )
+            };
+            if v.iter().any(|&x| x < 0.0) || (self.strict && v.iter().any(|&x| x >= 1.0)) {
+                return Err(bad(out_of_range(self.strict)));
             }
+            cur.kd_given = true;
             cur.kd = v;
+            if let Some(k) = clamp_kd(v) {
+                cur.kd = k;
+                let name = cur.name.clone();
+                self.lib.warnings.push(format!(
+                    "{}:{line}: material '{name}': Kd {} {} {} has a channel of 1 or more \
+                     (no surface reflects all the light it receives): scaled to {} {} {}",
+                    path.display(),
+                    v[0],
+                    v[1],
+                    v[2],
+                    k[0],
+                    k[1],
+                    k[2]
+                ));
+            }
         } else {
             if v.iter().any(|&x| !(0.0..=MAX_EXITANCE).contains(&x)) {
                 return Err(bad(format!(
@@ -216,6 +255,19 @@ impl MtlParser<'_> {
             cur.ke = v;
         }
         Ok(())
+    }
+
+    /// `map_Kd [options] FILE` of the current material: the file is the last word.
+    fn map_kd(&mut self, line: usize, words: SplitWhitespace<'_>) {
+        let file = words.take_while(|w| !w.starts_with('#')).last();
+        match (self.lib.materials.last_mut(), file) {
+            (Some(cur), Some(f)) => cur.map_kd = Some((f.to_string(), line)),
+            (None, Some(_)) => self.lib.warnings.push(format!(
+                "{}:{line}: map_Kd before any newmtl ignored",
+                self.path.display()
+            )),
+            (_, None) => {}
+        }
     }
 
     /// The library, with one warning summing up the unknown statements.
@@ -239,6 +291,13 @@ impl MtlParser<'_> {
         }
         self.lib
     }
+}
+
+/// A reflectance with a channel of 1 or more, scaled so its largest channel is
+/// [`MAX_KD`]; None when it is in range.
+pub(crate) fn clamp_kd(v: Rgb) -> Option<Rgb> {
+    let top = v.iter().copied().fold(0.0f32, f32::max);
+    (top >= 1.0).then(|| v.map(|x| (x / top * MAX_KD).min(MAX_KD)))
 }
 
 /// The three channels of a `Kd`/`Ke` statement (one number means grey): finite `f32`s,

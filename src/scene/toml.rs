@@ -27,6 +27,10 @@ pub struct SceneToml {
     pub(crate) scale: Option<f64>,
     /// "auto" (default), "factored" or "columns".
     pub(crate) transfer: Option<TransferChoice>,
+    /// Refuse what a lenient load fixes with a warning: a `Kd` of 1 or more, a missing MTL
+    /// file or texture, an unknown material (default false).
+    #[serde(default)]
+    pub(crate) strict: bool,
     #[serde(default)]
     pub(crate) mesh: MeshToml,
     #[serde(default)]

@@ -29,6 +29,7 @@ mod fuzz_requests;
 mod hardening;
 mod hierarchical;
 mod http;
+mod lenient;
 mod luminaires;
 mod render;
 mod saturation;

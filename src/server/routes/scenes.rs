@@ -55,6 +55,12 @@ pub(crate) struct SceneSummary {
     #[serde(skip_serializing_if = "Option::is_none")]
     #[schema(nullable = false, inline)]
     transfer: Option<TransferMode>,
+    /// Ready scenes: what loading fixed or left out (a `Kd` of 1 or more scaled down, a
+    /// missing MTL file or texture, an unknown material made grey, degenerate triangles
+    /// skipped, …), one line each. `strict = true` in scene.toml makes them errors.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    #[schema(nullable = false)]
+    warnings: Option<Vec<String>>,
     /// Failed scenes.
     #[serde(skip_serializing_if = "Option::is_none")]
     #[schema(nullable = false)]
@@ -74,6 +80,7 @@ impl SceneSummary {
             patches: ready.as_ref().map(|r| r.baked.transfer.n),
             lights: ready.as_ref().map(|r| r.groups.clone()),
             transfer: ready.as_ref().map(|r| r.baked.transfer.mode),
+            warnings: ready.as_ref().map(|r| r.baked.scene.warnings.clone()),
             error,
         }
     }
@@ -136,6 +143,8 @@ pub(crate) struct SceneDetails {
     surfaces: Vec<SurfaceInfo>,
     #[schema(inline)]
     bake: BakeInfo,
+    /// What loading fixed or left out, one line each (see the scene list).
+    warnings: Vec<String>,
 }
 
 impl SceneDetails {
@@ -159,6 +168,7 @@ impl SceneDetails {
                 from_cache: b.stats.from_cache,
                 residual: b.transfer.info.residual,
             },
+            warnings: b.scene.warnings.clone(),
         }
     }
 }

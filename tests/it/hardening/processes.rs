@@ -11,6 +11,8 @@ fn failed_scene_errors_carried_absolute_server_paths() {
     let scene = root.path().join("broken");
     std::fs::create_dir(&scene).unwrap();
     std::fs::write(scene.join("broken.obj"), "mtllib missing.mtl\nv 0 0 0\n").unwrap();
+    // Strict: a lenient load would only warn about the missing MTL file.
+    std::fs::write(scene.join("scene.toml"), "strict = true\n").unwrap();
     let cache = tempfile::tempdir().unwrap();
     let st = AppState::new(ServerConfig {
         scenes: root.path().to_path_buf(),

@@ -140,8 +140,17 @@ async fn a_broken_scene_is_listed_as_failed_and_the_others_serve() {
         "mtllib b.mtl\no t\nusemtl m\nv 0 0 0\nv 1 0 0\nv 0 0 1\nf 1 3 2\n",
     )
     .unwrap();
-    std::fs::write(bad.join("b.mtl"), "newmtl m\nKd 1.5 0.5 0.5\n").unwrap();
+    std::fs::write(bad.join("b.mtl"), "newmtl m\nKd -1.5 0.5 0.5\n").unwrap();
     relight::bench::write_group_room(&dir.path().join("good"), 1, 300).unwrap();
+    // A scene a lenient load fixes: served, with its warnings listed.
+    let fixed = dir.path().join("lenient");
+    std::fs::create_dir(&fixed).unwrap();
+    std::fs::write(
+        fixed.join("l.obj"),
+        "mtllib l.mtl\no t\nusemtl m\nv 0 0 0\nv 1 0 0\nv 0 0 1\nf 1 3 2\n",
+    )
+    .unwrap();
+    std::fs::write(fixed.join("l.mtl"), "newmtl m\nKd 1 1 1\n").unwrap();
     let s = AppState::new(config(dir.path().into(), dir.path().join("cache"))).unwrap();
     s.bake_all();
     let (st, v) = get(router(s.clone()), "/readyz").await;
@@ -153,6 +162,19 @@ async fn a_broken_scene_is_listed_as_failed_and_the_others_serve() {
     let (st, _, v) = post(router(s.clone()), "/api/scenes/broken/radiosity", "{}").await;
     assert_eq!(st, StatusCode::SERVICE_UNAVAILABLE);
     assert!(v["detail"].as_str().unwrap().contains("failed to load"));
-    let (st, _, _) = post(router(s), "/api/scenes/good/radiosity", "{}").await;
+    let (st, _, _) = post(router(s.clone()), "/api/scenes/good/radiosity", "{}").await;
     assert_eq!(st, StatusCode::OK);
+    let lenient = &v2["scenes"][2];
+    assert_eq!(lenient["status"], "ready", "{v2}");
+    let warned = |v: &serde_json::Value| {
+        v["warnings"].as_array().unwrap().iter().any(|w| {
+            w.as_str().unwrap().contains("l.mtl:2")
+                && w.as_str().unwrap().contains("scaled to 0.95")
+        })
+    };
+    assert!(warned(lenient), "{lenient}");
+    assert_eq!(v2["scenes"][1]["warnings"], serde_json::json!([]));
+    let (st, details) = get(router(s), "/api/scenes/lenient").await;
+    assert_eq!(st, StatusCode::OK);
+    assert!(warned(&details), "{details}");
 }

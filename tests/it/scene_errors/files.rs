@@ -147,8 +147,9 @@ fn empty_files_give_clean_errors() {
     std::fs::write(s.path().join("scene.obj"), "").unwrap();
     let e = Scene::load(s.path()).unwrap_err().to_string();
     assert!(e.contains("no usable triangles"), "{e}");
-    // An empty MTL defines no material: the usemtl is unknown.
-    let e = load_err(TRI, "", None);
+    // An empty MTL defines no material: the usemtl is unknown (an error when strict,
+    // grey with a warning otherwise: tests/it/lenient.rs).
+    let e = load_err(TRI, "", Some("strict = true\n"));
     assert!(
         e.contains("scene.obj:3") && e.contains("unknown material 'grey'"),
         "{e}"
@@ -218,7 +219,11 @@ fn errors_name_scene_relative_paths() {
     let _gate = common::shared();
     let cases: Vec<(String, String, Option<String>)> = vec![
         (format!("{TRI}v nan 0 0\n"), GREY_MTL.into(), None),
-        (TRI.into(), "newmtl grey\nKd 2 0 0\n".into(), None),
+        (
+            TRI.into(),
+            "newmtl grey\nKd 2 0 0\n".into(),
+            Some("strict = true\n".into()),
+        ),
         (
             TRI.into(),
             GREY_MTL.into(),

@@ -6,9 +6,14 @@ use super::{load_err, TRI};
 use crate::common::{self, *};
 
 #[test]
-fn reflectance_of_one_or_more_is_rejected() {
+fn reflectance_of_one_or_more_is_rejected_when_strict() {
     let _gate = common::shared();
-    let e = load_err(TRI, "newmtl grey\nKd 1.0 0.5 0.5\n", None);
+    // (Lenient loads scale it down with a warning: tests/it/lenient.rs.)
+    let e = load_err(
+        TRI,
+        "newmtl grey\nKd 1.0 0.5 0.5\n",
+        Some("strict = true\n"),
+    );
     assert!(
         e.contains("scene.mtl:2") && e.contains("grey") && e.contains("[0, 1)"),
         "{e}"

@@ -15,6 +15,7 @@ fn missing_mtl_names_the_obj_line() {
         obj.replace("mtllib scene.mtl", "mtllib nowhere.mtl"),
     )
     .unwrap();
+    std::fs::write(s.path().join("scene.toml"), "strict = true\n").unwrap();
     let e = Scene::load(s.path()).unwrap_err().to_string();
     assert!(
         e.contains("scene.obj:1") && e.contains("nowhere.mtl"),
@@ -71,7 +72,7 @@ fn unknown_material_names_the_line() {
     let e = load_err(
         "o floor\nusemtl chrome\nv 0 0 0\nv 1 0 0\nv 0 0 1\nf 1 3 2\n",
         GREY_MTL,
-        None,
+        Some("strict = true\n"),
     );
     assert!(e.contains("scene.obj:3") && e.contains("chrome"), "{e}");
 }
