@@ -13,9 +13,17 @@
 pub const MAX_OBJ_BYTES: u64 = 256 << 20;
 /// Largest MTL, IES or `scene.toml` file, bytes (16 MiB).
 pub const MAX_TEXT_BYTES: u64 = 16 << 20;
-/// Most `v` lines in an OBJ file.
+/// Largest glTF file (`.gltf` or `.glb`), and largest total of its buffers, bytes (512 MiB).
+pub const MAX_GLTF_BYTES: u64 = 512 << 20;
+/// Deepest glTF node tree (levels below a root node).
+pub const MAX_GLTF_DEPTH: usize = 256;
+/// Most node instances a glTF node tree expands to (a node reached along two paths counts
+/// twice), so shared subtrees cannot multiply without bound.
+pub const MAX_GLTF_NODE_INSTANCES: usize = 1_000_000;
+/// Most `v` lines in an OBJ file (for glTF: vertices over all mesh instances).
 pub const MAX_OBJ_VERTICES: usize = 2_000_000;
-/// Most triangles in an OBJ file, after fan triangulation of its polygons.
+/// Most triangles in an OBJ file, after fan triangulation of its polygons (for glTF: over
+/// all mesh instances).
 pub const MAX_OBJ_TRIANGLES: usize = 1_000_000;
 /// Most `mtllib` statements in an OBJ file.
 pub const MAX_MTLLIBS: usize = 64;

@@ -53,7 +53,7 @@ impl From<&Distribution> for DistributionKind {
     fn from(d: &Distribution) -> DistributionKind {
         match d {
             Distribution::Isotropic => DistributionKind::Isotropic,
-            Distribution::Spot { .. } => DistributionKind::Spot,
+            Distribution::Spot { .. } | Distribution::Cone { .. } => DistributionKind::Spot,
             Distribution::Ies(_) => DistributionKind::Ies,
         }
     }

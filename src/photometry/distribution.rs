@@ -13,6 +13,11 @@ pub enum Distribution {
     /// A cos^m spot around the aim: 50 % of the peak at half the beam angle, zero beyond
     /// half the field angle (degrees, full cone angles).
     Spot { beam_deg: f64, field_deg: f64 },
+    /// A glTF `KHR_lights_punctual` spot: full intensity inside the inner cone, zero
+    /// outside the outer one, and between them the extension's falloff
+    /// `t²` with `t = (cos θ − cos outer) / (cos inner − cos outer)` (degrees, half-angles
+    /// from the aim, 0 ≤ inner < outer ≤ 90).
+    Cone { inner_deg: f64, outer_deg: f64 },
     /// An IES LM-63 table.
     Ies(Box<IesData>),
 }
@@ -33,6 +38,14 @@ impl Distribution {
                 }
                 let m = 0.5f64.ln() / (0.5 * beam_deg).to_radians().cos().ln();
                 a.powf(m)
+            }
+            Distribution::Cone {
+                inner_deg,
+                outer_deg,
+            } => {
+                let (ci, co) = (inner_deg.to_radians().cos(), outer_deg.to_radians().cos());
+                let t = ((a - co) / (ci - co).max(1e-9)).clamp(0.0, 1.0);
+                t * t
             }
             Distribution::Ies(d) => match d.kind {
                 PhotometricType::C => {
@@ -62,6 +75,14 @@ impl Distribution {
     pub(crate) fn integral(&self) -> f64 {
         match self {
             Distribution::Isotropic => 4.0 * std::f64::consts::PI,
+            Distribution::Cone {
+                inner_deg,
+                outer_deg,
+            } => {
+                // 2π ∫ shape d(cos θ): 1 − ci over the inner cone, (ci − co)/3 for the ramp.
+                let (ci, co) = (inner_deg.to_radians().cos(), outer_deg.to_radians().cos());
+                2.0 * std::f64::consts::PI * ((1.0 - ci) + (ci - co) / 3.0)
+            }
             _ => {
                 // Midpoint rule: 0.25° in θ, 1° in φ, exact enough for tables at 1–5°.
                 let (nt, np) = (720, 360);
@@ -82,6 +103,35 @@ impl Distribution {
                 }
                 sum
             }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::Distribution;
+
+    /// The closed-form integral of a glTF cone equals the sphere quadrature of its shape.
+    #[test]
+    fn cone_integral_matches_quadrature() {
+        for (inner, outer) in [(0.0, 45.0), (20.0, 30.0), (10.0, 90.0), (29.9, 30.0)] {
+            let d = Distribution::Cone {
+                inner_deg: inner,
+                outer_deg: outer,
+            };
+            let nt = 4000;
+            let dt = std::f64::consts::PI / nt as f64;
+            let mut sum = 0.0;
+            for i in 0..nt {
+                let t = (i as f64 + 0.5) * dt;
+                let (st, ct) = t.sin_cos();
+                sum += d.shape(ct, st, 0.0) * st * dt * 2.0 * std::f64::consts::PI;
+            }
+            let exact = d.integral();
+            assert!(
+                (sum - exact).abs() < 2e-3 * exact,
+                "inner {inner} outer {outer}: {sum} vs {exact}"
+            );
         }
     }
 }

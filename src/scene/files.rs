@@ -15,6 +15,14 @@ use std::path::{Path, PathBuf};
 
 use super::SceneError;
 
+/// The model file of a scene folder.
+#[derive(Debug, Clone)]
+pub(crate) enum ModelFile {
+    Obj(PathBuf),
+    /// `.gltf` or `.glb`.
+    Gltf(PathBuf),
+}
+
 /// A scene folder: its canonical root and the label errors use for it.
 #[derive(Debug, Clone)]
 pub(crate) struct SceneDir {
@@ -282,24 +290,42 @@ pub(crate) fn human_bytes(n: u64) -> String {
 }
 
 impl SceneDir {
-    /// The folder's one `.obj` file, canonicalized (it must resolve inside the folder).
-    pub fn find_obj(&self) -> Result<PathBuf, SceneError> {
+    /// The folder's one model file (`.obj`, `.gltf` or `.glb`), canonicalized (it must
+    /// resolve inside the folder).
+    pub fn find_model(&self) -> Result<ModelFile, SceneError> {
         let root = self.display_root();
-        let mut objs: Vec<PathBuf> = std::fs::read_dir(&self.root)
+        let is_model = |p: &Path| {
+            p.extension().is_some_and(|e| {
+                ["obj", "gltf", "glb"]
+                    .iter()
+                    .any(|m| e.eq_ignore_ascii_case(m))
+            })
+        };
+        let mut models: Vec<PathBuf> = std::fs::read_dir(&self.root)
             .map_err(|source| SceneError::Io {
                 path: root.clone(),
                 source,
             })?
             .filter_map(|e| e.ok().map(|e| e.path()))
-            .filter(|p| p.extension().is_some_and(|e| e.eq_ignore_ascii_case("obj")))
+            .filter(|p| is_model(p))
             .collect();
-        objs.sort();
-        match objs.len() {
+        models.sort();
+        match models.len() {
             0 => Err(SceneError::NoObj(root)),
-            1 => self.resolve_own(&objs[0]),
+            1 => {
+                let p = self.resolve_own(&models[0])?;
+                let obj = models[0]
+                    .extension()
+                    .is_some_and(|e| e.eq_ignore_ascii_case("obj"));
+                Ok(if obj {
+                    ModelFile::Obj(p)
+                } else {
+                    ModelFile::Gltf(p)
+                })
+            }
             _ => Err(SceneError::ManyObj {
                 dir: root,
-                files: objs
+                files: models
                     .iter()
                     .map(|p| {
                         p.file_name()

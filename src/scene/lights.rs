@@ -53,6 +53,8 @@ type Members = (Vec<u32>, Vec<u32>);
 pub(crate) struct Names<'a> {
     pub(crate) materials: &'a HashMap<String, u32>,
     pub(crate) surfaces: &'a HashMap<String, u32>,
+    /// Light groups the model file defines (glTF `KHR_lights_punctual`).
+    pub(crate) model_groups: &'a [String],
 }
 
 /// Builds the light groups of `[[lights]]`, sets the group of every emissive triangle
@@ -128,10 +130,12 @@ fn configured_group(
     let has_luminaires = cfg
         .luminaires
         .iter()
-        .any(|m| m.group.as_deref().unwrap_or(&m.id) == l.id);
+        .any(|m| m.group.as_deref().unwrap_or(&m.id) == l.id)
+        || names.model_groups.contains(&l.id);
     if mats.is_empty() && surfs.is_empty() && !has_luminaires {
         return Err(invalid(format!(
-            "light '{}' names no materials or surfaces, and no luminaire joins it",
+            "light '{}' names no materials or surfaces, and no luminaire or model light \
+             joins it",
             l.id
         )));
     }

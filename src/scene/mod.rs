@@ -18,6 +18,7 @@
 
 mod cameras;
 mod files;
+mod gltf;
 mod grids;
 mod lights;
 mod luminaires;
@@ -59,9 +60,12 @@ pub enum SceneError {
         #[source]
         source: std::io::Error,
     },
-    #[error("{0}: not a scene folder (no .obj file in it)")]
+    #[error("{0}: not a scene folder (no .obj, .gltf or .glb file in it)")]
     NoObj(PathBuf),
-    #[error("{dir}: more than one .obj file ({files}); a scene folder holds exactly one")]
+    #[error(
+        "{dir}: more than one model file ({files}); a scene folder holds exactly one \
+         .obj, .gltf or .glb"
+    )]
     ManyObj { dir: PathBuf, files: String },
     #[error("{path}: {message}")]
     Toml { path: PathBuf, message: String },
@@ -146,32 +150,44 @@ impl Scene {
     pub fn load(dir: &Path) -> Result<Scene, SceneError> {
         let sd = files::SceneDir::open(dir)?;
         let id = sd.label.clone();
-        let obj_path = sd.find_obj()?;
-        let obj_name = sd.display(&obj_path);
+        let model = sd.find_model()?;
         let toml = self::toml::read_scene_toml(&sd)?;
         let cfg = &toml.cfg;
         let (units, scale) = self::toml::resolve_units(cfg, &toml.path)?;
-
-        let scan = {
-            let text = files::to_text(&obj_name, sd.read(&obj_path, MAX_OBJ_BYTES)?)?;
-            obj::scan_obj(&obj_name, &text, scale)?
+        let mut warnings = Vec::new();
+        let mut files = Vec::new();
+        let (model_name, mut table, parts, model_luminaires) = match model {
+            files::ModelFile::Obj(obj_path) => {
+                let obj_name = sd.display(&obj_path);
+                let scan = {
+                    let text = files::to_text(&obj_name, sd.read(&obj_path, MAX_OBJ_BYTES)?)?;
+                    obj::scan_obj(&obj_name, &text, scale)?
+                };
+                warnings.extend(scan.warnings.iter().cloned());
+                files.push(obj_path);
+                let mut table =
+                    MaterialTable::read(&sd, &obj_name, &scan, cfg, &mut files, &mut warnings)?;
+                table.add_missing(&scan.usemtl, &obj_name, cfg, &mut warnings)?;
+                let parts = obj::read_obj(&obj_name, &scan, &table.names())?;
+                (obj_name, table, parts, Vec::new())
+            }
+            files::ModelFile::Gltf(path) => {
+                let name = sd.display(&path);
+                files.push(path.clone());
+                let m = gltf::read_gltf(&sd, &path, cfg, scale, &mut files, &mut warnings)?;
+                (name, m.table, m.parts, m.luminaires)
+            }
         };
-        let mut warnings = scan.warnings.clone();
-        let mut files = vec![obj_path];
-        let mut table = MaterialTable::read(&sd, &obj_name, &scan, cfg, &mut files, &mut warnings)?;
         if let Some(p) = &toml.canon {
             files.push(p.clone());
         }
-        table.add_missing(&scan.usemtl, &obj_name, cfg, &mut warnings)?;
         table.check_options(cfg, &toml.path)?;
-        let parts = obj::read_obj(&obj_name, &scan, &table.names())?;
-        drop(scan);
         let geometry = Geometry::build(
             &parts,
             scale,
             cfg,
             &mut table,
-            &obj_name,
+            &model_name,
             &toml.path,
             &mut warnings,
         )?;
@@ -190,6 +206,10 @@ impl Scene {
         let names = lights::Names {
             materials: &mat_index,
             surfaces: &surf_index,
+            model_groups: &model_luminaires
+                .iter()
+                .map(|(g, _)| g.clone())
+                .collect::<Vec<_>>(),
         };
         let mut lights = lights::assign_lights(
             cfg,
@@ -202,6 +222,7 @@ impl Scene {
         let cameras = cameras::build_cameras(cfg, scale);
         let toml_ref = luminaires::TomlRef::new(&sd, &toml.path, &toml.text);
         luminaires::add_luminaires(cfg, &toml_ref, scale, &mut lights, &mut files)?;
+        gltf::add_gltf_luminaires(&mut lights, model_luminaires);
         lights::check_group_count(&lights, &toml.path)?;
         let grids = grids::build_grids(cfg, &toml.path, scale, &triangles)?;
         let mesh = mesh_settings(cfg, scale, &triangles, &materials, &surfaces);

@@ -26,6 +26,7 @@ mod configuration_factors;
 mod cornell;
 mod fuzz;
 mod fuzz_requests;
+mod gltf_import;
 mod hardening;
 mod hierarchical;
 mod http;

@@ -12,6 +12,7 @@
 //! explore other inputs and `RELIGHT_FUZZ_SCALE` (a factor, default 1) to run more cases.
 //! Each test prints its case count and time.
 
+mod gltf;
 mod ies;
 mod mtl;
 mod mutate;

@@ -41,7 +41,7 @@ fn bad_luminaires_and_grids_get_precise_errors() {
         ),
         (
             "[[lights]]\nid = \"empty\"\n".into(),
-            "names no materials or surfaces, and no luminaire joins it",
+            "names no materials or surfaces, and no luminaire or model light joins it",
         ),
     ];
     for (toml, needle) in cases {

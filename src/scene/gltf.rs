@@ -1,0 +1,844 @@
+//! glTF 2.0 scenes: a `.gltf` file with its buffers, or one `.glb`.
+//!
+//! What is read, and how it maps onto relight's scene:
+//! - **Geometry**: the default scene's node tree (the first scene if none is marked, every
+//!   root node if the file has no scene), each node's transform composed with its
+//!   parents'. Meshes referenced by several nodes are instanced once per node.
+//!   `TRIANGLES`, `TRIANGLE_STRIP` and `TRIANGLE_FAN` primitives are read; points and lines
+//!   are skipped with a warning. Units are metres (`units`/`scale` in `scene.toml` still
+//!   apply). A node with a negative-determinant transform has its triangles' winding
+//!   flipped, so fronts stay fronts.
+//! - **Surfaces**: one per node, named after the node (else its mesh, else `node<i>`),
+//!   made unique with `-2`, `-3`, … suffixes.
+//! - **Reflectance** (diffuse, per channel): `(1 − metallicFactor) × baseColorFactor.rgb ×`
+//!   the mean linear colour of `baseColorTexture` (alpha-weighted). glTF's metallic
+//!   surfaces reflect specularly, which radiosity does not model, so a metal reflects no
+//!   diffuse light. Alpha and transmission are not modelled (surfaces are opaque). A
+//!   channel of 1 or more is scaled to [`MAX_KD`] with a warning (`strict`: an error).
+//! - **Emission**: `emissiveFactor × KHR_materials_emissive_strength ×` the mean of
+//!   `emissiveTexture` is read as luminance in cd/m²; the exitance of a Lambertian emitter
+//!   is π times that, in lm/m².
+//! - **Lights** (`KHR_lights_punctual`): point and spot lights become luminaires, with
+//!   `intensity` as the luminous intensity in candela (the `color` sets the chromaticity
+//!   only) and the spot's cone angles shaping it as the extension specifies
+//!   ([`Distribution::Cone`]). `range` is ignored (light falls off with the inverse square).
+//!   Nodes that use the same light definition form one light group, named after the light.
+//!   Directional lights are skipped with a warning.
+//! - Primitives without a material get the grey default (ρ 0.5), as in OBJ scenes.
+//!
+//! Safety: buffers and images are files inside the scene folder (or data URIs, or the
+//! `.glb`'s binary chunk); every accessor is bounds-checked against its buffer before it is
+//! read, so a hostile file is an error, never a panic. Counts are bounded by the OBJ limits
+//! ([`MAX_OBJ_VERTICES`], [`MAX_OBJ_TRIANGLES`]) over all instances, node trees by
+//! [`MAX_GLTF_DEPTH`] and [`MAX_GLTF_NODE_INSTANCES`].
+
+use std::collections::{HashMap, HashSet};
+use std::path::{Path, PathBuf};
+
+use base64::Engine as _;
+use glam::{DMat4, DVec3};
+
+use super::files::{self, SceneDir};
+use super::lights::LightGroup;
+use super::materials::{Material, MaterialTable};
+use super::obj::ObjPart;
+use super::{mtl, texture, SceneError, SceneToml};
+use crate::color::Rgb;
+use crate::limits::{
+    MAX_COORD_M, MAX_EXITANCE, MAX_GLTF_BYTES, MAX_GLTF_DEPTH, MAX_GLTF_NODE_INSTANCES, MAX_KD,
+    MAX_LIGHT_GROUPS, MAX_OBJ_TRIANGLES, MAX_OBJ_VERTICES, MAX_TEXTURES, MAX_TEXTURE_BYTES,
+};
+use crate::photometry::{Distribution, Luminaire};
+
+/// What a glTF file gives the scene loader.
+pub(crate) struct GltfModel {
+    pub(crate) table: MaterialTable,
+    /// One part per (node, primitive), named after the node's surface.
+    pub(crate) parts: Vec<ObjPart>,
+    /// Luminaires (metres) with the id of their light group.
+    pub(crate) luminaires: Vec<(String, Luminaire)>,
+}
+
+/// Reads the glTF/GLB file at canonical `path` in `sd`. `scale` converts file units to
+/// metres (for luminaire positions; parts stay in file units like OBJ parts).
+pub(crate) fn read_gltf(
+    sd: &SceneDir,
+    path: &Path,
+    cfg: &SceneToml,
+    scale: f64,
+    files: &mut Vec<PathBuf>,
+    warnings: &mut Vec<String>,
+) -> Result<GltfModel, SceneError> {
+    let shown = sd.display(path);
+    let bytes = sd.read(path, MAX_GLTF_BYTES)?;
+    // The crate's accessors index arrays it has validated; anything it could still trip
+    // on is caught here rather than taking the process down.
+    let result = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+        Reader::new(sd, &shown, cfg, scale, warnings).read(&bytes, files)
+    }));
+    match result {
+        Ok(r) => r,
+        Err(_) => Err(invalid(
+            &shown,
+            "the file could not be read (malformed glTF)".into(),
+        )),
+    }
+}
+
+fn invalid(path: &Path, message: String) -> SceneError {
+    SceneError::Invalid {
+        path: path.to_path_buf(),
+        message,
+    }
+}
+
+struct Reader<'a> {
+    sd: &'a SceneDir,
+    shown: &'a Path,
+    cfg: &'a SceneToml,
+    scale: f64,
+    warnings: &'a mut Vec<String>,
+}
+
+/// Raw buffer contents, one per glTF buffer, each exactly its declared length.
+type Buffers = Vec<Vec<u8>>;
+
+impl<'a> Reader<'a> {
+    fn new(
+        sd: &'a SceneDir,
+        shown: &'a Path,
+        cfg: &'a SceneToml,
+        scale: f64,
+        warnings: &'a mut Vec<String>,
+    ) -> Reader<'a> {
+        Reader {
+            sd,
+            shown,
+            cfg,
+            scale,
+            warnings,
+        }
+    }
+
+    fn err(&self, message: String) -> SceneError {
+        invalid(self.shown, message)
+    }
+
+    fn read(mut self, bytes: &[u8], files: &mut Vec<PathBuf>) -> Result<GltfModel, SceneError> {
+        let bad = |e: gltf::Error| self.err(format!("not a valid glTF 2.0 file: {e}"));
+        let unchecked = gltf::Gltf::from_slice_without_validation(bytes).map_err(bad)?;
+        // gltf-json's validation indexes `accessors` with a primitive's POSITION before it
+        // checks the index: check it here first.
+        let root = unchecked.document.into_json();
+        for (m, mesh) in root.meshes.iter().enumerate() {
+            for (k, prim) in mesh.primitives.iter().enumerate() {
+                if let Some((_, a)) = prim
+                    .attributes
+                    .iter()
+                    .find(|(_, a)| root.accessors.get(a.value()).is_none())
+                {
+                    return Err(self.err(format!(
+                        "meshes[{m}].primitives[{k}]: accessor {} does not exist",
+                        a.value()
+                    )));
+                }
+            }
+        }
+        let gltf = gltf::Gltf {
+            document: gltf::Document::from_json(root).map_err(bad)?,
+            blob: unchecked.blob,
+        };
+        let version = gltf.document.as_json().asset.version.clone();
+        if version.split('.').next() != Some("2") {
+            return Err(self.err(format!("glTF version {version} is not read (glTF 2.x is)")));
+        }
+        let buffers = self.buffers(&gltf, files)?;
+        let mut table = MaterialTable::default();
+        let mats = self.materials(&gltf.document, &buffers, &mut table, files)?;
+        let mut out = GltfModel {
+            table,
+            parts: Vec::new(),
+            luminaires: Vec::new(),
+        };
+        self.walk(&gltf.document, &buffers, &mats, &mut out)?;
+        Ok(out)
+    }
+
+    /// The bytes of every buffer: the GLB binary chunk, a data URI, or a file in the folder.
+    fn buffers(&self, gltf: &gltf::Gltf, files: &mut Vec<PathBuf>) -> Result<Buffers, SceneError> {
+        let mut total = 0u64;
+        let mut out = Vec::new();
+        for b in gltf.document.buffers() {
+            let what = format!("buffers[{}]", b.index());
+            let mut data = match b.source() {
+                gltf::buffer::Source::Bin => gltf
+                    .blob
+                    .clone()
+                    .ok_or_else(|| self.err(format!("{what}: no binary chunk in the file")))?,
+                gltf::buffer::Source::Uri(uri) => {
+                    self.uri_bytes(uri, &what, MAX_GLTF_BYTES, files)?
+                }
+            };
+            let len = b.length();
+            if data.len() < len {
+                return Err(self.err(format!(
+                    "{what}: byteLength is {len} but the data has {} bytes",
+                    data.len()
+                )));
+            }
+            data.truncate(len);
+            total += len as u64;
+            if total > MAX_GLTF_BYTES {
+                return Err(self.err(format!(
+                    "the buffers hold more than {} in all",
+                    files::human_bytes(MAX_GLTF_BYTES)
+                )));
+            }
+            out.push(data);
+        }
+        Ok(out)
+    }
+
+    /// The bytes a URI names: a base64 data URI, or a file inside the scene folder.
+    fn uri_bytes(
+        &self,
+        uri: &str,
+        what: &str,
+        limit: u64,
+        files: &mut Vec<PathBuf>,
+    ) -> Result<Vec<u8>, SceneError> {
+        if let Some(rest) = uri.strip_prefix("data:") {
+            let (_, payload) = rest
+                .split_once(";base64,")
+                .ok_or_else(|| self.err(format!("{what}: only base64 data URIs are read")))?;
+            if payload.len() as u64 / 4 * 3 > limit {
+                return Err(self.err(format!(
+                    "{what}: data URI larger than {}",
+                    files::human_bytes(limit)
+                )));
+            }
+            return base64::engine::general_purpose::STANDARD
+                .decode(payload.trim_end())
+                .map_err(|e| self.err(format!("{what}: bad base64 data URI ({e})")));
+        }
+        let name =
+            percent_decode(uri).ok_or_else(|| self.err(format!("{what}: bad URI '{uri}'")))?;
+        let p = self.sd.resolve(&name, self.shown, 0, what)?;
+        let bytes = self.sd.read(&p, limit)?;
+        if !files.contains(&p) {
+            files.push(p);
+        }
+        Ok(bytes)
+    }
+
+    /// The relight material of every glTF material (by index).
+    fn materials(
+        &mut self,
+        doc: &gltf::Document,
+        buffers: &Buffers,
+        table: &mut MaterialTable,
+        files: &mut Vec<PathBuf>,
+    ) -> Result<Vec<u32>, SceneError> {
+        let mut names = Unique::default();
+        let mut textures = 0usize;
+        let mut out = Vec::new();
+        for m in doc.materials() {
+            let i = m.index().unwrap_or(0);
+            let name = names.take(m.name(), || format!("material{i}"));
+            let pbr = m.pbr_metallic_roughness();
+            let base = pbr.base_color_factor();
+            let metallic = pbr.metallic_factor().clamp(0.0, 1.0);
+            let mut kd: Rgb = std::array::from_fn(|c| (1.0 - metallic) * base[c]);
+            if let Some(info) = pbr.base_color_texture() {
+                if let Some(mean) =
+                    self.texture_mean(info.texture(), &name, buffers, &mut textures, files)?
+                {
+                    kd = std::array::from_fn(|c| kd[c] * mean[c]);
+                }
+            }
+            if kd.iter().any(|x| !x.is_finite() || *x < 0.0) {
+                return Err(self.err(format!(
+                    "material '{name}': base colour {kd:?} must be finite and ≥ 0"
+                )));
+            }
+            if metallic >= 1.0 && base[..3].iter().any(|&b| b > 0.0) {
+                self.warnings.push(format!(
+                    "{}: material '{name}' is fully metallic (metallicFactor 1, the glTF \
+                     default): it reflects no diffuse light",
+                    self.shown.display()
+                ));
+            }
+            if let Some(k) = mtl::clamp_kd(kd) {
+                if self.cfg.strict {
+                    return Err(self.err(format!(
+                        "material '{name}': diffuse reflectance {kd:?} must be below 1 per \
+                         channel (strict = true; a lenient load would use {k:?})"
+                    )));
+                }
+                self.warnings.push(format!(
+                    "{}: material '{name}': diffuse reflectance reaches 1: scaled to {} {} {} \
+                     (at most {MAX_KD})",
+                    self.shown.display(),
+                    k[0],
+                    k[1],
+                    k[2]
+                ));
+                kd = k;
+            }
+            let strength = m.emissive_strength().unwrap_or(1.0);
+            let ef = m.emissive_factor();
+            let mut ke: Rgb = std::array::from_fn(|c| std::f32::consts::PI * ef[c] * strength);
+            if ke.iter().any(|&x| x > 0.0) {
+                if let Some(info) = m.emissive_texture() {
+                    if let Some(mean) =
+                        self.texture_mean(info.texture(), &name, buffers, &mut textures, files)?
+                    {
+                        ke = std::array::from_fn(|c| ke[c] * mean[c]);
+                    }
+                }
+            }
+            if ke
+                .iter()
+                .any(|x| !x.is_finite() || *x < 0.0 || *x > MAX_EXITANCE)
+            {
+                return Err(self.err(format!(
+                    "material '{name}': emission (π × emissiveFactor × strength) {ke:?} lm/m² \
+                     must be in [0, {MAX_EXITANCE}]"
+                )));
+            }
+            let two_sided =
+                m.double_sided() || self.cfg.material.get(&name).is_some_and(|o| o.two_sided);
+            out.push(table.push(
+                Material {
+                    name,
+                    kd,
+                    ke,
+                    two_sided,
+                },
+                self.shown,
+            )?);
+        }
+        Ok(out)
+    }
+
+    /// The mean linear colour of a texture's image, or None (with a warning) when it
+    /// cannot be read and the load is lenient.
+    fn texture_mean(
+        &mut self,
+        tex: gltf::Texture<'_>,
+        material: &str,
+        buffers: &Buffers,
+        count: &mut usize,
+        files: &mut Vec<PathBuf>,
+    ) -> Result<Option<Rgb>, SceneError> {
+        *count += 1;
+        if *count > MAX_TEXTURES {
+            return Err(self.err(format!("more than {MAX_TEXTURES} textures")));
+        }
+        let img = tex.source();
+        let what = format!("images[{}]", img.index());
+        let bytes = match img.source() {
+            gltf::image::Source::View { view, .. } => view_bytes(&view, buffers)
+                .map(<[u8]>::to_vec)
+                .ok_or_else(|| self.err(format!("{what}: its bufferView lies outside its buffer"))),
+            gltf::image::Source::Uri { uri, .. } => {
+                let plain = !uri.starts_with("data:");
+                match percent_decode(uri) {
+                    Some(name) if plain && !self.cfg.strict => {
+                        match self.sd.resolve_lenient(&name, self.shown, 0, &what)? {
+                            Some(_) => self.uri_bytes(uri, &what, MAX_TEXTURE_BYTES, files),
+                            None => {
+                                self.warnings.push(format!(
+                                    "{}: texture '{name}' of material '{material}' is not in \
+                                     the scene folder: its factor is used alone",
+                                    self.shown.display()
+                                ));
+                                return Ok(None);
+                            }
+                        }
+                    }
+                    _ => self.uri_bytes(uri, &what, MAX_TEXTURE_BYTES, files),
+                }
+            }
+        }?;
+        match texture::mean_linear_rgb(&bytes) {
+            Ok(m) => Ok(Some(m)),
+            Err(e) if self.cfg.strict => Err(self.err(format!(
+                "{what} (material '{material}') cannot be read: {e} (strict = true)"
+            ))),
+            Err(e) => {
+                self.warnings.push(format!(
+                    "{}: {what} of material '{material}' cannot be read ({e}): its factor is \
+                     used alone",
+                    self.shown.display()
+                ));
+                Ok(None)
+            }
+        }
+    }
+
+    /// Walks the node tree: meshes become parts, lights luminaires.
+    fn walk(
+        &mut self,
+        doc: &gltf::Document,
+        buffers: &Buffers,
+        mats: &[u32],
+        out: &mut GltfModel,
+    ) -> Result<(), SceneError> {
+        let roots: Vec<gltf::Node<'_>> = match doc.default_scene().or_else(|| doc.scenes().next()) {
+            Some(s) => s.nodes().collect(),
+            None => {
+                let children: HashSet<usize> = doc
+                    .nodes()
+                    .flat_map(|n| n.children().map(|c| c.index()).collect::<Vec<_>>())
+                    .collect();
+                doc.nodes()
+                    .filter(|n| !children.contains(&n.index()))
+                    .collect()
+            }
+        };
+        let mut surfaces = Unique::default();
+        let mut lum_ids = Unique::default();
+        let mut groups: HashMap<usize, String> = HashMap::new();
+        let mut group_names = Unique::default();
+        let mut counts = (0usize, 0usize);
+        let mut skipped_modes = 0usize;
+        let mut skipped_directional = 0usize;
+        let mut stack: Vec<(gltf::Node<'_>, DMat4, usize)> = roots
+            .into_iter()
+            .rev()
+            .map(|n| (n, DMat4::IDENTITY, 0))
+            .collect();
+        let mut visited = 0usize;
+        while let Some((node, parent, depth)) = stack.pop() {
+            visited += 1;
+            if visited > MAX_GLTF_NODE_INSTANCES {
+                return Err(self.err(format!(
+                    "the node tree expands to more than {MAX_GLTF_NODE_INSTANCES} node instances"
+                )));
+            }
+            if depth >= MAX_GLTF_DEPTH {
+                return Err(self.err(format!(
+                    "nodes[{}]: the node tree is deeper than {MAX_GLTF_DEPTH} levels (a cycle?)",
+                    node.index()
+                )));
+            }
+            let local = node.transform().matrix().map(|c| c.map(f64::from));
+            let world = parent * DMat4::from_cols_array_2d(&local);
+            if !world.is_finite() {
+                return Err(self.err(format!("nodes[{}]: transform is not finite", node.index())));
+            }
+            if let Some(mesh) = node.mesh() {
+                let name = surfaces.take(node.name().or(mesh.name()), || {
+                    format!("node{}", node.index())
+                });
+                for prim in mesh.primitives() {
+                    let Some(tris) = self.primitive(&prim, &mesh, buffers, &mut skipped_modes)?
+                    else {
+                        continue;
+                    };
+                    let (positions, indices) = tris;
+                    counts.0 += positions.len();
+                    counts.1 += indices.len();
+                    if counts.0 > MAX_OBJ_VERTICES || counts.1 > MAX_OBJ_TRIANGLES {
+                        return Err(self.err(format!(
+                            "more than {MAX_OBJ_VERTICES} vertices or {MAX_OBJ_TRIANGLES} \
+                             triangles over all mesh instances"
+                        )));
+                    }
+                    let part = self.part(&name, &world, &positions, &indices, &prim, mats)?;
+                    out.parts.push(part);
+                }
+            }
+            if let Some(light) = node.light() {
+                self.light(
+                    &node,
+                    &light,
+                    &world,
+                    &mut lum_ids,
+                    &mut groups,
+                    &mut group_names,
+                    &mut skipped_directional,
+                    out,
+                )?;
+            }
+            for c in node.children().collect::<Vec<_>>().into_iter().rev() {
+                stack.push((c, world, depth + 1));
+            }
+        }
+        if skipped_modes > 0 {
+            self.warnings.push(format!(
+                "{}: {skipped_modes} primitive(s) of points or lines skipped (only triangles \
+                 take part in radiosity)",
+                self.shown.display()
+            ));
+        }
+        if skipped_directional > 0 {
+            self.warnings.push(format!(
+                "{}: {skipped_directional} directional light(s) skipped (luminaires are points \
+                 and spots)",
+                self.shown.display()
+            ));
+        }
+        Ok(())
+    }
+
+    /// The positions (file units, untransformed) and triangles of one primitive; None for
+    /// primitives that are not triangles.
+    #[allow(clippy::type_complexity)]
+    fn primitive(
+        &self,
+        prim: &gltf::Primitive<'_>,
+        mesh: &gltf::Mesh<'_>,
+        buffers: &Buffers,
+        skipped: &mut usize,
+    ) -> Result<Option<(Vec<[f32; 3]>, Vec<[u32; 3]>)>, SceneError> {
+        use gltf::mesh::Mode;
+        let what = format!("meshes[{}].primitives[{}]", mesh.index(), prim.index());
+        let mode = prim.mode();
+        if !matches!(
+            mode,
+            Mode::Triangles | Mode::TriangleStrip | Mode::TriangleFan
+        ) {
+            *skipped += 1;
+            return Ok(None);
+        }
+        let pos = prim
+            .get(&gltf::Semantic::Positions)
+            .ok_or_else(|| self.err(format!("{what}: no POSITION attribute")))?;
+        if pos.data_type() != gltf::accessor::DataType::F32
+            || pos.dimensions() != gltf::accessor::Dimensions::Vec3
+            || pos.normalized()
+        {
+            return Err(self.err(format!(
+                "{what}: POSITION must be float VEC3 (quantized positions are not read)"
+            )));
+        }
+        let raw = accessor_bytes(&pos, buffers, 12, MAX_OBJ_VERTICES)
+            .map_err(|m| self.err(format!("{what}: POSITION {m}")))?;
+        let positions: Vec<[f32; 3]> = raw
+            .map(|b| {
+                std::array::from_fn(|k| {
+                    f32::from_le_bytes(b[4 * k..4 * k + 4].try_into().unwrap_or([0; 4]))
+                })
+            })
+            .collect();
+        let n = positions.len();
+        let list: Vec<u32> = match prim.indices() {
+            None => (0..n as u32).collect(),
+            Some(acc) => {
+                use gltf::accessor::DataType;
+                let size = match acc.data_type() {
+                    DataType::U8 => 1,
+                    DataType::U16 => 2,
+                    DataType::U32 => 4,
+                    other => {
+                        return Err(self.err(format!(
+                            "{what}: indices must be unsigned integers, not {other:?}"
+                        )))
+                    }
+                };
+                if acc.dimensions() != gltf::accessor::Dimensions::Scalar {
+                    return Err(self.err(format!("{what}: indices must be SCALAR")));
+                }
+                let raw = accessor_bytes(&acc, buffers, size, 3 * MAX_OBJ_TRIANGLES)
+                    .map_err(|m| self.err(format!("{what}: indices {m}")))?;
+                let list: Vec<u32> = raw
+                    .map(|b| match size {
+                        1 => b[0] as u32,
+                        2 => u16::from_le_bytes([b[0], b[1]]) as u32,
+                        _ => u32::from_le_bytes([b[0], b[1], b[2], b[3]]),
+                    })
+                    .collect();
+                if let Some(bad) = list.iter().find(|&&i| i as usize >= n) {
+                    return Err(
+                        self.err(format!("{what}: index {bad} out of range ({n} vertices)"))
+                    );
+                }
+                list
+            }
+        };
+        let tris: Vec<[u32; 3]> = match mode {
+            Mode::Triangles => list.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect(),
+            Mode::TriangleStrip => (2..list.len())
+                .map(|i| {
+                    if i % 2 == 0 {
+                        [list[i - 2], list[i - 1], list[i]]
+                    } else {
+                        [list[i - 1], list[i - 2], list[i]]
+                    }
+                })
+                .collect(),
+            _ => (2..list.len())
+                .map(|i| [list[0], list[i - 1], list[i]])
+                .collect(),
+        };
+        Ok(Some((positions, tris)))
+    }
+
+    /// One part: the primitive's triangles in file units, transformed by `world`.
+    fn part(
+        &self,
+        name: &str,
+        world: &DMat4,
+        positions: &[[f32; 3]],
+        tris: &[[u32; 3]],
+        prim: &gltf::Primitive<'_>,
+        mats: &[u32],
+    ) -> Result<ObjPart, SceneError> {
+        let flip = world.determinant() < 0.0;
+        let mut flat = Vec::with_capacity(3 * positions.len());
+        for p in positions {
+            let w = world.transform_point3(DVec3::new(p[0] as f64, p[1] as f64, p[2] as f64));
+            if !w.is_finite() || (w * self.scale).abs().max_element() > MAX_COORD_M {
+                return Err(self.err(format!(
+                    "node '{name}': vertex {w} lies beyond {MAX_COORD_M} m"
+                )));
+            }
+            flat.extend([w.x as f32, w.y as f32, w.z as f32]);
+        }
+        let indices = tris
+            .iter()
+            .flat_map(|t| if flip { [t[0], t[2], t[1]] } else { *t })
+            .collect();
+        let material = prim
+            .material()
+            .index()
+            .and_then(|i| mats.get(i))
+            .map(|&m| m as usize);
+        Ok(ObjPart {
+            name: name.to_string(),
+            material,
+            positions: flat,
+            indices,
+        })
+    }
+
+    /// A `KHR_lights_punctual` light on `node`: a luminaire in the light's group.
+    #[allow(clippy::too_many_arguments)]
+    fn light(
+        &mut self,
+        node: &gltf::Node<'_>,
+        light: &gltf::khr_lights_punctual::Light<'_>,
+        world: &DMat4,
+        ids: &mut Unique,
+        groups: &mut HashMap<usize, String>,
+        group_names: &mut Unique,
+        skipped: &mut usize,
+        out: &mut GltfModel,
+    ) -> Result<(), SceneError> {
+        use gltf::khr_lights_punctual::Kind;
+        let distribution = match light.kind() {
+            Kind::Directional => {
+                *skipped += 1;
+                return Ok(());
+            }
+            Kind::Point => Distribution::Isotropic,
+            Kind::Spot {
+                inner_cone_angle,
+                outer_cone_angle,
+            } => {
+                let (i, o) = (
+                    (inner_cone_angle as f64).to_degrees(),
+                    (outer_cone_angle as f64).to_degrees(),
+                );
+                if !(i >= 0.0 && i < o && o <= 90.0) {
+                    return Err(self.err(format!(
+                        "light '{}': spot cone angles need 0 ≤ inner ({i:.3}°) < outer \
+                         ({o:.3}°) ≤ 90°",
+                        light.name().unwrap_or("?")
+                    )));
+                }
+                Distribution::Cone {
+                    inner_deg: i,
+                    outer_deg: o,
+                }
+            }
+        };
+        let group = match groups.get(&light.index()) {
+            Some(g) => g.clone(),
+            None => {
+                if groups.len() >= MAX_LIGHT_GROUPS {
+                    return Err(self.err(format!("more than {MAX_LIGHT_GROUPS} lights")));
+                }
+                let g = group_names.take(light.name().map(sanitize_id).as_deref(), || {
+                    format!("light{}", light.index())
+                });
+                groups.insert(light.index(), g.clone());
+                g
+            }
+        };
+        let id = ids.take(node.name(), || format!("node{}", node.index()));
+        let position = world.transform_point3(DVec3::ZERO) * self.scale;
+        let aim = world.transform_vector3(DVec3::NEG_Z);
+        let candela = light.intensity() as f64;
+        if !(candela.is_finite() && candela >= 0.0) {
+            return Err(self.err(format!("light '{id}': intensity must be finite and ≥ 0")));
+        }
+        let color = light.color();
+        let integral = distribution.integral();
+        let lum = Luminaire::with_integral(
+            &id,
+            position,
+            aim,
+            None,
+            distribution,
+            integral,
+            Some(candela * integral),
+            color,
+            None,
+        )
+        .map_err(|m| self.err(format!("light on node '{id}': {m}")))?;
+        out.luminaires.push((group, lum));
+        Ok(())
+    }
+}
+
+/// Names made unique: the first use of a name keeps it, later ones get `-2`, `-3`, ….
+#[derive(Default)]
+struct Unique(HashSet<String>);
+
+impl Unique {
+    fn take(&mut self, name: Option<&str>, fallback: impl FnOnce() -> String) -> String {
+        let base = match name.map(str::trim) {
+            Some(n) if !n.is_empty() => n.to_string(),
+            _ => fallback(),
+        };
+        let mut name = base.clone();
+        let mut k = 2;
+        while self.0.contains(&name) {
+            name = format!("{base}-{k}");
+            k += 1;
+        }
+        self.0.insert(name.clone());
+        name
+    }
+}
+
+/// A light name as a group id: lower case, runs of other characters than `a-z0-9_` as `-`.
+fn sanitize_id(name: &str) -> String {
+    let mut s = String::new();
+    for c in name.chars().flat_map(char::to_lowercase) {
+        if c.is_ascii_alphanumeric() || c == '_' {
+            s.push(c);
+        } else if !s.ends_with('-') {
+            s.push('-');
+        }
+    }
+    s.trim_matches('-').chars().take(64).collect()
+}
+
+/// `%XX` escapes decoded (URIs in glTF are URI-encoded); None for bad escapes or UTF-8.
+fn percent_decode(uri: &str) -> Option<String> {
+    let b = uri.as_bytes();
+    let mut out = Vec::with_capacity(b.len());
+    let mut i = 0;
+    while i < b.len() {
+        if b[i] == b'%' {
+            let hex = std::str::from_utf8(b.get(i + 1..i + 3)?).ok()?;
+            out.push(u8::from_str_radix(hex, 16).ok()?);
+            i += 3;
+        } else {
+            out.push(b[i]);
+            i += 1;
+        }
+    }
+    String::from_utf8(out).ok()
+}
+
+/// The bytes of a buffer view, if it lies inside its buffer.
+fn view_bytes<'b>(view: &gltf::buffer::View<'_>, buffers: &'b Buffers) -> Option<&'b [u8]> {
+    let data = buffers.get(view.buffer().index())?;
+    let end = view.offset().checked_add(view.length())?;
+    data.get(view.offset()..end)
+}
+
+/// The `count` elements of `size` bytes an accessor reads, each bounds-checked against its
+/// view and buffer. Sparse accessors and accessors without a view are refused.
+fn accessor_bytes<'b>(
+    acc: &gltf::Accessor<'_>,
+    buffers: &'b Buffers,
+    size: usize,
+    max_count: usize,
+) -> Result<impl Iterator<Item = &'b [u8]>, String> {
+    if acc.sparse().is_some() {
+        return Err("is sparse; sparse accessors are not read".into());
+    }
+    let view = acc.view().ok_or("has no bufferView")?;
+    let count = acc.count();
+    if count > max_count {
+        return Err(format!("has {count} elements, more than {max_count}"));
+    }
+    let stride = view.stride().unwrap_or(size);
+    if stride < size {
+        return Err(format!(
+            "byteStride {stride} is smaller than an element ({size} bytes)"
+        ));
+    }
+    let data = view_bytes(&view, buffers).ok_or("lies outside its buffer (bufferView)")?;
+    let start = acc.offset();
+    if count > 0 {
+        let end = (count - 1)
+            .checked_mul(stride)
+            .and_then(|x| x.checked_add(start))
+            .and_then(|x| x.checked_add(size))
+            .ok_or("is too large")?;
+        if end > data.len() {
+            return Err(format!(
+                "reads bytes {start}..{end} of a bufferView of {} bytes",
+                data.len()
+            ));
+        }
+    }
+    Ok((0..count).map(move |k| &data[start + k * stride..start + k * stride + size]))
+}
+
+impl MaterialTable {
+    /// Adds a material read from a model file (glTF); its index.
+    pub(crate) fn push(&mut self, m: Material, shown: &Path) -> Result<u32, SceneError> {
+        if self.materials.len() >= crate::limits::MAX_MATERIALS {
+            return Err(invalid(
+                shown,
+                format!("more than {} materials", crate::limits::MAX_MATERIALS),
+            ));
+        }
+        let i = self.materials.len() as u32;
+        self.index.insert(m.name.clone(), i);
+        self.materials.push(m);
+        Ok(i)
+    }
+}
+
+/// Attaches the glTF luminaires to their groups, creating groups `[[lights]]` does not
+/// define.
+pub(crate) fn add_gltf_luminaires(
+    lights: &mut Vec<LightGroup>,
+    luminaires: Vec<(String, Luminaire)>,
+) {
+    for (gid, lum) in luminaires {
+        let g = match lights.iter().position(|g| g.id == gid) {
+            Some(g) => g,
+            None => {
+                lights.push(LightGroup::plain(&gid));
+                lights.len() - 1
+            }
+        };
+        lights[g].luminaires.push(lum);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{percent_decode, sanitize_id, Unique};
+
+    #[test]
+    fn names_are_made_unique_and_ids_safe() {
+        let mut u = Unique::default();
+        assert_eq!(u.take(Some("Desk"), || "x".into()), "Desk");
+        assert_eq!(u.take(Some("Desk"), || "x".into()), "Desk-2");
+        assert_eq!(u.take(Some(" "), || "node3".into()), "node3");
+        assert_eq!(sanitize_id("Pendant Lamp.001"), "pendant-lamp-001");
+        assert_eq!(percent_decode("a%20b.bin").as_deref(), Some("a b.bin"));
+        assert_eq!(percent_decode("a%2"), None);
+    }
+}
