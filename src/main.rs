@@ -8,7 +8,7 @@ use clap::{Parser, Subcommand};
 
 mod cli;
 
-use cli::{bake_cmd, bench, info, radiosity, render, serve};
+use cli::{bake_cmd, bench, export, info, radiosity, render, serve};
 
 #[derive(Parser)]
 #[command(
@@ -43,6 +43,9 @@ enum Cmd {
     /// Render an image of a scene under a lighting state (format from the extension:
     /// .png, .jpg, .exr or .pfm for linear radiance).
     Render(render::RenderArgs),
+    /// Export the relit scene as glTF binary (.glb): vertex colours, and one attribute per
+    /// light group so that viewers can remix the lights.
+    Export(export::ExportArgs),
     /// List the scenes under a folder with their patch counts and light groups.
     Info {
         #[arg(long, env = "RELIGHT_SCENES", default_value = "scenes")]
@@ -76,6 +79,7 @@ fn run(cli: Cli) -> Result<()> {
         Some(Cmd::Radiosity(a)) => radiosity::run(a),
         Some(Cmd::Bench(a)) => bench::run(a),
         Some(Cmd::Render(a)) => render::run(a),
+        Some(Cmd::Export(a)) => export::run(a),
         Some(Cmd::Info { scenes }) => info::run(&scenes),
     }
 }

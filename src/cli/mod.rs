@@ -12,6 +12,7 @@ use relight::model::Model;
 
 pub mod bake_cmd;
 pub mod bench;
+pub mod export;
 pub mod info;
 pub mod radiosity;
 pub mod render;

@@ -29,7 +29,7 @@ pub struct RenderArgs {
     height: u32,
     /// Exposure in stops (the image is scaled by 2^exposure before tone mapping);
     /// default: auto (log-average luminance to middle grey).
-    #[arg(long)]
+    #[arg(long, allow_hyphen_values = true)]
     exposure: Option<f32>,
     /// Tone mapping: clamp or filmic.
     #[arg(long, default_value = "filmic")]

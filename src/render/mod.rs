@@ -23,6 +23,7 @@
 
 mod camera;
 mod encode;
+pub mod export;
 mod falsecolor;
 mod font;
 mod groups;
@@ -34,8 +35,9 @@ mod tonemap;
 
 pub use camera::Camera;
 pub use encode::{encode_8bit, encode_exr, encode_pfm, jpeg_strips, Format};
+pub use export::{export_bytes, export_glb, ExportOptions, Exported, MAX_EXPORT_BYTES};
 pub use falsecolor::{false_color, false_color_range, scale_color};
 pub use groups::GroupImages;
 pub use raster::{ViewBuffer, EST_WEIGHTS_PER_PIXEL, MAX_SIDE};
 pub use shading::Shading;
-pub use tonemap::{auto_exposure, tonemap, ToneMap};
+pub use tonemap::{auto_exposure, tone_curve, tonemap, ToneMap};

@@ -36,6 +36,15 @@ pub fn auto_exposure(img: &[Rgb]) -> f32 {
     ((0.18 / avg).log2() as f32).clamp(-40.0, 40.0)
 }
 
+/// The tone curve alone, from a linear value after exposure to a linear display value in
+/// [0, 1] (before the sRGB transfer function).
+pub fn tone_curve(x: f32, tm: ToneMap) -> f32 {
+    match tm {
+        ToneMap::Clamp => x.clamp(0.0, 1.0),
+        ToneMap::Filmic => aces(x.max(0.0)),
+    }
+}
+
 fn srgb_oetf(x: f32) -> f32 {
     if x <= 0.003_130_8 {
         12.92 * x

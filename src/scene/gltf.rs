@@ -50,6 +50,15 @@ use crate::limits::{
 };
 use crate::photometry::{Distribution, Luminaire};
 
+/// Extensions a file may require. Others (Draco or meshopt compression, quantized
+/// attributes, KTX2 textures, …) are refused by name. Unrequired extensions are ignored.
+const READ_EXTENSIONS: [&str; 4] = [
+    "KHR_lights_punctual",
+    "KHR_materials_emissive_strength",
+    "KHR_materials_unlit",
+    "KHR_texture_transform",
+];
+
 /// What a glTF file gives the scene loader.
 pub(crate) struct GltfModel {
     pub(crate) table: MaterialTable,
@@ -130,6 +139,17 @@ impl<'a> Reader<'a> {
         // gltf-json's validation indexes `accessors` with a primitive's POSITION before it
         // checks the index: check it here first.
         let root = unchecked.document.into_json();
+        if let Some(ext) = root
+            .extensions_required
+            .iter()
+            .find(|e| !READ_EXTENSIONS.contains(&e.as_str()))
+        {
+            return Err(self.err(format!(
+                "the file requires the extension {ext}, which relight does not read (it reads \
+                 {}); export without it (e.g. without mesh compression)",
+                READ_EXTENSIONS.join(", ")
+            )));
+        }
         for (m, mesh) in root.meshes.iter().enumerate() {
             for (k, prim) in mesh.primitives.iter().enumerate() {
                 if let Some((_, a)) = prim

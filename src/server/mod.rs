@@ -109,6 +109,10 @@ pub fn router(state: Arc<AppState>) -> Router {
             get(routes::render::render_get),
         )
         .route(
+            "/api/scenes/{id}/export.glb",
+            get(routes::export::export_glb),
+        )
+        .route(
             "/api/{*rest}",
             axum::routing::any(routes::service::not_found),
         )

@@ -135,6 +135,10 @@ raw_schema!(
     RadiosityBinary,
     binary("With `Accept: application/octet-stream`: n × 3 little-endian f32, [r, g, b] radiosity (lm/m²) or illuminance (lx) of each patch in patch order.")
 );
+raw_schema!(
+    GlbModel,
+    binary("glTF 2.0 binary: one unlit mesh with POSITION (m), COLOR_0 (linear display values after exposure and tone map) and, when relightable, one `_LIGHT_<GROUP>` float VEC3 attribute per light group (radiance at intensity 1, white, cd/m²); `asset.extras.relight` gives the exposure, tone map, groups (id, name, attribute, weight) and surfaces (triangle ranges).")
+);
 raw_schema!(PngImage, binary("PNG, 8-bit RGB."));
 raw_schema!(JpegImage, binary("JPEG, 8-bit RGB."));
 raw_schema!(
@@ -268,6 +272,7 @@ impl Modify for Constraints {
         routes::scenes::mesh,
         routes::scenes::mesh_preview,
         routes::render::render_get,
+        routes::export::export_glb,
         routes::radiosity::radiosity,
         routes::illuminance::illuminance,
         routes::batch::batch,

@@ -451,7 +451,7 @@ fn gltf_with_external_and_data_uri_buffers_loads_and_paths_stay_in_the_folder() 
     let mut d = Doc::default();
     let (p, i) = unit_square(&mut d);
     let rest = json!({
-        "meshes": [{"primitives": [{"attributes": {"POSITION": p}, "indices": i}, {"attributes": {"POSITION": p}, "mode": 1}]}],
+        "meshes": [{"primitives": [{"attributes": {"POSITION": p, "_TEMPERATURE": p}, "indices": i}, {"attributes": {"POSITION": p}, "mode": 1}]}],
         "nodes": [{"name": "floor", "mesh": 0}]
     });
     // A .gltf beside its .bin (with a percent-encoded space in the URI).
@@ -615,6 +615,13 @@ fn hostile_gltf_files_are_refused_with_a_message() {
     bad(
         &|doc, _| doc["asset"]["version"] = json!("3.0"),
         "version 3.0",
+    );
+    bad(
+        &|doc, _| {
+            doc["extensionsUsed"] = json!(["KHR_draco_mesh_compression"]);
+            doc["extensionsRequired"] = json!(["KHR_draco_mesh_compression"]);
+        },
+        "requires the extension KHR_draco_mesh_compression",
     );
 }
 

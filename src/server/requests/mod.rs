@@ -11,6 +11,7 @@
 //!   positions, directions) they and the points are made of.
 //! - [`bodies`]: the radiosity, illuminance, batch and optimize requests.
 //! - [`render`]: the render request and the query of `render.png`.
+//! - [`export`]: the query of `export.glb`.
 
 use std::fmt;
 use std::marker::PhantomData;
@@ -21,6 +22,7 @@ use utoipa::openapi::schema::Schema;
 use utoipa::openapi::RefOr;
 
 pub(crate) mod bodies;
+pub(crate) mod export;
 pub(crate) mod lighting;
 pub(crate) mod render;
 

@@ -24,7 +24,7 @@ use crate::server::parse::{bounded, bounded_triple, direction, number, shorten, 
 use crate::server::{AppError, Ready};
 
 /// Largest exposure, stops either way.
-const MAX_EXPOSURE: f64 = 40.0;
+pub(super) const MAX_EXPOSURE: f64 = 40.0;
 
 /// Declares a [`Choice`] over a render setting.
 macro_rules! setting {
@@ -321,27 +321,13 @@ impl RenderRequest {
                 "exposure" => r.exposure = Some(Exposure::Stops(num(v)?)),
                 "mode" => r.mode = query_choice(key, v)?,
                 "tonemap" => r.tonemap = query_choice(key, v)?,
-                _ => match k.strip_prefix("light.") {
-                    // light.ID=0.5 or light.ID=r,g,b
-                    Some(g) => {
-                        let bad = |e: String| {
-                            AppError::BadRequest(format!(
-                                "query parameter {}={}: {e}",
-                                shorten(k),
-                                shorten(v)
-                            ))
-                        };
-                        // The one text grammar of a setting, as on the command line.
-                        let s = match parse_value(v).map_err(bad)? {
-                            (_, Some(c)) => LightSetting::colored(Triple(c)),
-                            (i, None) => LightSetting::Intensity(i.unwrap_or(1.0)),
-                        };
-                        lights.insert(g.to_string(), s);
+                _ => {
+                    if !query_light(k, v, &mut lights)? {
+                        return Err(AppError::BadRequest(format!(
+                            "unknown query parameter '{}' (camera, w, h, exposure, mode, tonemap, light.<group>)", shorten(k)
+                        )));
                     }
-                    None => return Err(AppError::BadRequest(format!(
-                        "unknown query parameter '{}' (camera, w, h, exposure, mode, tonemap, light.<group>)", shorten(k)
-                    ))),
-                },
+                }
             }
         }
         r.lights = Some(Lights(lights));
@@ -349,7 +335,32 @@ impl RenderRequest {
     }
 }
 
-fn query_number(k: &str, v: &str) -> Result<f64, AppError> {
+/// Reads `light.ID=0.5` or `light.ID=r,g,b` into `lights`; false for other keys.
+pub(super) fn query_light(
+    k: &str,
+    v: &str,
+    lights: &mut BTreeMap<String, LightSetting>,
+) -> Result<bool, AppError> {
+    let Some(g) = k.strip_prefix("light.") else {
+        return Ok(false);
+    };
+    let bad = |e: String| {
+        AppError::BadRequest(format!(
+            "query parameter {}={}: {e}",
+            shorten(k),
+            shorten(v)
+        ))
+    };
+    // The one text grammar of a setting, as on the command line.
+    let s = match parse_value(v).map_err(bad)? {
+        (_, Some(c)) => LightSetting::colored(Triple(c)),
+        (i, None) => LightSetting::Intensity(i.unwrap_or(1.0)),
+    };
+    lights.insert(g.to_string(), s);
+    Ok(true)
+}
+
+pub(super) fn query_number(k: &str, v: &str) -> Result<f64, AppError> {
     v.parse::<f64>().map_err(|_| {
         AppError::BadRequest(format!(
             "query parameter {}={}: not a number",
@@ -359,7 +370,7 @@ fn query_number(k: &str, v: &str) -> Result<f64, AppError> {
     })
 }
 
-fn query_choice<T: Choice>(key: &str, v: &str) -> Result<T, AppError> {
+pub(super) fn query_choice<T: Choice>(key: &str, v: &str) -> Result<T, AppError> {
     T::pick(v).ok_or_else(|| AppError::Invalid(T::refuse(&shorten(v)).replacen(FIELD, key, 1)))
 }
 

@@ -1,0 +1,35 @@
+#!/usr/bin/env bash
+# Exports bundled scenes as glTF binary with `relight export` and checks every file with the
+# Khronos glTF validator (npm package gltf-validator): any error fails.
+#
+#   tests/gltf/validate.sh                                  # uses target/release/relight
+#   RELIGHT_BIN=target/debug/relight tests/gltf/validate.sh # any built binary (.ci/run uses
+#                                                           # the one `cargo test` built)
+set -euo pipefail
+cd "$(dirname "$0")/../.."
+bin=${RELIGHT_BIN:-target/release/relight}
+version=2.0.0-dev.3.10
+tool=target/gltf-validator
+out=target/gltf-exports
+
+if ! command -v npm >/dev/null; then
+  SUDO=""
+  if [ "$(id -u)" != 0 ]; then SUDO="sudo"; fi
+  $SUDO apt-get update -qq
+  DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq nodejs npm >/dev/null
+fi
+if [ ! -f "$tool/node_modules/gltf-validator/package.json" ] ||
+   ! grep -q "\"version\": \"$version\"" "$tool/node_modules/gltf-validator/package.json"; then
+  mkdir -p "$tool"
+  npm install --silent --no-audit --no-fund --prefix "$tool" "gltf-validator@$version" >/dev/null
+fi
+cp tests/gltf/validate.mjs "$tool/validate.mjs"
+
+mkdir -p "$out"
+# Relightable exports of the small bundled scenes (the office-floor takes minutes to bake),
+# with both tone maps, and one without the per-group attributes.
+"$bin" export scenes/cornell-box -o "$out/cornell-box.glb" --cache "$out/cache" --tonemap clamp
+"$bin" export scenes/desk-room -o "$out/desk-room.glb" --cache "$out/cache" --light lamp=0.4 --light ceiling=1,0.8,0.6
+"$bin" export scenes/office -o "$out/office.glb" --cache "$out/cache"
+"$bin" export scenes/office -o "$out/office-lean.glb" --cache "$out/cache" --no-groups --exposure -3
+node "$tool/validate.mjs" "$out"/*.glb
