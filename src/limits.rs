@@ -97,3 +97,8 @@ pub const MAX_CANDELA: f64 = 1e9;
 pub const MAX_IES_LAMPS: f64 = 1e4;
 pub const MAX_IES_MULTIPLIER: f64 = 1e6;
 pub const MAX_IES_BALLAST: f64 = 100.0;
+
+/// Most entries in an uploaded zip archive (files and folders).
+pub const MAX_ARCHIVE_ENTRIES: usize = 1_000;
+/// Most bytes an uploaded zip archive may unpack to, in all (1 GiB).
+pub const MAX_ARCHIVE_UNPACKED: u64 = 1 << 30;

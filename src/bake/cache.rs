@@ -38,7 +38,9 @@ mod writer;
 use std::path::{Path, PathBuf};
 
 pub(crate) use folder::temp_path;
-pub use folder::{cache_key, entry_path, prune, remove_stale_temps, STALE_TEMP_AGE, TEMP_PREFIX};
+pub use folder::{
+    cache_key, entry_path, prune, remove_entries, remove_stale_temps, STALE_TEMP_AGE, TEMP_PREFIX,
+};
 use format::FORMAT_VERSION;
 pub use format::{Header, Section};
 pub use reader::{read, read_header};

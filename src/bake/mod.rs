@@ -549,18 +549,26 @@ pub fn default_cache_dir() -> PathBuf {
     PathBuf::from(".cache").join("relight")
 }
 
-/// Scene folders under `root` (folders that contain an .obj file), sorted by name.
+/// Scene folders under `root` (folders that contain an .obj, .gltf or .glb file, hidden
+/// folders excepted), sorted by name.
 pub fn scene_dirs(root: &Path) -> std::io::Result<Vec<PathBuf>> {
     let mut out: Vec<PathBuf> = std::fs::read_dir(root)?
         .flatten()
         .map(|e| e.path())
         .filter(|p| p.is_dir())
+        // Hidden folders are the server's own (uploads being unpacked, scenes being removed).
+        .filter(|p| {
+            p.file_name()
+                .is_some_and(|n| !n.to_string_lossy().starts_with('.'))
+        })
         .filter(|p| {
             std::fs::read_dir(p).is_ok_and(|rd| {
                 rd.flatten().any(|e| {
-                    e.path()
-                        .extension()
-                        .is_some_and(|x| x.eq_ignore_ascii_case("obj"))
+                    e.path().extension().is_some_and(|x| {
+                        ["obj", "gltf", "glb"]
+                            .iter()
+                            .any(|m| x.eq_ignore_ascii_case(m))
+                    })
                 })
             })
         })

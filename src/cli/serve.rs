@@ -60,6 +60,14 @@ pub struct ServeArgs {
     /// Bake in this process instead of a child `relight bake` process.
     #[arg(long, env = "RELIGHT_BAKE_IN_PROCESS")]
     bake_in_process: bool,
+    /// Bearer token that allows uploading and deleting scenes (PUT/DELETE
+    /// /api/scenes/{id}); without one those answer 403. Prefer the environment variable
+    /// (a flag shows in the process list).
+    #[arg(long, env = "RELIGHT_ADMIN_TOKEN", hide_env_values = true)]
+    admin_token: Option<String>,
+    /// Largest uploaded scene (.glb or .zip), bytes with an optional unit (256M, 1G).
+    #[arg(long, env = "RELIGHT_UPLOAD_LIMIT", value_parser = parse_upload_limit)]
+    upload_limit: Option<u64>,
 }
 
 /// Runs the server until SIGINT/SIGTERM.
@@ -84,10 +92,38 @@ pub fn run(a: ServeArgs) -> Result<()> {
         header_timeout: seconds("header-timeout", a.header_timeout)?,
         max_connections: a.max_connections.max(1),
         bake_command,
+        admin_token: match a.admin_token {
+            Some(t) => {
+                anyhow::ensure!(
+                    t.len() >= 16
+                        && t.is_ascii()
+                        && !t.chars().any(|c| c.is_ascii_control() || c == ' '),
+                    "--admin-token: use at least 16 printable ASCII characters without spaces"
+                );
+                Some(t)
+            }
+            None => None,
+        },
+        upload_limit: a.upload_limit.unwrap_or(defaults.upload_limit),
         ..defaults
     };
     let rt = tokio::runtime::Runtime::new()?;
     rt.block_on(relight::server::serve(config))
+}
+
+/// An upload limit: bytes with an optional unit, at least 1 KiB.
+fn parse_upload_limit(s: &str) -> Result<u64, String> {
+    if s.contains('%') {
+        return Err(format!(
+            "upload limit '{s}': give bytes (e.g. 256M), not a percentage"
+        ));
+    }
+    let n =
+        relight::budget::parse_budget(s).map_err(|e| e.replace("memory budget", "upload limit"))?;
+    if n < 1024 {
+        return Err(format!("upload limit '{s}': at least 1K"));
+    }
+    Ok(n)
 }
 
 /// Seconds from the command line as a Duration (finite, positive, at most a day).

@@ -16,6 +16,7 @@
 //! triangles, then light groups and luminaires, calculation grids ([`Grid`]) and camera
 //! presets ([`CameraDef`]).
 
+pub mod archive;
 mod cameras;
 mod files;
 mod gltf;

@@ -38,7 +38,15 @@ pub struct ServerConfig {
     /// Bake scenes in a child process (`relight bake`), so that a bake that runs out of
     /// memory cannot take the server down. `None` bakes in this process (tests).
     pub bake_command: Option<PathBuf>,
+    /// Bearer token for the write endpoints (`PUT`/`DELETE /api/scenes/{id}`); `None`
+    /// disables them (403).
+    pub admin_token: Option<String>,
+    /// Largest uploaded scene (the body of `PUT /api/scenes/{id}`), bytes.
+    pub upload_limit: u64,
 }
+
+/// Default largest upload (256 MiB).
+pub const DEFAULT_UPLOAD_LIMIT: u64 = 256 << 20;
 
 /// Default longest request time.
 pub(crate) const DEFAULT_REQUEST_TIMEOUT: Duration = Duration::from_secs(60);
@@ -64,6 +72,8 @@ impl Default for ServerConfig {
             header_timeout: DEFAULT_HEADER_TIMEOUT,
             max_connections: DEFAULT_MAX_CONNECTIONS,
             bake_command: None,
+            admin_token: None,
+            upload_limit: DEFAULT_UPLOAD_LIMIT,
         }
     }
 }

@@ -14,6 +14,15 @@ pub enum AppError {
     /// 400: the body is not valid JSON (or a query string is malformed).
     #[error("{0}")]
     BadRequest(String),
+    /// 401: a write without the admin token, or with a wrong one.
+    #[error("{0}")]
+    Unauthorized(String),
+    /// 403: writes are disabled (no admin token configured, or a read-only server).
+    #[error("{0}")]
+    Forbidden(String),
+    /// 409: the write conflicts with the scene's state (bundled, or baking).
+    #[error("{0}")]
+    Conflict(String),
     /// 404: unknown scene or route.
     #[error("{0}")]
     NotFound(String),
@@ -42,6 +51,9 @@ impl AppError {
         match self {
             AppError::BadRequest(_) => StatusCode::BAD_REQUEST,
             AppError::NotFound(_) => StatusCode::NOT_FOUND,
+            AppError::Unauthorized(_) => StatusCode::UNAUTHORIZED,
+            AppError::Forbidden(_) => StatusCode::FORBIDDEN,
+            AppError::Conflict(_) => StatusCode::CONFLICT,
             AppError::TooLarge(_) => StatusCode::PAYLOAD_TOO_LARGE,
             AppError::UnsupportedMediaType(_) => StatusCode::UNSUPPORTED_MEDIA_TYPE,
             AppError::Invalid(_) => StatusCode::UNPROCESSABLE_ENTITY,
@@ -111,6 +123,12 @@ impl IntoResponse for AppError {
             header::CONTENT_TYPE,
             header::HeaderValue::from_static("application/problem+json"),
         );
+        if status == StatusCode::UNAUTHORIZED {
+            resp.headers_mut().insert(
+                header::WWW_AUTHENTICATE,
+                header::HeaderValue::from_static("Bearer realm=\"relight\""),
+            );
+        }
         if status == StatusCode::SERVICE_UNAVAILABLE {
             resp.headers_mut()
                 .insert(header::RETRY_AFTER, header::HeaderValue::from_static("2"));

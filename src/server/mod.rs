@@ -83,7 +83,12 @@ pub fn router(state: Arc<AppState>) -> Router {
         .route("/metrics", get(routes::service::metrics))
         .route("/api/openapi.json", get(routes::service::openapi))
         .route("/api/scenes", get(routes::scenes::list_scenes))
-        .route("/api/scenes/{id}", get(routes::scenes::scene_details))
+        .route(
+            "/api/scenes/{id}",
+            get(routes::scenes::scene_details)
+                .put(routes::upload::put_scene)
+                .delete(routes::upload::delete_scene),
+        )
         .route("/api/scenes/{id}/patches", get(routes::scenes::patches))
         .route("/api/scenes/{id}/mesh", get(routes::scenes::mesh))
         .route(
@@ -176,7 +181,7 @@ pub async fn serve(config: ServerConfig) -> anyhow::Result<()> {
     let addr = listener.local_addr()?;
     tracing::info!(
         "listening on http://{addr} with {} scene(s) from {} (cache {}{})",
-        state.slots.len(),
+        state.slots().len(),
         config.scenes.display(),
         config.cache.display(),
         if config.read_only { ", read-only" } else { "" }

@@ -74,6 +74,18 @@ problem_response!(
 problem_response!(BadQuery, "A malformed query: an unknown parameter, one given twice, or a value that is not a number where one is expected.");
 problem_response!(NotFound, "Unknown scene.");
 problem_response!(
+    Unauthorized,
+    "A scene write without the admin token (`Authorization: Bearer <token>`), or with a wrong one."
+);
+problem_response!(
+    Forbidden,
+    "Scene writes are disabled: the server has no admin token (--admin-token), or is read-only."
+);
+problem_response!(
+    Conflict,
+    "The scene is one of the server's own (not uploaded), or it is queued or baking."
+);
+problem_response!(
     TooLarge,
     "The body exceeds the size limit (16 MiB by default, --body-limit)."
 );
@@ -139,6 +151,10 @@ raw_schema!(
     GlbModel,
     binary("glTF 2.0 binary: one unlit mesh with POSITION (m), COLOR_0 (linear display values after exposure and tone map) and, when relightable, one `_LIGHT_<GROUP>` float VEC3 attribute per light group (radiance at intensity 1, white, cd/m²); `asset.extras.relight` gives the exposure, tone map, groups (id, name, attribute, weight) and surfaces (triangle ranges).")
 );
+raw_schema!(
+    ZipArchive,
+    binary("A zip archive of a scene folder: one .obj (with its .mtl files, textures and IES files) or one .gltf/.glb (with its buffers and images), and an optional scene.toml; one folder around everything is unwrapped.")
+);
 raw_schema!(PngImage, binary("PNG, 8-bit RGB."));
 raw_schema!(JpegImage, binary("JPEG, 8-bit RGB."));
 raw_schema!(
@@ -189,6 +205,20 @@ errors!(
         ("503", "Unavailable")
     ]
 );
+// A scene write (upload or delete): token, id, body and state.
+errors!(
+    WriteErrors,
+    [
+        ("401", "Unauthorized"),
+        ("403", "Forbidden"),
+        ("404", "NotFound"),
+        ("409", "Conflict"),
+        ("413", "TooLarge"),
+        ("415", "UnsupportedMediaType"),
+        ("422", "Invalid"),
+        ("503", "Unavailable")
+    ]
+);
 // A GET with a query.
 errors!(
     QueryErrors,
@@ -205,6 +235,18 @@ struct Constraints;
 
 impl Modify for Constraints {
     fn modify(&self, api: &mut utoipa::openapi::OpenApi) {
+        use utoipa::openapi::security::{HttpAuthScheme, HttpBuilder, SecurityScheme};
+        if let Some(c) = api.components.as_mut() {
+            c.add_security_scheme(
+                "admin_token",
+                SecurityScheme::Http(
+                    HttpBuilder::new()
+                        .scheme(HttpAuthScheme::Bearer)
+                        .description(Some("The server's --admin-token (RELIGHT_ADMIN_TOKEN)."))
+                        .build(),
+                ),
+            );
+        }
         // Bodies that may be left out (an empty body means the defaults).
         for path in ["radiosity", "illuminance", "render"] {
             let item = api
@@ -278,6 +320,8 @@ impl Modify for Constraints {
         routes::batch::batch,
         routes::optimize::optimize,
         routes::render::render_post,
+        routes::upload::put_scene,
+        routes::upload::delete_scene,
     ),
     components(
         schemas(
@@ -285,7 +329,7 @@ impl Modify for Constraints {
             Target, Exposure, RadiosityRequest, IlluminanceRequest, BatchRequest,
             OptimizeRequest, RenderRequest, ProblemDetails, Rgb, Millis,
         ),
-        responses(BadRequest, BadQuery, NotFound, TooLarge, UnsupportedMediaType, Invalid, Unavailable),
+        responses(BadRequest, BadQuery, NotFound, Unauthorized, Forbidden, Conflict, TooLarge, UnsupportedMediaType, Invalid, Unavailable),
     ),
     modifiers(&Constraints),
 )]

@@ -90,21 +90,33 @@ pub enum SlotState {
 pub struct SceneSlot {
     pub id: String,
     pub dir: PathBuf,
+    /// Uploaded over HTTP (its folder holds [`UPLOAD_MARKER`]): it may be replaced and
+    /// deleted. The server's own scenes may not.
+    pub uploaded: bool,
     progress: AtomicU64,
     state: RwLock<SlotState>,
 }
 
+/// The file that marks a scene folder as uploaded.
+pub const UPLOAD_MARKER: &str = ".relight-upload.json";
+
 impl SceneSlot {
-    fn new(dir: PathBuf) -> SceneSlot {
+    pub(crate) fn new(dir: PathBuf) -> SceneSlot {
         SceneSlot {
             id: dir
                 .file_name()
                 .map(|s| s.to_string_lossy().into_owned())
                 .unwrap_or_default(),
+            uploaded: dir.join(UPLOAD_MARKER).is_file(),
             dir,
             progress: AtomicU64::new(0f64.to_bits()),
             state: RwLock::new(SlotState::Queued),
         }
+    }
+
+    /// True while the scene waits for its bake or bakes.
+    pub fn busy(&self) -> bool {
+        matches!(self.status().0, "queued" | "baking")
     }
 
     /// Bake progress, 0..1.
@@ -318,7 +330,12 @@ fn scrub_paths(msg: &str, cfg: &ServerConfig) -> String {
 /// Shared state of the server.
 pub struct AppState {
     pub config: ServerConfig,
-    pub slots: Vec<Arc<SceneSlot>>,
+    /// The scenes, sorted by id; uploads add and replace slots, deletes remove them.
+    slots: RwLock<Vec<Arc<SceneSlot>>>,
+    /// One bake at a time (each may use the whole memory budget).
+    bake_lock: std::sync::Mutex<()>,
+    /// One scene write (upload or delete) at a time.
+    pub(crate) write_lock: tokio::sync::Mutex<()>,
     pub(crate) metrics: metrics::Metrics,
     /// View buffers per (scene, camera, size), an LRU bounded in bytes.
     pub views: std::sync::Mutex<views::ViewCache>,
@@ -341,7 +358,9 @@ impl AppState {
     fn with_slots(slots: Vec<Arc<SceneSlot>>, config: ServerConfig) -> Arc<AppState> {
         let budget = crate::budget::MemoryBudget::new(config.memory_budget);
         Arc::new(AppState {
-            slots,
+            slots: RwLock::new(slots),
+            bake_lock: std::sync::Mutex::new(()),
+            write_lock: tokio::sync::Mutex::new(()),
             metrics: metrics::Metrics::default(),
             views: std::sync::Mutex::new(views::ViewCache::new(budget.view_cache_max())),
             budget,
@@ -354,7 +373,7 @@ impl AppState {
     /// A state with another configuration over the same scene slots (tests, and replicas
     /// that share baked scenes). Caches, metrics and the budget start afresh.
     pub fn reconfigured(&self, config: ServerConfig) -> Arc<AppState> {
-        Self::with_slots(self.slots.clone(), config)
+        Self::with_slots(self.slots(), config)
     }
 
     /// Bakes every scene on a background thread, one after another.
@@ -369,14 +388,57 @@ impl AppState {
     /// Bakes every scene on this thread (tests, and `relight serve` replicas that want to
     /// be ready before listening).
     pub fn bake_all(&self) {
-        for slot in &self.slots {
+        for slot in self.slots() {
+            self.bake_slot(&slot);
+        }
+    }
+
+    /// Bakes one scene (after any bake in progress), unless it left the list meanwhile.
+    fn bake_slot(&self, slot: &Arc<SceneSlot>) {
+        let _one = self.bake_lock.lock().unwrap_or_else(|p| p.into_inner());
+        let current = self.slots().iter().any(|s| Arc::ptr_eq(s, slot));
+        if current && slot.status().0 == "queued" {
             slot.bake(&self.config, &self.metrics, &self.budget);
         }
     }
 
-    pub fn slot(&self, id: &str) -> Result<&Arc<SceneSlot>, AppError> {
-        self.slots.iter().find(|s| s.id == id).ok_or_else(|| {
-            let known: Vec<&str> = self.slots.iter().map(|s| s.id.as_str()).collect();
+    /// Bakes one scene on a background thread.
+    pub(crate) fn spawn_bake(self: &Arc<Self>, slot: Arc<SceneSlot>) {
+        let state = self.clone();
+        let spawned = std::thread::Builder::new()
+            .name("relight-bake".into())
+            .spawn(move || state.bake_slot(&slot));
+        if let Err(e) = spawned {
+            tracing::error!("cannot start a bake thread: {e}");
+        }
+    }
+
+    /// The scenes, sorted by id (a snapshot).
+    pub fn slots(&self) -> Vec<Arc<SceneSlot>> {
+        self.slots.read().unwrap_or_else(|p| p.into_inner()).clone()
+    }
+
+    /// Adds a scene, or replaces the one with its id.
+    pub(crate) fn put_slot(&self, slot: Arc<SceneSlot>) {
+        let mut list = self.slots.write().unwrap_or_else(|p| p.into_inner());
+        match list.binary_search_by(|s| s.id.cmp(&slot.id)) {
+            Ok(i) => list[i] = slot,
+            Err(i) => list.insert(i, slot),
+        }
+    }
+
+    /// Removes the scene with this id from the list.
+    pub(crate) fn remove_slot(&self, id: &str) {
+        self.slots
+            .write()
+            .unwrap_or_else(|p| p.into_inner())
+            .retain(|s| s.id != id);
+    }
+
+    pub fn slot(&self, id: &str) -> Result<Arc<SceneSlot>, AppError> {
+        let list = self.slots.read().unwrap_or_else(|p| p.into_inner());
+        list.iter().find(|s| s.id == id).cloned().ok_or_else(|| {
+            let known: Vec<&str> = list.iter().map(|s| s.id.as_str()).collect();
             AppError::NotFound(format!(
                 "unknown scene '{id}' (known: {})",
                 if known.is_empty() {
@@ -388,10 +450,12 @@ impl AppState {
         })
     }
 
-    /// True when every scene is ready or failed.
+    /// True when every one of the server's own scenes is ready or failed. Uploaded scenes
+    /// do not count: an upload's bake must not take a serving replica out of rotation.
     pub fn settled(&self) -> bool {
-        self.slots
+        self.slots()
             .iter()
+            .filter(|s| !s.uploaded)
             .all(|s| matches!(s.status().0, "ready" | "failed"))
     }
 }

@@ -124,6 +124,12 @@ impl ViewCache {
         }
     }
 
+    /// Drops every view of scene `id` (its scene was replaced or deleted).
+    pub fn forget_scene(&mut self, id: &str) {
+        self.map.retain(|k, _| k.0 != id);
+        self.order.retain(|k| k.0 != id);
+    }
+
     /// Finished views cached.
     pub fn len(&self) -> usize {
         self.map.values().filter(|s| s.view.get().is_some()).count()

@@ -452,7 +452,7 @@ async fn serve(
     tokio::task::spawn_blocking(move || st.bake_all())
         .await
         .unwrap();
-    assert!(state.slots.iter().all(|s| s.status().0 == "ready"));
+    assert!(state.slots().iter().all(|s| s.status().0 == "ready"));
     let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await.unwrap();
     let site = format!("http://{}", listener.local_addr().unwrap());
     let server = tokio::spawn(async move { axum::serve(listener, router(state)).await });

@@ -635,3 +635,57 @@ fn one_model_per_folder() {
     let e = load_err(dir.path());
     assert!(e.contains("a.glb") && e.contains("b.obj"), "{e}");
 }
+
+/// A closed unit box of grey walls facing in, with an emissive panel under the ceiling: one
+/// square mesh instanced by seven nodes.
+pub(crate) fn box_glb() -> Vec<u8> {
+    let mut d = Doc::default();
+    let (p, i) = unit_square(&mut d);
+    let h = std::f64::consts::FRAC_1_SQRT_2;
+    d.glb(json!({
+        "extensionsUsed": ["KHR_materials_emissive_strength"],
+        "materials": [
+            serde_json::from_str::<Value>(GREY).unwrap(),
+            {"name": "panel", "emissiveFactor": [1, 1, 1], "pbrMetallicRoughness": {"baseColorFactor": [0, 0, 0, 1]},
+             "extensions": {"KHR_materials_emissive_strength": {"emissiveStrength": 100}}}
+        ],
+        "meshes": [
+            {"name": "wall", "primitives": [{"attributes": {"POSITION": p}, "indices": i, "material": 0}]},
+            {"name": "panel", "primitives": [{"attributes": {"POSITION": p}, "indices": i, "material": 1}]}
+        ],
+        "nodes": [
+            {"name": "floor", "mesh": 0},
+            {"name": "ceiling", "mesh": 0, "translation": [0, 1, 1], "rotation": [1, 0, 0, 0]},
+            {"name": "west", "mesh": 0, "translation": [0, 1, 0], "rotation": [0, 0, -h, h]},
+            {"name": "east", "mesh": 0, "translation": [1, 0, 0], "rotation": [0, 0, h, h]},
+            {"name": "north", "mesh": 0, "translation": [0, 1, 0], "rotation": [h, 0, 0, h]},
+            {"name": "south", "mesh": 0, "translation": [0, 0, 1], "rotation": [-h, 0, 0, h]},
+            {"name": "panel", "mesh": 1, "translation": [0.35, 0.99, 0.65], "rotation": [1, 0, 0, 0], "scale": [0.3, 0.3, 0.3]}
+        ]
+    }))
+}
+
+#[test]
+fn a_closed_box_of_instanced_walls_faces_inward_and_is_closed() {
+    let _gate = common::shared();
+    let dir = folder(&[("box.glb", &box_glb())]);
+    let s = load(dir.path());
+    let c = glam::DVec3::splat(0.5);
+    for name in ["floor", "ceiling", "west", "east", "north", "south"] {
+        assert!(close(surface_area(&s, name), 1.0, 1e-6), "{name}: {}", surface_area(&s, name));
+        // Each wall faces the centre of the box.
+        let k = s.surface_index(name).unwrap() as u32;
+        let t = s.triangles.iter().find(|t| t.surface == k).unwrap();
+        let n = (t.p[1] - t.p[0]).cross(t.p[2] - t.p[0]);
+        assert!(n.dot(c - t.p[0]) > 0.0, "{name} faces out: {:?} n {n}", t.p);
+    }
+    // Closed: the rows of the form-factor matrix of the walls sum to 1.
+    let solved = common::form_factors(dir.path());
+    let mut total = 0.0;
+    for name in [
+        "floor", "ceiling", "west", "east", "north", "south", "panel",
+    ] {
+        total += solved.surface_factor("floor", name);
+    }
+    assert!(close(total, 1.0, 0.01), "floor row sums to {total}");
+}

@@ -44,7 +44,7 @@ fn health_answers_within_50_ms_p99_while_heavy_endpoints_are_saturated() {
     })
     .unwrap();
     common::bake_all(&state);
-    assert!(state.slots.iter().all(|s| s.status().0 == "ready"));
+    assert!(state.slots().iter().all(|s| s.status().0 == "ready"));
 
     // The server on its own runtime.
     let listener = std::net::TcpListener::bind("127.0.0.1:0").unwrap();

@@ -104,3 +104,24 @@ pub fn prune(dir: &Path, scene_id: &str, keep: &Path) {
         }
     }
 }
+
+/// Removes every entry of a scene (any key); how many were removed.
+pub fn remove_entries(dir: &Path, scene_id: &str) -> usize {
+    let Ok(rd) = std::fs::read_dir(dir) else {
+        return 0;
+    };
+    let prefix = format!("{scene_id}-");
+    let mut n = 0;
+    for e in rd.flatten() {
+        let name = e.file_name().to_string_lossy().into_owned();
+        let key = name
+            .strip_prefix(&prefix)
+            .and_then(|r| r.strip_suffix(".rlt"));
+        if key.is_some_and(|k| k.len() == 16 && k.bytes().all(|b| b.is_ascii_hexdigit()))
+            && std::fs::remove_file(e.path()).is_ok()
+        {
+            n += 1;
+        }
+    }
+    n
+}

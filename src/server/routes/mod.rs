@@ -15,6 +15,7 @@ pub(crate) mod radiosity;
 pub(crate) mod render;
 pub(crate) mod scenes;
 pub(crate) mod service;
+pub(crate) mod upload;
 
 pub(crate) type ApiResult = Result<Response, AppError>;
 

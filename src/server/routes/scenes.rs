@@ -87,7 +87,7 @@ impl SceneSummary {
 
     /// Every slot's summary.
     pub(super) fn all(state: &AppState) -> Vec<SceneSummary> {
-        state.slots.iter().map(|s| SceneSummary::of(s)).collect()
+        state.slots().iter().map(|s| SceneSummary::of(s)).collect()
     }
 }
 

@@ -34,7 +34,7 @@ fn state() -> Arc<AppState> {
             })
             .unwrap();
             common::bake_all(&s);
-            assert!(s.slots.iter().all(|s| s.status().0 == "ready"));
+            assert!(s.slots().iter().all(|s| s.status().0 == "ready"));
             s
         })
         .clone()

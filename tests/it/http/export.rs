@@ -179,7 +179,10 @@ async fn exported_glb_matches_the_served_mesh_and_radiosity_and_imports_as_the_s
         } else {
             vec![1.0, 0.5, 0.25]
         };
-        assert!(w.iter().zip(&want_w).all(|(a, b)| (a - b).abs() < 1e-6), "{w:?}");
+        assert!(
+            w.iter().zip(&want_w).all(|(a, b)| (a - b).abs() < 1e-6),
+            "{w:?}"
+        );
         let name = gr["attribute"].as_str().unwrap();
         assert!(name.starts_with("_LIGHT_"), "{name}");
         let a = g.floats(&prim["attributes"][name]);

@@ -7,6 +7,7 @@ mod radiosity;
 mod render;
 mod scenes;
 mod server;
+mod upload;
 
 use std::sync::{Arc, OnceLock};
 
@@ -41,7 +42,7 @@ fn state() -> Arc<AppState> {
             let cache = std::path::Path::new(env!("CARGO_TARGET_TMPDIR")).join("http-cache");
             let s = AppState::new(config(common::scenes_dir(), cache)).unwrap();
             common::bake_all(&s);
-            assert!(s.slots.iter().all(|s| s.status().0 == "ready"));
+            assert!(s.slots().iter().all(|s| s.status().0 == "ready"));
             s
         })
         .clone()
