@@ -46,7 +46,18 @@ fn scene_operations_document_their_errors() {
     for (path, item) in paths {
         for (method, op) in item.as_object().unwrap() {
             let codes = op["responses"].as_object().unwrap();
-            assert!(codes.contains_key("200"), "{method} {path}");
+            let success = match method.as_str() {
+                "put" => "202",
+                "delete" => "204",
+                _ => "200",
+            };
+            assert!(codes.contains_key(success), "{method} {path}");
+            if method == "put" || method == "delete" {
+                for c in ["401", "403", "404", "409", "422"] {
+                    assert!(codes.contains_key(c), "{method} {path} lacks {c}");
+                }
+                assert!(op["security"].is_array(), "{method} {path} needs a token");
+            }
             if path.starts_with("/api/scenes/{id}") {
                 for c in ["404", "503"] {
                     assert!(codes.contains_key(c), "{method} {path} lacks {c}");
