@@ -86,6 +86,8 @@ fn bad_input_is_a_clear_error_not_a_panic() {
         GREY_MTL,
         None,
     );
+    // Its own cache: a test never writes to the user's.
+    let cache = tempfile::tempdir().unwrap();
     let out = relight()
         .args([
             "radiosity",
@@ -93,6 +95,8 @@ fn bad_input_is_a_clear_error_not_a_panic() {
             "--light",
             "nosuch=1",
         ])
+        .arg("--cache")
+        .arg(cache.path())
         .output()
         .unwrap();
     let err = String::from_utf8_lossy(&out.stderr);
@@ -310,4 +314,50 @@ async fn radiosity_grid_equals_the_http_grid_answer() {
     let body = resp.into_body().collect().await.unwrap().to_bytes();
     let http: serde_json::Value = serde_json::from_slice(&body).unwrap();
     assert_eq!(cli, http);
+}
+
+#[test]
+fn export_writes_a_relit_glb_and_refuses_other_names() {
+    let _gate = common::shared();
+    let s = write_scene(
+        &room_obj(),
+        ROOM_MTL,
+        Some("[mesh]\ntarget_patches = 300\n"),
+    );
+    let cache = tempfile::tempdir().unwrap();
+    let out_dir = tempfile::tempdir().unwrap();
+    let run = |name: &str, extra: &[&str]| {
+        relight()
+            .arg("export")
+            .arg(s.path())
+            .arg("-o")
+            .arg(out_dir.path().join(name))
+            .arg("--cache")
+            .arg(cache.path())
+            .args(extra)
+            .output()
+            .unwrap()
+    };
+    let out = run("room.glb", &["--light", "glow=0.5", "--exposure", "-2"]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(String::from_utf8_lossy(&out.stdout).contains("exposure -2.00 stops"));
+    let full = std::fs::read(out_dir.path().join("room.glb")).unwrap();
+    assert_eq!(&full[..4], b"glTF");
+    let out = run("lean.glb", &["--no-groups", "--tonemap", "clamp"]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let lean = std::fs::read(out_dir.path().join("lean.glb")).unwrap();
+    assert!(lean.len() < full.len());
+    let out = run("room.png", &[]);
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("name it .glb"));
+    let out = run("x.glb", &["--tonemap", "sepia"]);
+    assert!(String::from_utf8_lossy(&out.stderr).contains("clamp or filmic"));
 }
