@@ -672,7 +672,11 @@ fn a_closed_box_of_instanced_walls_faces_inward_and_is_closed() {
     let s = load(dir.path());
     let c = glam::DVec3::splat(0.5);
     for name in ["floor", "ceiling", "west", "east", "north", "south"] {
-        assert!(close(surface_area(&s, name), 1.0, 1e-6), "{name}: {}", surface_area(&s, name));
+        assert!(
+            close(surface_area(&s, name), 1.0, 1e-6),
+            "{name}: {}",
+            surface_area(&s, name)
+        );
         // Each wall faces the centre of the box.
         let k = s.surface_index(name).unwrap() as u32;
         let t = s.triangles.iter().find(|t| t.surface == k).unwrap();

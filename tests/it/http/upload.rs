@@ -178,7 +178,10 @@ async fn zip_and_glb_uploads_bake_in_the_background_and_delete_cleanly() {
     assert_eq!(s, StatusCode::ACCEPTED, "{v}");
     assert_eq!(v["id"], "box");
     assert_eq!(v["status"], "queued");
-    assert_eq!(v["files"], 4, "the four scene files (not the macOS junk): {v}");
+    assert_eq!(
+        v["files"], 4,
+        "the four scene files (not the macOS junk): {v}"
+    );
     let summary = srv.settled("box").await;
     assert_eq!(summary["status"], "ready", "{summary}");
     assert_eq!(summary["name"], "Uploaded box");
