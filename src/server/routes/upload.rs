@@ -183,8 +183,10 @@ fn io(what: &str, e: std::io::Error) -> AppError {
 
 /// Streams the body into `path`, refusing more than `limit` bytes (413).
 async fn receive(body: Body, path: &Path, limit: u64) -> Result<u64, AppError> {
-    use std::io::Write;
-    let mut file = std::fs::File::create(path).map_err(|e| io("store the upload", e))?;
+    use tokio::io::AsyncWriteExt;
+    let mut file = tokio::fs::File::create(path)
+        .await
+        .map_err(|e| io("store the upload", e))?;
     let mut body = body;
     let mut n = 0u64;
     while let Some(frame) = body.frame().await {
@@ -200,11 +202,11 @@ async fn receive(body: Body, path: &Path, limit: u64) -> Result<u64, AppError> {
                 human_bytes(limit)
             )));
         }
-        // Small writes to a local file: brief enough for the async runtime.
         file.write_all(&chunk)
+            .await
             .map_err(|e| io("store the upload", e))?;
     }
-    file.sync_all().map_err(|e| io("store the upload", e))?;
+    file.sync_all().await.map_err(|e| io("store the upload", e))?;
     Ok(n)
 }
 
