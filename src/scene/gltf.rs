@@ -358,6 +358,12 @@ impl<'a> Reader<'a> {
         let img = tex.source();
         let what = format!("images[{}]", img.index());
         let bytes = match img.source() {
+            gltf::image::Source::View { view, .. } if view.length() as u64 > MAX_TEXTURE_BYTES => {
+                Err(self.err(format!(
+                    "{what}: larger than {}",
+                    files::human_bytes(MAX_TEXTURE_BYTES)
+                )))
+            }
             gltf::image::Source::View { view, .. } => view_bytes(&view, buffers)
                 .map(<[u8]>::to_vec)
                 .ok_or_else(|| self.err(format!("{what}: its bufferView lies outside its buffer"))),
