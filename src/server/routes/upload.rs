@@ -206,7 +206,9 @@ async fn receive(body: Body, path: &Path, limit: u64) -> Result<u64, AppError> {
             .await
             .map_err(|e| io("store the upload", e))?;
     }
-    file.sync_all().await.map_err(|e| io("store the upload", e))?;
+    file.sync_all()
+        .await
+        .map_err(|e| io("store the upload", e))?;
     Ok(n)
 }
 
