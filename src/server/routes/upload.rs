@@ -212,9 +212,9 @@ async fn receive(body: Body, path: &Path, limit: u64) -> Result<u64, AppError> {
     Ok(n)
 }
 
-/// Unpacks the upload into `dir` (named after the scene id), loads it as a scene, and
-/// marks it as uploaded. Runs on the blocking pool.
-fn prepare(kind: Kind, upload: &Path, dir: &Path, id: &str) -> Result<Accepted, AppError> {
+/// Unpacks the upload into `dir` (named after the scene id): the files' total size.
+/// Streams from disk to disk; runs on the blocking pool.
+fn unpack(kind: Kind, upload: &Path, dir: &Path, id: &str) -> Result<u64, AppError> {
     std::fs::create_dir(dir).map_err(|e| io("stage the scene", e))?;
     match kind {
         Kind::Glb => {
@@ -229,17 +229,22 @@ fn prepare(kind: Kind, upload: &Path, dir: &Path, id: &str) -> Result<Accepted, 
                     "the body is not a glTF binary (.glb): it does not start with 'glTF'".into(),
                 ));
             }
-            std::fs::rename(upload, dir.join(format!("{id}.glb")))
-                .map_err(|e| io("stage the scene", e))?;
+            let to = dir.join(format!("{id}.glb"));
+            std::fs::rename(upload, &to).map_err(|e| io("stage the scene", e))?;
+            Ok(std::fs::metadata(&to).map(|m| m.len()).unwrap_or(0))
         }
-        Kind::Zip => {
-            archive::unpack_zip(upload, dir).map_err(|e| match e {
+        Kind::Zip => archive::unpack_zip(upload, dir)
+            .map(|u| u.bytes)
+            .map_err(|e| match e {
                 ArchiveError::TooLarge(m) => AppError::TooLarge(m),
                 ArchiveError::Invalid(m) => AppError::Invalid(format!("the archive: {m}")),
                 ArchiveError::Io(e) => io("unpack the archive", e),
-            })?;
-        }
+            }),
     }
+}
+
+/// Loads the unpacked scene in `dir` as a check, and marks it as uploaded.
+fn check(kind: Kind, dir: &Path, id: &str) -> Result<Accepted, AppError> {
     let scene = Scene::load(dir).map_err(|e| AppError::Invalid(e.to_string()))?;
     let (mut files, mut bytes) = (0usize, 0u64);
     let mut stack = vec![dir.to_path_buf()];
@@ -328,15 +333,14 @@ pub(crate) async fn put_scene(
     }
     let dir = root.join(&id);
     let (d, i) = (dir.clone(), id.clone());
-    // Unpacking and loading hold at most the unpacked bytes (zip) or the file (glb) twice.
-    let estimate = 2 * received.max(if kind == Kind::Zip {
-        crate::limits::MAX_ARCHIVE_UNPACKED / 8
-    } else {
-        0
-    });
+    let unpacked = tokio::task::spawn_blocking(move || unpack(kind, &upload, &d, &i))
+        .await
+        .map_err(|e| AppError::Internal(format!("unpacking stopped: {e}")))??;
+    // Loading holds the model's text and its parsed form: about twice its files.
+    let (d, i) = (dir.clone(), id.clone());
     let accepted = state
-        .heavy(estimate, "an upload's check", move |_| {
-            prepare(kind, &upload, &d, &i)
+        .heavy(2 * unpacked + (16 << 20), "an upload's check", move |_| {
+            check(kind, &d, &i)
         })
         .await?;
 

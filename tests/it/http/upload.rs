@@ -313,6 +313,37 @@ async fn writes_need_the_token_and_leave_the_servers_own_scenes_alone() {
     assert_eq!(srv.clean(), ["own"]);
 }
 
+#[tokio::test]
+async fn an_upload_whose_bake_fails_is_listed_as_failed_with_its_error() {
+    let _gate = common::shared();
+    let mut srv = server(Some(TOKEN), None);
+    // A 64 MiB budget: a million patches cannot be baked in it.
+    srv.state = AppState::new(relight::server::ServerConfig {
+        memory_budget: 64 << 20,
+        ..srv.state.config.clone()
+    })
+    .unwrap();
+    common::bake_all(&srv.state);
+    let obj = format!("mtllib a.mtl\n{}", box_obj());
+    let body = zip_of(&[
+        ("a.obj", obj.as_bytes()),
+        ("a.mtl", BOX_MTL.as_bytes()),
+        ("scene.toml", b"[mesh]\ntarget_patches = 1000000\n"),
+    ]);
+    let (s, v) = srv.put("huge", "application/zip", Some(TOKEN), body).await;
+    assert_eq!(s, StatusCode::ACCEPTED, "{v}");
+    let summary = srv.settled("huge").await;
+    assert_eq!(summary["status"], "failed", "{summary}");
+    let error = summary["error"].as_str().unwrap_or("");
+    assert!(error.contains("budget"), "{summary}");
+    let (s, v) = srv.get("/api/scenes/huge").await;
+    assert_eq!(s, StatusCode::SERVICE_UNAVAILABLE, "{v}");
+    // A failed upload can be replaced or deleted.
+    let (s, _) = srv.delete("huge", Some(TOKEN)).await;
+    assert_eq!(s, StatusCode::NO_CONTENT);
+    assert_eq!(srv.clean(), ["own"]);
+}
+
 /// A body sent in chunks without a length.
 fn futures_util_stream(chunks: Vec<Vec<u8>>) -> Body {
     Body::from_stream(futures_util::stream::iter(
