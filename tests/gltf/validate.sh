@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
-# Exports bundled scenes as glTF binary with `relight export` and checks every file with the
-# Khronos glTF validator (npm package gltf-validator): any error fails.
+# Exports bundled scenes as glTF binary with `relight export` and checks every file, and the
+# bundled glTF scene, with the Khronos glTF validator (npm package gltf-validator): any
+# error fails.
 #
 #   tests/gltf/validate.sh                                  # uses target/release/relight
 #   RELIGHT_BIN=target/debug/relight tests/gltf/validate.sh # any built binary (.ci/run uses
@@ -32,4 +33,6 @@ mkdir -p "$out"
 "$bin" export scenes/desk-room -o "$out/desk-room.glb" --cache "$out/cache" --light lamp=0.4 --light ceiling=1,0.8,0.6
 "$bin" export scenes/office -o "$out/office.glb" --cache "$out/cache"
 "$bin" export scenes/office -o "$out/office-lean.glb" --cache "$out/cache" --no-groups --exposure -3
-node "$tool/validate.mjs" "$out"/*.glb
+"$bin" export scenes/gallery -o "$out/gallery.glb" --cache "$out/cache" --light spots=0.5
+# The exports, and the bundled glTF scene itself.
+node "$tool/validate.mjs" "$out"/*.glb scenes/gallery/gallery.gltf

@@ -20,11 +20,20 @@ async fn health_ready_and_scene_list() {
     assert_eq!(s, StatusCode::OK);
     let scenes = v["scenes"].as_array().unwrap();
     let ids: Vec<&str> = scenes.iter().map(|s| s["id"].as_str().unwrap()).collect();
-    assert_eq!(ids, ["cornell-box", "desk-room", "office"]);
+    assert_eq!(ids, ["cornell-box", "desk-room", "gallery", "office"]);
     assert!(scenes
         .iter()
         .all(|s| s["status"] == "ready" && s["patches"].as_u64().unwrap() > 1000));
     assert_eq!(scenes[1]["lights"].as_array().unwrap().len(), 2);
+    // The glTF gallery: its spots and lamp (KHR_lights_punctual) and its emissive panel.
+    let gallery: Vec<&str> = scenes[2]["lights"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|g| g["id"].as_str().unwrap())
+        .collect();
+    assert_eq!(gallery, ["spots", "lamp", "panel"]);
+    assert_eq!(scenes[2]["lights"][0]["luminaires"], 3);
 }
 
 #[tokio::test]
