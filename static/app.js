@@ -7,6 +7,7 @@
 //   views/       image.js (server image), gl.js (WebGL view, legend), grids.js (grid
 //                statistics, overlay), hover.js (surface under the pointer)
 //   viewer.js    the WebGL viewer itself
+//   models.js    the "Open model" upload dialog and the glTF export link
 //
 // Data flow: every control change bumps `state.version` (changed() in state.js) and asks
 // both views to update (onChange below). Each view has at most one request in flight;
@@ -22,6 +23,7 @@ import { viewer, createViewer, loadMesh, showMesh, glFlight } from "./views/gl.j
 import { imageFlight } from "./views/image.js";
 import { gridFlight, drawOverlay } from "./views/grids.js";
 import { attachHover, resetSurfaceCache } from "./views/hover.js";
+import { wireModels } from "./models.js";
 
 /** After every change: labels, URL hash, and a request for each view. */
 function onChange() {
@@ -90,8 +92,18 @@ async function main() {
   });
   wireControls();
   attachHover();
+  wireModels(openUploaded);
   window.addEventListener("resize", () => imageFlight());
   await openFirstScene();
+}
+
+/** After an upload has baked: the scene picker lists it, and it is shown. */
+async function openUploaded(id) {
+  const scenes = await loadSceneList();
+  const sel = $("#scene");
+  sel.replaceChildren(...scenes.map((s) => new Option(s.name || s.id, s.id)));
+  history.replaceState(null, "", "#scene=" + encodeURIComponent(id));
+  await selectScene(id);
 }
 
 /** Fills the scene picker and opens the scene named in the URL hash (or the first ready). */

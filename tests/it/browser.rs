@@ -25,6 +25,9 @@ impl Drop for Driver {
     }
 }
 
+/// The admin token of the browser test's server (the page uploads a model with it).
+const BROWSER_TOKEN: &str = "browser-test-token-0123456789";
+
 /// A WebDriver session.
 struct Session {
     http: reqwest::Client,
@@ -196,6 +199,8 @@ fn scenes() -> (PathBuf, PathBuf) {
             }
         }
     }
+    // The test uploads this one through the page.
+    let _ = std::fs::remove_dir_all(scenes.join("little-box"));
     let room = scenes.join("room-10k");
     std::fs::create_dir_all(&room).unwrap();
     relight::bench::write_group_room(&room, 8, 8200).unwrap();
@@ -411,6 +416,82 @@ async fn the_page_relights_live_in_headless_chromium() {
         .await;
     assert!(fps["triangles"].as_u64().unwrap() > 10_000, "{fps}");
 
+    // ---- The export link carries the page's lighting.
+    s.js("document.querySelector('#export-glb').dispatchEvent(new Event('focus'));")
+        .await;
+    let href = s
+        .js("return document.querySelector('#export-glb').href;")
+        .await;
+    assert!(
+        href.as_str()
+            .unwrap()
+            .contains("/api/scenes/room-10k/export.glb?light."),
+        "{href}"
+    );
+
+    // ---- Open model: a .glb dropped into the dialog is uploaded, baked and shown.
+    s.click("#open-model-button").await;
+    assert_eq!(
+        s.js("return document.querySelector('#open-model').open;")
+            .await,
+        true
+    );
+    let glb = crate::gltf_import::box_glb();
+    let bytes = serde_json::to_string(&glb).unwrap();
+    s.js(&format!(
+        "const dt = new DataTransfer(); \
+         dt.items.add(new File([new Uint8Array({bytes})], 'Little Box.glb')); \
+         const f = document.querySelector('#model-file'); f.files = dt.files; \
+         f.dispatchEvent(new Event('change')); \
+         document.querySelector('#model-token').value = '{BROWSER_TOKEN}';"
+    ))
+    .await;
+    assert_eq!(
+        s.js("return document.querySelector('#model-id').value;")
+            .await,
+        "little-box"
+    );
+    s.click("#model-upload").await;
+    s.wait_for(
+        "window.relight.state.details && window.relight.state.details.id === 'little-box' \
+         && window.relight.stats.glVersion === window.relight.state.version",
+        "the uploaded model",
+    )
+    .await;
+    assert_eq!(
+        s.js("return document.querySelector('#scene').value;").await,
+        "little-box"
+    );
+
+    // ---- The glTF example: the export in three.js, relit by its sliders.
+    s.post(
+        "/url",
+        json!({"url": format!("{site}/gltf-example.html?scene=cornell-box")}),
+    )
+    .await;
+    s.wait_for(
+        "window.relightExample && window.relightExample.ready",
+        "the glTF example",
+    )
+    .await;
+    let sum = "return Array.from(window.relightExample.model.geometry.getAttribute('color').array).reduce((a, b) => a + b, 0);";
+    let lit = s.js(sum).await.as_f64().unwrap();
+    assert!(lit > 100.0, "the export is lit: {lit}");
+    s.js("const i = document.querySelector('#g-ceiling'); i.value = 0; i.dispatchEvent(new Event('input'));")
+        .await;
+    let dark = s.js(sum).await.as_f64().unwrap();
+    assert_eq!(dark, 0.0, "the only group at 0 leaves the model black");
+    s.js("const i = document.querySelector('#g-ceiling'); i.value = 2; i.dispatchEvent(new Event('input'));")
+        .await;
+    let brighter = s.js(sum).await.as_f64().unwrap();
+    assert!(
+        brighter > lit,
+        "twice the light is brighter: {brighter} vs {lit}"
+    );
+    let recolour = s
+        .js("return document.querySelector('#recolour-ms').textContent;")
+        .await;
+
     // ---- No console errors anywhere along the way.
     let errors = s.console_errors().await;
     assert!(errors.is_empty(), "console errors: {errors:#?}");
@@ -419,6 +500,7 @@ async fn the_page_relights_live_in_headless_chromium() {
         "change_to_image_ms": {"p50": p50, "p90": p90, "runs": lat.len()},
         "last_rtt_ms": rtt,
         "fps_10k_orbit": fps,
+        "gltf_example_recolour": recolour,
         "screenshot": shot,
     });
     eprintln!("browser report: {report:#}");
@@ -445,6 +527,7 @@ async fn serve(
         static_dir: Path::new(env!("CARGO_MANIFEST_DIR")).join("static"),
         cors_origins: vec![],
         body_limit: DEFAULT_BODY_LIMIT,
+        admin_token: Some(BROWSER_TOKEN.into()),
         ..ServerConfig::default()
     })
     .unwrap();
