@@ -11,6 +11,7 @@ pub mod bake;
 pub mod bench;
 pub mod budget;
 pub mod color;
+pub mod daylight;
 pub mod geometry;
 pub mod limits;
 pub mod model;

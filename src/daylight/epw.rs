@@ -1,0 +1,255 @@
+//! EnergyPlus weather files (EPW): the location and the hourly solar columns daylight
+//! needs. Eight header lines (the first is `LOCATION`), then one row per hour: 8,760 rows,
+//! or 8,784 in a leap year. Every error names the line (1-based) and, for a value, the
+//! field.
+//!
+//! Fields read (1-based): 1 year, 2 month, 3 day, 4 hour (1–24: the hour ending then),
+//! 14 global horizontal radiation, 15 direct normal radiation, 16 diffuse horizontal
+//! radiation (Wh/m² over the hour, i.e. mean W/m²), 17 global horizontal illuminance,
+//! 18 direct normal illuminance, 19 diffuse horizontal illuminance (lux). The EPW marks a
+//! missing illuminance with 999999; such a value is read as absent (`None`), and a
+//! missing radiation (9999) is an error, since the sky cannot be built without it.
+
+/// Largest EPW text read, bytes (an 8,784-row file is about 1.6 MB).
+pub const MAX_EPW_BYTES: usize = 16 << 20;
+/// Longest line, bytes.
+const MAX_LINE: usize = 64 << 10;
+
+/// The site line of an EPW file.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Location {
+    pub city: String,
+    /// Degrees north.
+    pub latitude_deg: f64,
+    /// Degrees east.
+    pub longitude_deg: f64,
+    /// Hours east of UTC.
+    pub timezone_h: f64,
+    /// Metres.
+    pub elevation_m: f64,
+}
+
+/// One hour of weather.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Hour {
+    pub month: u32,
+    pub day: u32,
+    /// 1–24, the hour ending at this time (1 = 00:00–01:00).
+    pub hour: u32,
+    /// W/m² (mean over the hour).
+    pub global_horizontal_irradiance: f64,
+    pub direct_normal_irradiance: f64,
+    pub diffuse_horizontal_irradiance: f64,
+    /// Lux; None when the file marks it missing.
+    pub global_horizontal_illuminance: Option<f64>,
+    pub direct_normal_illuminance: Option<f64>,
+    pub diffuse_horizontal_illuminance: Option<f64>,
+}
+
+/// A weather file.
+#[derive(Debug, Clone)]
+pub struct Weather {
+    pub location: Location,
+    pub hours: Vec<Hour>,
+}
+
+fn field<'a>(fields: &[&'a str], k: usize, line: usize) -> Result<&'a str, String> {
+    fields.get(k - 1).map(|s| s.trim()).ok_or_else(|| {
+        format!(
+            "line {line}: field {k} is missing ({} fields)",
+            fields.len()
+        )
+    })
+}
+
+fn number(fields: &[&str], k: usize, line: usize, what: &str) -> Result<f64, String> {
+    let s = field(fields, k, line)?;
+    match s.parse::<f64>() {
+        Ok(x) if x.is_finite() => Ok(x),
+        _ => Err(format!(
+            "line {line}: field {k} ({what}) is not a number: '{}'",
+            short(s)
+        )),
+    }
+}
+
+fn short(s: &str) -> String {
+    s.chars().take(40).collect()
+}
+
+/// Parses an EPW file's bytes. Header comments are often Latin-1, not UTF-8: invalid
+/// bytes are read as U+FFFD (the fields relight reads are ASCII).
+pub fn parse_bytes(bytes: &[u8]) -> Result<Weather, String> {
+    if bytes.len() > MAX_EPW_BYTES {
+        return Err(format!(
+            "the weather file is larger than {} MiB",
+            MAX_EPW_BYTES >> 20
+        ));
+    }
+    parse(&String::from_utf8_lossy(bytes))
+}
+
+/// Parses an EPW file's text.
+pub fn parse(text: &str) -> Result<Weather, String> {
+    if text.len() > MAX_EPW_BYTES {
+        return Err(format!(
+            "the weather file is larger than {} MiB",
+            MAX_EPW_BYTES >> 20
+        ));
+    }
+    let mut lines = text.lines().enumerate().map(|(i, l)| (i + 1, l));
+    let (n, first) = lines.next().ok_or("the weather file is empty")?;
+    let loc: Vec<&str> = first.split(',').collect();
+    if loc.first().map(|s| s.trim()) != Some("LOCATION") {
+        return Err(format!("line {n}: an EPW file starts with a LOCATION line"));
+    }
+    let location = Location {
+        city: field(&loc, 2, n)?.to_string(),
+        latitude_deg: number(&loc, 7, n, "latitude")?,
+        longitude_deg: number(&loc, 8, n, "longitude")?,
+        timezone_h: number(&loc, 9, n, "time zone")?,
+        elevation_m: number(&loc, 10, n, "elevation")?,
+    };
+    if !(-90.0..=90.0).contains(&location.latitude_deg)
+        || !(-180.0..=180.0).contains(&location.longitude_deg)
+        || !(-12.0..=14.0).contains(&location.timezone_h)
+    {
+        return Err(format!(
+            "line {n}: latitude, longitude or time zone out of range"
+        ));
+    }
+    // The other seven header lines.
+    for _ in 0..7 {
+        lines
+            .next()
+            .ok_or("the weather file ends inside its header")?;
+    }
+    let mut hours = Vec::with_capacity(8784);
+    for (n, l) in lines {
+        if l.trim().is_empty() {
+            continue;
+        }
+        if l.len() > MAX_LINE {
+            return Err(format!("line {n}: longer than {} KiB", MAX_LINE >> 10));
+        }
+        if hours.len() == 8784 {
+            return Err(format!("line {n}: more than 8,784 hourly rows"));
+        }
+        let f: Vec<&str> = l.split(',').collect();
+        let int = |k: usize, what: &str, lo: u32, hi: u32| -> Result<u32, String> {
+            let s = field(&f, k, n)?;
+            match s.parse::<u32>() {
+                Ok(x) if (lo..=hi).contains(&x) => Ok(x),
+                _ => Err(format!(
+                    "line {n}: field {k} ({what}) must be {lo}–{hi}: '{}'",
+                    short(s)
+                )),
+            }
+        };
+        let radiation = |k: usize, what: &str| -> Result<f64, String> {
+            let x = number(&f, k, n, what)?;
+            if !(0.0..9999.0).contains(&x) {
+                return Err(format!(
+                    "line {n}: field {k} ({what}) is missing or out of range: {x}"
+                ));
+            }
+            Ok(x)
+        };
+        let lux = |k: usize, what: &str| -> Result<Option<f64>, String> {
+            let x = number(&f, k, n, what)?;
+            if x >= 999_999.0 {
+                return Ok(None);
+            }
+            if !(0.0..=200_000.0).contains(&x) {
+                return Err(format!("line {n}: field {k} ({what}) out of range: {x}"));
+            }
+            Ok(Some(x))
+        };
+        hours.push(Hour {
+            month: int(2, "month", 1, 12)?,
+            day: int(3, "day", 1, 31)?,
+            hour: int(4, "hour", 1, 24)?,
+            global_horizontal_irradiance: radiation(14, "global horizontal radiation")?,
+            direct_normal_irradiance: radiation(15, "direct normal radiation")?,
+            diffuse_horizontal_irradiance: radiation(16, "diffuse horizontal radiation")?,
+            global_horizontal_illuminance: lux(17, "global horizontal illuminance")?,
+            direct_normal_illuminance: lux(18, "direct normal illuminance")?,
+            diffuse_horizontal_illuminance: lux(19, "diffuse horizontal illuminance")?,
+        });
+    }
+    if hours.len() != 8760 && hours.len() != 8784 {
+        return Err(format!(
+            "the weather file has {} hourly rows; a year has 8,760 (8,784 in a leap year)",
+            hours.len()
+        ));
+    }
+    Ok(Weather { location, hours })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{parse, parse_bytes};
+
+    const MANNHEIM_BYTES: &[u8] = include_bytes!("../../tests/data/weather/mannheim.epw");
+    const CHICAGO: &[u8] = include_bytes!("../../tests/data/weather/chicago.epw");
+
+    #[test]
+    fn real_weather_files_parse_with_plausible_totals() {
+        let w = parse_bytes(MANNHEIM_BYTES).unwrap();
+        assert_eq!(w.location.city, "Mannheim");
+        assert_eq!(
+            (
+                w.location.latitude_deg,
+                w.location.longitude_deg,
+                w.location.timezone_h
+            ),
+            (49.52, 8.55, 1.0)
+        );
+        assert_eq!(w.hours.len(), 8760);
+        assert_eq!(
+            (w.hours[0].month, w.hours[0].day, w.hours[0].hour),
+            (1, 1, 1)
+        );
+        // Annual global horizontal irradiation, kWh/m²: central Europe receives 1000–1300.
+        let kwh: f64 = w
+            .hours
+            .iter()
+            .map(|h| h.global_horizontal_irradiance)
+            .sum::<f64>()
+            / 1000.0;
+        assert!((1000.0..1300.0).contains(&kwh), "{kwh} kWh/m²");
+        let c = parse_bytes(CHICAGO).unwrap();
+        assert!((c.location.latitude_deg - 41.98).abs() < 0.01 && c.location.timezone_h == -6.0);
+        let kwh: f64 = c
+            .hours
+            .iter()
+            .map(|h| h.global_horizontal_irradiance)
+            .sum::<f64>()
+            / 1000.0;
+        assert!((1200.0..1600.0).contains(&kwh), "{kwh} kWh/m²");
+        // Luminous efficacy of daylight, global: about 100–125 lm/W in the yearly mean.
+        let (lux, wm2) = c.hours.iter().fold((0.0, 0.0), |(a, b), h| {
+            (
+                a + h.global_horizontal_illuminance.unwrap_or(0.0),
+                b + h.global_horizontal_irradiance,
+            )
+        });
+        assert!((95.0..130.0).contains(&(lux / wm2)), "{} lm/W", lux / wm2);
+    }
+
+    #[test]
+    fn broken_rows_name_their_line_and_field() {
+        let text = String::from_utf8_lossy(MANNHEIM_BYTES);
+        let mut lines: Vec<String> = text.lines().map(String::from).collect();
+        let mut f: Vec<String> = lines[100].split(',').map(String::from).collect();
+        f[14] = "abc".into();
+        lines[100] = f.join(",");
+        let e = parse(&lines.join("\n")).unwrap_err();
+        assert!(e.contains("line 101") && e.contains("field 15"), "{e}");
+        let short: Vec<&str> = text.lines().take(500).collect();
+        let e = parse(&short.join("\n")).unwrap_err();
+        assert!(e.contains("492 hourly rows"), "{e}");
+        assert!(parse("").is_err());
+        assert!(parse("hello\n").unwrap_err().contains("LOCATION"));
+    }
+}
