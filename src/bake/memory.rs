@@ -109,6 +109,17 @@ pub fn estimate_load_bytes(
     }
 }
 
+/// The light groups plus, for a scene with a site, the sky patches: every one is an RGB
+/// response the bake solves and keeps.
+pub fn solved_columns(scene: &Scene) -> usize {
+    scene.lights.len()
+        + if scene.site.is_some() {
+            crate::transport::sky::subdivision().patches.len()
+        } else {
+            0
+        }
+}
+
 /// Memory estimates for one meshed scene.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
 pub struct MemoryEstimate {
@@ -147,7 +158,7 @@ pub fn memory_estimate(scene: &Scene, mesh: &Mesh, mode: TransferMode) -> Memory
             distinct.push(c);
         }
     }
-    let (n, groups, lu_count) = (mesh.len(), scene.lights.len(), distinct.len());
+    let (n, groups, lu_count) = (mesh.len(), solved_columns(scene), distinct.len());
     MemoryEstimate {
         patches: n,
         mode,

@@ -294,7 +294,7 @@ impl Prepared {
             let mode = opts.mode.unwrap_or_else(|| {
                 TransferMode::resolve(opts.choice.unwrap_or(scene.transfer), at_least)
             });
-            let needed = estimate_bake_bytes(at_least, mode, scene.lights.len(), 1);
+            let needed = estimate_bake_bytes(at_least, mode, memory::solved_columns(&scene), 1);
             if needed > budget {
                 return Err(BakeError::OverBudget {
                     scene: scene.id.clone(),
@@ -433,6 +433,22 @@ fn hierarchy_plan(p: &Prepared, direct: &[Option<Vec<f32>>]) -> (Plan, Vec<glam:
     )
 }
 
+/// For a scene with a site, the direct light of every sky patch on every patch.
+fn sky_direct(
+    scene: &Scene,
+    mesh: &Mesh,
+    bvh: &Bvh,
+) -> Option<crate::transport::transfer::SkyDirect> {
+    let site = scene.site.as_ref()?;
+    let sub = crate::transport::sky::subdivision();
+    let (lo, hi) = scene.bounds();
+    let reach = crate::transport::sky::Reach::new(lo, hi);
+    Some(crate::transport::transfer::SkyDirect {
+        k: sub.patches.len(),
+        direct: crate::transport::sky::patch_sky_direct(mesh, bvh, site, &sub, reach),
+    })
+}
+
 /// The rest of every bake, from the form factors on: the solve, the grids' responses
 /// and the cache entry.
 fn finish(
@@ -444,7 +460,8 @@ fn finish(
     progress: &(dyn Fn(Stage, f64) + Sync),
 ) -> Result<Baked, BakeError> {
     let t1 = Instant::now();
-    let mut transfer = Transfer::build(&p.scene, &p.mesh, coupling, direct, p.mode, &|x| {
+    let sky = sky_direct(&p.scene, &p.mesh, &p.bvh);
+    let mut transfer = Transfer::build(&p.scene, &p.mesh, coupling, direct, sky, p.mode, &|x| {
         progress(Stage::Solving, 0.95 * x)
     });
     transfer.grids =

@@ -4,6 +4,7 @@
 //! field.
 //!
 //! Fields read (1-based): 1 year, 2 month, 3 day, 4 hour (1–24: the hour ending then),
+//! 8 dew point temperature (°C, 99.9 missing),
 //! 14 global horizontal radiation, 15 direct normal radiation, 16 diffuse horizontal
 //! radiation (Wh/m² over the hour, i.e. mean W/m²), 17 global horizontal illuminance,
 //! 18 direct normal illuminance, 19 diffuse horizontal illuminance (lux). The EPW marks a
@@ -44,6 +45,8 @@ pub struct Hour {
     pub global_horizontal_illuminance: Option<f64>,
     pub direct_normal_illuminance: Option<f64>,
     pub diffuse_horizontal_illuminance: Option<f64>,
+    /// Dew point temperature, °C; None when the file marks it missing (99.9).
+    pub dew_point_c: Option<f64>,
 }
 
 /// A weather file.
@@ -175,6 +178,18 @@ pub fn parse(text: &str) -> Result<Weather, String> {
             global_horizontal_illuminance: lux(17, "global horizontal illuminance")?,
             direct_normal_illuminance: lux(18, "direct normal illuminance")?,
             diffuse_horizontal_illuminance: lux(19, "diffuse horizontal illuminance")?,
+            dew_point_c: {
+                let x = number(&f, 8, n, "dew point temperature")?;
+                if x >= 99.9 {
+                    None
+                } else if (-90.0..70.0).contains(&x) {
+                    Some(x)
+                } else {
+                    return Err(format!(
+                        "line {n}: field 8 (dew point temperature) out of range: {x}"
+                    ));
+                }
+            },
         });
     }
     if hours.len() != 8760 && hours.len() != 8784 {

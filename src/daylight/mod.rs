@@ -8,6 +8,7 @@
 //! Luminance is in cd/m², illuminance in lux, irradiance in W/m².
 
 pub mod epw;
+pub mod perez;
 pub mod sky;
 pub mod sun;
 pub mod tregenza;

@@ -10,6 +10,8 @@
 //!   the sun and Z_s the sun's zenith angle. L_z follows from E_h by quadrature
 //!   ([`horizontal_integral`]).
 //!
+//! - Perez all-weather ([`super::perez`]), scaled like the CIE clear sky.
+//!
 //! Angles are radians inside: altitude γ above the horizon, azimuth from north clockwise.
 
 use std::f64::consts::{FRAC_PI_2, PI};
@@ -45,6 +47,14 @@ pub enum Sky {
     },
     CieClear {
         zenith: f64,
+        sun_altitude: f64,
+        sun_azimuth: f64,
+    },
+    /// The Perez all-weather sky: `scale` × the relative luminance of
+    /// [`super::perez::relative_luminance`].
+    Perez {
+        scale: f64,
+        params: [f64; 5],
         sun_altitude: f64,
         sun_azimuth: f64,
     },
@@ -113,6 +123,28 @@ impl Sky {
         }
     }
 
+    /// The Perez sky of an hour's conditions, the sun at `sun_azimuth` (radians), scaled to
+    /// the conditions' diffuse horizontal illuminance.
+    pub fn perez(c: &super::perez::Conditions, sun_azimuth: f64) -> Sky {
+        let unit = Sky::Perez {
+            scale: 1.0,
+            params: c.params,
+            sun_altitude: FRAC_PI_2 - c.sun_zenith,
+            sun_azimuth,
+        };
+        let e1 = integral(&unit, 120, 240);
+        Sky::Perez {
+            scale: if e1 > 0.0 {
+                c.diffuse_illuminance / e1
+            } else {
+                0.0
+            },
+            params: c.params,
+            sun_altitude: FRAC_PI_2 - c.sun_zenith,
+            sun_azimuth,
+        }
+    }
+
     /// Luminance, cd/m², towards a sky position (radians); 0 below the horizon.
     pub fn luminance(&self, altitude: f64, azimuth: f64) -> f64 {
         if altitude < 0.0 {
@@ -131,6 +163,15 @@ impl Sky {
                 zenith * indicatrix(chi) * gradation(altitude)
                     / (indicatrix(zs) * gradation(FRAC_PI_2))
             }
+            Sky::Perez {
+                scale,
+                ref params,
+                sun_altitude,
+                sun_azimuth,
+            } => {
+                let gamma = angle((altitude, azimuth), (sun_altitude, sun_azimuth));
+                scale * super::perez::relative_luminance(params, FRAC_PI_2 - altitude, gamma)
+            }
         }
     }
 }
@@ -139,7 +180,11 @@ impl Sky {
 /// the midpoint rule on a 0.25° × 0.5° grid in altitude and azimuth. For the smooth CIE
 /// skies its error is below 0.01 % (checked against the overcast sky's closed form).
 pub fn horizontal_integral(sky: &Sky) -> f64 {
-    let (na, nz) = (360usize, 720usize);
+    integral(sky, 360, 720)
+}
+
+/// [`horizontal_integral`] on an `na` × `nz` grid.
+fn integral(sky: &Sky, na: usize, nz: usize) -> f64 {
     let (da, dz) = (FRAC_PI_2 / na as f64, 2.0 * PI / nz as f64);
     let mut sum = 0.0;
     for i in 0..na {

@@ -14,6 +14,8 @@
 //!   statistics, illuminance at points and on grids, luminaire power.
 //! - [`optimize`]: least-flux dimming levels under grid targets.
 //! - [`report`]: per-surface averages and the power balance.
+//! - [`sky`]: the grammar of a sky ([`sky::SkySpec`]) and a sky resolved for the site.
+//! - [`daylight`]: daylight on surfaces, points and grids, and the point-gather cache.
 //! - [`info`]: what the scene is made of (units, bounds, luminaires, grids, surfaces,
 //!   patches), for clients.
 //!
@@ -28,6 +30,7 @@ use std::sync::Arc;
 use crate::bake::Baked;
 use crate::color::luminance64;
 
+pub mod daylight;
 pub mod error;
 pub mod grid;
 pub mod info;
@@ -35,6 +38,7 @@ pub mod lighting;
 pub mod optimize;
 pub mod query;
 pub mod report;
+pub mod sky;
 
 pub use error::QueryError;
 pub use lighting::{LightSetting, LightState, Lighting};
@@ -70,6 +74,8 @@ pub struct Model {
     pub groups: Vec<GroupInfo>,
     /// The scene's calculation grids with their per-group responses.
     pub grids: Vec<grid::GridResponse>,
+    /// Gathers of point sets asked before ([`daylight::GatherCache`]).
+    pub gathers: daylight::GatherCache,
 }
 
 /// Bytes per patch held besides the transfer: mesh, BVH, shading vertices, mesh bytes.
@@ -86,6 +92,7 @@ impl Model {
             baked,
             groups,
             grids,
+            gathers: Default::default(),
         }
     }
 
@@ -97,7 +104,7 @@ impl Model {
             .iter()
             .map(|g| 16 * g.len() as u64 * (1 + 3 * t.group_count() as u64))
             .sum();
-        t.bytes() + SCENE_BYTES_PER_PATCH * t.n as u64 + grid_bytes
+        t.bytes() + SCENE_BYTES_PER_PATCH * t.n as u64 + grid_bytes + daylight::GatherCache::limit()
     }
 
     /// Number of patches.

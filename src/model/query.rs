@@ -306,6 +306,42 @@ impl Model {
                 power: Some(self.luminaire_power(w)),
             });
         }
+        if let Some(w) = w {
+            // Group lighting: the points' gathers come from the cache.
+            let b = self.per_patch(l, Quantity::Radiosity)?;
+            let h = self.per_patch(l, Quantity::Illuminance)?;
+            let gathers = self.gathers(&q.points, cancel)?;
+            let points = q
+                .points
+                .iter()
+                .zip(gathers.iter())
+                .map(|(&(x, n), g)| {
+                    let mut e = g.gather(&b);
+                    for (light, wl) in self.baked.scene.lights.iter().zip(w) {
+                        if light.luminaires.is_empty() || wl.iter().all(|&c| c == 0.0) {
+                            continue;
+                        }
+                        let d = crate::transport::direct::point_illuminance(
+                            &self.baked.bvh,
+                            &light.luminaires,
+                            x,
+                            n,
+                        );
+                        for c in 0..3 {
+                            e[c] += wl[c] as f64 * d[c];
+                        }
+                    }
+                    Lux::new(e)
+                })
+                .collect();
+            return Ok(IlluminanceAnswer {
+                unit: "lx",
+                points,
+                surfaces: self.surface_stats(&q.surfaces, &h),
+                grids: self.grid_answers(&q.grids, w),
+                power: Some(self.luminaire_power(w)),
+            });
+        }
         let sol = self.solve(l)?;
         let at = |x: DVec3, n: DVec3| -> [f64; 3] {
             if cancel.is_cancelled() {
@@ -352,7 +388,7 @@ impl Model {
 /// copied out (12) and JSON text (3 numbers of up to 16 characters, 50).
 pub const BYTES_PER_PATCH_ANSWER: u64 = 100;
 
-fn grid_answer(g: &crate::scene::Grid, s: GridStats) -> GridAnswer {
+pub(crate) fn grid_answer(g: &crate::scene::Grid, s: GridStats) -> GridAnswer {
     GridAnswer {
         name: g.name.clone(),
         unit: "lx",

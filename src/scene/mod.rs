@@ -139,6 +139,8 @@ pub struct Scene {
     pub grids: Vec<Grid>,
     pub mesh: MeshSettings,
     pub transfer: TransferChoice,
+    /// Where the scene stands, for daylight (`[site]`); None: no daylight.
+    pub site: Option<crate::daylight::Site>,
     /// Non-fatal problems (skipped degenerate triangles, defaulted materials).
     pub warnings: Vec<String>,
 }
@@ -243,6 +245,7 @@ impl Scene {
             grids,
             mesh,
             transfer: cfg.transfer.unwrap_or_default(),
+            site: cfg.site.as_ref().and_then(|s| s.site().ok()),
             warnings,
         })
     }

@@ -49,6 +49,45 @@ pub struct SceneToml {
     /// Per-material options, keyed by MTL material name.
     #[serde(default)]
     pub(crate) material: BTreeMap<String, FaceOptions>,
+    /// Where the scene stands on Earth; a scene without it has no daylight.
+    pub(crate) site: Option<SiteToml>,
+}
+
+/// `[site]`: latitude (°N), longitude (°E), timezone (hours east of UTC, standard time),
+/// north (the scene's horizontal direction of north; default -z, so east is +x), and the
+/// outside ground's reflectance (default 0.2).
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(crate) struct SiteToml {
+    pub(crate) latitude: f64,
+    pub(crate) longitude: f64,
+    pub(crate) timezone: f64,
+    #[serde(default = "default_north")]
+    pub(crate) north: [f64; 3],
+    #[serde(default = "default_ground")]
+    pub(crate) ground_reflectance: f64,
+}
+
+fn default_north() -> [f64; 3] {
+    [0.0, 0.0, -1.0]
+}
+
+fn default_ground() -> f64 {
+    0.2
+}
+
+impl SiteToml {
+    /// The checked site.
+    pub(crate) fn site(&self) -> Result<crate::daylight::Site, String> {
+        crate::daylight::Site::new(
+            self.latitude,
+            self.longitude,
+            self.timezone,
+            glam::DVec3::from_array(self.north),
+            self.ground_reflectance,
+        )
+        .map_err(|m| format!("[site]: {m}"))
+    }
 }
 
 #[derive(Debug, Default, Clone, Deserialize)]
@@ -303,6 +342,9 @@ fn validate_toml(cfg: &SceneToml, path: &Path) -> Result<(), SceneError> {
     }
     for c in &cfg.cameras {
         check_camera(c, scale).map_err(|m| inv(format!("camera '{}': {m}", c.id)))?;
+    }
+    if let Some(site) = &cfg.site {
+        site.site().map_err(inv)?;
     }
     // Grid points, counted in f64 over all grids before anything is allocated.
     let mut grid_points = 0f64;

@@ -19,7 +19,7 @@ use crate::photometry::Luminaire;
 use crate::scene::Scene;
 
 /// Barycentric (u, v) of the centroids of the 4^level sub-triangles of a triangle.
-fn sub_centroids(level: u32) -> Vec<(f64, f64)> {
+pub(crate) fn sub_centroids(level: u32) -> Vec<(f64, f64)> {
     // Sub-triangles in barycentric space, starting from the whole triangle.
     let mut tris = vec![[(0.0, 0.0), (1.0, 0.0), (0.0, 1.0)]];
     for _ in 0..level {

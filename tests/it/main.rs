@@ -24,6 +24,7 @@ mod cache;
 mod cli;
 mod configuration_factors;
 mod cornell;
+mod daylight;
 mod fuzz;
 mod fuzz_requests;
 mod gltf_import;

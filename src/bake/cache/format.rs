@@ -10,7 +10,7 @@ use crate::transport::transfer::{SolveInfo, TransferMode};
 /// The first 8 bytes of every cache file.
 pub(super) const MAGIC: &[u8; 8] = b"RLTRANS\0";
 /// Bump when the file layout changes.
-pub(super) const FORMAT_VERSION: u32 = 4;
+pub(super) const FORMAT_VERSION: u32 = 5;
 /// Bump when the numbers a bake produces change (meshing, form factors, solver).
 pub(super) const ALGORITHM_VERSION: u32 = 1;
 /// Largest JSON header accepted, bytes.
@@ -55,6 +55,10 @@ pub struct Header {
     /// Points of each calculation grid (one section per grid and group).
     #[serde(default)]
     pub grid_points: Vec<usize>,
+    /// Sky patches of a daylight transfer (0: none): a section `skyd` (n × K) and one
+    /// `sky{k}` (n × 3) per patch.
+    #[serde(default)]
+    pub sky_patches: usize,
     pub sections: Vec<Section>,
 }
 
@@ -100,6 +104,19 @@ pub(super) fn expected_sections(h: &Header) -> Option<Vec<(String, Kind, u64)>> 
             ));
         }
     }
+    if h.sky_patches > 0 {
+        if h.sky_patches > h.sections.len() {
+            return None;
+        }
+        out.push((
+            "skyd".to_string(),
+            Kind::Floats,
+            vec1.checked_mul(h.sky_patches as u64)?,
+        ));
+        for k in 0..h.sky_patches {
+            out.push((sky_section(k), Kind::Floats, vec3));
+        }
+    }
     match h.mode {
         TransferMode::Columns => {
             if h.lu_count != 0 {
@@ -143,4 +160,9 @@ pub(super) fn expected_sections(h: &Header) -> Option<Vec<(String, Kind, u64)>> 
 /// The section of grid `i`'s response to group `g`.
 pub(super) fn grid_section(i: usize, g: usize) -> String {
     format!("grid{i}g{g}")
+}
+
+/// The section of sky patch `k`'s interreflected response.
+pub(super) fn sky_section(k: usize) -> String {
+    format!("sky{k}")
 }

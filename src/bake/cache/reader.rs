@@ -10,13 +10,13 @@ use std::path::Path;
 use xxhash_rust::xxh3::Xxh3;
 
 use super::format::{
-    expected_sections, grid_section, Header, Kind, Section, FORMAT_VERSION, MAGIC,
+    expected_sections, grid_section, sky_section, Header, Kind, Section, FORMAT_VERSION, MAGIC,
     MAX_HEADER_BYTES, PREAMBLE,
 };
 use super::CacheError;
 use crate::transport::hierarchy::Hierarchy;
 use crate::transport::solve::ChannelLu;
-use crate::transport::transfer::{Factored, GroupColumns, Transfer, TransferMode};
+use crate::transport::transfer::{Factored, GroupColumns, SkyColumns, Transfer, TransferMode};
 
 /// The file at `path`, opened, and its size in bytes.
 fn open_sized(path: &Path) -> Result<(File, u64), CacheError> {
@@ -256,6 +256,20 @@ fn assemble(path: &Path, h: &Header, mut s: Sections) -> Result<Transfer, CacheE
                 .collect::<Result<Vec<_>, _>>()?,
         );
     }
+    let sky = match h.sky_patches {
+        0 => None,
+        k => {
+            let direct = take("skyd")?;
+            let indirect = (0..k)
+                .map(|s| take(&sky_section(s)))
+                .collect::<Result<Vec<_>, _>>()?;
+            Some(SkyColumns {
+                k,
+                direct,
+                indirect,
+            })
+        }
+    };
     let factored = match h.mode {
         TransferMode::Columns | TransferMode::Hierarchical => None,
         TransferMode::Factored => Some(factored(h, &mut take, &mut s.lus, &corrupt)?),
@@ -274,6 +288,7 @@ fn assemble(path: &Path, h: &Header, mut s: Sections) -> Result<Transfer, CacheE
         factored,
         hierarchy,
         grids,
+        sky,
         info: h.info,
     })
 }

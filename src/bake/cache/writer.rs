@@ -9,7 +9,9 @@ use std::path::Path;
 use xxhash_rust::xxh3::Xxh3;
 
 use super::folder::temp_path;
-use super::format::{grid_section, Header, Section, ALGORITHM_VERSION, FORMAT_VERSION, MAGIC};
+use super::format::{
+    grid_section, sky_section, Header, Section, ALGORITHM_VERSION, FORMAT_VERSION, MAGIC,
+};
 use super::CacheError;
 use crate::transport::solve::ChannelLu;
 use crate::transport::transfer::Transfer;
@@ -93,6 +95,7 @@ pub fn write(
             .iter()
             .map(|g| g.first().map_or(0, |c| c.len() / 3))
             .collect(),
+        sky_patches: t.sky.as_ref().map_or(0, |s| s.k),
         sections: section_table(&all),
     };
     let hjson = serde_json::to_vec(&header).map_err(|e| io(std::io::Error::other(e)))?;
@@ -137,6 +140,15 @@ fn sections_of(t: &Transfer) -> Vec<(String, Data<'_>)> {
     for (i, grid) in t.grids.iter().enumerate() {
         for (g, col) in grid.iter().enumerate() {
             all.push((grid_section(i, g), Data::Slice(bytemuck::cast_slice(col))));
+        }
+    }
+    if let Some(sky) = &t.sky {
+        all.push((
+            "skyd".into(),
+            Data::Slice(bytemuck::cast_slice(&sky.direct)),
+        ));
+        for (k, col) in sky.indirect.iter().enumerate() {
+            all.push((sky_section(k), Data::Slice(bytemuck::cast_slice(col))));
         }
     }
     if let Some(f) = &t.factored {

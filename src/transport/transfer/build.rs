@@ -69,9 +69,31 @@ pub fn all_sources(scene: &Scene, mesh: &Mesh, direct: &[Option<Vec<f32>>]) -> V
     out
 }
 
-/// The sources as an n × 3G matrix, column 3g + c (see [`group_sources`]).
-fn source_matrix(emission: &[Vec<f32>], direct: &[Option<Vec<f32>>], rho: &[Rgb]) -> Mat<f32> {
-    let s = group_sources(emission, direct, rho);
+/// Per sky patch k, the source `ρ D_k` (n × 3 interleaved) of the sky's direct
+/// illuminance at unit luminance `d` (n × K row-major).
+fn sky_sources(d: &SkyDirect, rho: &[Rgb]) -> Vec<Vec<f32>> {
+    (0..d.k)
+        .map(|k| {
+            rho.iter()
+                .enumerate()
+                .flat_map(|(i, r)| r.map(|c| c * d.direct[i * d.k + k]))
+                .collect()
+        })
+        .collect()
+}
+
+/// The sources of the groups and then the sky patches as an n × 3(G + K) matrix, column
+/// 3g + c (see [`group_sources`], [`sky_sources`]).
+fn source_matrix(
+    emission: &[Vec<f32>],
+    direct: &[Option<Vec<f32>>],
+    sky: Option<&SkyDirect>,
+    rho: &[Rgb],
+) -> Mat<f32> {
+    let mut s = group_sources(emission, direct, rho);
+    if let Some(d) = sky {
+        s.extend(sky_sources(d, rho));
+    }
     Mat::from_fn(rho.len(), 3 * s.len(), |i, k| s[k / 3][3 * i + k % 3])
 }
 
@@ -119,11 +141,15 @@ impl Transfer {
     /// group's source is `E + ρ D`, and its incident illuminance `H = D + F B`.
     /// `coupling` is the dense `F` for the factored and columns modes, the links for the
     /// hierarchical mode.
+    /// `sky`, for a scene with a site, is the direct illuminance of every sky patch at unit
+    /// luminance; each gets a response ([`SkyColumns`]) solved with the groups.
+    #[allow(clippy::too_many_arguments)]
     pub fn build(
         scene: &Scene,
         mesh: &Mesh,
         coupling: Coupling,
         direct: &[Option<Vec<f32>>],
+        sky: Option<SkyDirect>,
         mode: TransferMode,
         progress: &(dyn Fn(f64) + Sync),
     ) -> Transfer {
@@ -131,10 +157,10 @@ impl Transfer {
         let area: Vec<f32> = mesh.patches.iter().map(|p| p.area as f32).collect();
         match coupling {
             Coupling::Dense(f) => {
-                Self::build_dense(scene, mesh, f, rho, area, direct, mode, progress)
+                Self::build_dense(scene, mesh, f, rho, area, direct, sky, mode, progress)
             }
             Coupling::Links(h, escape) => {
-                Self::build_links(scene, mesh, *h, escape, rho, area, direct, progress)
+                Self::build_links(scene, mesh, *h, escape, rho, area, direct, sky, progress)
             }
         }
     }
@@ -149,15 +175,20 @@ impl Transfer {
         rho: Vec<Rgb>,
         area: Vec<f32>,
         direct: &[Option<Vec<f32>>],
+        sky: Option<SkyDirect>,
         progress: &(dyn Fn(f64) + Sync),
     ) -> Transfer {
         let n = mesh.len();
         let emission = group_emission(scene, mesh);
         let g = emission.len();
-        let c = 3 * g;
-        // Sources E + ρD, row-major n × 3G.
+        let mut cols = group_sources(&emission, direct, &rho);
+        if let Some(d) = &sky {
+            cols.extend(sky_sources(d, &rho));
+        }
+        let c = 3 * cols.len();
+        // Sources E + ρD (groups, then sky patches), row-major n × 3(G + K).
         let mut src = vec![0f32; n * c];
-        for (gi, col) in group_sources(&emission, direct, &rho).iter().enumerate() {
+        for (gi, col) in cols.iter().enumerate() {
             for (i, v) in col.chunks_exact(3).enumerate() {
                 src[i * c + 3 * gi..i * c + 3 * gi + 3].copy_from_slice(v);
             }
@@ -179,12 +210,18 @@ impl Transfer {
                 GroupColumns::new(scene, gi, &emission, b, h, direct, &area)
             })
             .collect();
+        let sky = sky.map(|d| {
+            let sol = sol.as_ref().expect("sky patches imply columns");
+            let indirect = (0..d.k).map(|k| pick(&sol.h, g + k)).collect();
+            SkyColumns::new(d, indirect)
+        });
         let info = SolveInfo {
             residual: sol.as_ref().map_or(0.0, |s| s.residual),
             sweeps: sol.as_ref().map_or(0, |s| s.sweeps),
         };
         progress(1.0);
         Transfer {
+            sky,
             mode: TransferMode::Hierarchical,
             n,
             rho,
@@ -207,6 +244,7 @@ impl Transfer {
         rho: Vec<Rgb>,
         area: Vec<f32>,
         direct: &[Option<Vec<f32>>],
+        sky: Option<SkyDirect>,
         mode: TransferMode,
         progress: &(dyn Fn(f64) + Sync),
     ) -> Transfer {
@@ -218,8 +256,8 @@ impl Transfer {
         let rho_ch: [Vec<f32>; 3] = std::array::from_fn(|c| rho.iter().map(|r| r[c]).collect());
         let emission = group_emission(scene, mesh);
         let g = emission.len();
-        let e = source_matrix(&emission, direct, &rho);
-        let rho_of_col: Vec<&[f32]> = (0..3 * g).map(|k| rho_ch[k % 3].as_slice()).collect();
+        let e = source_matrix(&emission, direct, sky.as_ref(), &rho);
+        let rho_of_col: Vec<&[f32]> = (0..e.ncols()).map(|k| rho_ch[k % 3].as_slice()).collect();
 
         let (b, lus, sweeps) = match mode {
             TransferMode::Factored => {
@@ -245,9 +283,19 @@ impl Transfer {
                 GroupColumns::new(scene, gi, &emission, bg, hg, direct, &area)
             })
             .collect();
+        let sky = sky.map(|d| {
+            let indirect = (0..d.k)
+                .map(|k| {
+                    let c0 = 3 * (g + k);
+                    solve::interleave(h.as_ref(), [c0, c0 + 1, c0 + 2])
+                })
+                .collect();
+            SkyColumns::new(d, indirect)
+        });
         let factored = lus.map(|(lus, channel_lu)| Factored { lus, channel_lu, f });
         progress(1.0);
         Transfer {
+            sky,
             mode,
             n,
             rho,

@@ -94,6 +94,44 @@ pub struct GroupColumns {
     pub landed: [f64; 3],
 }
 
+/// The direct light of the sky patches at unit luminance, the input of a daylight bake.
+#[derive(Clone)]
+pub struct SkyDirect {
+    /// Sky patches, the ground first ([`crate::transport::sky::subdivision`]).
+    pub k: usize,
+    /// Per patch and sky patch, lux per cd/m² (n × K, row-major).
+    pub direct: Vec<f32>,
+}
+
+/// The sky's responses: per sky patch at unit luminance (cd/m²), the direct illuminance
+/// and the illuminance of the interreflected light. A sky with patch luminances `L_k`
+/// gives each patch `H = Σ_k L_k (D_k + I_k)` (lux) and `B = ρ H` (lm/m²).
+#[derive(Clone)]
+pub struct SkyColumns {
+    pub k: usize,
+    /// Direct: per patch and sky patch, lux per cd/m² (n × K, row-major, luminous: the sky
+    /// is white).
+    pub direct: Vec<f32>,
+    /// Interreflected: per sky patch, n × 3 interleaved, lux per cd/m².
+    pub indirect: Vec<Vec<f32>>,
+}
+
+impl SkyColumns {
+    pub fn new(d: SkyDirect, indirect: Vec<Vec<f32>>) -> SkyColumns {
+        SkyColumns {
+            k: d.k,
+            direct: d.direct,
+            indirect,
+        }
+    }
+
+    /// Bytes held.
+    pub fn bytes(&self) -> u64 {
+        4 * (self.direct.capacity() + self.indirect.iter().map(|c| c.capacity()).sum::<usize>())
+            as u64
+    }
+}
+
 /// Factored-mode data.
 #[derive(Clone)]
 pub struct Factored {
@@ -133,6 +171,8 @@ pub struct Transfer {
     /// the illuminance at each grid point (lux, points × 3 interleaved) at unit weight
     /// ([`crate::transport::probe::grid_columns`]).
     pub grids: Vec<Vec<Vec<f32>>>,
+    /// The sky patches' responses, for a scene with a site.
+    pub sky: Option<SkyColumns>,
     pub info: SolveInfo,
 }
 
@@ -156,6 +196,7 @@ impl Transfer {
             b += h.bytes();
         }
         b += self.grids.iter().flatten().map(f32s).sum::<u64>();
+        b += self.sky.as_ref().map_or(0, |s| s.bytes());
         if let Some(f) = &self.factored {
             b += f32s(&f.f);
             for lu in &f.lus {

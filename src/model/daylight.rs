@@ -1,0 +1,476 @@
+//! Daylight queries, and the point-gather cache every point query shares.
+//!
+//! A sky relights the scene as a weighted sum of the transfer's sky responses
+//! ([`crate::transport::transfer::SkyColumns`]): each patch's illuminance is
+//! `H = Σ_k L_k (D_k + I_k)` over the sky patches' mean luminances `L_k`, plus the sun:
+//! its direct light with shadow rays at every patch, and its interreflected light through
+//! the responses of the sky patches nearest to it. Radiosity is `B = ρ H`.
+//!
+//! A point's illuminance is exact where accuracy needs it: the direct sky is integrated
+//! against the continuous sky luminance over the rays that leave the scene from the point
+//! ([`SkyView`]), the sun gets one shadow ray, and the interreflected light is gathered
+//! from `B` with the point's cached gather weights.
+//!
+//! The cache: a set of points (with normals) is gathered once ([`PointGather`]: the
+//! point-to-patch weights and the sky view) and kept, keyed by the points' bytes, in a
+//! least-recently-used list bounded by [`GATHER_CACHE_BYTES`]. Asking the same points again
+//! under another sky or light state is a sparse dot product per point.
+
+use std::collections::{BTreeMap, VecDeque};
+use std::sync::{Arc, Mutex, OnceLock};
+
+use glam::DVec3;
+use rayon::prelude::*;
+use serde::Serialize;
+
+use super::grid::{self, GridStats};
+use super::query::{GridAnswer, IlluminanceQuery};
+use super::report::SurfaceIlluminance;
+use super::sky::{SkyState, SunPosition};
+use super::{Cancel, Model, QueryError};
+use crate::color::{luminance64, Rgb};
+use crate::daylight::Site;
+use crate::transport::probe::gather_weights;
+use crate::transport::sky::{self, Reach, SkyView};
+use crate::transport::transfer::weighted_sum;
+
+/// Most bytes the point-gather cache of one scene holds.
+pub const GATHER_CACHE_BYTES: usize = 32 << 20;
+
+/// What one point sees: its gather weights over the patches and, for a scene with a site,
+/// its view of the sky.
+#[derive(Debug, Clone)]
+pub struct PointGather {
+    /// (patch, weight): `E = Σ w_j B_j`.
+    pub weights: Vec<(u32, f32)>,
+    pub view: Option<SkyView>,
+}
+
+impl PointGather {
+    fn bytes(&self) -> usize {
+        8 * self.weights.capacity() + self.view.as_ref().map_or(0, |v| v.bytes()) + 64
+    }
+
+    /// Σ w_j B_j per channel.
+    pub fn gather(&self, b: &[f32]) -> [f64; 3] {
+        let mut e = [0.0; 3];
+        for &(j, w) in &self.weights {
+            let j = 3 * j as usize;
+            for c in 0..3 {
+                e[c] += w as f64 * b[j + c] as f64;
+            }
+        }
+        e
+    }
+}
+
+/// A cached point set: its key, its gathers and their bytes.
+type Entry = (u64, Arc<Vec<PointGather>>, usize);
+
+/// The gather cache and the importance its ray budgets follow.
+#[derive(Default)]
+pub struct GatherCache {
+    importance: OnceLock<Vec<f32>>,
+    entries: Mutex<VecDeque<Entry>>,
+}
+
+impl GatherCache {
+    /// Bytes held at most.
+    pub fn limit() -> u64 {
+        GATHER_CACHE_BYTES as u64
+    }
+}
+
+/// A sky's daylight on every patch: illuminance `h` (lux) and radiosity `b` (lm/m²),
+/// n × 3 interleaved.
+pub struct PatchDaylight {
+    pub h: Vec<f32>,
+    pub b: Vec<f32>,
+}
+
+/// Daylight factor statistics of a grid, percent.
+#[derive(Debug, Clone, Serialize)]
+#[cfg_attr(feature = "server", derive(utoipa::ToSchema))]
+pub struct DaylightFactors {
+    pub avg: f64,
+    pub min: f64,
+    pub max: f64,
+    pub median: f64,
+    /// Per point, in grid order.
+    #[cfg_attr(feature = "server", schema(value_type = Vec<f64>))]
+    pub values: Vec<f32>,
+}
+
+/// One grid under a sky: illuminance statistics (lux) and, for the CIE overcast sky,
+/// daylight factors.
+#[derive(Debug, Clone, Serialize)]
+#[cfg_attr(feature = "server", derive(utoipa::ToSchema))]
+pub struct DaylightGrid {
+    #[serde(flatten)]
+    pub illuminance: GridAnswer,
+    /// Null unless the sky is `cie_overcast`.
+    #[cfg_attr(feature = "server", schema(required = true))]
+    pub daylight_factor: Option<DaylightFactors>,
+}
+
+/// One point under a sky.
+#[derive(Debug, Clone, Serialize)]
+#[cfg_attr(feature = "server", derive(utoipa::ToSchema))]
+pub struct DaylightPoint {
+    /// Luminous illuminance, lx (daylight plus any electric light asked for).
+    pub lux: f64,
+    /// Per channel, lx.
+    #[cfg_attr(feature = "server", schema(value_type = crate::schema::Rgb))]
+    pub rgb: [f64; 3],
+    /// 100 · E_daylight / E_horizontal, percent, for the CIE overcast sky; else null.
+    #[cfg_attr(feature = "server", schema(required = true))]
+    pub daylight_factor: Option<f64>,
+}
+
+/// The sky as it was resolved.
+#[derive(Debug, Clone, Serialize)]
+#[cfg_attr(feature = "server", derive(utoipa::ToSchema))]
+pub struct SkyInfo {
+    /// `uniform`, `cie_overcast`, `cie_clear` or `perez`.
+    #[serde(rename = "type")]
+    pub kind: &'static str,
+    /// The sun's position (degrees), when given or derived from a time; null otherwise.
+    #[cfg_attr(feature = "server", schema(required = true))]
+    pub sun: Option<SunPosition>,
+    /// The sun's direct normal illuminance, lx (0 without a sun above the horizon).
+    pub direct_normal_illuminance: f64,
+    /// The sky's diffuse illuminance on an unobstructed horizontal plane, lx.
+    pub diffuse_horizontal_illuminance: f64,
+    /// Diffuse plus direct on an unobstructed horizontal plane, lx.
+    pub global_horizontal_illuminance: f64,
+    /// Luminance of the ground outside the model, cd/m².
+    pub ground_luminance: f64,
+}
+
+/// Daylight answers, lux.
+#[derive(Debug, Clone, Serialize)]
+#[cfg_attr(feature = "server", derive(utoipa::ToSchema), schema(as = DaylightResponse))]
+pub struct DaylightAnswer {
+    /// Always `"lx"`.
+    #[cfg_attr(feature = "server", schema(schema_with = crate::schema::lx))]
+    pub unit: &'static str,
+    pub sky: SkyInfo,
+    /// In request order.
+    pub points: Vec<DaylightPoint>,
+    /// By surface id.
+    pub surfaces: BTreeMap<String, SurfaceIlluminance>,
+    /// By grid id.
+    pub grids: BTreeMap<String, DaylightGrid>,
+}
+
+/// The cache key of a point set.
+fn key(points: &[(DVec3, DVec3)]) -> u64 {
+    let mut h = xxhash_rust::xxh3::Xxh3::new();
+    for (x, n) in points {
+        for v in x.to_array().iter().chain(&n.to_array()) {
+            h.update(&v.to_le_bytes());
+        }
+    }
+    h.digest()
+}
+
+impl Model {
+    /// The scene's site, or why daylight cannot be asked of it.
+    pub fn site(&self) -> Result<&Site, QueryError> {
+        match (&self.baked.scene.site, &self.baked.transfer.sky) {
+            (Some(s), Some(_)) => Ok(s),
+            _ => Err(QueryError::Invalid(format!(
+                "scene '{}' has no [site] in its scene.toml, so it has no daylight",
+                self.baked.scene.id
+            ))),
+        }
+    }
+
+    fn reach(&self) -> Reach {
+        let (lo, hi) = self.baked.scene.bounds();
+        Reach::new(lo, hi)
+    }
+
+    /// Per-patch importance for the gathers' ray budgets: every group's radiosity at unit
+    /// weight and a uniform sky's, each scaled to a largest value of 1.
+    fn importance(&self) -> &[f32] {
+        self.gathers.importance.get_or_init(|| {
+            let t = &self.baked.transfer;
+            let mut out = vec![0f32; 3 * t.n];
+            let mut add = |col: &[f32]| {
+                let max = col.iter().fold(0f32, |m, &v| m.max(v));
+                if max > 0.0 {
+                    for (o, v) in out.iter_mut().zip(col) {
+                        *o += v / max;
+                    }
+                }
+            };
+            for g in &t.groups {
+                add(&g.b);
+            }
+            if let Some(s) = &t.sky {
+                let l = vec![1.0; s.k];
+                add(&self.sky_patches(&l, &[], None).b);
+            }
+            out
+        })
+    }
+
+    /// The gathers of `points` (position m, unit normal), from the cache or traced (in
+    /// parallel, stopping when `cancel` is raised).
+    pub fn gathers(
+        &self,
+        points: &[(DVec3, DVec3)],
+        cancel: &Cancel,
+    ) -> Result<Arc<Vec<PointGather>>, QueryError> {
+        let k = key(points);
+        {
+            let mut e = self
+                .gathers
+                .entries
+                .lock()
+                .unwrap_or_else(|p| p.into_inner());
+            if let Some(pos) = e.iter().position(|(kk, _, _)| *kk == k) {
+                let hit = e.remove(pos).expect("position is in range");
+                let g = hit.1.clone();
+                e.push_front(hit);
+                return Ok(g);
+            }
+        }
+        let k_ = &self.baked;
+        let importance = self.importance();
+        let reach = self.reach();
+        let with_view = k_.transfer.sky.is_some() && k_.scene.site.is_some();
+        let list: Vec<PointGather> = points
+            .par_iter()
+            .map(|&(x, n)| {
+                if cancel.is_cancelled() {
+                    return PointGather {
+                        weights: vec![],
+                        view: None,
+                    };
+                }
+                let weights = gather_weights(&k_.mesh, &k_.bvh, importance, x, n)
+                    .into_iter()
+                    .map(|(j, w)| (j, w as f32))
+                    .collect();
+                let view = with_view.then(|| SkyView::trace(&k_.bvh, x, n, reach));
+                PointGather { weights, view }
+            })
+            .collect();
+        cancel.check()?;
+        let bytes: usize = list.iter().map(|g| g.bytes()).sum();
+        let list = Arc::new(list);
+        if bytes <= GATHER_CACHE_BYTES / 2 {
+            let mut e = self
+                .gathers
+                .entries
+                .lock()
+                .unwrap_or_else(|p| p.into_inner());
+            e.push_front((k, list.clone(), bytes));
+            let mut total: usize = e.iter().map(|x| x.2).sum();
+            while total > GATHER_CACHE_BYTES {
+                match e.pop_back() {
+                    Some(x) => total -= x.2,
+                    None => break,
+                }
+            }
+        }
+        Ok(list)
+    }
+
+    /// Per-patch daylight for sky patch luminances `l` (cd/m², index 0 the ground), the sun
+    /// spread over patches `sun_patches` for its interreflection, and the sun's direct
+    /// illuminance per patch (lux, n).
+    fn sky_patches(
+        &self,
+        l: &[f64],
+        sun_patches: &[(usize, f64)],
+        sun_direct: Option<&[f32]>,
+    ) -> PatchDaylight {
+        let t = &self.baked.transfer;
+        let s = t.sky.as_ref().expect("callers check the site");
+        let n = t.n;
+        // Interreflected: the sky patches' luminances plus the sun's share.
+        let mut w: Vec<Rgb> = l.iter().map(|&x| [x as f32; 3]).collect();
+        for &(k, lum) in sun_patches {
+            w[k] = w[k].map(|x| x + lum as f32);
+        }
+        let mut h = vec![0f32; 3 * n];
+        weighted_sum(s.indirect.iter().map(|c| c.as_slice()), &w, &mut h);
+        // Direct: the sky patches, then the sun.
+        for i in 0..n {
+            let row = &s.direct[i * s.k..(i + 1) * s.k];
+            let mut d: f64 = row.iter().zip(l).map(|(&a, &b)| a as f64 * b).sum();
+            if let Some(sd) = sun_direct {
+                d += sd[i] as f64;
+            }
+            for c in 0..3 {
+                h[3 * i + c] += d as f32;
+            }
+        }
+        let b = h
+            .chunks_exact(3)
+            .zip(&t.rho)
+            .flat_map(|(hc, r)| [hc[0] * r[0], hc[1] * r[1], hc[2] * r[2]])
+            .collect();
+        PatchDaylight { h, b }
+    }
+
+    /// A sky's daylight on every patch.
+    pub fn patch_daylight(&self, sky: &SkyState) -> Result<PatchDaylight, QueryError> {
+        let site = self.site()?;
+        let sub = sky::subdivision();
+        let l = sky.patch_luminances(&sub);
+        let sun = sky.sun_patches(&sub);
+        let direct = sky.sun_direction(site).map(|(d, e)| {
+            sky::patch_sun_direct(&self.baked.mesh, &self.baked.bvh, d, e, self.reach())
+        });
+        Ok(self.sky_patches(&l, &sun, direct.as_deref()))
+    }
+
+    /// Peak bytes a daylight query may allocate.
+    pub fn daylight_bytes(&self, q: &IlluminanceQuery) -> u64 {
+        let grid_points: u64 = q.grids.iter().map(|&g| self.grids[g].len() as u64).sum();
+        let per_point = 8 * self.patches() as u64 + 64 * 1024;
+        64 * self.patches() as u64 + per_point * (q.points.len() as u64 + grid_points)
+    }
+
+    /// Daylight (plus electric light for group weights `w`) on surfaces, at points and on
+    /// grids.
+    pub fn daylight(
+        &self,
+        sky: &SkyState,
+        w: Option<&[Rgb]>,
+        q: &IlluminanceQuery,
+        cancel: &Cancel,
+    ) -> Result<DaylightAnswer, QueryError> {
+        let site = self.site()?;
+        let day = self.patch_daylight(sky)?;
+        let t = &self.baked.transfer;
+        let n = t.n;
+        let (mut b_el, mut h_el) = (vec![0f32; 3 * n], vec![0f32; 3 * n]);
+        if let Some(w) = w {
+            t.relight_into(w, &mut b_el);
+            t.illuminance_into(w, &mut h_el);
+        }
+        let h_all: Vec<f32> = day.h.iter().zip(&h_el).map(|(a, b)| a + b).collect();
+        let sun = sky.sun_direction(site);
+        let reach = self.reach();
+        // One point: (all light, daylight alone), RGB lux.
+        let at = |g: &PointGather, x: DVec3, nrm: DVec3| -> ([f64; 3], f64) {
+            let mut e = g.gather(&day.b);
+            let mut direct = 0.0;
+            if let Some(v) = &g.view {
+                direct += v.illuminance(|d| sky.luminance(site, d), sky.ground_luminance);
+            }
+            if let Some((s, en)) = sun {
+                direct += sky::point_sun_direct(&self.baked.bvh, x, nrm, s, en, reach);
+            }
+            for c in &mut e {
+                *c += direct;
+            }
+            let daylight = luminance64(e);
+            if let Some(w) = w {
+                let el = g.gather(&b_el);
+                for (g, l) in self.baked.scene.lights.iter().zip(w) {
+                    if g.luminaires.is_empty() || l.iter().all(|&c| c == 0.0) {
+                        continue;
+                    }
+                    let d = crate::transport::direct::point_illuminance(
+                        &self.baked.bvh,
+                        &g.luminaires,
+                        x,
+                        nrm,
+                    );
+                    for c in 0..3 {
+                        e[c] += l[c] as f64 * d[c];
+                    }
+                }
+                for c in 0..3 {
+                    e[c] += el[c];
+                }
+            }
+            (e, daylight)
+        };
+        let df = |daylight: f64| sky.df_reference.map(|r| 100.0 * daylight / r.max(1e-9));
+        let gathers = self.gathers(&q.points, cancel)?;
+        let points = q
+            .points
+            .iter()
+            .zip(gathers.iter())
+            .map(|(&(x, nrm), g)| {
+                let (e, daylight) = at(g, x, nrm);
+                DaylightPoint {
+                    lux: luminance64(e),
+                    rgb: e,
+                    daylight_factor: df(daylight),
+                }
+            })
+            .collect();
+        let mut grids = BTreeMap::new();
+        for &gi in &q.grids {
+            cancel.check()?;
+            let grid = &self.grids[gi].grid;
+            let nrm = DVec3::from_array(grid.normal);
+            let pts: Vec<(DVec3, DVec3)> = grid
+                .points
+                .iter()
+                .map(|p| (DVec3::from_array(*p), nrm))
+                .collect();
+            let gathers = self.gathers(&pts, cancel)?;
+            let (values, dfs): (Vec<f32>, Vec<f32>) = pts
+                .par_iter()
+                .zip(gathers.par_iter())
+                .map(|(&(x, nrm), g)| {
+                    let (e, daylight) = at(g, x, nrm);
+                    (luminance64(e) as f32, df(daylight).unwrap_or(0.0) as f32)
+                })
+                .unzip();
+            let stats: GridStats = grid::stats(values);
+            let daylight_factor = sky.df_reference.map(|_| {
+                let mut sorted = dfs.clone();
+                sorted.sort_by(f32::total_cmp);
+                let m = sorted.len();
+                let median = if m == 0 {
+                    0.0
+                } else if m % 2 == 1 {
+                    sorted[m / 2] as f64
+                } else {
+                    0.5 * (sorted[m / 2 - 1] + sorted[m / 2]) as f64
+                };
+                DaylightFactors {
+                    avg: dfs.iter().map(|&v| v as f64).sum::<f64>() / m.max(1) as f64,
+                    min: sorted.first().copied().unwrap_or(0.0) as f64,
+                    max: sorted.last().copied().unwrap_or(0.0) as f64,
+                    median,
+                    values: dfs,
+                }
+            });
+            grids.insert(
+                grid.id.clone(),
+                DaylightGrid {
+                    illuminance: super::query::grid_answer(grid, stats),
+                    daylight_factor,
+                },
+            );
+        }
+        cancel.check()?;
+        let en = sky.sun.map_or(0.0, |s| s.normal_illuminance);
+        Ok(DaylightAnswer {
+            unit: "lx",
+            sky: SkyInfo {
+                kind: sky.kind,
+                sun: sky.sun_position,
+                direct_normal_illuminance: en,
+                diffuse_horizontal_illuminance: sky.diffuse_horizontal,
+                global_horizontal_illuminance: sky.diffuse_horizontal
+                    + sky.sun.map_or(0.0, |s| en * s.altitude.sin()),
+                ground_luminance: sky.ground_luminance,
+            },
+            points,
+            surfaces: self.surface_stats(&q.surfaces, &h_all),
+            grids,
+        })
+    }
+}

@@ -1,0 +1,390 @@
+//! Daylight transport: what a surface or a point sees of the sky, the ground and the sun.
+//!
+//! Every ray that leaves the geometry upward sees the sky, downward the ground outside the
+//! model (a uniform luminance), and the horizon is sharp. Openings are holes in the
+//! geometry. Three products:
+//!
+//! - [`patch_sky_direct`]: per patch and per sky patch of the [`Subdivision`] (index 0 the
+//!   ground), the direct illuminance at unit luminance, `D_k = ∫_{Ω_k, visible} cos θ dω`
+//!   (lux per cd/m²), from stratified cosine-weighted rays over stratified points of the
+//!   patch. The transfer carries `ρ D_k` through every bounce, one response per sky patch.
+//! - [`SkyView`]: what one point sees of the sky, for integrating the continuous sky
+//!   luminance rather than patch averages. The hemisphere is a 32 × 32 grid of equal
+//!   cosine-weighted cells (the concentric disk mapping); a cell whose centre ray differs
+//!   from a neighbour's (blocked, sky or ground) is refined into 8 × 8 rays, so the edges
+//!   of openings are resolved to 1/256 of the disk's width.
+//! - [`patch_sun_direct`] and [`point_sun_direct`]: the sun's direct illuminance with
+//!   shadow rays (per patch 4 points, 64 where they disagree; per point one ray).
+
+use glam::{DVec3, Vec3A};
+use rayon::prelude::*;
+
+use crate::daylight::tregenza::Subdivision;
+use crate::daylight::Site;
+use crate::geometry::bvh::Bvh;
+use crate::geometry::mesh::Mesh;
+
+/// Rays per patch for [`patch_sky_direct`]: about this many in all, …
+const PATCH_RAY_BUDGET: usize = 4 << 20;
+/// … but at least and at most these per patch (rounded down to a square).
+const PATCH_RAYS_MIN: usize = 256;
+const PATCH_RAYS_MAX: usize = 1024;
+/// The coarse grid of a [`SkyView`] and the refinement of a boundary cell.
+const VIEW_GRID: usize = 32;
+const VIEW_REFINE: usize = 8;
+
+/// Sky patches of the daylight transfer: Tregenza's 145 and the ground.
+pub fn subdivision() -> Subdivision {
+    Subdivision::tregenza()
+}
+
+/// Far end of an escape ray: beyond anything in a scene of this size.
+#[derive(Debug, Clone, Copy)]
+pub struct Reach(f64);
+
+impl Reach {
+    /// For a scene within `lo..hi` (m).
+    pub fn new(lo: DVec3, hi: DVec3) -> Reach {
+        let d = (hi - lo).length();
+        Reach(
+            4.0 * (if d.is_finite() { d } else { 1.0 })
+                + 1.0
+                + 4.0 * lo.abs().max(hi.abs()).max_element(),
+        )
+    }
+}
+
+/// An orthonormal frame (t, b, n) around unit `n`.
+fn frame(n: DVec3) -> (DVec3, DVec3) {
+    let t = if n.x.abs() < 0.9 {
+        DVec3::X.cross(n).normalize()
+    } else {
+        DVec3::Y.cross(n).normalize()
+    };
+    (t, n.cross(t))
+}
+
+/// The concentric (Shirley–Chiu) map of the unit square onto the unit disk, lifted to the
+/// hemisphere: equal areas of the square are equal cosine-weighted solid angles.
+fn cosine_dir(u: f64, v: f64, t: DVec3, b: DVec3, n: DVec3) -> DVec3 {
+    let (a, c) = (2.0 * u - 1.0, 2.0 * v - 1.0);
+    let (r, phi) = if a == 0.0 && c == 0.0 {
+        (0.0, 0.0)
+    } else if a.abs() > c.abs() {
+        (a, std::f64::consts::FRAC_PI_4 * (c / a))
+    } else {
+        (
+            c,
+            std::f64::consts::FRAC_PI_2 - std::f64::consts::FRAC_PI_4 * (a / c),
+        )
+    };
+    let (x, y) = (r * phi.cos(), r * phi.sin());
+    let z = (1.0 - x * x - y * y).max(0.0).sqrt();
+    (t * x + b * y + n * z).normalize()
+}
+
+/// Whether the ray from `o` along unit `d` leaves the geometry (hits nothing but `skip`).
+fn escapes(bvh: &Bvh, o: DVec3, d: DVec3, reach: Reach, skip: u32) -> bool {
+    !bvh.occluded(
+        Vec3A::from(o.as_vec3()),
+        Vec3A::from((o + d * reach.0).as_vec3()),
+        [skip, u32::MAX],
+    )
+}
+
+/// `x` lifted a hair along `n`, off its surface.
+fn lifted(x: DVec3, n: DVec3) -> DVec3 {
+    x + n * (1e-6 * (1.0 + x.abs().max_element()))
+}
+
+/// A small xorshift generator, seeded per patch so results do not depend on threads.
+struct Rng(u64);
+
+impl Rng {
+    fn new(seed: u64) -> Rng {
+        Rng(seed.wrapping_mul(0x9E37_79B9_7F4A_7C15) | 1)
+    }
+    fn next(&mut self) -> f64 {
+        self.0 ^= self.0 << 13;
+        self.0 ^= self.0 >> 7;
+        self.0 ^= self.0 << 17;
+        (self.0 >> 11) as f64 / (1u64 << 53) as f64
+    }
+}
+
+/// Rays per patch for `n` patches (a square number).
+fn patch_rays(n: usize) -> usize {
+    let want = (PATCH_RAY_BUDGET / n.max(1)).clamp(PATCH_RAYS_MIN, PATCH_RAYS_MAX);
+    let side = (want as f64).sqrt().floor() as usize;
+    side * side
+}
+
+/// Per patch (rows) and sky patch of `sub` (columns, 0 = ground), the direct illuminance at
+/// unit luminance, lux per cd/m² (n × K, row-major). Σ_k D_k ≤ π.
+pub fn patch_sky_direct(
+    mesh: &Mesh,
+    bvh: &Bvh,
+    site: &Site,
+    sub: &Subdivision,
+    reach: Reach,
+) -> Vec<f32> {
+    let k = sub.patches.len();
+    let rays = patch_rays(mesh.len());
+    let side = (rays as f64).sqrt() as usize;
+    let rows: Vec<Vec<f32>> = (0..mesh.len())
+        .into_par_iter()
+        .with_min_len(16)
+        .map(|i| {
+            let p = &mesh.patches[i];
+            let c = mesh.corners(i);
+            let (t, b) = frame(p.normal);
+            let mut rng = Rng::new(i as u64 + 1);
+            let mut row = vec![0f64; k];
+            for r in 0..rays {
+                // Stratified direction cell, and a point of the patch from an independent
+                // stratification (the cell index scrambled), so points and directions
+                // decorrelate.
+                let (cu, cv) = (r % side, r / side);
+                let u = (cu as f64 + rng.next()) / side as f64;
+                let v = (cv as f64 + rng.next()) / side as f64;
+                let d = cosine_dir(u, v, t, b, p.normal);
+                let (mut a, mut e) = (rng.next(), rng.next());
+                if a + e > 1.0 {
+                    a = 1.0 - a;
+                    e = 1.0 - e;
+                }
+                let g = p.centroid;
+                let x = g + (c[0] + (c[1] - c[0]) * a + (c[2] - c[0]) * e - g) * (1.0 - 1e-4);
+                if escapes(bvh, lifted(x, p.normal), d, reach, p.source) {
+                    let (alt, az) = site.sky_position(d);
+                    row[sub.patch_of(alt.to_radians(), az.to_radians())] += 1.0;
+                }
+            }
+            let w = std::f64::consts::PI / rays as f64;
+            row.into_iter().map(|x| (x * w) as f32).collect()
+        })
+        .collect();
+    rows.concat()
+}
+
+/// What a point sees of the sky and the ground: escaped directions with their
+/// cosine-weighted share (shares of the whole hemisphere sum to 1).
+#[derive(Debug, Clone, Default)]
+pub struct SkyView {
+    /// Unit scene directions of escaped rays, and each one's share.
+    pub rays: Vec<([f32; 3], f32)>,
+}
+
+impl SkyView {
+    /// Traces the view from `x` on a receiver facing unit `n`.
+    pub fn trace(bvh: &Bvh, x: DVec3, n: DVec3, reach: Reach) -> SkyView {
+        let n = n.normalize();
+        let (t, b) = frame(n);
+        let o = lifted(x, n);
+        let g = VIEW_GRID;
+        // 0 blocked, 1 sky, 2 ground.
+        let class = |d: DVec3| -> u8 {
+            if !escapes(bvh, o, d, reach, u32::MAX) {
+                0
+            } else if d.y >= 0.0 {
+                1
+            } else {
+                2
+            }
+        };
+        let centre = |i: usize, j: usize| {
+            cosine_dir(
+                (i as f64 + 0.5) / g as f64,
+                (j as f64 + 0.5) / g as f64,
+                t,
+                b,
+                n,
+            )
+        };
+        let coarse: Vec<(DVec3, u8)> = (0..g * g)
+            .map(|c| {
+                let d = centre(c % g, c / g);
+                (d, class(d))
+            })
+            .collect();
+        let at = |i: usize, j: usize| coarse[j * g + i].1;
+        let cell = 1.0 / (g * g) as f64;
+        let mut rays = Vec::new();
+        for j in 0..g {
+            for i in 0..g {
+                let (d, k) = coarse[j * g + i];
+                let mut differs = false;
+                if i > 0 {
+                    differs |= at(i - 1, j) != k;
+                }
+                if i + 1 < g {
+                    differs |= at(i + 1, j) != k;
+                }
+                if j > 0 {
+                    differs |= at(i, j - 1) != k;
+                }
+                if j + 1 < g {
+                    differs |= at(i, j + 1) != k;
+                }
+                // A cell the horizon crosses is refined too: the horizon is sharp.
+                if !differs && k != 0 {
+                    let y = |a: usize, c: usize| {
+                        cosine_dir(
+                            (i + a) as f64 / g as f64,
+                            (j + c) as f64 / g as f64,
+                            t,
+                            b,
+                            n,
+                        )
+                        .y
+                    };
+                    let corners = [y(0, 0), y(1, 0), y(0, 1), y(1, 1)];
+                    differs = corners.iter().any(|c| (*c >= 0.0) != (d.y >= 0.0));
+                }
+                if !differs {
+                    if k != 0 {
+                        rays.push((d.as_vec3().to_array(), cell as f32));
+                    }
+                    continue;
+                }
+                let r = VIEW_REFINE;
+                let sub = cell / (r * r) as f64;
+                for sj in 0..r {
+                    for si in 0..r {
+                        let u = (i as f64 + (si as f64 + 0.5) / r as f64) / g as f64;
+                        let v = (j as f64 + (sj as f64 + 0.5) / r as f64) / g as f64;
+                        let d = cosine_dir(u, v, t, b, n);
+                        if class(d) != 0 {
+                            rays.push((d.as_vec3().to_array(), sub as f32));
+                        }
+                    }
+                }
+            }
+        }
+        SkyView { rays }
+    }
+
+    /// Illuminance, lux, from sky luminance `sky(d)` (cd/m², d upward) and a uniform ground
+    /// of luminance `ground` (cd/m²): E = π Σ share · L.
+    pub fn illuminance(&self, sky: impl Fn(DVec3) -> f64, ground: f64) -> f64 {
+        let mut e = 0.0;
+        for (d, w) in &self.rays {
+            let l = if d[1] >= 0.0 {
+                sky(DVec3::new(d[0] as f64, d[1] as f64, d[2] as f64))
+            } else {
+                ground
+            };
+            e += *w as f64 * l;
+        }
+        std::f64::consts::PI * e
+    }
+
+    /// The view binned into the sky patches of `sub` (0 = ground): per patch, the direct
+    /// illuminance at unit luminance, lux per cd/m².
+    pub fn binned(&self, site: &Site, sub: &Subdivision) -> Vec<f32> {
+        let mut out = vec![0f64; sub.patches.len()];
+        for (d, w) in &self.rays {
+            let d = DVec3::new(d[0] as f64, d[1] as f64, d[2] as f64);
+            let (alt, az) = site.sky_position(d);
+            out[sub.patch_of(alt.to_radians(), az.to_radians())] +=
+                std::f64::consts::PI * *w as f64;
+        }
+        out.into_iter().map(|x| x as f32).collect()
+    }
+
+    /// Bytes held.
+    pub fn bytes(&self) -> usize {
+        16 * self.rays.capacity() + 24
+    }
+}
+
+/// The sun's direct illuminance at point `x` on a receiver facing unit `n`, for the sun in
+/// unit direction `s` with normal illuminance `e_n` (lux).
+pub fn point_sun_direct(bvh: &Bvh, x: DVec3, n: DVec3, s: DVec3, e_n: f64, reach: Reach) -> f64 {
+    let cos = n.dot(s);
+    if cos <= 0.0 || e_n <= 0.0 {
+        return 0.0;
+    }
+    if escapes(bvh, lifted(x, n), s, reach, u32::MAX) {
+        e_n * cos
+    } else {
+        0.0
+    }
+}
+
+/// Per patch, the sun's direct illuminance (lux), averaged over 4 points of the patch, or 64
+/// where they disagree on visibility.
+pub fn patch_sun_direct(mesh: &Mesh, bvh: &Bvh, s: DVec3, e_n: f64, reach: Reach) -> Vec<f32> {
+    if e_n <= 0.0 || s.y <= 0.0 {
+        return vec![0.0; mesh.len()];
+    }
+    let coarse = super::direct::sub_centroids(1);
+    let fine = super::direct::sub_centroids(3);
+    (0..mesh.len())
+        .into_par_iter()
+        .with_min_len(64)
+        .map(|i| {
+            let p = &mesh.patches[i];
+            let cos = p.normal.dot(s);
+            if cos <= 0.0 {
+                return 0.0;
+            }
+            let c = mesh.corners(i);
+            let lit = |pts: &[(f64, f64)]| -> usize {
+                pts.iter()
+                    .filter(|&&(u, v)| {
+                        let x = c[0] + (c[1] - c[0]) * u + (c[2] - c[0]) * v;
+                        escapes(bvh, lifted(x, p.normal), s, reach, p.source)
+                    })
+                    .count()
+            };
+            let free = lit(&coarse);
+            let frac = if free == 0 || free == coarse.len() {
+                free as f64 / coarse.len() as f64
+            } else {
+                lit(&fine) as f64 / fine.len() as f64
+            };
+            (e_n * cos * frac) as f32
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_concentric_map_is_cosine_weighted() {
+        // The mean of cos θ over equal cells is ∫cos² / ∫cos = 2/3.
+        let (t, b) = frame(DVec3::Y);
+        let m = 200;
+        let mut sum = 0.0;
+        for j in 0..m {
+            for i in 0..m {
+                let d = cosine_dir(
+                    (i as f64 + 0.5) / m as f64,
+                    (j as f64 + 0.5) / m as f64,
+                    t,
+                    b,
+                    DVec3::Y,
+                );
+                assert!((d.length() - 1.0).abs() < 1e-12 && d.y >= 0.0);
+                sum += d.y;
+            }
+        }
+        let mean = sum / (m * m) as f64;
+        assert!((mean - 2.0 / 3.0).abs() < 1e-3, "{mean}");
+    }
+
+    #[test]
+    fn an_open_point_sees_the_whole_sky_and_ground() {
+        let bvh = Bvh::new(&[]);
+        let reach = Reach::new(DVec3::ZERO, DVec3::ONE);
+        let up = SkyView::trace(&bvh, DVec3::ZERO, DVec3::Y, reach);
+        assert!((up.illuminance(|_| 1.0, 0.0) - std::f64::consts::PI).abs() < 1e-5);
+        // A vertical receiver sees half sky, half ground.
+        let side = SkyView::trace(&bvh, DVec3::ZERO, DVec3::X, reach);
+        let sky = side.illuminance(|_| 1.0, 0.0);
+        assert!((sky - std::f64::consts::PI / 2.0).abs() < 2e-3, "{sky}");
+    }
+}

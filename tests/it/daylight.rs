@@ -1,0 +1,407 @@
+//! Daylight against closed forms and independent quadratures, rebuilt here: a uniform sky
+//! through a roof opening (the opening's configuration factor), the CIE overcast sky
+//! through roof and facade openings onto a black room (as CIE 171:2006's daylight test
+//! cases do), the sun's direct light through an opening, and one sky in every transfer
+//! mode.
+
+use glam::DVec3;
+use relight::bake::{load_or_bake, BakeOptions, CachePolicy};
+use relight::model::daylight::DaylightAnswer;
+use relight::model::query::IlluminanceQuery;
+use relight::model::sky::SkySpec;
+use relight::model::{Cancel, Model};
+use relight::transport::transfer::TransferMode;
+use serde_json::json;
+
+use crate::common::{self, quad, write_scene, TempScene};
+
+const SITE: &str = "[site]\nlatitude = 49.5\nlongitude = 8.5\ntimezone = 1\n";
+
+/// A 4 × 4 × 3 m room (x, z in 0 … 4, floor at y = 0) of material `mat`, with a roof
+/// opening `x0..x1` × `z0..z1` at y = 3.
+fn roof_room(mat: &str, (x0, x1): (f64, f64), (z0, z1): (f64, f64), toml: &str) -> TempScene {
+    let (w, h) = (4.0, 3.0);
+    let mut obj = String::new();
+    obj += &quad(
+        "floor",
+        mat,
+        [[0., 0., 0.], [w, 0., 0.], [w, 0., w], [0., 0., w]],
+        [0., 1., 0.],
+    );
+    for (name, p, n) in [
+        (
+            "west",
+            [[0., 0., 0.], [0., h, 0.], [0., h, w], [0., 0., w]],
+            [1., 0., 0.],
+        ),
+        (
+            "east",
+            [[w, 0., 0.], [w, h, 0.], [w, h, w], [w, 0., w]],
+            [-1., 0., 0.],
+        ),
+        (
+            "north",
+            [[0., 0., 0.], [w, 0., 0.], [w, h, 0.], [0., h, 0.]],
+            [0., 0., 1.],
+        ),
+        (
+            "south",
+            [[0., 0., w], [w, 0., w], [w, h, w], [0., h, w]],
+            [0., 0., -1.],
+        ),
+    ] {
+        obj += &quad(name, mat, p, n);
+    }
+    let roof = |name: &str, (a, b): (f64, f64), (c, d): (f64, f64)| {
+        quad(
+            name,
+            mat,
+            [[a, h, c], [b, h, c], [b, h, d], [a, h, d]],
+            [0., -1., 0.],
+        )
+    };
+    obj += &roof("roof1", (0., x0), (0., w));
+    obj += &roof("roof2", (x1, w), (0., w));
+    obj += &roof("roof3", (x0, x1), (0., z0));
+    obj += &roof("roof4", (x0, x1), (z1, w));
+    let mtl = "newmtl black\nKd 0 0 0\nnewmtl grey\nKd 0.5 0.5 0.5\n";
+    write_scene(&obj, mtl, Some(toml))
+}
+
+fn model(s: &TempScene, mode: TransferMode) -> Model {
+    let opts = BakeOptions {
+        mode: Some(mode),
+        ..Default::default()
+    };
+    Model::new(load_or_bake(s.path(), CachePolicy::Off, &opts, &|_, _| {}).unwrap())
+}
+
+fn ask(m: &Model, sky: serde_json::Value, points: &[[f64; 3]]) -> DaylightAnswer {
+    let spec: SkySpec = serde_json::from_value(sky).unwrap();
+    let state = spec.resolve(m.site().unwrap()).unwrap();
+    let q = IlluminanceQuery {
+        points: points
+            .iter()
+            .map(|p| (DVec3::from_array(*p), DVec3::Y))
+            .collect(),
+        ..Default::default()
+    };
+    m.daylight(&state, None, &q, &Cancel::default()).unwrap()
+}
+
+/// The configuration factor of an a × b rectangle parallel to a receiving point at
+/// distance c, the point below one corner (Howell's catalogue, C-11).
+fn corner_factor(a: f64, b: f64, c: f64) -> f64 {
+    let (x, y) = (a / c, b / c);
+    let (sx, sy) = ((1.0 + x * x).sqrt(), (1.0 + y * y).sqrt());
+    (x / sx * (y / sx).atan() + y / sy * (x / sy).atan()) / (2.0 * std::f64::consts::PI)
+}
+
+/// The factor of the rectangle x0..x1 × z0..z1 at height c above (px, pz), the point
+/// below the rectangle: four corner rectangles.
+fn rect_factor(p: (f64, f64), (x0, x1): (f64, f64), (z0, z1): (f64, f64), c: f64) -> f64 {
+    let (px, pz) = p;
+    [
+        (x1 - px, z1 - pz),
+        (px - x0, z1 - pz),
+        (x1 - px, pz - z0),
+        (px - x0, pz - z0),
+    ]
+    .iter()
+    .map(|&(a, b)| corner_factor(a, b, c))
+    .sum()
+}
+
+/// CIE overcast illuminance (zenith luminance 1) at `p` facing up, from a rectangle of
+/// sky seen through the opening `corners(u, v)` (u, v in 0 … 1) of area `area` with unit
+/// normal `nw` facing the point: a 600 × 600 midpoint quadrature.
+fn overcast_through(p: DVec3, corners: impl Fn(f64, f64) -> DVec3, area: f64, nw: DVec3) -> f64 {
+    let m = 600;
+    let mut e = 0.0;
+    for i in 0..m {
+        for j in 0..m {
+            let y = corners((i as f64 + 0.5) / m as f64, (j as f64 + 0.5) / m as f64);
+            let d = y - p;
+            let r = d.length();
+            let (cr, cw) = (d.y / r, -d.dot(nw) / r);
+            let l = (1.0 + 2.0 * (d.y / r)) / 3.0;
+            e += l * cr * cw / (r * r);
+        }
+    }
+    e * area / (m * m) as f64
+}
+
+#[test]
+fn a_uniform_sky_through_a_roof_opening_gives_its_configuration_factor() {
+    let _gate = common::shared();
+    let (ox, oz) = ((1.6, 2.4), (1.4, 2.6));
+    let s = roof_room(
+        "black",
+        ox,
+        oz,
+        &format!("{SITE}[mesh]\ntarget_patches = 300\n"),
+    );
+    let m = model(&s, TransferMode::Factored);
+    let pts = [[2.0, 0.0, 2.0], [1.8, 0.0, 2.5], [2.2, 1.0, 1.5]];
+    let a = ask(
+        &m,
+        json!({"type": "uniform", "horizontal_illuminance": 10000}),
+        &pts,
+    );
+    for (p, got) in pts.iter().zip(&a.points) {
+        let f = rect_factor((p[0], p[2]), ox, oz, 3.0 - p[1]);
+        let want = 10_000.0 * f;
+        let err = (got.lux - want).abs() / want;
+        println!(
+            "uniform sky at {p:?}: {:.2} lx, configuration factor {:.2} lx, {:.3} %",
+            got.lux,
+            want,
+            100.0 * err
+        );
+        assert!(err < 0.01, "{p:?}: {} lx vs {want} lx", got.lux);
+        assert!(got.daylight_factor.is_none());
+    }
+}
+
+#[test]
+fn the_overcast_sky_through_roof_and_facade_openings_matches_quadrature() {
+    let _gate = common::shared();
+    // Roof opening.
+    let (ox, oz) = ((1.6, 2.4), (1.4, 2.6));
+    let s = roof_room(
+        "black",
+        ox,
+        oz,
+        &format!("{SITE}[mesh]\ntarget_patches = 300\n"),
+    );
+    let m = model(&s, TransferMode::Factored);
+    let pts = [[2.0, 0.0, 2.0], [1.0, 0.0, 1.0], [3.2, 0.5, 2.9]];
+    let a = ask(
+        &m,
+        json!({"type": "cie_overcast", "horizontal_illuminance": 10000}),
+        &pts,
+    );
+    let eh = 7.0 * std::f64::consts::PI / 9.0;
+    for (p, got) in pts.iter().zip(&a.points) {
+        let e = overcast_through(
+            DVec3::from_array(*p),
+            |u, v| DVec3::new(ox.0 + (ox.1 - ox.0) * u, 3.0, oz.0 + (oz.1 - oz.0) * v),
+            (ox.1 - ox.0) * (oz.1 - oz.0),
+            DVec3::NEG_Y,
+        );
+        let want = 100.0 * e / eh;
+        let df = got.daylight_factor.unwrap();
+        let err = (df - want).abs() / want;
+        println!(
+            "roof opening at {p:?}: DF {df:.4} %, quadrature {want:.4} %, {:.3} %",
+            100.0 * err
+        );
+        assert!(err < 0.02, "{p:?}: DF {df} vs {want}");
+        assert!((df - got.lux / 100.0).abs() < 1e-9 * df.max(1.0));
+    }
+
+    // Facade opening: a 4 m wide, 6 m deep, 3 m high room, window 1 … 3 × 1 … 2.2 m in the
+    // north wall (z = 0).
+    let (w, d, h) = (4.0, 6.0, 3.0);
+    let (wx, wy) = ((1.0, 3.0), (1.0, 2.2));
+    let mut obj = String::new();
+    obj += &quad(
+        "floor",
+        "black",
+        [[0., 0., 0.], [w, 0., 0.], [w, 0., d], [0., 0., d]],
+        [0., 1., 0.],
+    );
+    obj += &quad(
+        "ceiling",
+        "black",
+        [[0., h, 0.], [w, h, 0.], [w, h, d], [0., h, d]],
+        [0., -1., 0.],
+    );
+    obj += &quad(
+        "west",
+        "black",
+        [[0., 0., 0.], [0., h, 0.], [0., h, d], [0., 0., d]],
+        [1., 0., 0.],
+    );
+    obj += &quad(
+        "east",
+        "black",
+        [[w, 0., 0.], [w, h, 0.], [w, h, d], [w, 0., d]],
+        [-1., 0., 0.],
+    );
+    obj += &quad(
+        "south",
+        "black",
+        [[0., 0., d], [w, 0., d], [w, h, d], [0., h, d]],
+        [0., 0., -1.],
+    );
+    for (name, (x0, x1), (y0, y1)) in [
+        ("wall1", (0.0, wx.0), (0.0, h)),
+        ("wall2", (wx.1, w), (0.0, h)),
+        ("wall3", wx, (0.0, wy.0)),
+        ("wall4", wx, (wy.1, h)),
+    ] {
+        obj += &quad(
+            name,
+            "black",
+            [[x0, y0, 0.], [x1, y0, 0.], [x1, y1, 0.], [x0, y1, 0.]],
+            [0., 0., 1.],
+        );
+    }
+    let s = write_scene(
+        &obj,
+        "newmtl black\nKd 0 0 0\n",
+        Some(&format!("{SITE}[mesh]\ntarget_patches = 300\n")),
+    );
+    let m = model(&s, TransferMode::Factored);
+    let pts = [[2.0, 0.0, 1.5], [1.0, 0.85, 3.0], [3.5, 0.0, 0.8]];
+    let a = ask(
+        &m,
+        json!({"type": "cie_overcast", "horizontal_illuminance": 10000}),
+        &pts,
+    );
+    for (p, got) in pts.iter().zip(&a.points) {
+        let e = overcast_through(
+            DVec3::from_array(*p),
+            |u, v| DVec3::new(wx.0 + (wx.1 - wx.0) * u, wy.0 + (wy.1 - wy.0) * v, 0.0),
+            (wx.1 - wx.0) * (wy.1 - wy.0),
+            DVec3::Z,
+        );
+        let want = 100.0 * e / eh;
+        let df = got.daylight_factor.unwrap();
+        let err = (df - want).abs() / want;
+        println!(
+            "facade opening at {p:?}: DF {df:.4} %, quadrature {want:.4} %, {:.3} %",
+            100.0 * err
+        );
+        assert!(err < 0.02, "{p:?}: DF {df} vs {want}");
+    }
+}
+
+#[test]
+fn the_sun_shines_through_the_opening_onto_the_points_it_reaches() {
+    let _gate = common::shared();
+    let (ox, oz) = ((1.6, 2.4), (1.6, 2.4));
+    let s = roof_room(
+        "black",
+        ox,
+        oz,
+        &format!("{SITE}[mesh]\ntarget_patches = 300\n"),
+    );
+    let m = model(&s, TransferMode::Factored);
+    // The sun at 60° due south (+z): a ray from (2, 0, 2 − 3/tan 60°) leaves through the
+    // opening's centre; one from the room's centre hits the roof.
+    let lit = [2.0, 0.0, 2.0 - 3.0 / 60f64.to_radians().tan()];
+    let shade = [2.0, 0.0, 2.0];
+    let sky = |en: f64| {
+        json!({"type": "cie_clear", "horizontal_illuminance": 15000,
+               "direct_normal_illuminance": en, "sun": {"altitude": 60, "azimuth": 180}})
+    };
+    let with = ask(&m, sky(70_000.0), &[lit, shade]);
+    let without = ask(&m, sky(0.0), &[lit, shade]);
+    let sun = with.points[0].lux - without.points[0].lux;
+    let want = 70_000.0 * 60f64.to_radians().sin();
+    println!("sun through the opening: {sun:.1} lx, E_n sin(60°) = {want:.1} lx");
+    assert!((sun - want).abs() < 1e-3 * want, "{sun} vs {want}");
+    // The ground outside glows with the sun, but this black room never sees it.
+    assert!((with.points[1].lux - without.points[1].lux).abs() < 1e-6 * with.points[1].lux);
+    assert!(with.sky.ground_luminance > without.sky.ground_luminance);
+    assert!(with.points[1].lux > 0.0 && with.points[1].daylight_factor.is_none());
+}
+
+#[test]
+fn one_sky_lights_a_grey_room_alike_in_every_transfer_mode() {
+    let _gate = common::shared();
+    let (ox, oz) = ((1.2, 2.8), (1.2, 2.8));
+    let s = roof_room(
+        "grey",
+        ox,
+        oz,
+        &format!("{SITE}[mesh]\ntarget_patches = 600\n"),
+    );
+    let sky = json!({"type": "cie_overcast", "horizontal_illuminance": 10000});
+    let pts = [[0.5, 0.0, 0.5], [2.0, 0.0, 2.0], [3.5, 1.5, 3.9]];
+    let mut floor = Vec::new();
+    for mode in [
+        TransferMode::Factored,
+        TransferMode::Columns,
+        TransferMode::Hierarchical,
+    ] {
+        let m = model(&s, mode);
+        let spec: SkySpec = serde_json::from_value(sky.clone()).unwrap();
+        let state = spec.resolve(m.site().unwrap()).unwrap();
+        let floor_index = m.baked.scene.surface_index("floor").unwrap();
+        let q = IlluminanceQuery {
+            surfaces: vec![floor_index],
+            points: pts
+                .iter()
+                .map(|p| (DVec3::from_array(*p), DVec3::Y))
+                .collect(),
+            ..Default::default()
+        };
+        let a = m.daylight(&state, None, &q, &Cancel::default()).unwrap();
+        let avg = a.surfaces["floor"].avg.lux;
+        // Interreflection adds to the black room's direct light: the grey room is
+        // brighter at the corner point than the sky alone makes it.
+        println!(
+            "{mode:?}: floor average {avg:.1} lx, points {:?}",
+            a.points.iter().map(|p| p.lux).collect::<Vec<_>>()
+        );
+        floor.push((avg, a.points.iter().map(|p| p.lux).collect::<Vec<_>>()));
+    }
+    let (f0, p0) = &floor[0];
+    for (f, p) in &floor[1..] {
+        assert!((f - f0).abs() < 0.03 * f0, "{f} vs {f0}");
+        for (a, b) in p.iter().zip(p0) {
+            assert!((a - b).abs() < 0.03 * b, "{a} vs {b}");
+        }
+    }
+    // The same room black: the grey one's interreflections add light.
+    let black = roof_room(
+        "black",
+        ox,
+        oz,
+        &format!("{SITE}[mesh]\ntarget_patches = 600\n"),
+    );
+    let m = model(&black, TransferMode::Factored);
+    let a = ask(&m, sky, &pts);
+    for (b, g) in a.points.iter().zip(p0) {
+        assert!(*g > 1.05 * b.lux, "grey {g} vs black {}", b.lux);
+    }
+}
+
+#[test]
+fn a_scene_without_a_site_has_no_daylight() {
+    let _gate = common::shared();
+    let s = roof_room(
+        "black",
+        (1.6, 2.4),
+        (1.6, 2.4),
+        "[mesh]\ntarget_patches = 200\n",
+    );
+    let m = model(&s, TransferMode::Factored);
+    let e = m.site().err().unwrap().to_string();
+    assert!(e.contains("no [site]"), "{e}");
+    // A sun-dependent sky without its sun, and both sun and time, are refused.
+    let site = relight::daylight::Site::new(49.5, 8.5, 1.0, DVec3::NEG_Z, 0.2).unwrap();
+    let spec: SkySpec = serde_json::from_value(
+        json!({"type": "cie_clear", "horizontal_illuminance": 1, "direct_normal_illuminance": 1}),
+    )
+    .unwrap();
+    assert!(spec
+        .resolve(&site)
+        .unwrap_err()
+        .to_string()
+        .contains("give the sun"));
+    let spec: SkySpec = serde_json::from_value(json!({"type": "uniform",
+        "horizontal_illuminance": 1, "sun": {"altitude": 10, "azimuth": 0}, "time": "2026-06-21T12:00"}))
+    .unwrap();
+    assert!(spec.resolve(&site).is_err());
+    let spec: SkySpec =
+        serde_json::from_value(json!({"type": "uniform", "horizontal_illuminance": -1})).unwrap();
+    assert!(spec
+        .resolve(&site)
+        .unwrap_err()
+        .to_string()
+        .contains("horizontal_illuminance"));
+}
