@@ -35,7 +35,7 @@ use crate::transport::sky::{self, Reach, SkyView};
 use crate::transport::transfer::weighted_sum;
 
 /// Most bytes the point-gather cache of one scene holds.
-pub const GATHER_CACHE_BYTES: usize = 32 << 20;
+pub const GATHER_CACHE_BYTES: usize = 16 << 20;
 
 /// What one point sees: its gather weights over the patches and, for a scene with a site,
 /// its view of the sky.
@@ -106,7 +106,7 @@ pub struct DaylightFactors {
 #[derive(Debug, Clone, Serialize)]
 #[cfg_attr(feature = "server", derive(utoipa::ToSchema))]
 pub struct DaylightGrid {
-    #[serde(flatten)]
+    /// Illuminance statistics and values, lx.
     pub illuminance: GridAnswer,
     /// Null unless the sky is `cie_overcast`.
     #[cfg_attr(feature = "server", schema(required = true))]

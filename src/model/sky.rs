@@ -41,18 +41,22 @@ pub enum SkySpec {
     /// Uniform luminance; `horizontal_illuminance` lux on an unobstructed horizontal plane.
     Uniform {
         horizontal_illuminance: f64,
-        #[serde(default)]
+        #[serde(default, deserialize_with = "some")]
+        #[cfg_attr(feature = "server", schema(nullable = false))]
         sun: Option<SunPosition>,
-        #[serde(default)]
+        #[serde(default, deserialize_with = "some")]
+        #[cfg_attr(feature = "server", schema(nullable = false))]
         time: Option<String>,
     },
     /// CIE traditional overcast sky, L(γ) ∝ 1 + 2 sin γ; daylight factors are given
     /// against `horizontal_illuminance`.
     CieOvercast {
         horizontal_illuminance: f64,
-        #[serde(default)]
+        #[serde(default, deserialize_with = "some")]
+        #[cfg_attr(feature = "server", schema(nullable = false))]
         sun: Option<SunPosition>,
-        #[serde(default)]
+        #[serde(default, deserialize_with = "some")]
+        #[cfg_attr(feature = "server", schema(nullable = false))]
         time: Option<String>,
     },
     /// CIE clear sky with the sun: `horizontal_illuminance` is the sky's diffuse part
@@ -60,9 +64,11 @@ pub enum SkySpec {
     CieClear {
         horizontal_illuminance: f64,
         direct_normal_illuminance: f64,
-        #[serde(default)]
+        #[serde(default, deserialize_with = "some")]
+        #[cfg_attr(feature = "server", schema(nullable = false))]
         sun: Option<SunPosition>,
-        #[serde(default)]
+        #[serde(default, deserialize_with = "some")]
+        #[cfg_attr(feature = "server", schema(nullable = false))]
         time: Option<String>,
     },
     /// Perez all-weather sky from an hour's irradiance (W/m²), luminous efficacy after
@@ -70,13 +76,23 @@ pub enum SkySpec {
     Perez {
         direct_normal_irradiance: f64,
         diffuse_horizontal_irradiance: f64,
-        #[serde(default)]
+        #[serde(default, deserialize_with = "some")]
+        #[cfg_attr(feature = "server", schema(nullable = false))]
         dew_point: Option<f64>,
-        #[serde(default)]
+        #[serde(default, deserialize_with = "some")]
+        #[cfg_attr(feature = "server", schema(nullable = false))]
         sun: Option<SunPosition>,
-        #[serde(default)]
+        #[serde(default, deserialize_with = "some")]
+        #[cfg_attr(feature = "server", schema(nullable = false))]
         time: Option<String>,
     },
+}
+
+/// Present means a value, never `null`.
+fn some<'de, D: serde::Deserializer<'de>, T: Deserialize<'de>>(
+    d: D,
+) -> Result<Option<T>, D::Error> {
+    T::deserialize(d).map(Some)
 }
 
 /// A sky resolved for a site.

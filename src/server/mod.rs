@@ -103,6 +103,10 @@ pub fn router(state: Arc<AppState>) -> Router {
             "/api/scenes/{id}/illuminance",
             post(routes::illuminance::illuminance),
         )
+        .route(
+            "/api/scenes/{id}/daylight",
+            post(routes::daylight::daylight),
+        )
         .route("/api/scenes/{id}/batch", post(routes::batch::batch))
         .route(
             "/api/scenes/{id}/optimize",

@@ -28,7 +28,7 @@ use super::requests::bodies::{LightingState, Point, Target};
 use super::requests::lighting::{Color, Direction, Emission, LightSetting, Lights, Position};
 use super::requests::render::Exposure;
 use super::requests::{raw, BatchRequest, IlluminanceRequest, OptimizeRequest};
-use super::requests::{RadiosityRequest, RenderRequest};
+use super::requests::{DaylightRequest, RadiosityRequest, RenderRequest};
 use super::routes;
 use crate::schema::Rgb;
 
@@ -317,6 +317,7 @@ impl Modify for Constraints {
         routes::export::export_glb,
         routes::radiosity::radiosity,
         routes::illuminance::illuminance,
+        routes::daylight::daylight,
         routes::batch::batch,
         routes::optimize::optimize,
         routes::render::render_post,
@@ -327,7 +328,8 @@ impl Modify for Constraints {
         schemas(
             Color, Position, Direction, LightSetting, Lights, Emission, LightingState, Point,
             Target, Exposure, RadiosityRequest, IlluminanceRequest, BatchRequest,
-            OptimizeRequest, RenderRequest, ProblemDetails, Rgb, Millis,
+            OptimizeRequest, RenderRequest, ProblemDetails, Rgb, Millis, DaylightRequest,
+            crate::model::sky::SkySpec, crate::model::sky::SunPosition,
         ),
         responses(BadRequest, BadQuery, NotFound, Unauthorized, Forbidden, Conflict, TooLarge, UnsupportedMediaType, Invalid, Unavailable),
     ),

@@ -87,7 +87,7 @@ pub(crate) struct Point {
 
 object_only!(Point, "an object {position, normal}");
 
-fn points_schema() -> RefOr<Schema> {
+pub(super) fn points_schema() -> RefOr<Schema> {
     raw(
         json!({"type": "array", "maxItems": MAX_POINTS, "items": schema_ref("Point"),
         "description": "Receivers, e.g. [{\"position\": [0.278, 0.1, 0.278], \"normal\": [0, 1, 0]}]. Each point gathers from every patch it sees: thousands of points take seconds."}),
@@ -102,11 +102,11 @@ fn names(description: &str) -> RefOr<Schema> {
     )
 }
 
-fn report_surfaces() -> RefOr<Schema> {
+pub(super) fn report_surfaces() -> RefOr<Schema> {
     names("Surfaces to report (default: all when no points or grids are asked for).")
 }
 
-fn grid_ids() -> RefOr<Schema> {
+pub(super) fn grid_ids() -> RefOr<Schema> {
     names("Calculation grid ids from scene.toml.")
 }
 
@@ -153,7 +153,7 @@ impl IlluminanceRequest {
     }
 }
 
-fn points(list: &[Point]) -> Result<Vec<(DVec3, DVec3)>, AppError> {
+pub(super) fn points(list: &[Point]) -> Result<Vec<(DVec3, DVec3)>, AppError> {
     if list.len() > MAX_POINTS {
         return Err(AppError::Invalid(format!(
             "{} points requested; the limit is {MAX_POINTS} per request",

@@ -10,6 +10,7 @@
 //! - [`lighting`]: light-group settings, per-patch emission, and the triples (colours,
 //!   positions, directions) they and the points are made of.
 //! - [`bodies`]: the radiosity, illuminance, batch and optimize requests.
+//! - [`daylight`]: the daylight request.
 //! - [`render`]: the render request and the query of `render.png`.
 //! - [`export`]: the query of `export.glb`.
 
@@ -22,11 +23,13 @@ use utoipa::openapi::schema::Schema;
 use utoipa::openapi::RefOr;
 
 pub(crate) mod bodies;
+pub(crate) mod daylight;
 pub(crate) mod export;
 pub(crate) mod lighting;
 pub(crate) mod render;
 
 pub(crate) use bodies::{BatchRequest, IlluminanceRequest, OptimizeRequest, RadiosityRequest};
+pub(crate) use daylight::DaylightRequest;
 pub(crate) use render::RenderRequest;
 // Schemas written as JSON Schema, for the union types that have their own deserializers.
 pub(crate) use crate::schema::raw;

@@ -8,6 +8,7 @@ use axum::response::{IntoResponse, Response};
 use super::AppError;
 
 pub(crate) mod batch;
+pub(crate) mod daylight;
 pub(crate) mod export;
 pub(crate) mod illuminance;
 pub(crate) mod optimize;

@@ -73,6 +73,10 @@ fn small_room(dir: &std::path::Path) {
 name = "Small room"
 units = "m"
 transfer = "factored"
+[site]
+latitude = 40.4
+longitude = -3.7
+timezone = 1
 [mesh]
 max_edge = 2.0
 [surface.shelf]
@@ -305,6 +309,45 @@ async fn ask_every_query(c: &mut Client) {
         v["power"].is_null() && v["points"].as_array().unwrap().len() == 1,
         "{v}"
     );
+
+    let daylight = "/api/scenes/{id}/daylight";
+    let uri = "/api/scenes/room/daylight";
+    let (_, v) = c
+        .send(
+            "post",
+            daylight,
+            uri,
+            Some(
+                json!({"sky": {"type": "cie_overcast", "horizontal_illuminance": 10000},
+                "grids": ["desk"], "points": points, "lights": {"panel": 1}}),
+            ),
+        )
+        .await;
+    assert!(v["grids"]["desk"]["daylight_factor"].is_object(), "{v}");
+    let (_, v) = c
+        .send(
+            "post",
+            daylight,
+            uri,
+            Some(
+                json!({"sky": {"type": "perez", "direct_normal_irradiance": 600,
+                "diffuse_horizontal_irradiance": 120, "time": "2026-06-21T14:00"}}),
+            ),
+        )
+        .await;
+    assert!(
+        v["sky"]["sun"].is_object() && v["surfaces"]["floor"].is_object(),
+        "{v}"
+    );
+    let (s, _) = c
+        .send(
+            "post",
+            daylight,
+            uri,
+            Some(json!({"sky": {"type": "overcast"}})),
+        )
+        .await;
+    assert_eq!(s, StatusCode::UNPROCESSABLE_ENTITY);
 
     let batch = json!({"states": [{}, {"lights": {"lamps": 0.5}}], "surfaces": ["floor"], "radiosity": true, "grids": ["desk"]});
     let (_, v) = c

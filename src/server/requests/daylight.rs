@@ -1,0 +1,69 @@
+//! The body of `POST …/daylight`: a sky, optional electric light, and where to report.
+
+use serde::Deserialize;
+use utoipa::ToSchema;
+
+use super::bodies::{grid_ids, points, points_schema, report_surfaces, Point};
+use super::lighting::{lighting, Lights};
+use super::{object_only, some};
+use crate::color::Rgb;
+use crate::model::query::IlluminanceQuery;
+use crate::model::sky::{SkySpec, SkyState};
+use crate::model::Lighting;
+use crate::server::parse::{grid_list, surface_list};
+use crate::server::{AppError, Ready};
+
+/// A sky, electric light added if `lights` is given, and where to report illuminance.
+#[derive(Debug, Deserialize, ToSchema)]
+#[serde(remote = "Self", deny_unknown_fields)]
+pub(crate) struct DaylightRequest {
+    sky: SkySpec,
+    /// Electric light added to the daylight (a group state; groups left out take their
+    /// defaults). Without it, daylight alone.
+    #[serde(default, deserialize_with = "some")]
+    #[schema(nullable = false)]
+    lights: Option<Lights>,
+    #[serde(default, deserialize_with = "some")]
+    #[schema(schema_with = report_surfaces)]
+    surfaces: Option<Vec<String>>,
+    #[serde(default)]
+    #[schema(schema_with = points_schema)]
+    points: Vec<Point>,
+    #[serde(default)]
+    #[schema(schema_with = grid_ids)]
+    grids: Vec<String>,
+}
+
+object_only!(DaylightRequest, "a JSON object {sky, ...}");
+
+impl DaylightRequest {
+    /// The resolved sky, the electric light's group weights, and the query; nothing asked
+    /// for means every surface.
+    pub(crate) fn query(
+        &self,
+        ready: &Ready,
+    ) -> Result<(SkyState, Option<Vec<Rgb>>, IlluminanceQuery), AppError> {
+        let site = ready.site()?;
+        let sky = self.sky.resolve(site)?;
+        let weights = match &self.lights {
+            None => None,
+            Some(l) => match lighting(Some(l), None, ready)? {
+                Lighting::Groups(w) => Some(w),
+                Lighting::Emission(_) => None,
+            },
+        };
+        let mut q = IlluminanceQuery {
+            surfaces: surface_list(self.surfaces.as_deref().unwrap_or_default(), ready)?,
+            grids: grid_list(&self.grids, ready)?,
+            points: points(&self.points)?,
+        };
+        if q.surfaces.is_empty()
+            && q.points.is_empty()
+            && q.grids.is_empty()
+            && self.surfaces.is_none()
+        {
+            q.surfaces = (0..ready.baked.scene.surfaces.len()).collect();
+        }
+        Ok((sky, weights, q))
+    }
+}

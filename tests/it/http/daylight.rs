@@ -1,0 +1,113 @@
+//! `POST …/daylight` on the office (a south window at Mannheim): daylight factors on the
+//! work plane, the sun placed by local time, electric light added, and the errors.
+
+use axum::http::StatusCode;
+use serde_json::json;
+
+use super::{app, post};
+use crate::common;
+
+#[tokio::test]
+async fn the_office_window_lets_daylight_in() {
+    let _gate = common::shared();
+    let overcast = json!({"type": "cie_overcast", "horizontal_illuminance": 10000});
+    let body = json!({"sky": overcast, "grids": ["workplane"],
+        "points": [{"position": [3.0, 0.75, 0.6], "normal": [0, 1, 0]},
+                   {"position": [3.0, 0.75, 3.4], "normal": [0, 1, 0]}]});
+    let (s, _, v) = post(app(), "/api/scenes/office/daylight", body.to_string()).await;
+    assert_eq!(s, StatusCode::OK, "{v}");
+    let near = v["points"][0]["daylight_factor"].as_f64().unwrap();
+    let far = v["points"][1]["daylight_factor"].as_f64().unwrap();
+    println!("office daylight factors: {near:.2} % by the window, {far:.2} % at the back");
+    assert!(near > 2.0 * far && far > 0.0, "{near} vs {far}");
+    assert!((v["points"][0]["lux"].as_f64().unwrap() - 100.0 * near).abs() < 1e-6 * near * 100.0);
+    let g = &v["grids"]["workplane"];
+    let df = &g["daylight_factor"];
+    assert!(df["min"].as_f64().unwrap() <= df["median"].as_f64().unwrap());
+    assert!(df["median"].as_f64().unwrap() <= df["max"].as_f64().unwrap());
+    assert_eq!(
+        df["values"].as_array().unwrap().len(),
+        g["illuminance"]["count"].as_u64().unwrap() as usize
+    );
+    assert_eq!(v["sky"]["type"], "cie_overcast");
+    assert!(v["sky"]["sun"].is_null());
+
+    // The same points again, under another sky and with electric light: the gathers are
+    // cached, and the electric light adds to the daylight.
+    let clear = json!({"type": "cie_clear", "horizontal_illuminance": 15000,
+        "direct_normal_illuminance": 70000, "time": "2026-12-21T12:00"});
+    let body =
+        json!({"sky": clear, "points": [{"position": [3.0, 0.75, 3.4], "normal": [0, 1, 0]}]});
+    let (s, _, dark) = post(app(), "/api/scenes/office/daylight", body.to_string()).await;
+    assert_eq!(s, StatusCode::OK, "{dark}");
+    let sun = &dark["sky"]["sun"];
+    // Mannheim at noon CET on the winter solstice: the sun is low in the south.
+    let (alt, az) = (
+        sun["altitude"].as_f64().unwrap(),
+        sun["azimuth"].as_f64().unwrap(),
+    );
+    assert!(
+        (15.0..19.0).contains(&alt) && (170.0..185.0).contains(&az),
+        "{alt} {az}"
+    );
+    assert!(dark["points"][0]["daylight_factor"].is_null());
+    let mut lit = body.clone();
+    lit["lights"] = json!({"window_row": 1, "corridor_row": 1});
+    let (s, _, lit) = post(app(), "/api/scenes/office/daylight", lit.to_string()).await;
+    assert_eq!(s, StatusCode::OK, "{lit}");
+    let (d, l) = (
+        dark["points"][0]["lux"].as_f64().unwrap(),
+        lit["points"][0]["lux"].as_f64().unwrap(),
+    );
+    assert!(l > d + 100.0, "{l} vs {d}");
+}
+
+#[tokio::test]
+async fn daylight_requests_are_checked() {
+    let _gate = common::shared();
+    let cases = [
+        (
+            "cornell-box",
+            json!({"sky": {"type": "uniform", "horizontal_illuminance": 1}}),
+            "no [site]",
+        ),
+        ("office", json!({}), "sky"),
+        ("office", json!({"sky": {"type": "sunny"}}), "sunny"),
+        (
+            "office",
+            json!({"sky": {"type": "uniform", "horizontal_illuminance": 1e9}}),
+            "horizontal_illuminance",
+        ),
+        (
+            "office",
+            json!({"sky": {"type": "cie_clear", "horizontal_illuminance": 1, "direct_normal_illuminance": 1}}),
+            "give the sun",
+        ),
+        (
+            "office",
+            json!({"sky": {"type": "perez", "direct_normal_irradiance": 500, "diffuse_horizontal_irradiance": 100, "time": "2026-02-30T12:00"}}),
+            "no such day",
+        ),
+        (
+            "office",
+            json!({"sky": {"type": "uniform", "horizontal_illuminance": 1, "time": null}}),
+            "null",
+        ),
+        (
+            "office",
+            json!({"sky": {"type": "uniform", "horizontal_illuminance": 1}, "lights": {"nope": 1}}),
+            "nope",
+        ),
+    ];
+    for (scene, body, says) in cases {
+        let (s, _, v) = post(
+            app(),
+            &format!("/api/scenes/{scene}/daylight"),
+            body.to_string(),
+        )
+        .await;
+        assert_eq!(s, StatusCode::UNPROCESSABLE_ENTITY, "{body}: {v}");
+        let detail = v["detail"].as_str().unwrap_or_default();
+        assert!(detail.contains(says), "{body}: {detail}");
+    }
+}
