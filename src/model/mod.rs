@@ -16,6 +16,7 @@
 //! - [`report`]: per-surface averages and the power balance.
 //! - [`sky`]: the grammar of a sky ([`sky::SkySpec`]) and a sky resolved for the site.
 //! - [`daylight`]: daylight on surfaces, points and grids, and the point-gather cache.
+//! - [`annual`]: climate-based metrics over a year of weather (sDA, ASE, UDI, EN 17037).
 //! - [`info`]: what the scene is made of (units, bounds, luminaires, grids, surfaces,
 //!   patches), for clients.
 //!
@@ -30,6 +31,7 @@ use std::sync::Arc;
 use crate::bake::Baked;
 use crate::color::luminance64;
 
+pub mod annual;
 pub mod daylight;
 pub mod error;
 pub mod grid;
@@ -76,6 +78,11 @@ pub struct Model {
     pub grids: Vec<grid::GridResponse>,
     /// Gathers of point sets asked before ([`daylight::GatherCache`]).
     pub gathers: daylight::GatherCache,
+    /// Per patch and sky patch, luminous radiosity at unit sky luminance (annual metrics).
+    annual_radiosity: std::sync::OnceLock<Vec<f32>>,
+    /// Per grid, its daylight coefficients (annual metrics).
+    annual_cache:
+        std::sync::Mutex<std::collections::HashMap<usize, std::sync::Arc<faer::Mat<f32>>>>,
 }
 
 /// Bytes per patch held besides the transfer: mesh, BVH, shading vertices, mesh bytes.
@@ -93,6 +100,8 @@ impl Model {
             groups,
             grids,
             gathers: Default::default(),
+            annual_radiosity: Default::default(),
+            annual_cache: Default::default(),
         }
     }
 

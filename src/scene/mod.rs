@@ -274,6 +274,16 @@ impl Scene {
     }
 }
 
+/// Reads the regular file at `path`, refusing anything over `limit` bytes; the message
+/// says why (for files clients name, such as weather files).
+pub fn read_file_bounded(path: &Path, limit: u64) -> Result<Vec<u8>, String> {
+    files::read_bounded(path, limit).map_err(|e| match e {
+        files::ReadError::Io(e) => format!("cannot be read ({})", e.kind()),
+        files::ReadError::NotRegular(kind) => format!("not a regular file ({kind})"),
+        files::ReadError::TooLarge(_) => format!("larger than {} bytes", limit),
+    })
+}
+
 /// How finely to mesh: `max_edge` from `[mesh]` (scene units, scaled to metres), else
 /// from the patch budget over the total active area (m², two-sided triangles twice).
 /// Ranges were checked by the `scene.toml` parser.

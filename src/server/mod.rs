@@ -107,6 +107,7 @@ pub fn router(state: Arc<AppState>) -> Router {
             "/api/scenes/{id}/daylight",
             post(routes::daylight::daylight),
         )
+        .route("/api/scenes/{id}/annual", post(routes::annual::annual))
         .route("/api/scenes/{id}/batch", post(routes::batch::batch))
         .route(
             "/api/scenes/{id}/optimize",

@@ -28,7 +28,7 @@ use super::requests::bodies::{LightingState, Point, Target};
 use super::requests::lighting::{Color, Direction, Emission, LightSetting, Lights, Position};
 use super::requests::render::Exposure;
 use super::requests::{raw, BatchRequest, IlluminanceRequest, OptimizeRequest};
-use super::requests::{DaylightRequest, RadiosityRequest, RenderRequest};
+use super::requests::{AnnualRequest, DaylightRequest, RadiosityRequest, RenderRequest};
 use super::routes;
 use crate::schema::Rgb;
 
@@ -318,6 +318,7 @@ impl Modify for Constraints {
         routes::radiosity::radiosity,
         routes::illuminance::illuminance,
         routes::daylight::daylight,
+        routes::annual::annual,
         routes::batch::batch,
         routes::optimize::optimize,
         routes::render::render_post,
@@ -328,7 +329,7 @@ impl Modify for Constraints {
         schemas(
             Color, Position, Direction, LightSetting, Lights, Emission, LightingState, Point,
             Target, Exposure, RadiosityRequest, IlluminanceRequest, BatchRequest,
-            OptimizeRequest, RenderRequest, ProblemDetails, Rgb, Millis, DaylightRequest,
+            OptimizeRequest, RenderRequest, ProblemDetails, Rgb, Millis, DaylightRequest, AnnualRequest,
             crate::model::sky::SkySpec, crate::model::sky::SunPosition,
         ),
         responses(BadRequest, BadQuery, NotFound, Unauthorized, Forbidden, Conflict, TooLarge, UnsupportedMediaType, Invalid, Unavailable),

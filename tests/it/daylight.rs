@@ -405,3 +405,78 @@ fn a_scene_without_a_site_has_no_daylight() {
         .to_string()
         .contains("horizontal_illuminance"));
 }
+
+#[test]
+fn an_unobstructed_grid_gets_the_weather_files_global_illuminance_every_hour() {
+    let _gate = common::shared();
+    use relight::daylight::{epw, perez, sun, Site};
+    use relight::model::annual::AnnualQuery;
+    // A black ground plate under open sky, a 2 × 2 grid above it.
+    let obj = quad(
+        "plate",
+        "black",
+        [[0., 0., 0.], [4., 0., 0.], [4., 0., 4.], [0., 0., 4.]],
+        [0., 1., 0.],
+    );
+    let toml = format!(
+        "{SITE}[mesh]\ntarget_patches = 50\n[[grids]]\nid = \"open\"\nmin = [1, 1]\nmax = [3, 3]\nheight = 0.75\nspacing = 1\n"
+    );
+    let s = write_scene(&obj, "newmtl black\nKd 0 0 0\n", Some(&toml));
+    let m = model(&s, TransferMode::Factored);
+    let bytes = std::fs::read(
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/weather/mannheim.epw"),
+    )
+    .unwrap();
+    let w = epw::parse_bytes(&bytes).unwrap();
+    let q = AnnualQuery {
+        weather: std::sync::Arc::new(w.clone()),
+        grids: vec![0],
+        occupied: (0.0, 24.0),
+    };
+    let a = m.annual(&q, &Cancel::default()).unwrap();
+    let g = &a.grids["open"];
+    // Independently: E = E_diffuse + E_direct · sin(altitude) from the Perez efficacy, per
+    // hour, at the weather file's site.
+    let site = Site::new(
+        w.location.latitude_deg,
+        w.location.longitude_deg,
+        w.location.timezone_h,
+        DVec3::NEG_Z,
+        0.2,
+    )
+    .unwrap();
+    let mut above = 0u32;
+    for h in &w.hours {
+        let t = sun::LocalTime::new(2026, h.month, h.day, h.hour as f64 - 0.5).unwrap();
+        let p = sun::position(&site, &t);
+        let alt = p.altitude_deg.to_radians();
+        let dew = h.dew_point_c.unwrap_or(perez::DEFAULT_DEW_POINT_C);
+        if let Some(c) = perez::conditions(
+            h.direct_normal_irradiance,
+            h.diffuse_horizontal_irradiance,
+            alt,
+            t.day_of_year(),
+            dew,
+        ) {
+            let e = c.diffuse_illuminance + c.direct_illuminance * alt.sin().max(0.0);
+            above += u32::from(e >= 300.0);
+        }
+    }
+    println!(
+        "hours ≥ 300 lx in the open: {:?}, independently {above}",
+        g.hours_above_300
+    );
+    for &h in &g.hours_above_300 {
+        assert!(
+            (h as f64 - above as f64).abs() <= 0.01 * above as f64,
+            "{h} vs {above}"
+        );
+    }
+    // sDA over all 8,760 hours: 300 lx for at least 4,380 of them.
+    let want = if 2 * g.hours_above_300[0] >= 8760 {
+        100.0
+    } else {
+        0.0
+    };
+    assert_eq!(g.sda_300_50, want);
+}

@@ -29,7 +29,7 @@ pub(crate) mod lighting;
 pub(crate) mod render;
 
 pub(crate) use bodies::{BatchRequest, IlluminanceRequest, OptimizeRequest, RadiosityRequest};
-pub(crate) use daylight::DaylightRequest;
+pub(crate) use daylight::{AnnualRequest, DaylightRequest};
 pub(crate) use render::RenderRequest;
 // Schemas written as JSON Schema, for the union types that have their own deserializers.
 pub(crate) use crate::schema::raw;

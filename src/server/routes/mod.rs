@@ -7,6 +7,7 @@ use axum::response::{IntoResponse, Response};
 
 use super::AppError;
 
+pub(crate) mod annual;
 pub(crate) mod batch;
 pub(crate) mod daylight;
 pub(crate) mod export;

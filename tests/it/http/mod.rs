@@ -1,5 +1,6 @@
 //! The HTTP API through `oneshot`, checked against the library: shared state and helpers.
 
+mod annual;
 mod daylight;
 mod export;
 mod illuminance;

@@ -73,7 +73,7 @@ fn scene_operations_document_their_errors() {
             }
         }
     }
-    assert_eq!(posts, 6);
+    assert_eq!(posts, 7);
 }
 
 #[test]

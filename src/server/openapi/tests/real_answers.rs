@@ -124,6 +124,11 @@ fov_deg = 60
     std::fs::write(dir.join("scene.obj"), format!("mtllib scene.mtl\n{obj}")).unwrap();
     std::fs::write(dir.join("scene.mtl"), mtl).unwrap();
     std::fs::write(dir.join("scene.toml"), toml).unwrap();
+    std::fs::write(
+        dir.join("weather.epw"),
+        include_bytes!("../../../../tests/data/weather/mannheim.epw"),
+    )
+    .unwrap();
 }
 
 /// Sends requests to a router and checks every answer against what the document says of
@@ -345,6 +350,25 @@ async fn ask_every_query(c: &mut Client) {
             daylight,
             uri,
             Some(json!({"sky": {"type": "overcast"}})),
+        )
+        .await;
+    assert_eq!(s, StatusCode::UNPROCESSABLE_ENTITY);
+    let annual = "/api/scenes/{id}/annual";
+    let (_, v) = c
+        .send(
+            "post",
+            annual,
+            "/api/scenes/room/annual",
+            Some(json!({"weather": "weather.epw", "grids": ["desk"]})),
+        )
+        .await;
+    assert!(v["grids"]["desk"]["en17037"].is_object(), "{v}");
+    let (s, _) = c
+        .send(
+            "post",
+            annual,
+            "/api/scenes/room/annual",
+            Some(json!({"weather": "/etc/passwd"})),
         )
         .await;
     assert_eq!(s, StatusCode::UNPROCESSABLE_ENTITY);
