@@ -1,6 +1,6 @@
 #!/usr/bin/env python3
 """Writes office.obj/.mtl and downlight.ies: a 6 m x 4 m office, 3 m high, with a window
-wall (an opening: light leaves through it), a desk, and six recessed downlights in two
+wall (an opening facing south: daylight enters through it), a desk, and six recessed downlights in two
 switchable rows. Metres, y up; every quad's front faces the lit side. Run from this
 folder; the generated files are committed."""
 import math

@@ -111,3 +111,20 @@ async fn daylight_requests_are_checked() {
         assert!(detail.contains(says), "{body}: {detail}");
     }
 }
+
+#[tokio::test]
+async fn the_rooflight_hall_is_brightest_under_its_rooflight() {
+    let _gate = common::shared();
+    let body = json!({"sky": {"type": "cie_overcast", "horizontal_illuminance": 10000},
+        "grids": ["floor"],
+        "points": [{"position": [4.0, 0.85, 4.0], "normal": [0, 1, 0]},
+                   {"position": [0.5, 0.85, 0.5], "normal": [0, 1, 0]}]});
+    let (s, _, v) = post(app(), "/api/scenes/rooflight/daylight", body.to_string()).await;
+    assert_eq!(s, StatusCode::OK, "{v}");
+    let under = v["points"][0]["daylight_factor"].as_f64().unwrap();
+    let corner = v["points"][1]["daylight_factor"].as_f64().unwrap();
+    let df = &v["grids"]["floor"]["daylight_factor"];
+    println!("rooflight hall: DF {under:.2} % under the rooflight, {corner:.2} % in the north-west corner, grid {df:.2}", df = df["avg"]);
+    assert!(under > 3.0 * corner, "{under} vs {corner}");
+    assert!((df["max"].as_f64().unwrap() - under).abs() < 0.25 * under);
+}

@@ -20,7 +20,10 @@ async fn health_ready_and_scene_list() {
     assert_eq!(s, StatusCode::OK);
     let scenes = v["scenes"].as_array().unwrap();
     let ids: Vec<&str> = scenes.iter().map(|s| s["id"].as_str().unwrap()).collect();
-    assert_eq!(ids, ["cornell-box", "desk-room", "gallery", "office"]);
+    assert_eq!(
+        ids,
+        ["cornell-box", "desk-room", "gallery", "office", "rooflight"]
+    );
     assert!(scenes
         .iter()
         .all(|s| s["status"] == "ready" && s["patches"].as_u64().unwrap() > 1000));
