@@ -111,7 +111,7 @@ impl Sky {
             sun_altitude,
             sun_azimuth,
         };
-        let e1 = horizontal_integral(&unit);
+        let e1 = integral(&unit, 120, 240);
         Sky::CieClear {
             zenith: if e1 > 0.0 {
                 horizontal_illuminance / e1

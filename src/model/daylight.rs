@@ -13,7 +13,7 @@
 //!
 //! The cache: a set of points (with normals) is gathered once ([`PointGather`]: the
 //! point-to-patch weights and the sky view) and kept, keyed by the points' bytes, in a
-//! least-recently-used list bounded by [`GATHER_CACHE_BYTES`]. Asking the same points again
+//! least-recently-used list bounded by [`GatherCache::for_scene`]'s size. Asking the same points again
 //! under another sky or light state is a sparse dot product per point.
 
 use std::collections::{BTreeMap, VecDeque};
@@ -34,8 +34,14 @@ use crate::transport::probe::gather_weights;
 use crate::transport::sky::{self, Reach, SkyView};
 use crate::transport::transfer::weighted_sum;
 
-/// Most bytes the point-gather cache of one scene holds.
-pub const GATHER_CACHE_BYTES: usize = 16 << 20;
+/// Fewest and most bytes the point-gather cache of one scene holds; in between, room for
+/// [`GATHER_CACHE_POINTS`] points of the scene (see [`GatherCache::for_scene`]).
+pub const GATHER_CACHE_MIN_BYTES: u64 = 2 << 20;
+pub const GATHER_CACHE_MAX_BYTES: u64 = 64 << 20;
+/// Points the gather cache is sized for: a 1,000-point grid and a few point sets.
+pub const GATHER_CACHE_POINTS: u64 = 1100;
+/// Bytes of a point's sky view, at most about (the refined cells of a busy view).
+const VIEW_BYTES: u64 = 16 << 10;
 
 /// What one point sees: its gather weights over the patches and, for a scene with a site,
 /// its view of the sky.
@@ -72,12 +78,25 @@ type Entry = (u64, Arc<Vec<PointGather>>, usize);
 pub struct GatherCache {
     importance: OnceLock<Vec<f32>>,
     entries: Mutex<VecDeque<Entry>>,
+    limit: u64,
 }
 
 impl GatherCache {
+    /// A cache for a scene of `patches` patches (with sky views when `sky`): room for
+    /// [`GATHER_CACHE_POINTS`] points gathering from every patch, within
+    /// [`GATHER_CACHE_MIN_BYTES`] … [`GATHER_CACHE_MAX_BYTES`].
+    pub fn for_scene(patches: usize, sky: bool) -> GatherCache {
+        let per_point = 8 * patches as u64 + if sky { VIEW_BYTES } else { 0 } + 64;
+        GatherCache {
+            limit: (GATHER_CACHE_POINTS * per_point)
+                .clamp(GATHER_CACHE_MIN_BYTES, GATHER_CACHE_MAX_BYTES),
+            ..Default::default()
+        }
+    }
+
     /// Bytes held at most.
-    pub fn limit() -> u64 {
-        GATHER_CACHE_BYTES as u64
+    pub fn limit(&self) -> u64 {
+        self.limit
     }
 }
 
@@ -261,7 +280,8 @@ impl Model {
         cancel.check()?;
         let bytes: usize = list.iter().map(|g| g.bytes()).sum();
         let list = Arc::new(list);
-        if bytes <= GATHER_CACHE_BYTES / 2 {
+        let limit = self.gathers.limit as usize;
+        if bytes <= limit {
             let mut e = self
                 .gathers
                 .entries
@@ -269,7 +289,7 @@ impl Model {
                 .unwrap_or_else(|p| p.into_inner());
             e.push_front((k, list.clone(), bytes));
             let mut total: usize = e.iter().map(|x| x.2).sum();
-            while total > GATHER_CACHE_BYTES {
+            while total > limit {
                 match e.pop_back() {
                     Some(x) => total -= x.2,
                     None => break,
@@ -397,8 +417,8 @@ impl Model {
         let gathers = self.gathers(&q.points, cancel)?;
         let points = q
             .points
-            .iter()
-            .zip(gathers.iter())
+            .par_iter()
+            .zip(gathers.par_iter())
             .map(|(&(x, nrm), g)| {
                 let (e, daylight) = at(g, x, nrm);
                 DaylightPoint {

@@ -95,17 +95,20 @@ impl Model {
         let groups = group_infos(&baked);
         let columns = std::mem::take(&mut baked.transfer.grids);
         let grids = grid::GridResponse::build_all(&baked.scene, columns);
+        let gathers =
+            daylight::GatherCache::for_scene(baked.transfer.n, baked.transfer.sky.is_some());
         Model {
             baked,
             groups,
             grids,
-            gathers: Default::default(),
+            gathers,
             annual_radiosity: Default::default(),
             annual_cache: Default::default(),
         }
     }
 
-    /// Bytes this model holds: the transfer, the mesh and BVH, and the grid responses.
+    /// Bytes this model holds: the transfer, the mesh and BVH, the grid responses, and the
+    /// most its caches of gathers and daylight coefficients may hold.
     pub fn bytes(&self) -> u64 {
         let t = &self.baked.transfer;
         let grid_bytes: u64 = self
@@ -113,7 +116,13 @@ impl Model {
             .iter()
             .map(|g| 16 * g.len() as u64 * (1 + 3 * t.group_count() as u64))
             .sum();
-        t.bytes() + SCENE_BYTES_PER_PATCH * t.n as u64 + grid_bytes + daylight::GatherCache::limit()
+        t.bytes()
+            + SCENE_BYTES_PER_PATCH * t.n as u64
+            + grid_bytes
+            + self.gathers.limit()
+            + t.sky.as_ref().map_or(0, |s| {
+                4 * (t.n * s.k) as u64 + annual::ANNUAL_CACHE_BYTES as u64
+            })
     }
 
     /// Number of patches.

@@ -168,7 +168,8 @@ pub fn patch_sky_direct(
 }
 
 /// What a point sees of the sky and the ground: escaped directions with their
-/// cosine-weighted share (shares of the whole hemisphere sum to 1).
+/// cosine-weighted share (shares of the whole hemisphere sum to 1), merged per 3° cell
+/// ([`SkyView::merged`]).
 #[derive(Debug, Clone, Default)]
 pub struct SkyView {
     /// Unit scene directions of escaped rays, and each one's share.
@@ -261,7 +262,35 @@ impl SkyView {
                 }
             }
         }
-        SkyView { rays }
+        SkyView::merged(rays)
+    }
+
+    /// The rays merged per cell of Reinhart's MF:4 subdivision (2,305 sky patches of about
+    /// 3°, and the ground): each cell keeps its share-weighted mean direction and the sum
+    /// of its shares, so a view is a few hundred entries. The shares sum as before; a
+    /// luminance is then read once per cell.
+    fn merged(rays: Vec<([f32; 3], f32)>) -> SkyView {
+        static CELLS: std::sync::OnceLock<Subdivision> = std::sync::OnceLock::new();
+        let cells = CELLS.get_or_init(|| Subdivision::reinhart(4));
+        let mut acc: std::collections::BTreeMap<usize, ([f64; 3], f64)> = Default::default();
+        for (d, w) in rays {
+            let alt = (d[1] as f64).clamp(-1.0, 1.0).asin();
+            let az = (d[0] as f64).atan2(-(d[2] as f64));
+            let e = acc.entry(cells.patch_of(alt, az)).or_default();
+            for c in 0..3 {
+                e.0[c] += d[c] as f64 * w as f64;
+            }
+            e.1 += w as f64;
+        }
+        SkyView {
+            rays: acc
+                .into_values()
+                .map(|(d, w)| {
+                    let v = DVec3::from_array(d).normalize_or_zero();
+                    (v.as_vec3().to_array(), w as f32)
+                })
+                .collect(),
+        }
     }
 
     /// Illuminance, lux, from sky luminance `sky(d)` (cd/m², d upward) and a uniform ground
