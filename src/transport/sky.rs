@@ -277,8 +277,8 @@ impl SkyView {
             let alt = (d[1] as f64).clamp(-1.0, 1.0).asin();
             let az = (d[0] as f64).atan2(-(d[2] as f64));
             let e = acc.entry(cells.patch_of(alt, az)).or_default();
-            for c in 0..3 {
-                e.0[c] += d[c] as f64 * w as f64;
+            for (a, &dc) in e.0.iter_mut().zip(&d) {
+                *a += dc as f64 * w as f64;
             }
             e.1 += w as f64;
         }
