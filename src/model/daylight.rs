@@ -349,6 +349,21 @@ impl Model {
         Ok(self.sky_patches(&l, &sun, direct.as_deref()))
     }
 
+    /// A sky's daylight on every patch without the sun's direct light (its interreflection
+    /// stays): what an image shows on its patches while the sun is traced per pixel.
+    pub fn patch_daylight_without_sun(&self, sky: &SkyState) -> Result<PatchDaylight, QueryError> {
+        self.site()?;
+        let sub = sky::subdivision();
+        let l = sky.patch_luminances(&sub);
+        let sun = sky.sun_patches(&sub);
+        Ok(self.sky_patches(&l, &sun, None))
+    }
+
+    /// A length beyond the scene, m (for escape rays).
+    pub fn reach_length(&self) -> f64 {
+        self.reach().length()
+    }
+
     /// Peak bytes a daylight query may allocate.
     pub fn daylight_bytes(&self, q: &IlluminanceQuery) -> u64 {
         let grid_points: u64 = q.grids.iter().map(|&g| self.grids[g].len() as u64).sum();

@@ -17,11 +17,15 @@
 //!    linear EXR, PFM). With few light groups, [`GroupImages`] (`groups.rs`) keeps one
 //!    radiance image per group and sums them instead of gathering.
 //!
+//! Under a sky, [`daylight`] traces the sun's direct light per pixel (sharp sun patches)
+//! and shows the sky where a pixel looks out of the scene; the patches carry the rest.
+//!
 //! False colour ([`false_color`], `falsecolor.rs`) shows illuminance H in lux (incident
 //! lm/m², gathered at scale 1, not divided by π) on a log scale, with a legend bar labelled
 //! in the 5×7 bitmap font of `font.rs`.
 
 mod camera;
+pub mod daylight;
 mod encode;
 pub mod export;
 mod falsecolor;

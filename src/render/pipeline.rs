@@ -104,6 +104,46 @@ pub fn render(
     )
 }
 
+/// Renders per-patch radiosity `b` (lm/m²) and illuminance `h` (lux), n × 3, through
+/// `frame`, with per-pixel additions `extra`: radiance (cd/m²) for shaded images and
+/// illuminance (lux) for false colour (the traced daylight of [`super::daylight`]).
+pub fn render_values(
+    frame: Frame<'_>,
+    b: &[f32],
+    h: &[f32],
+    extra: (&[Rgb], &[Rgb]),
+    o: &RenderOptions,
+) -> Result<Rendered, RenderError> {
+    let Frame { view, shading, .. } = frame;
+    let (w, hh) = (o.camera.width, o.camera.height);
+    let add = |mut img: Vec<Rgb>, more: &[Rgb]| {
+        for (p, e) in img.iter_mut().zip(more) {
+            for c in 0..3 {
+                p[c] += e[c];
+            }
+        }
+        img
+    };
+    if o.falsecolor {
+        let img = add(view.gather(&shading.vertex_values(h), 1.0), extra.1);
+        let (lo, hi) = o.range.unwrap_or_else(|| default_range(&img));
+        let rgb = false_color(&img, w, hh, lo, hi);
+        let bytes = encode_8bit(&rgb, w, hh, o.format).map_err(RenderError::Encode)?;
+        return Ok(Rendered {
+            bytes,
+            range: Some((lo, hi)),
+            exposure: None,
+        });
+    }
+    let values = shading.vertex_values(b);
+    let scale = std::f32::consts::FRAC_1_PI;
+    finish(
+        o,
+        |exposure| view.gather_tonemapped_plus(&values, scale, extra.0, exposure, o.tonemap),
+        || add(view.gather(&values, scale), extra.0),
+    )
+}
+
 /// Builds the view of `o.camera` and renders once (the command line; the server keeps
 /// views in a cache).
 pub fn render_once(

@@ -138,6 +138,27 @@ impl ViewBuffer {
         )
     }
 
+    /// [`ViewBuffer::gather_tonemapped`] with a per-pixel linear value `extra` added.
+    pub fn gather_tonemapped_plus(
+        &self,
+        values: &[Rgb],
+        scale: f32,
+        extra: &[Rgb],
+        exposure: Option<f32>,
+        tm: ToneMap,
+    ) -> (Vec<u8>, f32) {
+        tonemap_pixels(
+            self.pixels(),
+            |i| {
+                let p = self.pixel(i, values, scale);
+                let e = extra[i];
+                [p[0] + e[0], p[1] + e[1], p[2] + e[2]]
+            },
+            exposure,
+            tm,
+        )
+    }
+
     /// Number of pixels.
     pub(super) fn pixels(&self) -> usize {
         self.width as usize * self.height as usize

@@ -43,6 +43,11 @@ pub fn subdivision() -> Subdivision {
 pub struct Reach(f64);
 
 impl Reach {
+    /// The length, m.
+    pub fn length(&self) -> f64 {
+        self.0
+    }
+
     /// For a scene within `lo..hi` (m).
     pub fn new(lo: DVec3, hi: DVec3) -> Reach {
         let d = (hi - lo).length();

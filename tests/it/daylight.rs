@@ -480,3 +480,59 @@ fn an_unobstructed_grid_gets_the_weather_files_global_illuminance_every_hour() {
     };
     assert_eq!(g.sda_300_50, want);
 }
+
+#[test]
+fn a_sun_patch_is_sharp_in_renders() {
+    let _gate = common::shared();
+    use relight::render::daylight::{daylight_pixels, SunView};
+    use relight::render::{Camera, Shading, ViewBuffer};
+    // The sun straight overhead through the 0.8 m roof opening: a 0.8 m square of
+    // E_n on the black floor, seen from straight above through the opening.
+    let (ox, oz) = ((1.6, 2.4), (1.6, 2.4));
+    let s = roof_room(
+        "black",
+        ox,
+        oz,
+        &format!("{SITE}[mesh]\ntarget_patches = 300\n"),
+    );
+    let m = model(&s, TransferMode::Factored);
+    let cam = Camera {
+        position: glam::Vec3::new(2.0, 2.9, 2.0),
+        target: glam::Vec3::new(2.0, 0.0, 2.0),
+        up: glam::Vec3::new(0.0, 0.0, -1.0),
+        fov_deg: 60.0,
+        width: 200,
+        height: 200,
+    };
+    let shading = Shading::new(&m.baked.mesh);
+    let view = ViewBuffer::build(&m.baked.mesh, &shading, &cam);
+    let sun = SunView {
+        direction: DVec3::Y,
+        normal_illuminance: 50_000.0,
+    };
+    let (_, lux) = daylight_pixels(
+        &m.baked.mesh,
+        &m.baked.bvh,
+        &m.baked.transfer.rho,
+        &view,
+        &cam,
+        Some(sun),
+        &|_| 0.0,
+        m.reach_length(),
+    );
+    // Along the middle row, the floor is lit exactly where x is within the opening: the
+    // pixel centres' floor x is 2 + 2.9 tan(30°) (2 (i + 0.5) / 200 − 1).
+    let tan = 30f64.to_radians().tan();
+    let mut wrong = 0;
+    for i in 0..200 {
+        let x = 2.0 + 2.9 * tan * (2.0 * (i as f64 + 0.5) / 200.0 - 1.0);
+        let e = lux[100 * 200 + i][0] as f64;
+        let want = if x > ox.0 && x < ox.1 { 50_000.0 } else { 0.0 };
+        // Pixels within half a pixel of the edge may go either way.
+        let near_edge = (x - ox.0).abs().min((x - ox.1).abs()) < 2.9 * tan / 200.0;
+        if !near_edge && (e - want).abs() > 1e-3 * 50_000.0 {
+            wrong += 1;
+        }
+    }
+    assert_eq!(wrong, 0, "pixels off the sun patch's exact outline");
+}

@@ -67,6 +67,10 @@ pub(crate) struct RadiosityRequest {
     #[serde(default)]
     #[schema(inline)]
     pub quantity: QuantityName,
+    /// Daylight from this sky (a scene with a [site]) added to the light groups' light.
+    #[serde(default, deserialize_with = "some")]
+    #[schema(nullable = false)]
+    sky: Option<crate::model::sky::SkySpec>,
 }
 
 object_only!(RadiosityRequest, "a JSON object");
@@ -74,6 +78,17 @@ object_only!(RadiosityRequest, "a JSON object");
 impl RadiosityRequest {
     pub(crate) fn lighting(&self, ready: &Ready) -> Result<Lighting, AppError> {
         lighting(self.lights.as_ref(), self.emission.as_ref(), ready)
+    }
+
+    /// The sky, resolved for the scene's site.
+    pub(crate) fn sky(
+        &self,
+        ready: &Ready,
+    ) -> Result<Option<crate::model::sky::SkyState>, AppError> {
+        match &self.sky {
+            None => Ok(None),
+            Some(spec) => Ok(Some(spec.resolve(ready.site()?)?)),
+        }
     }
 }
 

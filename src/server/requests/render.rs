@@ -237,6 +237,11 @@ pub(crate) struct RenderRequest {
     #[serde(default, deserialize_with = "some")]
     #[schema(schema_with = range_schema, value_type = Vec<f64>)]
     range: Option<LuxRange>,
+    /// Daylight from this sky (a scene with a [site]), added to the light groups' light;
+    /// the sun's direct light is traced per pixel.
+    #[serde(default, deserialize_with = "some")]
+    #[schema(nullable = false)]
+    sky: Option<crate::model::sky::SkySpec>,
 }
 
 object_only!(RenderRequest, "a JSON object");
@@ -244,6 +249,23 @@ object_only!(RenderRequest, "a JSON object");
 impl RenderRequest {
     pub(crate) fn lighting(&self, ready: &Ready) -> Result<Lighting, AppError> {
         lighting(self.lights.as_ref(), self.emission.as_ref(), ready)
+    }
+
+    /// The sky, resolved for the scene's site; a sky goes with light groups only.
+    pub(crate) fn sky(
+        &self,
+        ready: &Ready,
+    ) -> Result<Option<crate::model::sky::SkyState>, AppError> {
+        let Some(spec) = &self.sky else {
+            return Ok(None);
+        };
+        if self.emission.is_some() {
+            return Err(AppError::Invalid(
+                "a render takes a sky with light groups (lights), not with a per-patch emission"
+                    .into(),
+            ));
+        }
+        Ok(Some(spec.resolve(ready.site()?)?))
     }
 
     /// The camera, image size and look, checked.

@@ -52,7 +52,7 @@ pub(crate) struct RadiosityResponse {
 }
 
 #[utoipa::path(post, path = "/api/scenes/{id}/radiosity", operation_id = "radiosity", tag = "scenes",
-    summary = "Per-patch radiosity for a lighting state (group settings, or a per-patch emission in factored mode).",
+    summary = "Per-patch radiosity for a lighting state (group settings, or a per-patch emission in factored mode), with daylight added for a `sky`.",
     params(SceneIdParam),
     request_body(content = RadiosityRequest, content_type = "application/json",
         description = "An empty body is the default lighting state.",
@@ -87,11 +87,12 @@ pub(crate) async fn radiosity(
         ),
     };
     let lighting = body.lighting(&ready)?;
+    let sky = body.sky(&ready)?;
     let n = ready.patches();
     let binary_out = wants_binary(&headers);
-    // The hot path: group weights and binary out, no surfaces: one weighted sum (a memory
-    // stream of n × groups floats), answered inline.
-    if let (Lighting::Groups(w), true, false) = (&lighting, binary_out, want_surfaces) {
+    // The hot path: group weights and binary out, no surfaces, no sky: one weighted sum (a
+    // memory stream of n × groups floats), answered inline.
+    if let (Lighting::Groups(w), true, false, None) = (&lighting, binary_out, want_surfaces, &sky) {
         let mut out = vec![0f32; 3 * n];
         ready.per_patch_groups(w, quantity, &mut out);
         return Ok(binary(out, n, layout));
@@ -102,7 +103,12 @@ pub(crate) async fn radiosity(
     state
         .heavy(bytes, &what, move |_| {
             let b = &ready.baked;
-            let sol = ready.solve(&lighting)?;
+            let mut sol = ready.solve(&lighting)?;
+            if let Some(sky) = &sky {
+                let day = ready.patch_daylight(sky)?;
+                sol.b.iter_mut().zip(&day.b).for_each(|(a, x)| *a += x);
+                sol.h.iter_mut().zip(&day.h).for_each(|(a, x)| *a += x);
+            }
             let surfaces = want_surfaces.then(|| surface_averages(&b.scene, &b.mesh, &sol));
             let values = match quantity {
                 Quantity::Illuminance => sol.h,

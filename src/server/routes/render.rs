@@ -12,7 +12,9 @@ use axum::http::{header, HeaderMap};
 use axum::response::{IntoResponse, Response};
 
 use crate::budget::human_bytes;
+use crate::model::sky::SkyState;
 use crate::model::Lighting;
+use crate::render::daylight::{daylight_pixels, SunView};
 use crate::render::pipeline::{self, Frame, RenderError, RenderOptions};
 use crate::render::ViewBuffer;
 use crate::server::openapi::{
@@ -29,9 +31,50 @@ fn render_image(
     state: &AppState,
     ready: &Ready,
     lighting: &Lighting,
+    sky: Option<&SkyState>,
     o: &RenderOptions,
 ) -> Result<pipeline::Rendered, AppError> {
     let entry = view_for(state, ready, &o.camera);
+    let encode = |e: RenderError| match e {
+        RenderError::Query(q) => q.into(),
+        RenderError::Encode(m) => AppError::Internal(m),
+    };
+    if let Some(sky) = sky {
+        let m = &ready.model;
+        let day = m.patch_daylight_without_sun(sky)?;
+        let (mut b, mut h) = (day.b, day.h);
+        if let Lighting::Groups(w) = lighting {
+            let t = &m.baked.transfer;
+            let mut more = vec![0f32; b.len()];
+            t.relight_into(w, &mut more);
+            b.iter_mut().zip(&more).for_each(|(a, x)| *a += x);
+            t.illuminance_into(w, &mut more);
+            h.iter_mut().zip(&more).for_each(|(a, x)| *a += x);
+        }
+        let site = m.site()?;
+        let sun = sky
+            .sun_direction(site)
+            .map(|(direction, normal_illuminance)| SunView {
+                direction,
+                normal_illuminance,
+            });
+        let (rad, lux) = daylight_pixels(
+            &m.baked.mesh,
+            &m.baked.bvh,
+            &m.baked.transfer.rho,
+            &entry.buffer,
+            &o.camera,
+            sun,
+            &|d| sky.luminance(site, d),
+            m.reach_length(),
+        );
+        let frame = Frame {
+            view: &entry.buffer,
+            groups: None,
+            shading: ready.shading(),
+        };
+        return pipeline::render_values(frame, &b, &h, (&rad, &lux), o).map_err(encode);
+    }
     let groups = match lighting {
         Lighting::Groups(_) if !o.falsecolor => {
             let g = entry.group_images(ready);
@@ -46,21 +89,24 @@ fn render_image(
         groups,
         shading: ready.shading(),
     };
-    pipeline::render(&ready.model, frame, lighting, o).map_err(|e| match e {
-        RenderError::Query(q) => q.into(),
-        RenderError::Encode(m) => AppError::Internal(m),
-    })
+    pipeline::render(&ready.model, frame, lighting, o).map_err(encode)
 }
 
 async fn respond(
     state: Arc<AppState>,
     ready: Arc<Ready>,
     lighting: Lighting,
+    sky: Option<SkyState>,
     o: RenderOptions,
 ) -> Result<Response, AppError> {
     let t0 = Instant::now();
     let format = o.format;
-    let bytes = render_estimate(&state, &ready, &o);
+    let mut bytes = render_estimate(&state, &ready, &o);
+    if sky.is_some() {
+        // Per-pixel daylight (two RGB images) and per-patch daylight (b, h and a column).
+        let px = o.camera.width as u64 * o.camera.height as u64;
+        bytes += 24 * px + 36 * ready.patches() as u64;
+    }
     let what = format!(
         "a {}×{} render (view buffer up to {})",
         o.camera.width,
@@ -70,7 +116,7 @@ async fn respond(
     let st = state.clone();
     let r = state
         .heavy(bytes, &what, move |_| {
-            render_image(&st, &ready, &lighting, &o)
+            render_image(&st, &ready, &lighting, sky.as_ref(), &o)
         })
         .await?;
     let mut resp = ([(header::CONTENT_TYPE, format.content_type())], r.bytes).into_response();
@@ -96,7 +142,7 @@ async fn respond(
 }
 
 #[utoipa::path(post, path = "/api/scenes/{id}/render", operation_id = "render", tag = "scenes",
-    summary = "A relit image from a camera preset or a full camera.",
+    summary = "A relit image from a camera preset or a full camera; with `sky`, daylight is added (the sun traced per pixel, the sky seen through openings).",
     params(SceneIdParam),
     request_body(content = RenderRequest, content_type = "application/json",
         description = "An empty body is a 512×512 PNG from the first camera preset in the default lighting state.",
@@ -120,8 +166,9 @@ pub(crate) async fn render_post(
 ) -> Result<Response, AppError> {
     let (ready, body): (_, RenderRequest) = begin(&state, &id, &headers, body).await?;
     let lighting = body.lighting(&ready)?;
+    let sky = body.sky(&ready)?;
     let o = body.options(&ready)?;
-    respond(state, ready, lighting, o).await
+    respond(state, ready, lighting, sky, o).await
 }
 
 /// `GET …/render.png?camera=front&w=512&h=512&light.ceiling=0.5&exposure=0&mode=falsecolor`
@@ -148,5 +195,5 @@ pub(crate) async fn render_get(
     let body = RenderRequest::from_query(&q)?;
     let lighting = body.lighting(&ready)?;
     let o = body.options(&ready)?;
-    respond(state, ready, lighting, o).await
+    respond(state, ready, lighting, None, o).await
 }

@@ -128,3 +128,66 @@ async fn the_rooflight_hall_is_brightest_under_its_rooflight() {
     assert!(under > 3.0 * corner, "{under} vs {corner}");
     assert!((df["max"].as_f64().unwrap() - under).abs() < 0.25 * under);
 }
+
+#[tokio::test]
+async fn renders_and_per_patch_answers_take_the_same_sky() {
+    let _gate = common::shared();
+    let sky = json!({"type": "cie_clear", "horizontal_illuminance": 15000,
+        "direct_normal_illuminance": 70000, "time": "2026-06-21T13:00"});
+    // A render with the sky: a PNG, its exposure chosen for daylight.
+    let (s, h, _) = post(
+        app(),
+        "/api/scenes/rooflight/render",
+        json!({"camera": "entrance", "width": 96, "height": 64, "sky": sky}).to_string(),
+    )
+    .await;
+    assert_eq!(s, StatusCode::OK);
+    assert_eq!(h["content-type"], "image/png");
+    // Per-patch illuminance under the sky agrees with /daylight's surface statistics.
+    let overcast = json!({"type": "cie_overcast", "horizontal_illuminance": 10000});
+    let (s, _, r) = post(
+        app(),
+        "/api/scenes/rooflight/radiosity",
+        json!({"sky": overcast, "quantity": "illuminance", "surfaces": true}).to_string(),
+    )
+    .await;
+    assert_eq!(s, StatusCode::OK, "{r}");
+    let (s, _, d) = post(
+        app(),
+        "/api/scenes/rooflight/daylight",
+        json!({"sky": overcast, "surfaces": ["floor"]}).to_string(),
+    )
+    .await;
+    assert_eq!(s, StatusCode::OK, "{d}");
+    let via_radiosity = r["surfaces"]["floor"]["illuminance"][1].as_f64().unwrap();
+    let via_daylight = d["surfaces"]["floor"]["avg"]["rgb"][1].as_f64().unwrap();
+    assert!(
+        (via_radiosity - via_daylight).abs() < 1e-4 * via_daylight,
+        "{via_radiosity} vs {via_daylight}"
+    );
+    // Refused: a sky on a scene without a site, and a sky with a per-patch emission.
+    for (uri, body, says) in [
+        (
+            "/api/scenes/cornell-box/render",
+            json!({"sky": overcast}),
+            "no [site]",
+        ),
+        (
+            "/api/scenes/cornell-box/radiosity",
+            json!({"sky": overcast}),
+            "no [site]",
+        ),
+        (
+            "/api/scenes/office/render",
+            json!({"sky": overcast, "emission": {"0": [1, 1, 1]}}),
+            "emission",
+        ),
+    ] {
+        let (s, _, v) = post(app(), uri, body.to_string()).await;
+        assert_eq!(s, StatusCode::UNPROCESSABLE_ENTITY, "{uri}: {v}");
+        assert!(
+            v["detail"].as_str().unwrap_or_default().contains(says),
+            "{uri}: {v}"
+        );
+    }
+}
