@@ -8,6 +8,7 @@
 //                statistics, overlay), hover.js (surface under the pointer)
 //   viewer.js    the WebGL viewer itself
 //   models.js    the "Open model" upload dialog and the glTF export link
+//   sky.js       the daylight panel (sky, sun time, daylight factor, annual metrics)
 //
 // Data flow: every control change bumps `state.version` (changed() in state.js) and asks
 // both views to update (onChange below). Each view has at most one request in flight;
@@ -24,6 +25,7 @@ import { imageFlight } from "./views/image.js";
 import { gridFlight, drawOverlay } from "./views/grids.js";
 import { attachHover, resetSurfaceCache } from "./views/hover.js";
 import { wireModels } from "./models.js";
+import { wireSky, setupSky } from "./sky.js";
 
 /** After every change: labels, URL hash, and a request for each view. */
 function onChange() {
@@ -58,6 +60,7 @@ function showScene(details, buf, previewBuf, hash) {
   $("#falsecolor").checked = state.falsecolor;
   state.gridStats = null;
   setupGrids();
+  setupSky();
   showExposure();
   showMesh(hash.v);
   changed();
@@ -93,6 +96,7 @@ async function main() {
   wireControls();
   attachHover();
   wireModels(openUploaded);
+  wireSky();
   window.addEventListener("resize", () => imageFlight());
   await openFirstScene();
 }

@@ -12,6 +12,7 @@ export const state = {
   falsecolor: false,
   exposure: null,   // stops, locked after metering; null = meter on the next image
   range: null,      // false-colour [lo, hi] lux, locked on first use
+  sky: null,        // daylight panel: {type, eh, edn, date, hour}, or null (sky.js)
   version: 0,       // bumped on every lighting change
   // gridStats (per-grid illuminance, or null) is added when a scene is shown.
 };
@@ -61,6 +62,7 @@ export function resetForScene(h) {
   state.camera = details.cameras.length ? details.cameras[0].id : defaultCamera();
   state.exposure = null;
   state.range = null;
+  state.sky = null;
   applyHash(h);
 }
 
@@ -97,6 +99,10 @@ export function writeHash(viewerCam) {
     return `${g.id}:${l.pct}:${l.color.slice(1)}:${l.on ? 1 : 0}`;
   }).join(","));
   if (state.falsecolor) p.set("fc", "1");
+  if (state.sky && state.sky.type !== "off") {
+    const s = state.sky;
+    p.set("sky", [s.type, s.eh, s.date, s.hour].join(":"));
+  }
   if (state.exposure !== null) p.set("ev", state.exposure.toFixed(2));
   if (viewerCam) {
     const c = viewerCam;
@@ -130,6 +136,17 @@ function applyHash(h) {
     }
   }
   state.falsecolor = h.fc === "1";
+  const [type, eh, date, hour] = (h.sky || "").split(":");
+  if (["cie_overcast", "cie_clear", "uniform"].includes(type) && state.details.site) {
+    const e = Number(eh), hr = Number(hour);
+    state.sky = {
+      type,
+      eh: Number.isFinite(e) && e >= 0 && e <= 200000 ? e : 10000,
+      edn: 70000,
+      date: /^\d{4}-\d{2}-\d{2}$/.test(date || "") ? date : "2026-06-21",
+      hour: Number.isFinite(hr) && hr >= 0 && hr <= 24 ? hr : 12,
+    };
+  }
   const ev = Number(h.ev);
   if (h.ev !== undefined && Number.isFinite(ev)) state.exposure = ev;
 }

@@ -29,6 +29,24 @@ pub struct Units {
     pub flux: &'static str,
 }
 
+/// Where a scene with daylight stands, and the weather files in its folder.
+#[derive(Debug, Clone, Serialize)]
+#[cfg_attr(feature = "server", derive(utoipa::ToSchema))]
+pub struct SiteInfo {
+    /// Degrees north.
+    pub latitude: f64,
+    /// Degrees east.
+    pub longitude: f64,
+    /// Hours east of UTC (standard time).
+    pub timezone: f64,
+    /// The scene's unit direction of north.
+    #[cfg_attr(feature = "server", schema(value_type = crate::schema::Rgb))]
+    pub north: [f64; 3],
+    pub ground_reflectance: f64,
+    /// `.epw` files in the scene's folder, for `POST /annual`.
+    pub weather_files: Vec<String>,
+}
+
 /// The scene's axis-aligned bounds, m.
 #[derive(Debug, Clone, Serialize)]
 #[cfg_attr(feature = "server", derive(utoipa::ToSchema))]
@@ -141,6 +159,30 @@ pub struct PatchInfo<'a> {
 
 impl Model {
     /// The units of the answers and of the scene's files.
+    /// The site, when the scene has daylight.
+    pub fn site_info(&self) -> Option<SiteInfo> {
+        let s = self.site().ok()?;
+        let mut weather_files: Vec<String> = std::fs::read_dir(&self.baked.scene.dir)
+            .map(|rd| {
+                rd.flatten()
+                    .filter(|e| e.file_type().is_ok_and(|t| t.is_file()))
+                    .filter_map(|e| e.file_name().into_string().ok())
+                    .filter(|n| n.to_ascii_lowercase().ends_with(".epw") && !n.starts_with('.'))
+                    .take(100)
+                    .collect()
+            })
+            .unwrap_or_default();
+        weather_files.sort();
+        Some(SiteInfo {
+            latitude: s.latitude_deg,
+            longitude: s.longitude_deg,
+            timezone: s.timezone_h,
+            north: s.north.to_array(),
+            ground_reflectance: s.ground_reflectance,
+            weather_files,
+        })
+    }
+
     pub fn units(&self) -> Units {
         let s = &self.baked.scene;
         Units {

@@ -6,6 +6,7 @@ import { Viewer, parseMesh, vertexValues, cameraFromLookAt } from "../viewer.js"
 import { $, luminance, fmtLux } from "../util.js";
 import { state, imageCamera, lightingJson } from "../state.js";
 import { postJson, problem, singleFlight } from "../api.js";
+import { skyJson } from "../sky.js";
 
 /** The 3D viewer (null until createViewer succeeds), the current scene's mesh and its
  *  preview (large scenes only). */
@@ -47,6 +48,8 @@ export const glFlight = singleFlight(async (signal) => {
   const version = state.version;
   const t0 = performance.now();
   const body = { lights: lightingJson(), quantity: state.falsecolor ? "illuminance" : "radiosity" };
+  const sky = skyJson();
+  if (sky) body.sky = sky;
   const r = await postJson("/radiosity", body, { signal, binary: true });
   if (!r.ok) throw new Error(await problem(r));
   const perPatch = new Float32Array(await r.arrayBuffer());

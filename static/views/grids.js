@@ -6,15 +6,22 @@ import { $, fmtLux } from "../util.js";
 import { state, lightingJson } from "../state.js";
 import { postJson, problem, singleFlight } from "../api.js";
 import { viewer } from "./gl.js";
+import { skyJson } from "../sky.js";
 
 export const gridFlight = singleFlight(async (signal) => {
   if (!state.details) return;
   const version = state.version;
   const body = { lights: lightingJson(), grids: state.details.grids.map((g) => g.id), surfaces: [] };
-  const r = await postJson("/illuminance", body, { signal });
+  const sky = skyJson();
+  if (sky) body.sky = sky;
+  // Under a sky, /daylight answers the grids (daylight plus the electric light).
+  const r = await postJson(sky ? "/daylight" : "/illuminance", body, { signal });
   if (!r.ok) throw new Error(await problem(r));
   const v = await r.json();
   if (signal.aborted) return;
+  if (sky) {
+    v.grids = Object.fromEntries(Object.entries(v.grids).map(([k, g]) => [k, g.illuminance]));
+  }
   state.gridStats = v.grids;
   const rows = state.details.grids.map((g) => gridRow(g, v.grids[g.id]));
   $("#grid-stats tbody").replaceChildren(...rows);

@@ -6,6 +6,7 @@ import { state, inputTime, imageCamera, lightingJson, writeHash } from "../state
 import { postJson, problem, singleFlight } from "../api.js";
 import { showExposure } from "../controls.js";
 import { viewer, glFlight } from "./gl.js";
+import { skyJson } from "../sky.js";
 
 /** The POST /render body for the current state, sized to the canvas. */
 function renderBody(canvas) {
@@ -22,6 +23,8 @@ function renderBody(canvas) {
     mode: state.falsecolor ? "falsecolor" : "shaded",
   };
   if (state.falsecolor && state.range) body.range = state.range;
+  const sky = skyJson();
+  if (sky) body.sky = sky;
   return body;
 }
 

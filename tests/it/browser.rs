@@ -409,6 +409,58 @@ async fn the_page_relights_live_in_headless_chromium() {
         .collect();
     assert!(pcts.iter().any(|&p| p < 100.0), "levels applied: {pcts:?}");
 
+    // ---- Daylight on the office: a clear sky with the sun, the time slider, the URL, and
+    // the annual metrics of the desk from the Mannheim weather file in its folder.
+    assert_eq!(
+        s.js("return document.querySelector('#sky-section').hidden;")
+            .await,
+        false
+    );
+    let before = canvas(&s, "#image").await["hash"].clone();
+    let v = s
+        .js(
+            "const e = document.querySelector('#sky-type'); e.value = 'cie_clear';
+             e.dispatchEvent(new Event('change')); return window.relight.state.version;",
+        )
+        .await
+        .as_u64()
+        .unwrap();
+    image_for(&s, v).await;
+    s.wait_for(
+        &format!(
+            "window.relight.stats.glVersion >= {v} && window.relight.stats.gridVersion >= {v}"
+        ),
+        "the 3D view and grids under the sky",
+    )
+    .await;
+    assert!(s
+        .js("return location.hash.includes('sky=cie_clear');")
+        .await
+        .as_bool()
+        .unwrap());
+    let v = set_slider(&s, "#sky-hour", 10).await;
+    image_for(&s, v).await;
+    let after = canvas(&s, "#image").await["hash"].clone();
+    assert_ne!(after, before, "the sky changes the image");
+    s.click("#annual summary").await;
+    s.js("document.querySelector('#annual-grid').value = 'desk';")
+        .await;
+    s.click("#annual-run").await;
+    s.wait_for(
+        "document.querySelectorAll('#annual-table tr').length === 8",
+        "the annual metrics",
+    )
+    .await;
+    let text = s
+        .js("return document.querySelector('#annual-out').textContent;")
+        .await;
+    assert!(text.as_str().unwrap().contains("sDA300/50%"), "{text}");
+    s.js(
+        "const e = document.querySelector('#sky-type'); e.value = 'off';
+          e.dispatchEvent(new Event('change'));",
+    )
+    .await;
+
     // ---- Frame rate while orbiting the ~10k-patch room.
     switch_scene(&s, "room-10k", "true").await;
     let fps = s

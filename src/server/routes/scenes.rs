@@ -14,7 +14,9 @@ use utoipa::openapi::RefOr;
 use utoipa::ToSchema;
 
 use super::{binary, wants_binary, ApiResult};
-use crate::model::info::{Bounds, GridInfo, LuminaireInfo, PatchInfo, SurfaceInfo, Units};
+use crate::model::info::{
+    Bounds, GridInfo, LuminaireInfo, PatchInfo, SiteInfo, SurfaceInfo, Units,
+};
 use crate::model::GroupInfo;
 use crate::scene::CameraDef;
 use crate::schema::words;
@@ -143,6 +145,9 @@ pub(crate) struct SceneDetails {
     surfaces: Vec<SurfaceInfo>,
     #[schema(inline)]
     bake: BakeInfo,
+    /// Where the scene stands, for daylight; null without a [site].
+    #[schema(inline, required = true)]
+    site: Option<SiteInfo>,
     /// What loading fixed or left out, one line each (see the scene list).
     warnings: Vec<String>,
 }
@@ -162,6 +167,7 @@ impl SceneDetails {
             cameras: b.scene.cameras.clone(),
             luminaires: r.luminaires(),
             grids: r.grid_infos(),
+            site: r.site_info(),
             surfaces: r.surface_infos(),
             bake: BakeInfo {
                 seconds: r.bake_seconds,
