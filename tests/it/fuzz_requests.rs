@@ -249,6 +249,12 @@ fn ids_of(scene: &str) -> Ids {
             surfaces: &["floor", "desk_top", "lamp_shade"],
             cameras: &["door", "desk"],
         },
+        "rooflight" => Ids {
+            groups: &["nope"],
+            grids: &["floor"],
+            surfaces: &["floor", "roof", "counter"],
+            cameras: &["entrance", "up"],
+        },
         _ => Ids {
             groups: &["window_row", "corridor_row"],
             grids: &["desk", "workplane"],
@@ -311,15 +317,89 @@ fn camera(cameras: &'static [&'static str]) -> BoxedStrategy<Value> {
 }
 
 /// The fields an endpoint knows, each with a strategy of mostly plausible values.
+/// A sky: a type and a random subset of every sky's fields, in and out of range.
+fn sky() -> BoxedStrategy<Value> {
+    let opt = |s: BoxedStrategy<Value>| prop::option::weighted(0.5, s);
+    let sun = (num(-100.0, 100.0), num(-10.0, 400.0))
+        .prop_map(|(a, z)| serde_json::json!({"altitude": a, "azimuth": z}))
+        .boxed();
+    let time = prop::sample::select(vec![
+        "2026-06-21T12:00",
+        "2026-02-30T12:00",
+        "2026-12-21T08:15",
+        "x",
+    ])
+    .prop_map(Value::from)
+    .boxed();
+    let valid = prop::sample::select(vec![
+        serde_json::json!({"type": "cie_overcast", "horizontal_illuminance": 10000}),
+        serde_json::json!({"type": "uniform", "horizontal_illuminance": 5000, "time": "2026-03-01T09:00"}),
+        serde_json::json!({"type": "cie_clear", "horizontal_illuminance": 15000,
+            "direct_normal_illuminance": 70000, "sun": {"altitude": 35, "azimuth": 190}}),
+        serde_json::json!({"type": "perez", "direct_normal_irradiance": 500,
+            "diffuse_horizontal_irradiance": 150, "time": "2026-06-21T16:30"}),
+    ]);
+    let random = (
+        id(&["uniform", "cie_overcast", "cie_clear", "perez", "overcast"]),
+        opt(num(-10.0, 300_000.0)),
+        opt(num(-10.0, 300_000.0)),
+        opt(num(-10.0, 2000.0)),
+        opt(num(-10.0, 2000.0)),
+        opt(sun),
+        opt(time),
+        opt(num(-100.0, 100.0)),
+    )
+        .prop_map(|(t, eh, en, dni, dhi, sun, time, dew)| {
+            let mut m = Map::new();
+            m.insert("type".into(), t);
+            for (k, v) in [
+                ("horizontal_illuminance", eh),
+                ("direct_normal_illuminance", en),
+                ("direct_normal_irradiance", dni),
+                ("diffuse_horizontal_irradiance", dhi),
+                ("sun", sun),
+                ("time", time),
+                ("dew_point", dew),
+            ] {
+                if let Some(v) = v {
+                    m.insert(k.into(), v);
+                }
+            }
+            Value::Object(m)
+        });
+    prop_oneof![1 => valid, 1 => random].boxed()
+}
+
 fn fields(ep: &str, scene: &str) -> Vec<(&'static str, BoxedStrategy<Value>)> {
     let known = ids_of(scene);
     let (groups, grids, surfaces) = (known.groups, known.grids, known.surfaces);
     let mut f: Vec<(&'static str, BoxedStrategy<Value>)> = vec![("lights", lights(groups))];
     match ep {
+        "daylight" => {
+            f.push(("sky", sky()));
+            f.push(("surfaces", ids(surfaces)));
+            f.push(("grids", ids(grids)));
+            f.push(("points", points()));
+        }
+        "annual" => {
+            f.clear();
+            f.push((
+                "weather",
+                id(&["mannheim.epw", "x.epw", "../office/mannheim.epw", ""]),
+            ));
+            f.push(("grids", ids(grids)));
+            f.push((
+                "occupied",
+                prop::collection::vec(id(&["08:00", "18:00", "25:00", "7:00", "x"]), 0..3)
+                    .prop_map(Value::Array)
+                    .boxed(),
+            ));
+        }
         "radiosity" => {
             f.push(("emission", emission()));
             f.push(("surfaces", any::<bool>().prop_map(Value::from).boxed()));
             f.push(("quantity", id(&["radiosity", "illuminance", "flux"])));
+            f.push(("sky", sky()));
         }
         "illuminance" => {
             f.push(("emission", emission()));
@@ -345,6 +425,7 @@ fn fields(ep: &str, scene: &str) -> Vec<(&'static str, BoxedStrategy<Value>)> {
         }
         _ => {
             f.push(("emission", emission()));
+            f.push(("sky", sky()));
             f.push(("camera", camera(known.cameras)));
             f.push(("width", num(1.0, 96.0)));
             f.push(("height", num(1.0, 96.0)));
@@ -433,8 +514,16 @@ fn run(name: &str, strategy: impl Strategy<Value = Request<Body>>) {
     println!("{name}: {CASES} cases, statuses {:?}", seen.borrow());
 }
 
-const ENDPOINTS: &[&str] = &["radiosity", "illuminance", "batch", "optimize", "render"];
-const SCENES: &[&str] = &["cornell-box", "desk-room", "office"];
+const ENDPOINTS: &[&str] = &[
+    "radiosity",
+    "illuminance",
+    "batch",
+    "optimize",
+    "render",
+    "daylight",
+    "annual",
+];
+const SCENES: &[&str] = &["cornell-box", "desk-room", "office", "rooflight"];
 
 #[test]
 fn api_shaped_bodies_get_an_answer_or_a_4xx_problem_never_a_5xx() {
