@@ -146,9 +146,11 @@ fn hour_skies(w: &Weather, north: DVec3, ground: f64, sub: &Subdivision) -> Vec<
     .unwrap_or_else(|_| Site::new(0.0, 0.0, 0.0, DVec3::NEG_Z, 0.2).expect("a valid site"));
     let year = if w.hours.len() == 8784 { 2024 } else { 2026 };
     let centres: Vec<(f64, f64)> = sub.patches.iter().map(|p| p.centre()).collect();
+    // Sequential: 8,760 small skies take about 60 ms on one core, steadily; spread over
+    // rayon's pool the same work measured 32 ms on a server's first request and 430 ms on
+    // every later one.
     w.hours
-        .par_iter()
-        .with_min_len(256)
+        .iter()
         .map(|h| {
             let mut vector = vec![0f32; 2 * k];
             let t = LocalTime::new(year, h.month, h.day, h.hour as f64 - 0.5);
