@@ -207,20 +207,12 @@ fn hour_skies(w: &Weather, north: DVec3, ground: f64, sub: &Subdivision) -> Vec<
                 / std::f64::consts::PI) as f32;
             let mut sun = None;
             if direct > 0.0 {
-                let state = super::sky::SkyState {
-                    kind: "perez",
-                    sky: crate::daylight::sky::Sky::uniform(0.0),
-                    sun: Some(crate::daylight::sky::Sun {
-                        altitude: alt,
-                        azimuth: az,
-                        normal_illuminance: direct,
-                    }),
-                    sun_position: None,
-                    diffuse_horizontal: 0.0,
-                    ground_luminance: 0.0,
-                    df_reference: None,
+                let s = crate::daylight::sky::Sun {
+                    altitude: alt,
+                    azimuth: az,
+                    normal_illuminance: direct,
                 };
-                for (p, l) in state.sun_patches(sub) {
+                for (p, l) in super::sky::sun_patches(&s, sub) {
                     vector[k + p] += l as f32;
                 }
                 sun = Some((site.direction(p.altitude_deg, p.azimuth_deg), direct));
@@ -357,19 +349,11 @@ impl Model {
         let day_hours = skies.iter().filter(|s| s.daylight).count();
         // The sky matrix, 2K × hours.
         let sky_m = Mat::<f32>::from_fn(2 * k, hours, |r, c| skies[c].vector[r]);
-        let reach = {
-            let (lo, hi) = self.baked.scene.bounds();
-            sky::Reach::new(lo, hi)
-        };
+        let reach = self.reach();
         let mut grids = BTreeMap::new();
         for &gi in &q.grids {
             let grid = &self.grids[gi].grid;
-            let nrm = DVec3::from_array(grid.normal);
-            let pts: Vec<(DVec3, DVec3)> = grid
-                .points
-                .iter()
-                .map(|p| (DVec3::from_array(*p), nrm))
-                .collect();
+            let pts = self.grid_receivers(gi);
             let t1 = std::time::Instant::now();
             let coef = self.annual_coefficients(gi, &pts, &sub, cancel)?;
             let t_gather = t1.elapsed();

@@ -205,7 +205,17 @@ impl Model {
         }
     }
 
-    fn reach(&self) -> Reach {
+    /// The points of grid `gi` with the grid's normal.
+    pub(super) fn grid_receivers(&self, gi: usize) -> Vec<(DVec3, DVec3)> {
+        let grid = &self.grids[gi].grid;
+        let n = DVec3::from_array(grid.normal);
+        grid.points
+            .iter()
+            .map(|p| (DVec3::from_array(*p), n))
+            .collect()
+    }
+
+    pub(super) fn reach(&self) -> Reach {
         let (lo, hi) = self.baked.scene.bounds();
         Reach::new(lo, hi)
     }
@@ -447,12 +457,7 @@ impl Model {
         for &gi in &q.grids {
             cancel.check()?;
             let grid = &self.grids[gi].grid;
-            let nrm = DVec3::from_array(grid.normal);
-            let pts: Vec<(DVec3, DVec3)> = grid
-                .points
-                .iter()
-                .map(|p| (DVec3::from_array(*p), nrm))
-                .collect();
+            let pts = self.grid_receivers(gi);
             let gathers = self.gathers(&pts, cancel)?;
             let (values, dfs): (Vec<f32>, Vec<f32>) = pts
                 .par_iter()

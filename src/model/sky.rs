@@ -322,33 +322,7 @@ impl SkyState {
     /// (as Radiance's `gendaymtx` does): (patch, luminance cd/m²) pairs whose
     /// luminance × solid angle sums to the sun's normal illuminance.
     pub fn sun_patches(&self, sub: &Subdivision) -> Vec<(usize, f64)> {
-        let Some(s) = self.sun else {
-            return vec![];
-        };
-        let dir =
-            |alt: f64, az: f64| DVec3::new(alt.cos() * az.sin(), alt.cos() * az.cos(), alt.sin());
-        let sd = dir(s.altitude, s.azimuth);
-        let mut near: Vec<(f64, usize)> = sub.patches[1..]
-            .iter()
-            .enumerate()
-            .map(|(i, p)| {
-                let (a, z) = p.centre();
-                (dir(a, z).dot(sd), i + 1)
-            })
-            .collect();
-        near.sort_by(|a, b| b.0.total_cmp(&a.0));
-        near.truncate(4);
-        let w: Vec<f64> = near.iter().map(|(c, _)| 1.0 / (1.002 - c)).collect();
-        let total: f64 = w.iter().sum();
-        near.iter()
-            .zip(&w)
-            .map(|(&(_, k), &wk)| {
-                (
-                    k,
-                    s.normal_illuminance * wk / total / sub.patches[k].solid_angle,
-                )
-            })
-            .collect()
+        self.sun.map_or_else(Vec::new, |s| sun_patches(&s, sub))
     }
 
     /// The sun's unit scene direction at `site`.
@@ -360,4 +334,33 @@ impl SkyState {
             )
         })
     }
+}
+
+/// The sun spread over the four sky patches nearest to it, for its interreflected light
+/// (as Radiance's `gendaymtx` does): (patch, luminance cd/m²) pairs whose
+/// luminance × solid angle sums to the sun's normal illuminance.
+pub fn sun_patches(s: &Sun, sub: &Subdivision) -> Vec<(usize, f64)> {
+    let dir = |alt: f64, az: f64| DVec3::new(alt.cos() * az.sin(), alt.cos() * az.cos(), alt.sin());
+    let sd = dir(s.altitude, s.azimuth);
+    let mut near: Vec<(f64, usize)> = sub.patches[1..]
+        .iter()
+        .enumerate()
+        .map(|(i, p)| {
+            let (a, z) = p.centre();
+            (dir(a, z).dot(sd), i + 1)
+        })
+        .collect();
+    near.sort_by(|a, b| b.0.total_cmp(&a.0));
+    near.truncate(4);
+    let w: Vec<f64> = near.iter().map(|(c, _)| 1.0 / (1.002 - c)).collect();
+    let total: f64 = w.iter().sum();
+    near.iter()
+        .zip(&w)
+        .map(|(&(_, k), &wk)| {
+            (
+                k,
+                s.normal_illuminance * wk / total / sub.patches[k].solid_angle,
+            )
+        })
+        .collect()
 }

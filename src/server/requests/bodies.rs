@@ -152,23 +152,31 @@ impl IlluminanceRequest {
     /// The lighting state and the query; nothing asked for means every surface.
     pub(crate) fn query(&self, ready: &Ready) -> Result<(Lighting, IlluminanceQuery), AppError> {
         let lighting = lighting(self.lights.as_ref(), self.emission.as_ref(), ready)?;
-        let mut q = IlluminanceQuery {
-            surfaces: surface_list(self.surfaces.as_deref().unwrap_or_default(), ready)?,
-            grids: grid_list(&self.grids, ready)?,
-            points: points(&self.points)?,
-        };
-        if q.surfaces.is_empty()
-            && q.points.is_empty()
-            && q.grids.is_empty()
-            && self.surfaces.is_none()
-        {
-            q.surfaces = (0..ready.baked.scene.surfaces.len()).collect();
-        }
+        let q = report_query(self.surfaces.as_deref(), &self.grids, &self.points, ready)?;
         Ok((lighting, q))
     }
 }
 
-pub(super) fn points(list: &[Point]) -> Result<Vec<(DVec3, DVec3)>, AppError> {
+/// Where to report illuminance: surfaces, grids and points, checked; nothing asked for
+/// (and `surfaces` left out) means every surface.
+pub(super) fn report_query(
+    surfaces: Option<&[String]>,
+    grids: &[String],
+    list: &[Point],
+    ready: &Ready,
+) -> Result<IlluminanceQuery, AppError> {
+    let mut q = IlluminanceQuery {
+        surfaces: surface_list(surfaces.unwrap_or_default(), ready)?,
+        grids: grid_list(grids, ready)?,
+        points: points(list)?,
+    };
+    if q.surfaces.is_empty() && q.points.is_empty() && q.grids.is_empty() && surfaces.is_none() {
+        q.surfaces = (0..ready.baked.scene.surfaces.len()).collect();
+    }
+    Ok(q)
+}
+
+fn points(list: &[Point]) -> Result<Vec<(DVec3, DVec3)>, AppError> {
     if list.len() > MAX_POINTS {
         return Err(AppError::Invalid(format!(
             "{} points requested; the limit is {MAX_POINTS} per request",

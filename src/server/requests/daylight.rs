@@ -3,14 +3,14 @@
 use serde::Deserialize;
 use utoipa::ToSchema;
 
-use super::bodies::{grid_ids, points, points_schema, report_surfaces, Point};
+use super::bodies::{grid_ids, points_schema, report_query, report_surfaces, Point};
 use super::lighting::{lighting, Lights};
 use super::{object_only, some};
 use crate::color::Rgb;
 use crate::model::query::IlluminanceQuery;
 use crate::model::sky::{SkySpec, SkyState};
 use crate::model::Lighting;
-use crate::server::parse::{grid_list, surface_list};
+use crate::server::parse::grid_list;
 use crate::server::{AppError, Ready};
 
 /// A sky, electric light added if `lights` is given, and where to report illuminance.
@@ -52,18 +52,7 @@ impl DaylightRequest {
                 Lighting::Emission(_) => None,
             },
         };
-        let mut q = IlluminanceQuery {
-            surfaces: surface_list(self.surfaces.as_deref().unwrap_or_default(), ready)?,
-            grids: grid_list(&self.grids, ready)?,
-            points: points(&self.points)?,
-        };
-        if q.surfaces.is_empty()
-            && q.points.is_empty()
-            && q.grids.is_empty()
-            && self.surfaces.is_none()
-        {
-            q.surfaces = (0..ready.baked.scene.surfaces.len()).collect();
-        }
+        let q = report_query(self.surfaces.as_deref(), &self.grids, &self.points, ready)?;
         Ok((sky, weights, q))
     }
 }
