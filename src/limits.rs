@@ -22,9 +22,13 @@ pub const MAX_GLTF_DEPTH: usize = 256;
 pub const MAX_GLTF_NODE_INSTANCES: usize = 1_000_000;
 /// Most `v` lines in an OBJ file (for glTF: vertices over all mesh instances).
 pub const MAX_OBJ_VERTICES: usize = 2_000_000;
-/// Most triangles in an OBJ file, after fan triangulation of its polygons (for glTF: over
-/// all mesh instances).
+/// Most triangles in an OBJ file, n − 2 per polygon of n vertices (for glTF: over all mesh
+/// instances).
 pub const MAX_OBJ_TRIANGLES: usize = 1_000_000;
+/// Ear-clipping work per OBJ file, in point-in-triangle tests (a non-convex polygon of n
+/// vertices takes about n²; the whole budget about a second); past it, non-convex
+/// polygons are fanned with a warning.
+pub const MAX_EAR_CLIP_WORK: u64 = 200_000_000;
 /// Most `mtllib` statements in an OBJ file.
 pub const MAX_MTLLIBS: usize = 64;
 /// Most materials (`newmtl`) over all the material libraries of a scene.

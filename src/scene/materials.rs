@@ -63,16 +63,16 @@ impl MaterialTable {
         let mut defined_in: Vec<(PathBuf, usize)> = Vec::new();
         let mut libs_read: HashSet<PathBuf> = HashSet::new();
         for (raw, line) in &scan.mtllibs {
-            let whole = raw.split_whitespace().count() <= 1
+            let whole = mtllib_names(raw).len() <= 1 && !raw.contains('\\')
                 || sd
                     .resolve_lenient(raw, obj_name, *line, "mtllib")?
                     .is_some();
-            let names: Vec<&str> = if whole {
-                vec![raw.as_str()]
+            let names: Vec<String> = if whole {
+                vec![raw.clone()]
             } else {
-                raw.split_whitespace().collect()
+                mtllib_names(raw)
             };
-            for name in names {
+            for name in names.iter().map(String::as_str) {
                 let p = if cfg.strict {
                     sd.resolve(name, obj_name, *line, "mtllib")?
                 } else {
@@ -326,4 +326,27 @@ impl MaterialTable {
                 (self.materials.len() - 1) as u32
             })
     }
+}
+
+/// The file names of an `mtllib` line: split at whitespace, except where a backslash
+/// escapes a space (`mtllib my\ file.mtl other.mtl`, as Blender writes them).
+pub(crate) fn mtllib_names(raw: &str) -> Vec<String> {
+    let mut names = Vec::new();
+    let mut cur = String::new();
+    let mut chars = raw.chars().peekable();
+    while let Some(c) = chars.next() {
+        if c == '\\' && chars.peek().is_some_and(|n| n.is_whitespace()) {
+            cur.push(chars.next().unwrap_or(' '));
+        } else if c.is_whitespace() {
+            if !cur.is_empty() {
+                names.push(std::mem::take(&mut cur));
+            }
+        } else {
+            cur.push(c);
+        }
+    }
+    if !cur.is_empty() {
+        names.push(cur);
+    }
+    names
 }

@@ -26,6 +26,7 @@ mod luminaires;
 mod materials;
 mod mtl;
 mod obj;
+mod polygon;
 mod texture;
 mod toml;
 mod triangles;
@@ -164,7 +165,7 @@ impl Scene {
                 let obj_name = sd.display(&obj_path);
                 let scan = {
                     let text = files::to_text(&obj_name, sd.read(&obj_path, MAX_OBJ_BYTES)?)?;
-                    obj::scan_obj(&obj_name, &text, scale)?
+                    obj::scan_obj(&obj_name, &text, scale, cfg.strict)?
                 };
                 warnings.extend(scan.warnings.iter().cloned());
                 files.push(obj_path);

@@ -54,6 +54,7 @@ const NUMERIC: &[&str] = &[
     "Ka",
     "Ks",
     "Tf",
+    "Kt",
     "Ns",
     "Ni",
     "d",
@@ -257,11 +258,13 @@ impl MtlParser<'_> {
         Ok(())
     }
 
-    /// `map_Kd [options] FILE` of the current material: the file is the last word.
+    /// `map_Kd [options] FILE` of the current material: the options are skipped with
+    /// their arguments, and the rest of the line is the file name (it may hold spaces).
     fn map_kd(&mut self, line: usize, words: SplitWhitespace<'_>) {
-        let file = words.take_while(|w| !w.starts_with('#')).last();
+        let words: Vec<&str> = words.take_while(|w| !w.starts_with('#')).collect();
+        let file = map_file_name(&words);
         match (self.lib.materials.last_mut(), file) {
-            (Some(cur), Some(f)) => cur.map_kd = Some((f.to_string(), line)),
+            (Some(cur), Some(f)) => cur.map_kd = Some((f, line)),
             (None, Some(_)) => self.lib.warnings.push(format!(
                 "{}:{line}: map_Kd before any newmtl ignored",
                 self.path.display()
@@ -291,6 +294,39 @@ impl MtlParser<'_> {
         }
         self.lib
     }
+}
+
+/// The file name of a texture statement's words (`map_Kd -s 1 1 1 -clamp on my file.png`):
+/// each option is skipped with its arguments as the MTL format defines them (`-o`, `-s`,
+/// `-t` take up to three numbers, `-mm` two, `-cc`, `-clamp`, `-blendu`, `-blendv`,
+/// `-bm`, `-boost`, `-texres`, `-imfchan`, `-type` one), and the remaining words, joined by
+/// single spaces, are the name. None when nothing is left.
+fn map_file_name(words: &[&str]) -> Option<String> {
+    let mut i = 0;
+    while i < words.len() && words[i].starts_with('-') && words[i].len() > 1 {
+        let (min, max) = match words[i] {
+            "-o" | "-s" | "-t" => (1, 3),
+            "-mm" => (2, 2),
+            _ => (1, 1),
+        };
+        i += 1;
+        let mut taken = 0;
+        while taken < max && i < words.len() {
+            let numeric = words[i].parse::<f64>().is_ok();
+            if taken >= min && !numeric {
+                break;
+            }
+            // A non-numeric word still counts as the argument of one-word options
+            // (`-clamp on`, `-imfchan r`, `-type sphere`).
+            if !numeric && max > 1 {
+                break;
+            }
+            i += 1;
+            taken += 1;
+        }
+    }
+    let rest = &words[i.min(words.len())..];
+    (!rest.is_empty()).then(|| rest.join(" "))
 }
 
 /// A reflectance with a channel of 1 or more, scaled so its largest channel is

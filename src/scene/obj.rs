@@ -2,20 +2,29 @@
 //! errors name a line) and writes a normalized copy, then tobj on that copy for objects,
 //! materials and triangulation.
 //!
-//! tobj only ever sees the normalized text: `v x y z` (already divided by `w`, colours
-//! dropped), `f a b c …` (vertex indices only, each checked against the vertices defined so
-//! far), `o`/`g` names, `usemtl` names that exist, and one synthetic `mtllib` line whose
+//! tobj only ever sees the normalized text: `v x y z` (the rational weight `w` and colours
+//! dropped), `f a b c` triangles (absolute vertex indices, each checked against the
+//! vertices defined so far; polygons are triangulated here, convex ones as fans, others by
+//! ear clipping), `o`/`g` names, `usemtl` names that exist, and one synthetic `mtllib` line whose
 //! loader hands tobj relight's own material table. tobj therefore never reads an MTL file
 //! and never sees a token it could fail (or panic) on. Texture coordinates and normals are
 //! validated but not passed on: relight does not use them, and in tobj's multi-index mode
 //! they do not affect positions or indices.
+//!
+//! Lenient like the tools models come from (each a warning; `strict = true` makes the
+//! first an error): face corners that refer to texture coordinates or normals the file
+//! never defines keep their vertex; faces of fewer than three vertices are skipped;
+//! `l` polylines, points and free-form statements are ignored.
 
 use std::collections::HashSet;
 use std::fmt::Write as _;
 use std::path::Path;
 
+use super::polygon;
 use super::SceneError;
-use crate::limits::{MAX_COORD_M, MAX_MTLLIBS, MAX_OBJ_TRIANGLES, MAX_OBJ_VERTICES};
+use crate::limits::{
+    MAX_COORD_M, MAX_EAR_CLIP_WORK, MAX_MTLLIBS, MAX_OBJ_TRIANGLES, MAX_OBJ_VERTICES,
+};
 
 /// What the line-level pass learns.
 #[derive(Debug, Clone, Default)]
@@ -26,7 +35,7 @@ pub struct ObjScan {
     pub(crate) usemtl: Vec<(String, usize)>,
     /// Number of `v` statements.
     pub(crate) vertices: usize,
-    /// Number of triangles the faces give (fan triangulation).
+    /// Number of triangles the faces give (n − 2 per face of n vertices).
     pub(crate) triangles: usize,
     /// Non-fatal notes (ignored statements).
     pub(crate) warnings: Vec<String>,
@@ -71,8 +80,15 @@ fn coord(path: &Path, line: usize, w: &str, what: &str) -> Result<f32, SceneErro
 }
 
 /// Checks one face/line vertex reference `w` (`v`, `v/vt`, `v//vn` or `v/vt/vn`) against
-/// the counts defined so far; returns the vertex index as written.
-fn vertex_ref(path: &Path, line: usize, w: &str, counts: [usize; 3]) -> Result<i64, SceneError> {
+/// the counts defined so far; returns the 0-based vertex index, and whether a texture
+/// coordinate or normal index points past what is defined (relight uses neither, so that
+/// is the caller's warning, not an error).
+fn vertex_ref(
+    path: &Path,
+    line: usize,
+    w: &str,
+    counts: [usize; 3],
+) -> Result<(usize, bool), SceneError> {
     let parts: Vec<&str> = w.split('/').collect();
     if parts.len() > 3 || parts[0].is_empty() {
         return Err(syntax(
@@ -81,12 +97,9 @@ fn vertex_ref(path: &Path, line: usize, w: &str, counts: [usize; 3]) -> Result<i
             format!("bad face vertex '{w}': use v, v/vt, v//vn or v/vt/vn"),
         ));
     }
-    let mut first = 0i64;
-    for (k, (p, what)) in parts
-        .iter()
-        .zip(["vertex", "texture coordinate", "normal"])
-        .enumerate()
-    {
+    let mut first = 0usize;
+    let mut dangling = false;
+    for (k, p) in parts.iter().enumerate() {
         if p.is_empty() {
             continue;
         }
@@ -95,18 +108,27 @@ fn vertex_ref(path: &Path, line: usize, w: &str, counts: [usize; 3]) -> Result<i
             .map_err(|_| syntax(path, line, format!("bad face index '{w}'")))?;
         let n = counts[k] as i64;
         let ok = (idx > 0 && idx <= n) || (idx < 0 && idx >= -n);
+        if k > 0 {
+            dangling |= !ok;
+            continue;
+        }
         if !ok {
+            let why = if idx == 0 {
+                "OBJ indices start at 1 (negative ones count back from the last vertex)".into()
+            } else if n == 0 {
+                "no vertex is defined before this line".into()
+            } else {
+                format!("{n} vertices are defined before this line")
+            };
             return Err(syntax(
                 path,
                 line,
-                format!("{what} index {idx} out of range (1..={n} defined so far)"),
+                format!("vertex index {idx} out of range: {why}"),
             ));
         }
-        if k == 0 {
-            first = idx;
-        }
+        first = if idx > 0 { idx - 1 } else { n + idx } as usize;
     }
-    Ok(first)
+    Ok((first, dangling))
 }
 
 /// The rest of a statement after its keyword, trimmed.
@@ -116,7 +138,13 @@ fn rest<'a>(l: &'a str, keyword: &str) -> &'a str {
 
 /// Validates the OBJ text line by line. `path` is the display name for errors, `scale`
 /// the factor to metres (coordinates must stay within [`MAX_COORD_M`] after it).
-pub(crate) fn scan_obj(path: &Path, text: &str, scale: f64) -> Result<ObjScan, SceneError> {
+/// With `strict`, what a lenient read skips with a warning is an error.
+pub(crate) fn scan_obj(
+    path: &Path,
+    text: &str,
+    scale: f64,
+    strict: bool,
+) -> Result<ObjScan, SceneError> {
     let mut sc = Scanner {
         s: ObjScan {
             normalized: String::with_capacity(text.len() / 2 + 64),
@@ -124,11 +152,17 @@ pub(crate) fn scan_obj(path: &Path, text: &str, scale: f64) -> Result<ObjScan, S
         },
         path,
         scale,
+        strict,
+        positions: Vec::new(),
         ntex: 0,
         nnorm: 0,
         colored: None,
         ignored: Vec::new(),
         ignored_count: 0,
+        dangling: Tally::default(),
+        short_faces: Tally::default(),
+        clip_budget: MAX_EAR_CLIP_WORK,
+        fanned: Tally::default(),
     };
     // One synthetic mtllib, first: its loader returns the whole material table.
     sc.s.normalized.push_str("mtllib relight\n");
@@ -180,6 +214,10 @@ struct Scanner<'a> {
     path: &'a Path,
     /// Factor from OBJ units to metres.
     scale: f64,
+    /// Errors instead of lenient skips.
+    strict: bool,
+    /// Vertex positions so far (OBJ units), for triangulating polygons.
+    positions: Vec<[f32; 3]>,
     /// Texture coordinates and normals defined so far.
     ntex: usize,
     nnorm: usize,
@@ -188,6 +226,31 @@ struct Scanner<'a> {
     /// The first few ignored statements (keyword, line), and how many there were.
     ignored: Vec<(String, usize)>,
     ignored_count: usize,
+    /// Faces with corners whose texture coordinate or normal index is undefined.
+    dangling: Tally,
+    /// Faces of fewer than three vertices, skipped.
+    short_faces: Tally,
+    /// Ear-clipping work left (vertex tests), from [`MAX_EAR_CLIP_WORK`].
+    clip_budget: u64,
+    /// Non-convex polygons fanned because the ear-clipping budget was spent (or no ear
+    /// was found: a self-intersecting polygon).
+    fanned: Tally,
+}
+
+/// How often something happened, and the first line.
+#[derive(Default)]
+struct Tally {
+    count: usize,
+    first: usize,
+}
+
+impl Tally {
+    fn add(&mut self, line: usize) {
+        if self.count == 0 {
+            self.first = line;
+        }
+        self.count += 1;
+    }
 }
 
 impl Scanner<'_> {
@@ -209,13 +272,9 @@ impl Scanner<'_> {
             p[k] = coord(path, line, w, "vertex coordinate")?;
         }
         if vals.len() == 4 {
-            let w = coord(path, line, vals[3], "vertex weight w")?;
-            if w == 0.0 {
-                return Err(syntax(path, line, "vertex weight w is 0".into()));
-            }
-            for c in &mut p {
-                *c /= w;
-            }
+            // The weight of rational curves and surfaces, not a homogeneous divisor: checked,
+            // then dropped (as Blender and tinyobjloader read it).
+            coord(path, line, vals[3], "vertex weight w")?;
         }
         if vals.len() == 6 {
             for w in &vals[3..] {
@@ -257,6 +316,7 @@ impl Scanner<'_> {
         }
         // f32 Display is the shortest text that parses back to the same value.
         let _ = writeln!(self.s.normalized, "v {} {} {}", p[0], p[1], p[2]);
+        self.positions.push(p);
         Ok(())
     }
 
@@ -289,30 +349,44 @@ impl Scanner<'_> {
         Ok(())
     }
 
-    /// An `f` statement (passed on with vertex indices only) or an `l` statement (checked,
-    /// then ignored).
+    /// An `f` statement (passed on as triangles) or an `l` statement (checked, then
+    /// ignored).
     fn face_or_line(&mut self, line: usize, key: &str, refs: Vec<&str>) -> Result<(), SceneError> {
         let path = self.path;
         let counts = [self.s.vertices, self.ntex, self.nnorm];
         let mut idx = Vec::with_capacity(refs.len());
+        let mut dangling = false;
         for w in &refs {
-            idx.push(vertex_ref(path, line, w, counts)?);
+            let (k, d) = vertex_ref(path, line, w, counts)?;
+            idx.push(k);
+            dangling |= d;
         }
         if key == "l" {
-            if !(1..=2).contains(&refs.len()) {
-                return Err(syntax(
-                    path,
-                    line,
-                    "line elements ('l') with more than 2 vertices are not supported \
-                     (they would be read as faces); remove them or use 'f'"
-                        .into(),
-                ));
-            }
             self.ignore("l", line);
             return Ok(());
         }
+        if dangling {
+            if self.strict {
+                return Err(syntax(
+                    path,
+                    line,
+                    "a texture coordinate or normal index refers to a 'vt'/'vn' the file \
+                     does not define (strict = true)"
+                        .into(),
+                ));
+            }
+            self.dangling.add(line);
+        }
         if refs.len() < 3 {
-            return Err(syntax(path, line, "face needs at least 3 vertices".into()));
+            if self.strict {
+                return Err(syntax(
+                    path,
+                    line,
+                    "face needs at least 3 vertices (strict = true)".into(),
+                ));
+            }
+            self.short_faces.add(line);
+            return Ok(());
         }
         self.s.triangles += refs.len() - 2;
         if self.s.triangles > MAX_OBJ_TRIANGLES {
@@ -322,12 +396,44 @@ impl Scanner<'_> {
                 format!("more than {MAX_OBJ_TRIANGLES} triangles"),
             ));
         }
-        self.s.normalized.push('f');
-        for k in idx {
-            let _ = write!(self.s.normalized, " {k}");
+        let tris = self.triangulate(&idx, line);
+        for t in tris {
+            let _ = writeln!(
+                self.s.normalized,
+                "f {} {} {}",
+                t[0] + 1,
+                t[1] + 1,
+                t[2] + 1
+            );
         }
-        self.s.normalized.push('\n');
         Ok(())
+    }
+
+    /// The triangles of a polygon (0-based vertex indices, in the polygon's winding): a fan
+    /// when it is convex in its plane, else ear clipping within the work budget.
+    fn triangulate(&mut self, idx: &[usize], line: usize) -> Vec<[usize; 3]> {
+        let n = idx.len();
+        let fan = || (1..n - 1).map(|i| [idx[0], idx[i], idx[i + 1]]).collect();
+        if n == 3 {
+            return fan();
+        }
+        let pts: Vec<[f32; 3]> = idx.iter().map(|&k| self.positions[k]).collect();
+        let Some(flat) = polygon::project(&pts) else {
+            return fan();
+        };
+        if polygon::is_convex(&flat) {
+            return fan();
+        }
+        match polygon::ear_clip(&flat, &mut self.clip_budget) {
+            Some(tris) => tris
+                .into_iter()
+                .map(|[a, b, c]| [idx[a], idx[b], idx[c]])
+                .collect(),
+            None => {
+                self.fanned.add(line);
+                fan()
+            }
+        }
     }
 
     /// Notes an ignored point, line or free-form statement.
@@ -338,8 +444,33 @@ impl Scanner<'_> {
         }
     }
 
-    /// The scan, with one warning summing up the ignored statements.
+    /// The scan, with one warning for each kind of thing skipped or ignored.
     fn finish(mut self) -> ObjScan {
+        let shown = self.path.display().to_string();
+        let tallies = [
+            (
+                &self.dangling,
+                "face(s) refer to texture coordinates or normals the file does not define \
+                 (relight uses neither; the faces are kept)",
+            ),
+            (
+                &self.short_faces,
+                "face(s) of fewer than 3 vertices skipped",
+            ),
+            (
+                &self.fanned,
+                "non-convex face(s) triangulated as fans (self-intersecting, or past the \
+                 ear-clipping budget): their area may be wrong",
+            ),
+        ];
+        for (t, what) in tallies {
+            if t.count > 0 {
+                self.s.warnings.push(format!(
+                    "{shown}: {} {what} (first on line {})",
+                    t.count, t.first
+                ));
+            }
+        }
         let (ignored, ignored_count) = (&self.ignored, self.ignored_count);
         if ignored_count > 0 {
             let at: Vec<String> = ignored
@@ -347,8 +478,7 @@ impl Scanner<'_> {
                 .map(|(k, l)| format!("'{k}' on line {l}"))
                 .collect();
             self.s.warnings.push(format!(
-                "{}: {ignored_count} point, line or free-form statement(s) ignored ({}{})",
-                self.path.display(),
+                "{shown}: {ignored_count} point, line or free-form statement(s) ignored ({}{})",
                 at.join(", "),
                 if ignored_count > ignored.len() {
                     ", …"
@@ -448,7 +578,7 @@ pub fn parse_obj_str(
     materials: &[String],
 ) -> Result<(ObjScan, Vec<ObjPart>), SceneError> {
     let p = Path::new(path);
-    let scan = scan_obj(p, text, scale)?;
+    let scan = scan_obj(p, text, scale, false)?;
     let parts = read_obj(p, &scan, materials)?;
     Ok((scan, parts))
 }

@@ -211,3 +211,123 @@ fn map_kd_textures_are_averaged_into_kd() {
     let e = Scene::load(s.path()).err().unwrap().to_string();
     assert!(e.contains("outside the scene folder"), "{e}");
 }
+
+/// Total area and (for every triangle) the upward-facing part of it, m².
+fn areas(s: &Scene) -> (f64, f64) {
+    s.triangles.iter().fold((0.0, 0.0), |(a, up), t| {
+        let n = (t.p[1] - t.p[0]).cross(t.p[2] - t.p[0]);
+        (a + 0.5 * n.length(), up + 0.5 * n.y)
+    })
+}
+
+#[test]
+fn faces_naming_undefined_normals_were_refused() {
+    // tinyobjloader's smoothing-group-two-squares: `f 1//1 …` with no `vn` in the file.
+    let _gate = common::shared();
+    let obj = "o floor\nusemtl grey\nv 0 0 0\nv 1 0 0\nv 0 0 1\nf 1//1 3//1 2//1\nf 1/5 3/5 2/5\n";
+    let s = load(obj, "newmtl grey\nKd 0.5 0.5 0.5\n", None);
+    assert_eq!(s.triangles.len(), 2);
+    assert!(
+        warned(
+            &s,
+            &[
+                "scene.obj",
+                "2 face(s) refer to texture coordinates or normals",
+                "line 7"
+            ]
+        ),
+        "{:?}",
+        s.warnings
+    );
+    let e = load_err(obj, "newmtl grey\nKd 0.5 0.5 0.5\n", Some(STRICT));
+    assert!(
+        e.contains("scene.obj:7") && e.contains("strict = true"),
+        "{e}"
+    );
+    // The vertex index stays strict, and says why.
+    let e = load_err("o f\nv 0 0 0\nv 1 0 0\nf 1 2 0\n", "", None);
+    assert!(e.contains("scene.obj:5") && e.contains("start at 1"), "{e}");
+    let e = load_err("o f\nf 1 2 3\nv 0 0 0\n", "", None);
+    assert!(e.contains("no vertex is defined before this line"), "{e}");
+}
+
+#[test]
+fn polylines_and_faces_of_two_vertices_were_refused() {
+    let _gate = common::shared();
+    let obj = format!("{TRI}l 1 2 3\nf 1 2\n");
+    let s = load(&obj, "newmtl grey\nKd 0.5 0.5 0.5\n", None);
+    assert_eq!(s.triangles.len(), 1);
+    assert!(
+        warned(
+            &s,
+            &["1 face(s) of fewer than 3 vertices skipped", "line 9"]
+        ),
+        "{:?}",
+        s.warnings
+    );
+    assert!(warned(&s, &["'l' on line 8"]), "{:?}", s.warnings);
+    let e = load_err(&obj, "newmtl grey\nKd 0.5 0.5 0.5\n", Some(STRICT));
+    assert!(e.contains("scene.obj:9") && e.contains("at least 3"), "{e}");
+}
+
+#[test]
+fn vertex_weights_were_taken_as_homogeneous_divisors() {
+    // tinyobjloader's cube-vertex-w-component: `v x y z w` with w the rational weight.
+    let _gate = common::shared();
+    let obj = "o floor\nusemtl grey\nv 0 0 0 0.1\nv 2 0 0 0.2\nv 0 0 2 0.5\nf 1 3 2\n";
+    let s = load(obj, "newmtl grey\nKd 0.5 0.5 0.5\n", None);
+    let (a, up) = areas(&s);
+    assert!(
+        (a - 2.0).abs() < 1e-9 && (up - 2.0).abs() < 1e-9,
+        "{a} {up}"
+    );
+}
+
+#[test]
+fn non_convex_faces_were_fanned_over_their_notch() {
+    // An L-shaped floor (area 5 m²) as one polygon, starting at a vertex that does not see
+    // the whole L: a fan from it folds triangles over the notch (tinyobjloader's
+    // issue-319-002 gave 56 % extra area that way).
+    let _gate = common::shared();
+    let obj = "o floor\nusemtl grey\nv 3 0 0\nv 3 0 -1\nv 1 0 -1\nv 1 0 -3\nv 0 0 -3\nv 0 0 0\n\
+               f 1 2 3 4 5 6\n";
+    let s = load(obj, "newmtl grey\nKd 0.5 0.5 0.5\n", None);
+    assert_eq!(s.triangles.len(), 4);
+    let (a, up) = areas(&s);
+    assert!((a - 5.0).abs() < 1e-9, "area {a}");
+    // Every triangle keeps the polygon's winding: the floor faces up.
+    assert!((up - 5.0).abs() < 1e-9, "upward area {up}");
+    assert!(s.warnings.is_empty(), "{:?}", s.warnings);
+}
+
+#[test]
+fn mtllib_names_with_escaped_spaces_were_split_apart() {
+    // tinyobjloader's issue46: `mtllib a.mtl my\ file.mtl`.
+    let _gate = common::shared();
+    let s = write_scene(
+        &format!("mtllib missing.mtl my\\ materials.mtl\n{TRI}"),
+        "newmtl x\nKd 0.2 0.2 0.2\n",
+        None,
+    );
+    std::fs::write(
+        s.path().join("my materials.mtl"),
+        "newmtl grey\nKd 0.4 0.4 0.4\n",
+    )
+    .unwrap();
+    let scene = Scene::load(s.path()).unwrap();
+    assert_eq!(material(&scene, "grey").kd, [0.4; 3]);
+    assert_eq!(scene.warnings.len(), 1, "{:?}", scene.warnings);
+    assert!(warned(&scene, &["mtllib 'missing.mtl' not found"]));
+}
+
+#[test]
+fn map_kd_file_names_with_spaces_lost_their_first_word() {
+    // tinyobjloader's texture-filename-with-whitespace: `map_Kd texture 01.png`.
+    let _gate = common::shared();
+    let mtl = "newmtl grey\nKd 0.5 0.5 0.5\nmap_Kd -clamp on -s 1 1 texture 01.png\n";
+    let s = write_scene(TRI, mtl, None);
+    png(&s.path().join("texture 01.png"), [255, 0, 0, 255]);
+    let scene = Scene::load(s.path()).unwrap();
+    assert_eq!(material(&scene, "grey").kd, [0.5, 0.0, 0.0]);
+    assert!(scene.warnings.is_empty(), "{:?}", scene.warnings);
+}

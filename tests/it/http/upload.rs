@@ -107,7 +107,8 @@ impl Server {
         super::get(self.app(), uri).await
     }
 
-    /// Waits (up to a minute) until the scene is ready or failed; its details.
+    /// Waits (up to three minutes: a loaded machine bakes slowly) until the scene is ready
+    /// or failed; its details.
     async fn settled(&self, id: &str) -> Value {
         let t0 = Instant::now();
         loop {
@@ -121,7 +122,7 @@ impl Server {
                 return s;
             }
             assert!(
-                t0.elapsed() < Duration::from_secs(60),
+                t0.elapsed() < Duration::from_secs(180),
                 "{id} never settled: {s}"
             );
             tokio::time::sleep(Duration::from_millis(50)).await;
