@@ -8,6 +8,12 @@
 //! same questions on `scenes/office-floor` (177k patches, hierarchical), loaded from
 //! `CACHE_DIR` (default `target/tmp/office-floor-cache`; baked there first if missing):
 //! grid answers, illuminance at points, surface statistics and an optimization.
+//!
+//! `cargo run --release --example whatif_timing -- daylight` times daylight on the office
+//! (server-side work, without HTTP): 25 points under a new sky once their gathers are
+//! cached, the 960-point work plane per new sky, a clear sky with the sun, and `/annual`
+//! for a 1,000-point grid (a 40 × 25 grid added to a copy of the office) over the year of
+//! Mannheim weather in its folder.
 use std::path::PathBuf;
 use std::time::Instant;
 
@@ -30,6 +36,9 @@ fn main() {
             PathBuf::from,
         );
         return office_floor(&cache);
+    }
+    if args.get(1).map(String::as_str) == Some("daylight") {
+        return daylight();
     }
     let opts = BakeOptions::default();
     let t = Instant::now();
@@ -217,4 +226,121 @@ fn office_floor(cache: &std::path::Path) {
         "optimize: {groups} groups, Eavg ≥ 60 % of full and U0 ≥ 0.4 on {} grids ({points} points): median {ms:.2} ms",
         targets.len()
     );
+}
+
+fn daylight() {
+    use relight::model::annual::AnnualQuery;
+    use relight::model::query::IlluminanceQuery;
+    use relight::model::sky::SkySpec;
+    use relight::model::Cancel;
+    // A copy of the office with a 1,000-point grid beside its own.
+    let dir = tempfile::tempdir().unwrap();
+    for e in std::fs::read_dir("scenes/office").unwrap() {
+        let e = e.unwrap();
+        std::fs::copy(e.path(), dir.path().join(e.file_name())).unwrap();
+    }
+    let toml = dir.path().join("scene.toml");
+    let mut text = std::fs::read_to_string(&toml).unwrap();
+    text += "\n[[grids]]\nid = \"g1000\"\nmin = [0.5, 0.4]\nmax = [5.5, 3.525]\nheight = 0.75\nspacing = 0.125\n";
+    std::fs::write(&toml, text).unwrap();
+    let t = Instant::now();
+    let baked = load_or_bake(
+        dir.path(),
+        CachePolicy::Off,
+        &BakeOptions::default(),
+        &|_, _| {},
+    )
+    .unwrap();
+    println!(
+        "office with its sky: {} patches, baked in {:.1} s",
+        baked.transfer.n,
+        t.elapsed().as_secs_f64()
+    );
+    let m = Model::new(baked);
+    let site = m.site().unwrap().clone();
+    let cancel = Cancel::default();
+    let sky = |k: usize, kind: &str| -> relight::model::sky::SkyState {
+        let h = 5000.0 + 500.0 * (k % 20) as f64;
+        let v = match kind {
+            "clear" => serde_json::json!({"type": "cie_clear", "horizontal_illuminance": h,
+                "direct_normal_illuminance": 60000,
+                "sun": {"altitude": 20 + k % 40, "azimuth": 120 + 3 * (k % 40)}}),
+            _ => serde_json::json!({"type": kind, "horizontal_illuminance": h}),
+        };
+        serde_json::from_value::<SkySpec>(v)
+            .unwrap()
+            .resolve(&site)
+            .unwrap()
+    };
+    let points: Vec<(DVec3, DVec3)> = (0..25)
+        .map(|i| {
+            (
+                DVec3::new(1.0 + (i % 5) as f64, 0.75, 0.6 + 0.6 * (i / 5) as f64),
+                DVec3::Y,
+            )
+        })
+        .collect();
+    let q = IlluminanceQuery {
+        surfaces: vec![],
+        points,
+        grids: vec![],
+    };
+    let t = Instant::now();
+    m.daylight(&sky(0, "cie_overcast"), None, &q, &cancel)
+        .unwrap();
+    println!(
+        "25 points, first sky (gathers and sky views traced): {:.1} ms",
+        t.elapsed().as_secs_f64() * 1e3
+    );
+    for kind in ["cie_overcast", "uniform", "clear"] {
+        let ms = time_ms(50, |k| {
+            std::hint::black_box(m.daylight(&sky(k + 1, kind), None, &q, &cancel).unwrap());
+        });
+        println!("25 points, a new {kind} sky (gathers cached): median {ms:.2} ms");
+    }
+    let wp = m
+        .grids
+        .iter()
+        .position(|g| g.grid.id == "workplane")
+        .unwrap();
+    let qg = IlluminanceQuery {
+        surfaces: vec![],
+        points: vec![],
+        grids: vec![wp],
+    };
+    let t = Instant::now();
+    m.daylight(&sky(0, "cie_overcast"), None, &qg, &cancel)
+        .unwrap();
+    println!(
+        "work plane ({} points), first sky: {:.0} ms",
+        m.grids[wp].len(),
+        t.elapsed().as_secs_f64() * 1e3
+    );
+    let ms = time_ms(20, |k| {
+        std::hint::black_box(
+            m.daylight(&sky(k + 1, "cie_overcast"), None, &qg, &cancel)
+                .unwrap(),
+        );
+    });
+    println!("work plane, a new overcast sky: median {ms:.2} ms");
+    let g1000 = m.grids.iter().position(|g| g.grid.id == "g1000").unwrap();
+    let weather =
+        relight::daylight::epw::parse_bytes(&std::fs::read("scenes/office/mannheim.epw").unwrap())
+            .unwrap();
+    let aq = AnnualQuery {
+        weather: std::sync::Arc::new(weather),
+        grids: vec![g1000],
+        occupied: (8.0, 18.0),
+    };
+    for run in ["first", "again"] {
+        let t = Instant::now();
+        let a = m.annual(&aq, &cancel).unwrap();
+        println!(
+            "annual, {} points × {} hours, {run}: {:.2} s (sDA300/50 {:.1} %)",
+            m.grids[g1000].len(),
+            a.weather.hours,
+            t.elapsed().as_secs_f64(),
+            a.grids["g1000"].sda_300_50
+        );
+    }
 }

@@ -32,7 +32,7 @@ use crate::color::{luminance64, Rgb};
 use crate::daylight::Site;
 use crate::transport::probe::gather_weights;
 use crate::transport::sky::{self, Reach, SkyView};
-use crate::transport::transfer::weighted_sum;
+use crate::transport::transfer::{weighted_sum, SkyColumns};
 
 /// Fewest and most bytes the point-gather cache of one scene holds; in between, room for
 /// [`GATHER_CACHE_POINTS`] points of the scene (see [`GatherCache::for_scene`]).
@@ -40,21 +40,79 @@ pub const GATHER_CACHE_MIN_BYTES: u64 = 2 << 20;
 pub const GATHER_CACHE_MAX_BYTES: u64 = 64 << 20;
 /// Points the gather cache is sized for: a 1,000-point grid and a few point sets.
 pub const GATHER_CACHE_POINTS: u64 = 1100;
-/// Bytes of a point's sky view, at most about (the refined cells of a busy view).
-const VIEW_BYTES: u64 = 16 << 10;
+/// Bytes of a point's sky view, at most about (the refined cells of a busy view), and of
+/// its daylight coefficients (6 × 146 floats).
+const VIEW_BYTES: u64 = (16 << 10) + 24 * 146;
 
 /// What one point sees: its gather weights over the patches and, for a scene with a site,
-/// its view of the sky.
-#[derive(Debug, Clone)]
+/// its view of the sky and (made on first use) its daylight coefficients.
+#[derive(Debug, Default)]
 pub struct PointGather {
     /// (patch, weight): `E = Σ w_j B_j`.
     pub weights: Vec<(u32, f32)>,
     pub view: Option<SkyView>,
+    /// Per sky patch k, RGB: the gathered reflection of the sky patch's direct light
+    /// `Σ_j w_j ρ_j D_jk` (first 3K values), then of its interreflected light
+    /// `Σ_j w_j ρ_j I_kj` (next 3K), lux per cd/m². A new sky is then 6K products per
+    /// point.
+    coefficients: OnceLock<Vec<f32>>,
 }
 
 impl PointGather {
-    fn bytes(&self) -> usize {
-        8 * self.weights.capacity() + self.view.as_ref().map_or(0, |v| v.bytes()) + 64
+    /// Bytes held, counting the daylight coefficients of `k` sky patches when it has a
+    /// sky view.
+    fn bytes(&self, k: usize) -> usize {
+        8 * self.weights.capacity() + self.view.as_ref().map_or(0, |v| v.bytes() + 24 * k) + 96
+    }
+
+    /// The daylight coefficients (see [`PointGather::coefficients`]).
+    fn coefficients(&self, s: &SkyColumns, rho: &[Rgb]) -> &[f32] {
+        self.coefficients.get_or_init(|| {
+            let k = s.k;
+            let mut out = vec![0f32; 6 * k];
+            for kk in 0..k {
+                let ind = &s.indirect[kk];
+                let (mut d, mut i) = ([0f64; 3], [0f64; 3]);
+                for &(j, w) in &self.weights {
+                    let j = j as usize;
+                    let r = rho[j];
+                    let dj = s.direct[j * k + kk] as f64;
+                    for c in 0..3 {
+                        let wr = w as f64 * r[c] as f64;
+                        d[c] += wr * dj;
+                        i[c] += wr * ind[3 * j + c] as f64;
+                    }
+                }
+                for c in 0..3 {
+                    out[3 * kk + c] = d[c] as f32;
+                    out[3 * (k + kk) + c] = i[c] as f32;
+                }
+            }
+            out
+        })
+    }
+
+    /// The reflected daylight at the point, RGB lux: sky patch luminances `l` (cd/m², 0 the
+    /// ground) through both parts of the coefficients, and the sun's spread `sun` (patch,
+    /// cd/m²) through the interreflected part.
+    fn reflected(&self, s: &SkyColumns, rho: &[Rgb], l: &[f64], sun: &[(usize, f64)]) -> [f64; 3] {
+        let c = self.coefficients(s, rho);
+        let k = s.k;
+        let mut e = [0f64; 3];
+        for (kk, &lk) in l.iter().enumerate() {
+            if lk == 0.0 {
+                continue;
+            }
+            for ch in 0..3 {
+                e[ch] += lk * (c[3 * kk + ch] as f64 + c[3 * (k + kk) + ch] as f64);
+            }
+        }
+        for &(kk, lum) in sun {
+            for ch in 0..3 {
+                e[ch] += lum * c[3 * (k + kk) + ch] as f64;
+            }
+        }
+        e
     }
 
     /// Σ w_j B_j per channel.
@@ -73,12 +131,18 @@ impl PointGather {
 /// A cached point set: its key, its gathers and their bytes.
 type Entry = (u64, Arc<Vec<PointGather>>, usize);
 
-/// The gather cache and the importance its ray budgets follow.
+/// Sun directions whose direct light on every patch is kept ([`Model::sun_on_patches`]).
+pub const SUN_CACHE_ENTRIES: usize = 4;
+
+/// The gather cache and the importance its ray budgets follow; also the sun's direct light
+/// on the patches for the last few sun directions.
 #[derive(Default)]
 pub struct GatherCache {
     importance: OnceLock<Vec<f32>>,
     entries: Mutex<VecDeque<Entry>>,
     limit: u64,
+    /// (direction key, per patch illuminance at unit normal illuminance, lux).
+    suns: Mutex<VecDeque<(u64, Arc<Vec<f32>>)>>,
 }
 
 impl GatherCache {
@@ -274,21 +338,23 @@ impl Model {
             .par_iter()
             .map(|&(x, n)| {
                 if cancel.is_cancelled() {
-                    return PointGather {
-                        weights: vec![],
-                        view: None,
-                    };
+                    return PointGather::default();
                 }
                 let weights = gather_weights(&k_.mesh, &k_.bvh, importance, x, n)
                     .into_iter()
                     .map(|(j, w)| (j, w as f32))
                     .collect();
                 let view = with_view.then(|| SkyView::trace(&k_.bvh, x, n, reach));
-                PointGather { weights, view }
+                PointGather {
+                    weights,
+                    view,
+                    ..Default::default()
+                }
             })
             .collect();
         cancel.check()?;
-        let bytes: usize = list.iter().map(|g| g.bytes()).sum();
+        let sky_k = k_.transfer.sky.as_ref().map_or(0, |s| s.k);
+        let bytes: usize = list.iter().map(|g| g.bytes(sky_k)).sum();
         let list = Arc::new(list);
         let limit = self.gathers.limit as usize;
         if bytes <= limit {
@@ -347,15 +413,49 @@ impl Model {
         PatchDaylight { h, b }
     }
 
+    /// The sun's direct illuminance on every patch (lux at a normal illuminance of 1 lx)
+    /// for the sun in unit scene direction `d`: shadow rays, kept for the last
+    /// [`SUN_CACHE_ENTRIES`] directions.
+    fn sun_on_patches(&self, d: DVec3) -> Arc<Vec<f32>> {
+        let k = key(&[(d, DVec3::ZERO)]);
+        let mut suns = self.gathers.suns.lock().unwrap_or_else(|p| p.into_inner());
+        if let Some(pos) = suns.iter().position(|(kk, _)| *kk == k) {
+            let hit = suns.remove(pos).expect("position is in range");
+            let v = hit.1.clone();
+            suns.push_front(hit);
+            return v;
+        }
+        drop(suns);
+        let v = Arc::new(sky::patch_sun_direct(
+            &self.baked.mesh,
+            &self.baked.bvh,
+            d,
+            1.0,
+            self.reach(),
+        ));
+        let mut suns = self.gathers.suns.lock().unwrap_or_else(|p| p.into_inner());
+        suns.push_front((k, v.clone()));
+        suns.truncate(SUN_CACHE_ENTRIES);
+        v
+    }
+
+    /// The sun's direct illuminance on every patch, lux, for a sky with a sun.
+    fn sun_direct(&self, sky: &SkyState, site: &Site) -> Option<Vec<f32>> {
+        sky.sun_direction(site).map(|(d, e)| {
+            self.sun_on_patches(d)
+                .iter()
+                .map(|&x| (x as f64 * e) as f32)
+                .collect()
+        })
+    }
+
     /// A sky's daylight on every patch.
     pub fn patch_daylight(&self, sky: &SkyState) -> Result<PatchDaylight, QueryError> {
         let site = self.site()?;
         let sub = sky::subdivision();
         let l = sky.patch_luminances(&sub);
         let sun = sky.sun_patches(&sub);
-        let direct = sky.sun_direction(site).map(|(d, e)| {
-            sky::patch_sun_direct(&self.baked.mesh, &self.baked.bvh, d, e, self.reach())
-        });
+        let direct = self.sun_direct(sky, site);
         Ok(self.sky_patches(&l, &sun, direct.as_deref()))
     }
 
@@ -391,20 +491,37 @@ impl Model {
         cancel: &Cancel,
     ) -> Result<DaylightAnswer, QueryError> {
         let site = self.site()?;
-        let day = self.patch_daylight(sky)?;
         let t = &self.baked.transfer;
+        let cols = t.sky.as_ref().expect("site() checks the sky responses");
         let n = t.n;
-        let (mut b_el, mut h_el) = (vec![0f32; 3 * n], vec![0f32; 3 * n]);
+        let sub = sky::subdivision();
+        let l = sky.patch_luminances(&sub);
+        let spread = sky.sun_patches(&sub);
+        let sun_direct = self.sun_direct(sky, site);
+        // The sun's first reflection, lm/m² per patch: gathered exactly at points (the
+        // coefficients carry the sky and the sun's interreflection).
+        let sun_b: Option<Vec<f32>> = sun_direct.as_ref().map(|sd| {
+            sd.iter()
+                .zip(&t.rho)
+                .flat_map(|(&e, r)| [e * r[0], e * r[1], e * r[2]])
+                .collect()
+        });
+        let mut b_el = vec![];
         if let Some(w) = w {
+            b_el = vec![0f32; 3 * n];
             t.relight_into(w, &mut b_el);
-            t.illuminance_into(w, &mut h_el);
         }
-        let h_all: Vec<f32> = day.h.iter().zip(&h_el).map(|(a, b)| a + b).collect();
         let sun = sky.sun_direction(site);
         let reach = self.reach();
         // One point: (all light, daylight alone), RGB lux.
         let at = |g: &PointGather, x: DVec3, nrm: DVec3| -> ([f64; 3], f64) {
-            let mut e = g.gather(&day.b);
+            let mut e = g.reflected(cols, &t.rho, &l, &spread);
+            if let Some(b) = &sun_b {
+                let s = g.gather(b);
+                for c in 0..3 {
+                    e[c] += s[c];
+                }
+            }
             let mut direct = 0.0;
             if let Some(v) = &g.view {
                 direct += v.illuminance(|d| sky.luminance(site, d), sky.ground_luminance);
@@ -509,7 +626,20 @@ impl Model {
                 ground_luminance: sky.ground_luminance,
             },
             points,
-            surfaces: self.surface_stats(&q.surfaces, &h_all),
+            surfaces: if q.surfaces.is_empty() {
+                BTreeMap::new()
+            } else {
+                // Per-patch illuminance for the surfaces' statistics.
+                let mut h = self.sky_patches(&l, &spread, sun_direct.as_deref()).h;
+                if let Some(w) = w {
+                    let mut h_el = vec![0f32; 3 * n];
+                    t.illuminance_into(w, &mut h_el);
+                    for (a, b) in h.iter_mut().zip(&h_el) {
+                        *a += b;
+                    }
+                }
+                self.surface_stats(&q.surfaces, &h)
+            },
             grids,
         })
     }

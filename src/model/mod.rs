@@ -108,7 +108,7 @@ impl Model {
     }
 
     /// Bytes this model holds: the transfer, the mesh and BVH, the grid responses, and the
-    /// most its caches of gathers and daylight coefficients may hold.
+    /// most its caches of gathers, daylight coefficients and sun directions may hold.
     pub fn bytes(&self) -> u64 {
         let t = &self.baked.transfer;
         let grid_bytes: u64 = self
@@ -121,7 +121,9 @@ impl Model {
             + grid_bytes
             + self.gathers.limit()
             + t.sky.as_ref().map_or(0, |s| {
-                4 * (t.n * s.k) as u64 + annual::ANNUAL_CACHE_BYTES as u64
+                4 * (t.n * s.k) as u64
+                    + annual::ANNUAL_CACHE_BYTES as u64
+                    + 4 * (daylight::SUN_CACHE_ENTRIES * t.n) as u64
             })
     }
 

@@ -536,3 +536,74 @@ fn a_sun_patch_is_sharp_in_renders() {
     }
     assert_eq!(wrong, 0, "pixels off the sun patch's exact outline");
 }
+
+#[test]
+fn points_reflect_the_same_daylight_through_their_coefficients_as_through_the_patches() {
+    // A point's reflected daylight comes from its cached daylight coefficients; it must
+    // equal the gather of the per-patch radiosity that /radiosity answers, for skies
+    // with and without the sun, and again from the cache.
+    let _gate = common::shared();
+    let s = roof_room(
+        "grey",
+        (1.2, 2.8),
+        (1.2, 2.8),
+        &format!("{SITE}[mesh]\ntarget_patches = 600\n"),
+    );
+    let m = model(&s, TransferMode::Columns);
+    let site = m.site().unwrap().clone();
+    let pts: Vec<(DVec3, DVec3)> = [[0.5, 0.0, 0.5], [2.0, 0.8, 2.0], [3.5, 1.5, 3.9]]
+        .iter()
+        .map(|p| (DVec3::from_array(*p), DVec3::Y))
+        .collect();
+    let q = IlluminanceQuery {
+        points: pts.clone(),
+        ..Default::default()
+    };
+    for sky in [
+        json!({"type": "cie_overcast", "horizontal_illuminance": 10000}),
+        json!({"type": "cie_clear", "horizontal_illuminance": 12000,
+               "direct_normal_illuminance": 70000, "sun": {"altitude": 60, "azimuth": 200}}),
+        json!({"type": "perez", "direct_normal_irradiance": 500,
+               "diffuse_horizontal_irradiance": 150, "time": "2026-06-21T13:00"}),
+    ] {
+        let state = serde_json::from_value::<SkySpec>(sky.clone())
+            .unwrap()
+            .resolve(&site)
+            .unwrap();
+        let day = m.patch_daylight(&state).unwrap();
+        let gathers = m.gathers(&pts, &Cancel::default()).unwrap();
+        for run in 0..2 {
+            let a = m.daylight(&state, None, &q, &Cancel::default()).unwrap();
+            for ((p, g), got) in pts.iter().zip(gathers.iter()).zip(&a.points) {
+                let mut want = g.gather(&day.b);
+                let mut direct = g
+                    .view
+                    .as_ref()
+                    .unwrap()
+                    .illuminance(|d| state.luminance(&site, d), state.ground_luminance);
+                if let Some((d, en)) = state.sun_direction(&site) {
+                    let (lo, hi) = m.baked.scene.bounds();
+                    let reach = relight::transport::sky::Reach::new(lo, hi);
+                    direct += relight::transport::sky::point_sun_direct(
+                        &m.baked.bvh,
+                        p.0,
+                        p.1,
+                        d,
+                        en,
+                        reach,
+                    );
+                }
+                for c in &mut want {
+                    *c += direct;
+                }
+                for c in 0..3 {
+                    assert!(
+                        (got.rgb[c] - want[c]).abs() <= 1e-4 * want[c].max(1.0),
+                        "{sky} run {run}: {:?} vs {want:?}",
+                        got.rgb
+                    );
+                }
+            }
+        }
+    }
+}
