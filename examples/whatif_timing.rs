@@ -262,9 +262,12 @@ fn daylight() {
     let sky = |k: usize, kind: &str| -> relight::model::sky::SkyState {
         let h = 5000.0 + 500.0 * (k % 20) as f64;
         let v = match kind {
-            "clear" => serde_json::json!({"type": "cie_clear", "horizontal_illuminance": h,
-                "direct_normal_illuminance": 60000,
+            "clear, new sun position" => serde_json::json!({"type": "cie_clear",
+                "horizontal_illuminance": h, "direct_normal_illuminance": 60000,
                 "sun": {"altitude": 20 + k % 40, "azimuth": 120 + 3 * (k % 40)}}),
+            "clear, same sun position" => serde_json::json!({"type": "cie_clear",
+                "horizontal_illuminance": h, "direct_normal_illuminance": 40000 + 1000 * (k % 20),
+                "sun": {"altitude": 35, "azimuth": 190}}),
             _ => serde_json::json!({"type": kind, "horizontal_illuminance": h}),
         };
         serde_json::from_value::<SkySpec>(v)
@@ -292,7 +295,12 @@ fn daylight() {
         "25 points, first sky (gathers and sky views traced): {:.1} ms",
         t.elapsed().as_secs_f64() * 1e3
     );
-    for kind in ["cie_overcast", "uniform", "clear"] {
+    for kind in [
+        "cie_overcast",
+        "uniform",
+        "clear, new sun position",
+        "clear, same sun position",
+    ] {
         let ms = time_ms(50, |k| {
             std::hint::black_box(m.daylight(&sky(k + 1, kind), None, &q, &cancel).unwrap());
         });

@@ -70,23 +70,36 @@ impl PointGather {
         self.coefficients.get_or_init(|| {
             let k = s.k;
             let mut out = vec![0f32; 6 * k];
-            for kk in 0..k {
-                let ind = &s.indirect[kk];
-                let (mut d, mut i) = ([0f64; 3], [0f64; 3]);
-                for &(j, w) in &self.weights {
-                    let j = j as usize;
-                    let r = rho[j];
-                    let dj = s.direct[j * k + kk] as f64;
+            let wr: Vec<(usize, [f32; 3])> = self
+                .weights
+                .iter()
+                .map(|&(j, w)| (j as usize, rho[j as usize].map(|r| r * w)))
+                .collect();
+            // Direct part: rows of D are contiguous per patch.
+            let mut d = vec![0f64; 3 * k];
+            for &(j, r) in &wr {
+                let row = &s.direct[j * k..(j + 1) * k];
+                for (dk, &v) in d.chunks_exact_mut(3).zip(row) {
                     for c in 0..3 {
-                        let wr = w as f64 * r[c] as f64;
-                        d[c] += wr * dj;
-                        i[c] += wr * ind[3 * j + c] as f64;
+                        dk[c] += (r[c] * v) as f64;
+                    }
+                }
+            }
+            // Interreflected part: columns of I are contiguous per sky patch.
+            for (kk, ind) in s.indirect.iter().enumerate() {
+                let mut i = [0f64; 3];
+                for &(j, r) in &wr {
+                    let v = &ind[3 * j..3 * j + 3];
+                    for c in 0..3 {
+                        i[c] += (r[c] * v[c]) as f64;
                     }
                 }
                 for c in 0..3 {
-                    out[3 * kk + c] = d[c] as f32;
                     out[3 * (k + kk) + c] = i[c] as f32;
                 }
+            }
+            for (o, v) in out[..3 * k].iter_mut().zip(&d) {
+                *o = *v as f32;
             }
             out
         })
