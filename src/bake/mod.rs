@@ -11,6 +11,7 @@ use glam::Vec3A;
 use serde::Serialize;
 
 use crate::geometry::bvh::Bvh;
+use crate::geometry::glazing::Glazing;
 pub mod cache;
 mod memory;
 pub mod shard;
@@ -220,6 +221,8 @@ pub struct Baked {
     pub scene: Scene,
     pub mesh: Mesh,
     pub bvh: Bvh,
+    /// The scene's glazing, for the rays of daylight.
+    pub glazing: Glazing,
     pub transfer: Transfer,
     pub stats: BakeStats,
 }
@@ -232,6 +235,19 @@ pub fn scene_bvh(scene: &Scene) -> Bvh {
         .map(|t| t.p.map(|p| Vec3A::from(p.as_vec3())))
         .collect();
     Bvh::new(&tris)
+}
+
+/// The scene's glazing panes with their transmittances.
+pub fn scene_glazing(scene: &Scene) -> Glazing {
+    let tris: Vec<[Vec3A; 3]> = scene
+        .glazing
+        .iter()
+        .map(|g| g.p.map(|p| Vec3A::from(p.as_vec3())))
+        .collect();
+    Glazing::new(
+        &tris,
+        scene.glazing.iter().map(|g| g.transmittance).collect(),
+    )
 }
 
 /// Unit front normals of the scene's triangles (counter-clockwise), for the closure rays.
@@ -360,6 +376,7 @@ impl Prepared {
 
     fn done(self, transfer: Transfer, stats: BakeStats) -> Baked {
         Baked {
+            glazing: scene_glazing(&self.scene),
             scene: self.scene,
             mesh: self.mesh,
             bvh: self.bvh,
@@ -439,13 +456,14 @@ fn sky_direct(
     mesh: &Mesh,
     bvh: &Bvh,
 ) -> Option<crate::transport::transfer::SkyDirect> {
+    let glazing = scene_glazing(scene);
     let site = scene.site.as_ref()?;
     let sub = crate::transport::sky::subdivision();
     let (lo, hi) = scene.bounds();
     let reach = crate::transport::sky::Reach::new(lo, hi);
     Some(crate::transport::transfer::SkyDirect {
         k: sub.patches.len(),
-        direct: crate::transport::sky::patch_sky_direct(mesh, bvh, site, &sub, reach),
+        direct: crate::transport::sky::patch_sky_direct(mesh, bvh, &glazing, site, &sub, reach),
     })
 }
 

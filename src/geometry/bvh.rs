@@ -114,6 +114,45 @@ impl Bvh {
         }
     }
 
+    /// Calls `f` with the id of every triangle the open segment `from → to` crosses, and
+    /// where (the parameter along the segment, 0..1; ends trimmed as in
+    /// [`Bvh::occluded`]). A segment through an edge shared by two triangles meets both.
+    pub fn each_hit(&self, from: Vec3A, to: Vec3A, mut f: impl FnMut(u32, f32)) {
+        if self.tris.is_empty() {
+            return;
+        }
+        let d = to - from;
+        let (tmin, tmax) = (1e-5f32, 1.0 - 1e-5f32);
+        let inv = d.recip();
+        let mut stack = [0u32; 64];
+        let mut sp = 0usize;
+        let mut node = 0u32;
+        loop {
+            let n = &self.nodes[node as usize];
+            if slab(n.lo, n.hi, from, inv, tmin, tmax) {
+                if n.count > 0 {
+                    for k in n.first..n.first + n.count {
+                        if let Some(t) = hit_t(&self.tris[k as usize], from, d, tmin, tmax) {
+                            f(self.ids[k as usize], t);
+                        }
+                    }
+                } else {
+                    if sp < stack.len() {
+                        stack[sp] = n.first + 1;
+                        sp += 1;
+                    }
+                    node = n.first;
+                    continue;
+                }
+            }
+            if sp == 0 {
+                return;
+            }
+            sp -= 1;
+            node = stack[sp];
+        }
+    }
+
     /// Appends to `out` the id of every triangle whose bounding box overlaps the box
     /// `lo..hi` (boxes touching at a face count).
     pub fn overlapping(&self, lo: Vec3A, hi: Vec3A, out: &mut Vec<u32>) {

@@ -384,7 +384,15 @@ impl Model {
                     }
                     let mut out = vec![0f32; hours];
                     for &(h, d, en) in &sun_hours {
-                        out[h] = sky::point_sun_direct(&self.baked.bvh, x, n, d, en, reach) as f32;
+                        out[h] = sky::point_sun_direct(
+                            &self.baked.bvh,
+                            &self.baked.glazing,
+                            x,
+                            n,
+                            d,
+                            en,
+                            reach,
+                        ) as f32;
                     }
                     out
                 })

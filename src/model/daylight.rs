@@ -357,7 +357,7 @@ impl Model {
                     .into_iter()
                     .map(|(j, w)| (j, w as f32))
                     .collect();
-                let view = with_view.then(|| SkyView::trace(&k_.bvh, x, n, reach));
+                let view = with_view.then(|| SkyView::trace(&k_.bvh, &k_.glazing, x, n, reach));
                 PointGather {
                     weights,
                     view,
@@ -442,6 +442,7 @@ impl Model {
         let v = Arc::new(sky::patch_sun_direct(
             &self.baked.mesh,
             &self.baked.bvh,
+            &self.baked.glazing,
             d,
             1.0,
             self.reach(),
@@ -540,7 +541,15 @@ impl Model {
                 direct += v.illuminance(|d| sky.luminance(site, d), sky.ground_luminance);
             }
             if let Some((s, en)) = sun {
-                direct += sky::point_sun_direct(&self.baked.bvh, x, nrm, s, en, reach);
+                direct += sky::point_sun_direct(
+                    &self.baked.bvh,
+                    &self.baked.glazing,
+                    x,
+                    nrm,
+                    s,
+                    en,
+                    reach,
+                );
             }
             for c in &mut e {
                 *c += direct;

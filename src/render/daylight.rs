@@ -13,6 +13,7 @@ use rayon::prelude::*;
 use super::{Camera, ViewBuffer};
 use crate::color::Rgb;
 use crate::geometry::bvh::Bvh;
+use crate::geometry::glazing::Glazing;
 use crate::geometry::mesh::Mesh;
 
 /// The sun seen by a view: unit scene direction and normal illuminance (lux).
@@ -29,7 +30,7 @@ pub struct SunView {
 #[allow(clippy::too_many_arguments)]
 pub fn daylight_pixels(
     mesh: &Mesh,
-    bvh: &Bvh,
+    (bvh, glazing): (&Bvh, &Glazing),
     rho: &[Rgb],
     view: &ViewBuffer,
     cam: &Camera,
@@ -66,6 +67,8 @@ pub fn daylight_pixels(
                             l += s.normal_illuminance / disc;
                         }
                     }
+                    // Seen through glazing, dimmed by it.
+                    l *= glazing.transmittance(pos, pos + d * reach);
                     rad.push([l as f32; 3]);
                     lux.push([0.0; 3]);
                     continue;
@@ -87,9 +90,10 @@ pub fn daylight_pixels(
                 let t = n.dot(patch.centroid - pos) / denom;
                 let hit = pos + d * t;
                 let o = hit + n * (1e-6 * (1.0 + hit.abs().max_element()));
+                let far = o + s.direction * reach;
                 let free = !bvh.occluded(
                     Vec3A::from(o.as_vec3()),
-                    Vec3A::from((o + s.direction * reach).as_vec3()),
+                    Vec3A::from(far.as_vec3()),
                     [patch.source, u32::MAX],
                 );
                 if !free {
@@ -97,7 +101,7 @@ pub fn daylight_pixels(
                     lux.push([0.0; 3]);
                     continue;
                 }
-                let e = (s.normal_illuminance * cos) as f32;
+                let e = (s.normal_illuminance * cos * glazing.transmittance(o, far)) as f32;
                 let r = rho[p as usize];
                 let k = std::f32::consts::FRAC_1_PI * e;
                 rad.push([r[0] * k, r[1] * k, r[2] * k]);

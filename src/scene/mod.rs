@@ -46,7 +46,7 @@ pub use materials::Material;
 pub use mtl::{parse_mtl_str, MtlLibrary, MtlMaterial};
 pub use obj::{parse_obj_str, ObjPart, ObjScan};
 pub(crate) use triangles::is_two_sided;
-pub use triangles::{Surface, Triangle};
+pub use triangles::{Pane, Surface, Triangle};
 
 use crate::limits::MAX_OBJ_BYTES;
 use materials::MaterialTable;
@@ -135,6 +135,8 @@ pub struct Scene {
     pub materials: Vec<Material>,
     pub surfaces: Vec<Surface>,
     pub triangles: Vec<Triangle>,
+    /// Glazing: not meshed, it scales the daylight that crosses it.
+    pub glazing: Vec<Pane>,
     pub lights: Vec<LightGroup>,
     pub cameras: Vec<CameraDef>,
     pub grids: Vec<Grid>,
@@ -186,7 +188,7 @@ impl Scene {
             files.push(p.clone());
         }
         table.check_options(cfg, &toml.path)?;
-        let geometry = Geometry::build(
+        let mut geometry = Geometry::build(
             &parts,
             scale,
             cfg,
@@ -196,6 +198,7 @@ impl Scene {
             &mut warnings,
         )?;
         drop(parts);
+        let glazing = geometry.split_glazing(cfg, &table.materials, &toml.path, &model_name)?;
         let Geometry {
             surfaces,
             surf_index,
@@ -241,6 +244,7 @@ impl Scene {
             materials,
             surfaces,
             triangles,
+            glazing,
             lights,
             cameras,
             grids,

@@ -105,6 +105,9 @@ pub(crate) struct FaceOptions {
     /// Both sides emit, reflect and receive (thin panels).
     #[serde(default)]
     pub(crate) two_sided: bool,
+    /// Glazing: the share of daylight that passes straight through, 0..1 (see
+    /// [`crate::geometry::glazing`]).
+    pub(crate) transmittance: Option<f64>,
 }
 
 #[derive(Debug, Clone, Deserialize)]

@@ -51,6 +51,13 @@ pub(crate) struct Geometry {
     pub(crate) triangles: Vec<Triangle>,
 }
 
+/// A glazing triangle, in metres, with the share of daylight it lets through.
+#[derive(Debug, Clone)]
+pub struct Pane {
+    pub p: [DVec3; 3],
+    pub transmittance: f32,
+}
+
 /// Degenerate triangles named one by one in the warnings; more are counted.
 const NAMED_DROPS: usize = 5;
 
@@ -150,6 +157,97 @@ impl Geometry {
                 group: None,
             });
         }
+    }
+}
+
+impl Geometry {
+    /// Takes the glazing out of the triangles: those whose surface (first) or material
+    /// has a `transmittance` in `scene.toml`. Glazing is not meshed; a surface left with
+    /// no triangle is dropped. Glazing that emits, a transmittance outside 0..1, or a
+    /// scene of glazing alone is an error.
+    pub(crate) fn split_glazing(
+        &mut self,
+        cfg: &SceneToml,
+        materials: &[Material],
+        toml_path: &Path,
+        obj_name: &Path,
+    ) -> Result<Vec<Pane>, SceneError> {
+        let bad = |message: String| SceneError::Invalid {
+            path: toml_path.to_path_buf(),
+            message,
+        };
+        for (kind, opts) in [("surface", &cfg.surface), ("material", &cfg.material)] {
+            for (name, o) in opts {
+                if let Some(t) = o.transmittance {
+                    if !(0.0..=1.0).contains(&t) {
+                        return Err(bad(format!(
+                            "[{kind}.{name}] transmittance = {t}: must be in 0..1"
+                        )));
+                    }
+                }
+            }
+        }
+        let of_surface: Vec<Option<f64>> = self
+            .surfaces
+            .iter()
+            .map(|s| cfg.surface.get(&s.name).and_then(|o| o.transmittance))
+            .collect();
+        let of_material: Vec<Option<f64>> = materials
+            .iter()
+            .map(|m| cfg.material.get(&m.name).and_then(|o| o.transmittance))
+            .collect();
+        if of_surface.iter().chain(&of_material).all(Option::is_none) {
+            return Ok(Vec::new());
+        }
+        let mut panes = Vec::new();
+        let mut kept = Vec::with_capacity(self.triangles.len());
+        for t in self.triangles.drain(..) {
+            let glazing = of_surface[t.surface as usize].or(of_material[t.material as usize]);
+            match glazing {
+                Some(tr) => {
+                    let m = &materials[t.material as usize];
+                    if m.ke.iter().any(|&k| k > 0.0) {
+                        return Err(bad(format!(
+                            "surface '{}' is glazing (transmittance) but its material '{}' \
+                             emits: glazing cannot emit",
+                            self.surfaces[t.surface as usize].name, m.name
+                        )));
+                    }
+                    panes.push(Pane {
+                        p: t.p,
+                        transmittance: tr as f32,
+                    });
+                }
+                None => kept.push(t),
+            }
+        }
+        if kept.is_empty() {
+            return Err(SceneError::Empty(obj_name.to_path_buf()));
+        }
+        // Drop the surfaces left empty, renumbering the rest.
+        let mut used = vec![false; self.surfaces.len()];
+        for t in &kept {
+            used[t.surface as usize] = true;
+        }
+        let mut new_index = vec![u32::MAX; self.surfaces.len()];
+        let mut surfaces = Vec::new();
+        for (i, s) in self.surfaces.drain(..).enumerate() {
+            if used[i] {
+                new_index[i] = surfaces.len() as u32;
+                surfaces.push(s);
+            }
+        }
+        for t in &mut kept {
+            t.surface = new_index[t.surface as usize];
+        }
+        self.surf_index = surfaces
+            .iter()
+            .enumerate()
+            .map(|(i, s)| (s.name.clone(), i as u32))
+            .collect();
+        self.surfaces = surfaces;
+        self.triangles = kept;
+        Ok(panes)
     }
 }
 

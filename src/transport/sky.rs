@@ -22,6 +22,7 @@ use rayon::prelude::*;
 use crate::daylight::tregenza::Subdivision;
 use crate::daylight::Site;
 use crate::geometry::bvh::Bvh;
+use crate::geometry::glazing::Glazing;
 use crate::geometry::mesh::Mesh;
 
 /// Rays per patch for [`patch_sky_direct`]: about this many in all, …
@@ -88,13 +89,27 @@ fn cosine_dir(u: f64, v: f64, t: DVec3, b: DVec3, n: DVec3) -> DVec3 {
     (t * x + b * y + n * z).normalize()
 }
 
-/// Whether the ray from `o` along unit `d` leaves the geometry (hits nothing but `skip`).
-fn escapes(bvh: &Bvh, o: DVec3, d: DVec3, reach: Reach, skip: u32) -> bool {
-    !bvh.occluded(
+/// The share of light that reaches `o` from outside along unit `d`: 0 when the ray hits
+/// an opaque triangle (other than `skip`), else the transmittance of the glazing it
+/// crosses (1 through an opening).
+pub fn transmitted(
+    bvh: &Bvh,
+    glazing: &Glazing,
+    o: DVec3,
+    d: DVec3,
+    reach: Reach,
+    skip: u32,
+) -> f64 {
+    let far = o + d * reach.0;
+    if bvh.occluded(
         Vec3A::from(o.as_vec3()),
-        Vec3A::from((o + d * reach.0).as_vec3()),
+        Vec3A::from(far.as_vec3()),
         [skip, u32::MAX],
-    )
+    ) {
+        0.0
+    } else {
+        glazing.transmittance(o, far)
+    }
 }
 
 /// `x` lifted a hair along `n`, off its surface.
@@ -129,6 +144,7 @@ fn patch_rays(n: usize) -> usize {
 pub fn patch_sky_direct(
     mesh: &Mesh,
     bvh: &Bvh,
+    glazing: &Glazing,
     site: &Site,
     sub: &Subdivision,
     reach: Reach,
@@ -160,9 +176,10 @@ pub fn patch_sky_direct(
                 }
                 let g = p.centroid;
                 let x = g + (c[0] + (c[1] - c[0]) * a + (c[2] - c[0]) * e - g) * (1.0 - 1e-4);
-                if escapes(bvh, lifted(x, p.normal), d, reach, p.source) {
+                let tr = transmitted(bvh, glazing, lifted(x, p.normal), d, reach, p.source);
+                if tr > 0.0 {
                     let (alt, az) = site.sky_position(d);
-                    row[sub.patch_of(alt.to_radians(), az.to_radians())] += 1.0;
+                    row[sub.patch_of(alt.to_radians(), az.to_radians())] += tr;
                 }
             }
             let w = std::f64::consts::PI / rays as f64;
@@ -183,21 +200,23 @@ pub struct SkyView {
 
 impl SkyView {
     /// Traces the view from `x` on a receiver facing unit `n`.
-    pub fn trace(bvh: &Bvh, x: DVec3, n: DVec3, reach: Reach) -> SkyView {
+    pub fn trace(bvh: &Bvh, glazing: &Glazing, x: DVec3, n: DVec3, reach: Reach) -> SkyView {
         let n = n.normalize();
         let (t, b) = frame(n);
         let o = lifted(x, n);
         let g = VIEW_GRID;
-        // 0 blocked, 1 sky, 2 ground.
-        let class = |d: DVec3| -> u8 {
-            if !escapes(bvh, o, d, reach, u32::MAX) {
-                0
+        // (0 blocked, 1 sky, 2 ground; the transmittance on the way, bits).
+        let class = |d: DVec3| -> (u8, u32) {
+            let tr = transmitted(bvh, glazing, o, d, reach, u32::MAX) as f32;
+            if tr <= 0.0 {
+                (0, 0)
             } else if d.y >= 0.0 {
-                1
+                (1, tr.to_bits())
             } else {
-                2
+                (2, tr.to_bits())
             }
         };
+        let share = |k: (u8, u32)| f32::from_bits(k.1);
         let centre = |i: usize, j: usize| {
             cosine_dir(
                 (i as f64 + 0.5) / g as f64,
@@ -207,7 +226,7 @@ impl SkyView {
                 n,
             )
         };
-        let coarse: Vec<(DVec3, u8)> = (0..g * g)
+        let coarse: Vec<(DVec3, (u8, u32))> = (0..g * g)
             .map(|c| {
                 let d = centre(c % g, c / g);
                 (d, class(d))
@@ -233,7 +252,7 @@ impl SkyView {
                     differs |= at(i, j + 1) != k;
                 }
                 // A cell the horizon crosses is refined too: the horizon is sharp.
-                if !differs && k != 0 {
+                if !differs && k.0 != 0 {
                     let y = |a: usize, c: usize| {
                         cosine_dir(
                             (i + a) as f64 / g as f64,
@@ -248,8 +267,8 @@ impl SkyView {
                     differs = corners.iter().any(|c| (*c >= 0.0) != (d.y >= 0.0));
                 }
                 if !differs {
-                    if k != 0 {
-                        rays.push((d.as_vec3().to_array(), cell as f32));
+                    if k.0 != 0 {
+                        rays.push((d.as_vec3().to_array(), cell as f32 * share(k)));
                     }
                     continue;
                 }
@@ -260,8 +279,9 @@ impl SkyView {
                         let u = (i as f64 + (si as f64 + 0.5) / r as f64) / g as f64;
                         let v = (j as f64 + (sj as f64 + 0.5) / r as f64) / g as f64;
                         let d = cosine_dir(u, v, t, b, n);
-                        if class(d) != 0 {
-                            rays.push((d.as_vec3().to_array(), sub as f32));
+                        let k = class(d);
+                        if k.0 != 0 {
+                            rays.push((d.as_vec3().to_array(), sub as f32 * share(k)));
                         }
                     }
                 }
@@ -334,21 +354,32 @@ impl SkyView {
 
 /// The sun's direct illuminance at point `x` on a receiver facing unit `n`, for the sun in
 /// unit direction `s` with normal illuminance `e_n` (lux).
-pub fn point_sun_direct(bvh: &Bvh, x: DVec3, n: DVec3, s: DVec3, e_n: f64, reach: Reach) -> f64 {
+pub fn point_sun_direct(
+    bvh: &Bvh,
+    glazing: &Glazing,
+    x: DVec3,
+    n: DVec3,
+    s: DVec3,
+    e_n: f64,
+    reach: Reach,
+) -> f64 {
     let cos = n.dot(s);
     if cos <= 0.0 || e_n <= 0.0 {
         return 0.0;
     }
-    if escapes(bvh, lifted(x, n), s, reach, u32::MAX) {
-        e_n * cos
-    } else {
-        0.0
-    }
+    e_n * cos * transmitted(bvh, glazing, lifted(x, n), s, reach, u32::MAX)
 }
 
 /// Per patch, the sun's direct illuminance (lux), averaged over 4 points of the patch, or 64
 /// where they disagree on visibility.
-pub fn patch_sun_direct(mesh: &Mesh, bvh: &Bvh, s: DVec3, e_n: f64, reach: Reach) -> Vec<f32> {
+pub fn patch_sun_direct(
+    mesh: &Mesh,
+    bvh: &Bvh,
+    glazing: &Glazing,
+    s: DVec3,
+    e_n: f64,
+    reach: Reach,
+) -> Vec<f32> {
     if e_n <= 0.0 || s.y <= 0.0 {
         return vec![0.0; mesh.len()];
     }
@@ -364,19 +395,21 @@ pub fn patch_sun_direct(mesh: &Mesh, bvh: &Bvh, s: DVec3, e_n: f64, reach: Reach
                 return 0.0;
             }
             let c = mesh.corners(i);
-            let lit = |pts: &[(f64, f64)]| -> usize {
+            // Per point, the share of the beam that reaches it.
+            let lit = |pts: &[(f64, f64)]| -> Vec<f64> {
                 pts.iter()
-                    .filter(|&&(u, v)| {
+                    .map(|&(u, v)| {
                         let x = c[0] + (c[1] - c[0]) * u + (c[2] - c[0]) * v;
-                        escapes(bvh, lifted(x, p.normal), s, reach, p.source)
+                        transmitted(bvh, glazing, lifted(x, p.normal), s, reach, p.source)
                     })
-                    .count()
+                    .collect()
             };
+            let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len() as f64;
             let free = lit(&coarse);
-            let frac = if free == 0 || free == coarse.len() {
-                free as f64 / coarse.len() as f64
+            let frac = if free.iter().all(|&f| f == free[0]) {
+                free[0]
             } else {
-                lit(&fine) as f64 / fine.len() as f64
+                mean(&lit(&fine))
             };
             (e_n * cos * frac) as f32
         })
@@ -414,10 +447,10 @@ mod tests {
     fn an_open_point_sees_the_whole_sky_and_ground() {
         let bvh = Bvh::new(&[]);
         let reach = Reach::new(DVec3::ZERO, DVec3::ONE);
-        let up = SkyView::trace(&bvh, DVec3::ZERO, DVec3::Y, reach);
+        let up = SkyView::trace(&bvh, &Glazing::none(), DVec3::ZERO, DVec3::Y, reach);
         assert!((up.illuminance(|_| 1.0, 0.0) - std::f64::consts::PI).abs() < 1e-5);
         // A vertical receiver sees half sky, half ground.
-        let side = SkyView::trace(&bvh, DVec3::ZERO, DVec3::X, reach);
+        let side = SkyView::trace(&bvh, &Glazing::none(), DVec3::ZERO, DVec3::X, reach);
         let sky = side.illuminance(|_| 1.0, 0.0);
         assert!((sky - std::f64::consts::PI / 2.0).abs() < 2e-3, "{sky}");
     }

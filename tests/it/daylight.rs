@@ -512,7 +512,7 @@ fn a_sun_patch_is_sharp_in_renders() {
     };
     let (_, lux) = daylight_pixels(
         &m.baked.mesh,
-        &m.baked.bvh,
+        (&m.baked.bvh, &m.baked.glazing),
         &m.baked.transfer.rho,
         &view,
         &cam,
@@ -586,6 +586,7 @@ fn points_reflect_the_same_daylight_through_their_coefficients_as_through_the_pa
                     let reach = relight::transport::sky::Reach::new(lo, hi);
                     direct += relight::transport::sky::point_sun_direct(
                         &m.baked.bvh,
+                        &m.baked.glazing,
                         p.0,
                         p.1,
                         d,
@@ -606,4 +607,142 @@ fn points_reflect_the_same_daylight_through_their_coefficients_as_through_the_pa
             }
         }
     }
+}
+
+/// `roof_room` with panes over its opening: (surface name, height, transmittance).
+fn glazed_room(mat: &str, o: ((f64, f64), (f64, f64)), panes: &[(&str, f64, f64)]) -> TempScene {
+    let mut toml = format!("{SITE}[mesh]\ntarget_patches = 300\n");
+    let s = roof_room(mat, o.0, o.1, &toml);
+    let mut obj = std::fs::read_to_string(s.path().join("scene.obj")).unwrap();
+    let ((a, b), (c, d)) = o;
+    for (name, y, t) in panes {
+        // A pane above the roof overhangs the opening by 1 m, so that every ray through
+        // the opening crosses it too.
+        let m = if *y > 3.0 { 1.0 } else { 0.0 };
+        obj += &quad(
+            name,
+            "glass",
+            [
+                [a - m, *y, c - m],
+                [b + m, *y, c - m],
+                [b + m, *y, d + m],
+                [a - m, *y, d + m],
+            ],
+            [0., -1., 0.],
+        );
+        toml += &format!("[surface.{name}]\ntransmittance = {t}\n");
+    }
+    std::fs::write(s.path().join("scene.obj"), obj).unwrap();
+    let mut mtl = std::fs::read_to_string(s.path().join("scene.mtl")).unwrap();
+    mtl += "newmtl glass\nKd 0.1 0.1 0.1\n";
+    std::fs::write(s.path().join("scene.mtl"), mtl).unwrap();
+    std::fs::write(s.path().join("scene.toml"), toml).unwrap();
+    s
+}
+
+#[test]
+fn glazing_scales_the_sky_and_the_sun_that_cross_it() {
+    let _gate = common::shared();
+    let o = ((1.6, 2.4), (1.6, 2.4));
+    let lit = [2.0, 0.0, 2.0 - 3.0 / 60f64.to_radians().tan()];
+    let pts = [[2.0, 0.0, 2.0], [0.5, 0.0, 0.5], lit];
+    let skies = [
+        json!({"type": "uniform", "horizontal_illuminance": 10000}),
+        json!({"type": "cie_clear", "horizontal_illuminance": 15000,
+               "direct_normal_illuminance": 70000, "sun": {"altitude": 60, "azimuth": 180}}),
+    ];
+    for (mat, mode) in [
+        ("black", TransferMode::Factored),
+        ("grey", TransferMode::Columns),
+        ("grey", TransferMode::Hierarchical),
+    ] {
+        let open = model(&glazed_room(mat, o, &[]), mode);
+        let one = model(&glazed_room(mat, o, &[("pane", 3.0, 0.7)]), mode);
+        let two = model(
+            &glazed_room(mat, o, &[("outer", 3.1, 0.7), ("inner", 3.0, 0.5)]),
+            mode,
+        );
+        // Glazing is not meshed: the same patches as the open room.
+        assert_eq!(one.patches(), open.patches());
+        assert!(one.baked.scene.surface_index("pane").is_none());
+        let floor = open.baked.scene.surface_index("floor").unwrap();
+        for sky in &skies {
+            let q = IlluminanceQuery {
+                surfaces: vec![floor],
+                points: pts
+                    .iter()
+                    .map(|p| (DVec3::from_array(*p), DVec3::Y))
+                    .collect(),
+                ..Default::default()
+            };
+            let run = |m: &Model| {
+                let state = serde_json::from_value::<SkySpec>(sky.clone())
+                    .unwrap()
+                    .resolve(m.site().unwrap())
+                    .unwrap();
+                m.daylight(&state, None, &q, &Cancel::default()).unwrap()
+            };
+            let (a0, a1, a2) = (run(&open), run(&one), run(&two));
+            // Every ray of daylight in the room came through the opening, and light
+            // between surfaces passes glazing unchanged: everything scales by t. The
+            // patches trace sky rays from random points, and a few of them (0.4 % of the
+            // floor's light here) slip out through the room's edges, past the glazing: so
+            // what was reflected scales within 0.5 %, the black room's points exactly.
+            let tol = if mat == "black" { 1e-4 } else { 5e-3 };
+            for (t, a) in [(0.7, &a1), (0.35, &a2)] {
+                for (p0, p) in a0.points.iter().zip(&a.points) {
+                    assert!(
+                        (p.lux - t * p0.lux).abs() <= tol * p0.lux,
+                        "{mat} {mode:?} {sky}: {} vs {t} × {}",
+                        p.lux,
+                        p0.lux
+                    );
+                }
+                let (f0, f) = (a0.surfaces["floor"].avg.lux, a.surfaces["floor"].avg.lux);
+                assert!(
+                    (f - t * f0).abs() <= 5e-3 * f0,
+                    "{mat} {mode:?} floor {f} vs {t} × {f0}"
+                );
+            }
+        }
+    }
+    // The sun through one pane onto the lit point: t · E_n sin 60°.
+    let m = model(
+        &glazed_room("black", o, &[("pane", 3.0, 0.7)]),
+        TransferMode::Factored,
+    );
+    let sun = |en: f64| {
+        ask(
+            &m,
+            json!({"type": "cie_clear", "horizontal_illuminance": 15000,
+                   "direct_normal_illuminance": en, "sun": {"altitude": 60, "azimuth": 180}}),
+            &[lit],
+        )
+        .points[0]
+            .lux
+    };
+    let beam = sun(70_000.0) - sun(0.0);
+    let want = 0.7 * 70_000.0 * 60f64.to_radians().sin();
+    assert!((beam - want).abs() < 1e-3 * want, "{beam} vs {want}");
+}
+
+#[test]
+fn glazing_options_are_checked() {
+    let _gate = common::shared();
+    let o = ((1.6, 2.4), (1.6, 2.4));
+    let s = glazed_room("black", o, &[("pane", 3.0, 1.5)]);
+    let e = relight::scene::Scene::load(s.path())
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("[surface.pane] transmittance = 1.5: must be in 0..1"),
+        "{e}"
+    );
+    let s = glazed_room("black", o, &[("pane", 3.0, 0.7)]);
+    let mtl = std::fs::read_to_string(s.path().join("scene.mtl")).unwrap() + "Ke 5 5 5\n";
+    std::fs::write(s.path().join("scene.mtl"), mtl).unwrap();
+    let e = relight::scene::Scene::load(s.path())
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("glazing cannot emit"), "{e}");
 }

@@ -60,7 +60,7 @@ fn render_image(
             });
         let (rad, lux) = daylight_pixels(
             &m.baked.mesh,
-            &m.baked.bvh,
+            (&m.baked.bvh, &m.baked.glazing),
             &m.baked.transfer.rho,
             &entry.buffer,
             &o.camera,
