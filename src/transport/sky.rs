@@ -232,13 +232,31 @@ impl SkyView {
                 (d, class(d))
             })
             .collect();
+        // The cells' corners too: a cell on the rim (directions near the receiver's
+        // plane) has no outer neighbour, and an edge (a window sill) that crosses it
+        // between its centre and the plane shows only at its outer corners.
+        let corners: Vec<(u8, u32)> = (0..(g + 1) * (g + 1))
+            .map(|c| {
+                let (i, j) = (c % (g + 1), c / (g + 1));
+                class(cosine_dir(
+                    i as f64 / g as f64,
+                    j as f64 / g as f64,
+                    t,
+                    b,
+                    n,
+                ))
+            })
+            .collect();
+        let corner = |i: usize, j: usize| corners[j * (g + 1) + i];
         let at = |i: usize, j: usize| coarse[j * g + i].1;
         let cell = 1.0 / (g * g) as f64;
         let mut rays = Vec::new();
         for j in 0..g {
             for i in 0..g {
                 let (d, k) = coarse[j * g + i];
-                let mut differs = false;
+                let mut differs = [(0, 0), (1, 0), (0, 1), (1, 1)]
+                    .iter()
+                    .any(|&(a, c)| corner(i + a, j + c) != k);
                 if i > 0 {
                     differs |= at(i - 1, j) != k;
                 }
