@@ -186,15 +186,24 @@ pub fn horizontal_integral(sky: &Sky) -> f64 {
 /// [`horizontal_integral`] on an `na` × `nz` grid.
 fn integral(sky: &Sky, na: usize, nz: usize) -> f64 {
     let (da, dz) = (FRAC_PI_2 / na as f64, 2.0 * PI / nz as f64);
+    // The skies with a sun are symmetric about the sun's vertical plane: half of each
+    // ring, from the sun's azimuth on, counts twice (the same points as a full ring
+    // started there).
+    let (start, steps, twice) = match sky {
+        Sky::CieClear { sun_azimuth, .. } | Sky::Perez { sun_azimuth, .. } => {
+            (*sun_azimuth, nz / 2, 2.0)
+        }
+        _ => (0.0, nz, 1.0),
+    };
     let mut sum = 0.0;
     for i in 0..na {
         let g = (i as f64 + 0.5) * da;
         let w = g.sin() * g.cos() * da * dz;
         let mut ring = 0.0;
-        for j in 0..nz {
-            ring += sky.luminance(g, (j as f64 + 0.5) * dz);
+        for j in 0..steps {
+            ring += sky.luminance(g, start + (j as f64 + 0.5) * dz);
         }
-        sum += w * ring;
+        sum += w * twice * ring;
     }
     sum
 }
