@@ -29,6 +29,7 @@ use super::report::SurfaceIlluminance;
 use super::sky::{SkyState, SunPosition};
 use super::{Cancel, Model, QueryError};
 use crate::color::{luminance64, Rgb};
+use crate::daylight::sky::Sky;
 use crate::daylight::Site;
 use crate::transport::probe::gather_weights;
 use crate::transport::sky::{self, Reach, SkyView};
@@ -56,6 +57,8 @@ pub struct PointGather {
     /// `Σ_j w_j ρ_j I_kj` (next 3K), lux per cd/m². A new sky is then 6K products per
     /// point.
     coefficients: OnceLock<Vec<f32>>,
+    /// The view's [`SkyView::shape_sums`], made on first use.
+    shape_sums: OnceLock<[f64; 3]>,
 }
 
 impl PointGather {
@@ -103,6 +106,28 @@ impl PointGather {
             }
             out
         })
+    }
+
+    /// The direct light of the sky and the ground seen from the point, lux: for the
+    /// uniform and overcast skies from the view's cached sums, else ray by ray against the
+    /// continuous sky.
+    fn direct_sky(&self, sky: &SkyState, site: &Site) -> f64 {
+        let Some(v) = &self.view else {
+            return 0.0;
+        };
+        let sums = || *self.shape_sums.get_or_init(|| v.shape_sums());
+        let pi = std::f64::consts::PI;
+        match sky.sky {
+            Sky::Uniform { luminance } => {
+                let s = sums();
+                pi * (luminance * s[0] + sky.ground_luminance * s[2])
+            }
+            Sky::CieOvercast { zenith } => {
+                let s = sums();
+                pi * (zenith * s[1] + sky.ground_luminance * s[2])
+            }
+            _ => v.illuminance(|d| sky.luminance(site, d), sky.ground_luminance),
+        }
     }
 
     /// The reflected daylight at the point, RGB lux: sky patch luminances `l` (cd/m², 0 the
@@ -536,10 +561,7 @@ impl Model {
                     e[c] += s[c];
                 }
             }
-            let mut direct = 0.0;
-            if let Some(v) = &g.view {
-                direct += v.illuminance(|d| sky.luminance(site, d), sky.ground_luminance);
-            }
+            let mut direct = g.direct_sky(sky, site);
             if let Some((s, en)) = sun {
                 direct += sky::point_sun_direct(
                     &self.baked.bvh,

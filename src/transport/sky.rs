@@ -351,6 +351,24 @@ impl SkyView {
         std::f64::consts::PI * e
     }
 
+    /// The sums that give the illuminance under the skies of fixed shape: the sky's
+    /// share, the share weighted by the CIE overcast gradation (1 + 2 sin γ) / 3, and the
+    /// ground's share. A uniform sky of luminance L gives π (L s₀ + L_g s₂), the overcast
+    /// sky of zenith luminance L_z gives π (L_z s₁ + L_g s₂).
+    pub fn shape_sums(&self) -> [f64; 3] {
+        let mut s = [0.0; 3];
+        for (d, w) in &self.rays {
+            let w = *w as f64;
+            if d[1] >= 0.0 {
+                s[0] += w;
+                s[1] += w * (1.0 + 2.0 * (d[1] as f64).min(1.0)) / 3.0;
+            } else {
+                s[2] += w;
+            }
+        }
+        s
+    }
+
     /// The view binned into the sky patches of `sub` (0 = ground): per patch, the direct
     /// illuminance at unit luminance, lux per cd/m².
     pub fn binned(&self, site: &Site, sub: &Subdivision) -> Vec<f32> {
