@@ -232,19 +232,25 @@ impl SkyView {
                 (d, class(d))
             })
             .collect();
-        // The cells' corners too: a cell on the rim (directions near the receiver's
-        // plane) has no outer neighbour, and an edge (a window sill) that crosses it
-        // between its centre and the plane shows only at its outer corners.
+        // The corners of the rim cells too: a cell on the rim (directions near the
+        // receiver's plane) has no outer neighbour, and an edge (a window sill) that
+        // crosses it between its centre and the plane shows only at its corners. Inner
+        // cells have neighbours all round.
+        let rim = |i: usize, j: usize| i == 0 || j == 0 || i == g || j == g;
         let corners: Vec<(u8, u32)> = (0..(g + 1) * (g + 1))
             .map(|c| {
                 let (i, j) = (c % (g + 1), c / (g + 1));
-                class(cosine_dir(
-                    i as f64 / g as f64,
-                    j as f64 / g as f64,
-                    t,
-                    b,
-                    n,
-                ))
+                if rim(i, j) {
+                    class(cosine_dir(
+                        i as f64 / g as f64,
+                        j as f64 / g as f64,
+                        t,
+                        b,
+                        n,
+                    ))
+                } else {
+                    (u8::MAX, 0)
+                }
             })
             .collect();
         let corner = |i: usize, j: usize| corners[j * (g + 1) + i];
@@ -256,7 +262,7 @@ impl SkyView {
                 let (d, k) = coarse[j * g + i];
                 let mut differs = [(0, 0), (1, 0), (0, 1), (1, 1)]
                     .iter()
-                    .any(|&(a, c)| corner(i + a, j + c) != k);
+                    .any(|&(a, c)| rim(i + a, j + c) && corner(i + a, j + c) != k);
                 if i > 0 {
                     differs |= at(i - 1, j) != k;
                 }
