@@ -50,6 +50,12 @@ use crate::limits::{
 };
 use crate::photometry::{Distribution, Luminaire};
 
+mod buffers;
+mod lights;
+
+use buffers::{accessor_bytes, percent_decode, view_bytes};
+pub(crate) use lights::add_gltf_luminaires;
+
 /// Extensions a file may require. Others (Draco or meshopt compression, quantized
 /// attributes, KTX2 textures, …) are refused by name. Unrequired extensions are ignored.
 const READ_EXTENSIONS: [&str; 4] = [
@@ -182,73 +188,6 @@ impl<'a> Reader<'a> {
         };
         self.walk(&gltf.document, &buffers, &mats, &mut out)?;
         Ok(out)
-    }
-
-    /// The bytes of every buffer: the GLB binary chunk, a data URI, or a file in the folder.
-    fn buffers(&self, gltf: &gltf::Gltf, files: &mut Vec<PathBuf>) -> Result<Buffers, SceneError> {
-        let mut total = 0u64;
-        let mut out = Vec::new();
-        for b in gltf.document.buffers() {
-            let what = format!("buffers[{}]", b.index());
-            let mut data = match b.source() {
-                gltf::buffer::Source::Bin => gltf
-                    .blob
-                    .clone()
-                    .ok_or_else(|| self.err(format!("{what}: no binary chunk in the file")))?,
-                gltf::buffer::Source::Uri(uri) => {
-                    self.uri_bytes(uri, &what, MAX_GLTF_BYTES, files)?
-                }
-            };
-            let len = b.length();
-            if data.len() < len {
-                return Err(self.err(format!(
-                    "{what}: byteLength is {len} but the data has {} bytes",
-                    data.len()
-                )));
-            }
-            data.truncate(len);
-            total += len as u64;
-            if total > MAX_GLTF_BYTES {
-                return Err(self.err(format!(
-                    "the buffers hold more than {} in all",
-                    files::human_bytes(MAX_GLTF_BYTES)
-                )));
-            }
-            out.push(data);
-        }
-        Ok(out)
-    }
-
-    /// The bytes a URI names: a base64 data URI, or a file inside the scene folder.
-    fn uri_bytes(
-        &self,
-        uri: &str,
-        what: &str,
-        limit: u64,
-        files: &mut Vec<PathBuf>,
-    ) -> Result<Vec<u8>, SceneError> {
-        if let Some(rest) = uri.strip_prefix("data:") {
-            let (_, payload) = rest
-                .split_once(";base64,")
-                .ok_or_else(|| self.err(format!("{what}: only base64 data URIs are read")))?;
-            if payload.len() as u64 / 4 * 3 > limit {
-                return Err(self.err(format!(
-                    "{what}: data URI larger than {}",
-                    files::human_bytes(limit)
-                )));
-            }
-            return base64::engine::general_purpose::STANDARD
-                .decode(payload.trim_end())
-                .map_err(|e| self.err(format!("{what}: bad base64 data URI ({e})")));
-        }
-        let name =
-            percent_decode(uri).ok_or_else(|| self.err(format!("{what}: bad URI '{uri}'")))?;
-        let p = self.sd.resolve(&name, self.shown, 0, what)?;
-        let bytes = self.sd.read(&p, limit)?;
-        if !files.contains(&p) {
-            files.push(p);
-        }
-        Ok(bytes)
     }
 
     /// The relight material of every glTF material (by index).
@@ -639,85 +578,6 @@ impl<'a> Reader<'a> {
             indices,
         })
     }
-
-    /// A `KHR_lights_punctual` light on `node`: a luminaire in the light's group.
-    #[allow(clippy::too_many_arguments)]
-    fn light(
-        &mut self,
-        node: &gltf::Node<'_>,
-        light: &gltf::khr_lights_punctual::Light<'_>,
-        world: &DMat4,
-        ids: &mut Unique,
-        groups: &mut HashMap<usize, String>,
-        group_names: &mut Unique,
-        skipped: &mut usize,
-        out: &mut GltfModel,
-    ) -> Result<(), SceneError> {
-        use gltf::khr_lights_punctual::Kind;
-        let distribution = match light.kind() {
-            Kind::Directional => {
-                *skipped += 1;
-                return Ok(());
-            }
-            Kind::Point => Distribution::Isotropic,
-            Kind::Spot {
-                inner_cone_angle,
-                outer_cone_angle,
-            } => {
-                let (i, o) = (
-                    (inner_cone_angle as f64).to_degrees(),
-                    (outer_cone_angle as f64).to_degrees(),
-                );
-                if !(i >= 0.0 && i < o && o <= 90.0) {
-                    return Err(self.err(format!(
-                        "light '{}': spot cone angles need 0 ≤ inner ({i:.3}°) < outer \
-                         ({o:.3}°) ≤ 90°",
-                        light.name().unwrap_or("?")
-                    )));
-                }
-                Distribution::Cone {
-                    inner_deg: i,
-                    outer_deg: o,
-                }
-            }
-        };
-        let group = match groups.get(&light.index()) {
-            Some(g) => g.clone(),
-            None => {
-                if groups.len() >= MAX_LIGHT_GROUPS {
-                    return Err(self.err(format!("more than {MAX_LIGHT_GROUPS} lights")));
-                }
-                let g = group_names.take(light.name().map(sanitize_id).as_deref(), || {
-                    format!("light{}", light.index())
-                });
-                groups.insert(light.index(), g.clone());
-                g
-            }
-        };
-        let id = ids.take(node.name(), || format!("node{}", node.index()));
-        let position = world.transform_point3(DVec3::ZERO) * self.scale;
-        let aim = world.transform_vector3(DVec3::NEG_Z);
-        let candela = light.intensity() as f64;
-        if !(candela.is_finite() && candela >= 0.0) {
-            return Err(self.err(format!("light '{id}': intensity must be finite and ≥ 0")));
-        }
-        let color = light.color();
-        let integral = distribution.integral();
-        let lum = Luminaire::with_integral(
-            &id,
-            position,
-            aim,
-            None,
-            distribution,
-            integral,
-            Some(candela * integral),
-            color,
-            None,
-        )
-        .map_err(|m| self.err(format!("light on node '{id}': {m}")))?;
-        out.luminaires.push((group, lum));
-        Ok(())
-    }
 }
 
 /// Names made unique: the first use of a name keeps it, later ones get `-2`, `-3`, ….
@@ -741,84 +601,6 @@ impl Unique {
     }
 }
 
-/// A light name as a group id: lower case, runs of other characters than `a-z0-9_` as `-`.
-fn sanitize_id(name: &str) -> String {
-    let mut s = String::new();
-    for c in name.chars().flat_map(char::to_lowercase) {
-        if c.is_ascii_alphanumeric() || c == '_' {
-            s.push(c);
-        } else if !s.ends_with('-') {
-            s.push('-');
-        }
-    }
-    s.trim_matches('-').chars().take(64).collect()
-}
-
-/// `%XX` escapes decoded (URIs in glTF are URI-encoded); None for bad escapes or UTF-8.
-fn percent_decode(uri: &str) -> Option<String> {
-    let b = uri.as_bytes();
-    let mut out = Vec::with_capacity(b.len());
-    let mut i = 0;
-    while i < b.len() {
-        if b[i] == b'%' {
-            let hex = std::str::from_utf8(b.get(i + 1..i + 3)?).ok()?;
-            out.push(u8::from_str_radix(hex, 16).ok()?);
-            i += 3;
-        } else {
-            out.push(b[i]);
-            i += 1;
-        }
-    }
-    String::from_utf8(out).ok()
-}
-
-/// The bytes of a buffer view, if it lies inside its buffer.
-fn view_bytes<'b>(view: &gltf::buffer::View<'_>, buffers: &'b Buffers) -> Option<&'b [u8]> {
-    let data = buffers.get(view.buffer().index())?;
-    let end = view.offset().checked_add(view.length())?;
-    data.get(view.offset()..end)
-}
-
-/// The `count` elements of `size` bytes an accessor reads, each bounds-checked against its
-/// view and buffer. Sparse accessors and accessors without a view are refused.
-fn accessor_bytes<'b>(
-    acc: &gltf::Accessor<'_>,
-    buffers: &'b Buffers,
-    size: usize,
-    max_count: usize,
-) -> Result<impl Iterator<Item = &'b [u8]>, String> {
-    if acc.sparse().is_some() {
-        return Err("is sparse; sparse accessors are not read".into());
-    }
-    let view = acc.view().ok_or("has no bufferView")?;
-    let count = acc.count();
-    if count > max_count {
-        return Err(format!("has {count} elements, more than {max_count}"));
-    }
-    let stride = view.stride().unwrap_or(size);
-    if stride < size {
-        return Err(format!(
-            "byteStride {stride} is smaller than an element ({size} bytes)"
-        ));
-    }
-    let data = view_bytes(&view, buffers).ok_or("lies outside its buffer (bufferView)")?;
-    let start = acc.offset();
-    if count > 0 {
-        let end = (count - 1)
-            .checked_mul(stride)
-            .and_then(|x| x.checked_add(start))
-            .and_then(|x| x.checked_add(size))
-            .ok_or("is too large")?;
-        if end > data.len() {
-            return Err(format!(
-                "reads bytes {start}..{end} of a bufferView of {} bytes",
-                data.len()
-            ));
-        }
-    }
-    Ok((0..count).map(move |k| &data[start + k * stride..start + k * stride + size]))
-}
-
 impl MaterialTable {
     /// Adds a material read from a model file (glTF); its index.
     pub(crate) fn push(&mut self, m: Material, shown: &Path) -> Result<u32, SceneError> {
@@ -835,27 +617,10 @@ impl MaterialTable {
     }
 }
 
-/// Attaches the glTF luminaires to their groups, creating groups `[[lights]]` does not
-/// define.
-pub(crate) fn add_gltf_luminaires(
-    lights: &mut Vec<LightGroup>,
-    luminaires: Vec<(String, Luminaire)>,
-) {
-    for (gid, lum) in luminaires {
-        let g = match lights.iter().position(|g| g.id == gid) {
-            Some(g) => g,
-            None => {
-                lights.push(LightGroup::plain(&gid));
-                lights.len() - 1
-            }
-        };
-        lights[g].luminaires.push(lum);
-    }
-}
-
 #[cfg(test)]
 mod tests {
-    use super::{percent_decode, sanitize_id, Unique};
+    use super::lights::sanitize_id;
+    use super::{percent_decode, Unique};
 
     #[test]
     fn names_are_made_unique_and_ids_safe() {
