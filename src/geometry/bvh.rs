@@ -75,6 +75,34 @@ impl Bvh {
     /// True when some triangle other than `skip` blocks the open segment `from → to`.
     /// The segment's ends are trimmed by `1e-5` of its length.
     pub fn occluded(&self, from: Vec3A, to: Vec3A, skip: [u32; 2]) -> bool {
+        self.along(from, to, |k, tri, d, (tmin, tmax)| {
+            let id = self.ids[k];
+            id != skip[0] && id != skip[1] && hit(tri, from, d, tmin, tmax)
+        })
+    }
+
+    /// Calls `f` with the id of every triangle the open segment `from → to` crosses, and
+    /// where (the parameter along the segment, 0..1; ends trimmed as in
+    /// [`Bvh::occluded`]). A segment through an edge shared by two triangles meets both.
+    pub fn each_hit(&self, from: Vec3A, to: Vec3A, mut f: impl FnMut(u32, f32)) {
+        self.along(from, to, |k, tri, d, (tmin, tmax)| {
+            if let Some(t) = hit_t(tri, from, d, tmin, tmax) {
+                f(self.ids[k], t);
+            }
+            false
+        });
+    }
+
+    /// Visits the stored triangles in the leaves the segment `from → to` (ends trimmed by
+    /// `1e-5` of its length) passes through, as `visit(index, triangle, direction,
+    /// (tmin, tmax))`, until `visit` returns true; whether it did.
+    #[inline(always)]
+    fn along(
+        &self,
+        from: Vec3A,
+        to: Vec3A,
+        mut visit: impl FnMut(usize, &Tri, Vec3A, (f32, f32)) -> bool,
+    ) -> bool {
         if self.tris.is_empty() {
             return false;
         }
@@ -89,11 +117,8 @@ impl Bvh {
             if slab(n.lo, n.hi, from, inv, tmin, tmax) {
                 if n.count > 0 {
                     for k in n.first..n.first + n.count {
-                        let id = self.ids[k as usize];
-                        if id == skip[0] || id == skip[1] {
-                            continue;
-                        }
-                        if hit(&self.tris[k as usize], from, d, tmin, tmax) {
+                        let k = k as usize;
+                        if visit(k, &self.tris[k], d, (tmin, tmax)) {
                             return true;
                         }
                     }
@@ -108,45 +133,6 @@ impl Bvh {
             }
             if sp == 0 {
                 return false;
-            }
-            sp -= 1;
-            node = stack[sp];
-        }
-    }
-
-    /// Calls `f` with the id of every triangle the open segment `from → to` crosses, and
-    /// where (the parameter along the segment, 0..1; ends trimmed as in
-    /// [`Bvh::occluded`]). A segment through an edge shared by two triangles meets both.
-    pub fn each_hit(&self, from: Vec3A, to: Vec3A, mut f: impl FnMut(u32, f32)) {
-        if self.tris.is_empty() {
-            return;
-        }
-        let d = to - from;
-        let (tmin, tmax) = (1e-5f32, 1.0 - 1e-5f32);
-        let inv = d.recip();
-        let mut stack = [0u32; 64];
-        let mut sp = 0usize;
-        let mut node = 0u32;
-        loop {
-            let n = &self.nodes[node as usize];
-            if slab(n.lo, n.hi, from, inv, tmin, tmax) {
-                if n.count > 0 {
-                    for k in n.first..n.first + n.count {
-                        if let Some(t) = hit_t(&self.tris[k as usize], from, d, tmin, tmax) {
-                            f(self.ids[k as usize], t);
-                        }
-                    }
-                } else {
-                    if sp < stack.len() {
-                        stack[sp] = n.first + 1;
-                        sp += 1;
-                    }
-                    node = n.first;
-                    continue;
-                }
-            }
-            if sp == 0 {
-                return;
             }
             sp -= 1;
             node = stack[sp];
