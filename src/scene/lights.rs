@@ -46,6 +46,23 @@ impl LightGroup {
     }
 }
 
+/// Adds a luminaire to the group `gid`, creating the group (with default settings) when
+/// `lights` has none of that id.
+pub(crate) fn add_luminaire(
+    lights: &mut Vec<LightGroup>,
+    gid: &str,
+    lum: crate::photometry::Luminaire,
+) {
+    let g = match lights.iter().position(|g| g.id == gid) {
+        Some(g) => g,
+        None => {
+            lights.push(LightGroup::plain(gid));
+            lights.len() - 1
+        }
+    };
+    lights[g].luminaires.push(lum);
+}
+
 /// The members a group claims: material and surface indices.
 type Members = (Vec<u32>, Vec<u32>);
 

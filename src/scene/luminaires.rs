@@ -77,14 +77,7 @@ pub(crate) fn add_luminaires(
         }
         let lum = build_luminaire(l, toml, scale, files, &mut shared)?;
         let gid = l.group.clone().unwrap_or_else(|| l.id.clone());
-        let g = match lights.iter().position(|g| g.id == gid) {
-            Some(g) => g,
-            None => {
-                lights.push(LightGroup::plain(&gid));
-                lights.len() - 1
-            }
-        };
-        lights[g].luminaires.push(lum);
+        super::lights::add_luminaire(lights, &gid, lum);
     }
     Ok(())
 }

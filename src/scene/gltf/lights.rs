@@ -103,13 +103,6 @@ pub(crate) fn add_gltf_luminaires(
     luminaires: Vec<(String, Luminaire)>,
 ) {
     for (gid, lum) in luminaires {
-        let g = match lights.iter().position(|g| g.id == gid) {
-            Some(g) => g,
-            None => {
-                lights.push(LightGroup::plain(&gid));
-                lights.len() - 1
-            }
-        };
-        lights[g].luminaires.push(lum);
+        crate::scene::lights::add_luminaire(lights, &gid, lum);
     }
 }
