@@ -586,6 +586,16 @@ pub fn default_cache_dir() -> PathBuf {
 
 /// Scene folders under `root` (folders that contain an .obj, .gltf or .glb file, hidden
 /// folders excepted), sorted by name.
+/// A scene folder's patch count as [`crate::geometry::mesh::estimate_patches`] bounds it
+/// from below, at the scene's own `max_edge`, for ordering bakes smallest first; 0 for a
+/// folder that does not load (its bake fails at once and shows the error early).
+pub fn estimated_patches(dir: &Path) -> u64 {
+    match Scene::load(dir) {
+        Ok(scene) => crate::geometry::mesh::estimate_patches(&scene, scene.mesh.max_edge),
+        Err(_) => 0,
+    }
+}
+
 pub fn scene_dirs(root: &Path) -> std::io::Result<Vec<PathBuf>> {
     let mut out: Vec<PathBuf> = std::fs::read_dir(root)?
         .flatten()

@@ -85,8 +85,13 @@ fn grids(model: &Model, lighting: &Lighting, ids: &[String], json: bool) -> Resu
 }
 
 fn print_grid(id: &str, g: &GridAnswer) {
+    let left = if g.excluded > 0 {
+        format!(" ({} inside objects left out, shown as -)", g.excluded)
+    } else {
+        String::new()
+    };
     outln!(
-        "grid {id} ({}), {} points, illuminance in lux",
+        "grid {id} ({}), {} points{left}, illuminance in lux",
         g.name,
         g.count
     );
@@ -100,7 +105,10 @@ fn print_grid(id: &str, g: &GridAnswer) {
     );
     let cols = g.layout.map_or(10, |[c, _]| c.max(1));
     for row in g.values.chunks(cols) {
-        let cells: Vec<String> = row.iter().map(|v| format!("{v:8.1}")).collect();
+        let cells: Vec<String> = row
+            .iter()
+            .map(|v| v.map_or_else(|| format!("{:>8}", "-"), |v| format!("{v:8.1}")))
+            .collect();
         outln!("  {}", cells.join(""));
     }
 }

@@ -111,8 +111,12 @@ pub struct AnnualGrid {
     pub ase_1000_250: f64,
     pub udi: Udi,
     pub en17037: En17037,
-    /// Per point, occupied hours with at least 300 lx, in grid order.
-    pub hours_above_300: Vec<u32>,
+    /// Points left out of the metrics (inside objects; null in `hours_above_300`).
+    pub excluded: usize,
+    /// Per point, occupied hours with at least 300 lx, in grid order; null for points
+    /// left out.
+    #[cfg_attr(feature = "server", schema(value_type = Vec<Option<u32>>))]
+    pub hours_above_300: Vec<Option<u32>>,
 }
 
 /// Annual answers.
@@ -404,7 +408,14 @@ impl Model {
             let mut ase = 0usize;
             let mut udi = [0f64; 3];
             let mut above_300 = Vec::with_capacity(p);
+            let excluded = &self.grids[gi].excluded;
+            let measured: Vec<usize> = self.grids[gi].measured().collect();
+            let m = measured.len();
             for (r, ds) in direct_sun.iter().enumerate() {
+                if excluded[r] {
+                    above_300.push(None);
+                    continue;
+                }
                 let (mut n300, mut nsun, mut bands) = (0u32, 0u32, [0u32; 3]);
                 for h in 0..hours {
                     if !occupied[h] {
@@ -430,25 +441,25 @@ impl Model {
                 for b in 0..3 {
                     udi[b] += bands[b] as f64 / occ_hours.max(1) as f64;
                 }
-                above_300.push(n300);
+                above_300.push(Some(n300));
             }
             // EN 17037 per daylight hour: the median and the 5th percentile of the grid.
             let (mut h300, mut h100) = (0usize, 0usize);
-            let mut col = vec![0f32; p];
+            let mut col = vec![0f32; m];
             for (h, s) in skies.iter().enumerate() {
-                if !s.daylight || p == 0 {
+                if !s.daylight || m == 0 {
                     continue;
                 }
-                for r in 0..p {
-                    col[r] = e[(r, h)] + direct_sun[r][h];
+                for (c, &r) in col.iter_mut().zip(&measured) {
+                    *c = e[(r, h)] + direct_sun[r][h];
                 }
                 col.sort_by(f32::total_cmp);
-                // At least half the points ≥ 300: the point at rank ⌊p/2⌋ from the top.
-                if col[p - p.div_ceil(2)] >= 300.0 {
+                // At least half the points ≥ 300: the point at rank ⌊m/2⌋ from the top.
+                if col[m - m.div_ceil(2)] >= 300.0 {
                     h300 += 1;
                 }
                 // At least 95 % ≥ 100.
-                if col[p - (0.95 * p as f64).ceil() as usize] >= 100.0 {
+                if col[m - (0.95 * m as f64).ceil() as usize] >= 100.0 {
                     h100 += 1;
                 }
             }
@@ -467,12 +478,13 @@ impl Model {
                 AnnualGrid {
                     name: grid.name.clone(),
                     count: p,
-                    sda_300_50: pct(sda, p),
-                    ase_1000_250: pct(ase, p),
+                    excluded: p - m,
+                    sda_300_50: pct(sda, m),
+                    ase_1000_250: pct(ase, m),
                     udi: Udi {
-                        below_100: 100.0 * udi[0] / p.max(1) as f64,
-                        from_100_to_3000: 100.0 * udi[1] / p.max(1) as f64,
-                        above_3000: 100.0 * udi[2] / p.max(1) as f64,
+                        below_100: 100.0 * udi[0] / m.max(1) as f64,
+                        from_100_to_3000: 100.0 * udi[1] / m.max(1) as f64,
+                        above_3000: 100.0 * udi[2] / m.max(1) as f64,
                     },
                     en17037: En17037 {
                         hours_300_lx_over_50_percent: s300,

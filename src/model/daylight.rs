@@ -28,7 +28,7 @@ use super::query::{GridAnswer, IlluminanceQuery};
 use super::report::SurfaceIlluminance;
 use super::sky::{SkyState, SunPosition};
 use super::{Cancel, Model, QueryError};
-use crate::color::{luminance64, Rgb};
+use crate::color::{luminance, luminance64, Rgb};
 use crate::daylight::sky::Sky;
 use crate::daylight::Site;
 use crate::transport::probe::gather_weights;
@@ -179,8 +179,91 @@ pub struct GatherCache {
     importance: OnceLock<Vec<f32>>,
     entries: Mutex<VecDeque<Entry>>,
     limit: u64,
-    /// (direction key, per patch illuminance at unit normal illuminance, lux).
-    suns: Mutex<VecDeque<(u64, Arc<Vec<f32>>)>>,
+    /// (direction key, the sun on the patches at unit normal illuminance).
+    suns: Mutex<VecDeque<(u64, Arc<SunOnPatches>)>>,
+}
+
+/// The sun's light on every patch at a normal illuminance of 1 lx.
+pub struct SunOnPatches {
+    /// Direct illuminance, lux (n).
+    pub direct: Vec<f32>,
+    /// Illuminance of its interreflected light, lux (n × 3): the patches' first
+    /// reflection `ρS` of the direct light `S` solved through the transfer,
+    /// `F (I − ρF)⁻¹ ρS`. None in columns mode, which keeps no operator to solve with:
+    /// there the sun's interreflection is spread over its nearest sky patches (whose
+    /// visibility may differ from the sun's).
+    pub interreflected: Option<Vec<f32>>,
+    /// Columns mode: the sun's interreflection as luminances (cd/m² per lux of normal
+    /// illuminance) of the sky patches around it, (patch, luminance), fitted so that
+    /// their direct light on the patches matches the sun's, flux-weighted
+    /// ([`fit_sun_spread`]): where the sun is hidden from every patch but its neighbouring
+    /// sky is not (a facade in front of a window), they carry nothing.
+    pub spread: Vec<(usize, f64)>,
+}
+
+/// Sky patches around the sun that [`fit_sun_spread`] may use.
+const SUN_FIT_PATCHES: usize = 9;
+
+/// Non-negative luminances `c_k` of the [`SUN_FIT_PATCHES`] sky patches nearest to the sun
+/// (unit scene direction `d`) whose direct light `Σ_k c_k D_k` best matches the sun's
+/// direct light `sun` (at 1 lx normal illuminance) on the patches, in the least squares
+/// of the reflected flux (weights area × ρ). Coordinate descent on the normal equations.
+fn fit_sun_spread(
+    t: &crate::transport::transfer::Transfer,
+    site: &Site,
+    d: DVec3,
+    sun: &[f32],
+) -> Vec<(usize, f64)> {
+    let Some(s) = t.sky.as_ref() else {
+        return vec![];
+    };
+    let sub = sky::subdivision();
+    let (alt, az) = site.sky_position(d);
+    let (alt, az) = (alt.to_radians(), az.to_radians());
+    let dir = |a: f64, z: f64| DVec3::new(a.cos() * z.sin(), a.cos() * z.cos(), a.sin());
+    let sd = dir(alt, az);
+    let mut near: Vec<(f64, usize)> = sub.patches[1..]
+        .iter()
+        .enumerate()
+        .map(|(i, p)| {
+            let (a, z) = p.centre();
+            (-dir(a, z).dot(sd), i + 1)
+        })
+        .collect();
+    near.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let ks: Vec<usize> = near.iter().take(SUN_FIT_PATCHES).map(|x| x.1).collect();
+    let m = ks.len();
+    let mut g = vec![0f64; m * m];
+    let mut r = vec![0f64; m];
+    for i in 0..t.n {
+        let w = t.area[i] as f64 * luminance(t.rho[i]) as f64;
+        if w <= 0.0 {
+            continue;
+        }
+        let row = &s.direct[i * s.k..(i + 1) * s.k];
+        for a in 0..m {
+            let da = row[ks[a]] as f64;
+            if da == 0.0 {
+                continue;
+            }
+            r[a] += w * da * sun[i] as f64;
+            for b in 0..m {
+                g[a * m + b] += w * da * row[ks[b]] as f64;
+            }
+        }
+    }
+    let mut c = vec![0f64; m];
+    for _ in 0..500 {
+        for a in 0..m {
+            let gaa = g[a * m + a];
+            if gaa <= 0.0 {
+                continue;
+            }
+            let gc: f64 = (0..m).map(|b| g[a * m + b] * c[b]).sum();
+            c[a] = (c[a] + (r[a] - gc) / gaa).max(0.0);
+        }
+    }
+    ks.into_iter().zip(c).filter(|(_, c)| *c > 0.0).collect()
 }
 
 impl GatherCache {
@@ -202,6 +285,16 @@ impl GatherCache {
     }
 }
 
+/// The sun's light on the patches for one sky (lux): direct (n), interreflected when
+/// solved exactly (n × 3), else the sky patches it is spread over for its
+/// interreflection, (patch, luminance cd/m²).
+#[derive(Default)]
+struct SunLight {
+    direct: Option<Vec<f32>>,
+    interreflected: Option<Vec<f32>>,
+    spread: Vec<(usize, f64)>,
+}
+
 /// A sky's daylight on every patch: illuminance `h` (lux) and radiosity `b` (lm/m²),
 /// n × 3 interleaved.
 pub struct PatchDaylight {
@@ -217,9 +310,9 @@ pub struct DaylightFactors {
     pub min: f64,
     pub max: f64,
     pub median: f64,
-    /// Per point, in grid order.
-    #[cfg_attr(feature = "server", schema(value_type = Vec<f64>))]
-    pub values: Vec<f32>,
+    /// Per point, in grid order; null for points left out of the statistics.
+    #[cfg_attr(feature = "server", schema(value_type = Vec<Option<f64>>))]
+    pub values: Vec<Option<f32>>,
 }
 
 /// One grid under a sky: illuminance statistics (lux) and, for the CIE overcast sky,
@@ -341,7 +434,7 @@ impl Model {
             }
             if let Some(s) = &t.sky {
                 let l = vec![1.0; s.k];
-                add(&self.sky_patches(&l, &[], None).b);
+                add(&self.sky_patches(&l, &SunLight::default(), false).b);
             }
             out
         })
@@ -413,25 +506,30 @@ impl Model {
         Ok(list)
     }
 
-    /// Per-patch daylight for sky patch luminances `l` (cd/m², index 0 the ground), the sun
-    /// spread over patches `sun_patches` for its interreflection, and the sun's direct
-    /// illuminance per patch (lux, n).
-    fn sky_patches(
-        &self,
-        l: &[f64],
-        sun_patches: &[(usize, f64)],
-        sun_direct: Option<&[f32]>,
-    ) -> PatchDaylight {
+    /// Per-patch daylight for sky patch luminances `l` (cd/m², index 0 the ground) and the
+    /// sun's light `sun` ([`SunLight`]).
+    fn sky_patches(&self, l: &[f64], sun: &SunLight, with_direct_sun: bool) -> PatchDaylight {
         let t = &self.baked.transfer;
         let s = t.sky.as_ref().expect("callers check the site");
         let n = t.n;
-        // Interreflected: the sky patches' luminances plus the sun's share.
+        // Interreflected: the sky patches' luminances, plus the sun's share where its
+        // interreflection is not solved exactly.
         let mut w: Vec<Rgb> = l.iter().map(|&x| [x as f32; 3]).collect();
-        for &(k, lum) in sun_patches {
+        for &(k, lum) in &sun.spread {
             w[k] = w[k].map(|x| x + lum as f32);
         }
         let mut h = vec![0f32; 3 * n];
         weighted_sum(s.indirect.iter().map(|c| c.as_slice()), &w, &mut h);
+        if let Some(ind) = &sun.interreflected {
+            for (a, b) in h.iter_mut().zip(ind) {
+                *a += b;
+            }
+        }
+        let sun_direct = if with_direct_sun {
+            sun.direct.as_deref()
+        } else {
+            None
+        };
         // Direct: the sky patches, then the sun.
         for i in 0..n {
             let row = &s.direct[i * s.k..(i + 1) * s.k];
@@ -451,10 +549,10 @@ impl Model {
         PatchDaylight { h, b }
     }
 
-    /// The sun's direct illuminance on every patch (lux at a normal illuminance of 1 lx)
-    /// for the sun in unit scene direction `d`: shadow rays, kept for the last
-    /// [`SUN_CACHE_ENTRIES`] directions.
-    fn sun_on_patches(&self, d: DVec3) -> Arc<Vec<f32>> {
+    /// The sun's direct and interreflected light on every patch (at a normal illuminance
+    /// of 1 lx) for the sun in unit scene direction `d`: shadow rays and one solve, kept
+    /// for the last [`SUN_CACHE_ENTRIES`] directions.
+    fn sun_on_patches(&self, d: DVec3) -> Arc<SunOnPatches> {
         let k = key(&[(d, DVec3::ZERO)]);
         let mut suns = self.gathers.suns.lock().unwrap_or_else(|p| p.into_inner());
         if let Some(pos) = suns.iter().position(|(kk, _)| *kk == k) {
@@ -464,28 +562,54 @@ impl Model {
             return v;
         }
         drop(suns);
-        let v = Arc::new(sky::patch_sun_direct(
+        let direct = sky::patch_sun_direct(
             &self.baked.mesh,
             &self.baked.bvh,
             &self.baked.glazing,
             d,
             1.0,
             self.reach(),
-        ));
+        );
+        let t = &self.baked.transfer;
+        let interreflected = if t.factored.is_some() || t.hierarchy.is_some() {
+            let first: Vec<f32> = direct
+                .iter()
+                .zip(&t.rho)
+                .flat_map(|(&e, r)| [e * r[0], e * r[1], e * r[2]])
+                .collect();
+            t.solve(&first).map(|sol| sol.h)
+        } else {
+            None
+        };
+        let spread = match (&interreflected, self.site()) {
+            (None, Ok(site)) => fit_sun_spread(t, site, d, &direct),
+            _ => vec![],
+        };
+        let v = Arc::new(SunOnPatches {
+            direct,
+            interreflected,
+            spread,
+        });
         let mut suns = self.gathers.suns.lock().unwrap_or_else(|p| p.into_inner());
         suns.push_front((k, v.clone()));
         suns.truncate(SUN_CACHE_ENTRIES);
         v
     }
 
-    /// The sun's direct illuminance on every patch, lux, for a sky with a sun.
-    fn sun_direct(&self, sky: &SkyState, site: &Site) -> Option<Vec<f32>> {
-        sky.sun_direction(site).map(|(d, e)| {
-            self.sun_on_patches(d)
-                .iter()
-                .map(|&x| (x as f64 * e) as f32)
-                .collect()
-        })
+    /// The sun's light on the patches for a sky: its direct illuminance, and its
+    /// interreflection solved exactly (factored and hierarchical modes) or else carried by
+    /// the sky patches around it ([`fit_sun_spread`]).
+    fn sun_light(&self, sky: &SkyState, site: &Site) -> SunLight {
+        let Some((d, e)) = sky.sun_direction(site) else {
+            return SunLight::default();
+        };
+        let on = self.sun_on_patches(d);
+        let scaled = |v: &[f32]| v.iter().map(|&x| (x as f64 * e) as f32).collect::<Vec<_>>();
+        SunLight {
+            direct: Some(scaled(&on.direct)),
+            interreflected: on.interreflected.as_deref().map(scaled),
+            spread: on.spread.iter().map(|&(k, c)| (k, c * e)).collect(),
+        }
     }
 
     /// A sky's daylight on every patch.
@@ -493,19 +617,18 @@ impl Model {
         let site = self.site()?;
         let sub = sky::subdivision();
         let l = sky.patch_luminances(&sub);
-        let sun = sky.sun_patches(&sub);
-        let direct = self.sun_direct(sky, site);
-        Ok(self.sky_patches(&l, &sun, direct.as_deref()))
+        let sun = self.sun_light(sky, site);
+        Ok(self.sky_patches(&l, &sun, true))
     }
 
     /// A sky's daylight on every patch without the sun's direct light (its interreflection
     /// stays): what an image shows on its patches while the sun is traced per pixel.
     pub fn patch_daylight_without_sun(&self, sky: &SkyState) -> Result<PatchDaylight, QueryError> {
-        self.site()?;
+        let site = self.site()?;
         let sub = sky::subdivision();
         let l = sky.patch_luminances(&sub);
-        let sun = sky.sun_patches(&sub);
-        Ok(self.sky_patches(&l, &sun, None))
+        let sun = self.sun_light(sky, site);
+        Ok(self.sky_patches(&l, &sun, false))
     }
 
     /// A length beyond the scene, m (for escape rays).
@@ -535,14 +658,20 @@ impl Model {
         let n = t.n;
         let sub = sky::subdivision();
         let l = sky.patch_luminances(&sub);
-        let spread = sky.sun_patches(&sub);
-        let sun_direct = self.sun_direct(sky, site);
-        // The sun's first reflection, lm/m² per patch: gathered exactly at points (the
-        // coefficients carry the sky and the sun's interreflection).
-        let sun_b: Option<Vec<f32>> = sun_direct.as_ref().map(|sd| {
+        let sun_light = self.sun_light(sky, site);
+        let spread = &sun_light.spread;
+        // The sun's reflected light, lm/m² per patch, gathered exactly at points: its first
+        // reflection, plus its interreflection where it is solved (else the coefficients
+        // carry it with the sky's).
+        let sun_b: Option<Vec<f32>> = sun_light.direct.as_ref().map(|sd| {
+            let ind = sun_light.interreflected.as_deref();
             sd.iter()
                 .zip(&t.rho)
-                .flat_map(|(&e, r)| [e * r[0], e * r[1], e * r[2]])
+                .enumerate()
+                .flat_map(|(i, (&e, r))| {
+                    let h = |c: usize| e + ind.map_or(0.0, |v| v[3 * i + c]);
+                    [h(0) * r[0], h(1) * r[1], h(2) * r[2]]
+                })
                 .collect()
         });
         let mut b_el = vec![];
@@ -554,7 +683,7 @@ impl Model {
         let reach = self.reach();
         // One point: (all light, daylight alone), RGB lux.
         let at = |g: &PointGather, x: DVec3, nrm: DVec3| -> ([f64; 3], f64) {
-            let mut e = g.reflected(cols, &t.rho, &l, &spread);
+            let mut e = g.reflected(cols, &t.rho, &l, spread);
             if let Some(b) = &sun_b {
                 let s = g.gather(b);
                 for c in 0..3 {
@@ -628,9 +757,15 @@ impl Model {
                     (luminance64(e) as f32, df(daylight).unwrap_or(0.0) as f32)
                 })
                 .unzip();
-            let stats: GridStats = grid::stats(values);
+            let excluded = &self.grids[gi].excluded;
+            let stats: GridStats = grid::stats(values, excluded);
             let daylight_factor = sky.df_reference.map(|_| {
-                let mut sorted = dfs.clone();
+                let mut sorted: Vec<f32> = dfs
+                    .iter()
+                    .zip(excluded)
+                    .filter(|(_, &x)| !x)
+                    .map(|(&v, _)| v)
+                    .collect();
                 sorted.sort_by(f32::total_cmp);
                 let m = sorted.len();
                 let median = if m == 0 {
@@ -641,11 +776,15 @@ impl Model {
                     0.5 * (sorted[m / 2 - 1] + sorted[m / 2]) as f64
                 };
                 DaylightFactors {
-                    avg: dfs.iter().map(|&v| v as f64).sum::<f64>() / m.max(1) as f64,
+                    avg: sorted.iter().map(|&v| v as f64).sum::<f64>() / m.max(1) as f64,
                     min: sorted.first().copied().unwrap_or(0.0) as f64,
                     max: sorted.last().copied().unwrap_or(0.0) as f64,
                     median,
-                    values: dfs,
+                    values: dfs
+                        .iter()
+                        .zip(excluded)
+                        .map(|(&v, &x)| (!x).then_some(v))
+                        .collect(),
                 }
             });
             grids.insert(
@@ -674,7 +813,7 @@ impl Model {
                 BTreeMap::new()
             } else {
                 // Per-patch illuminance for the surfaces' statistics.
-                let mut h = self.sky_patches(&l, &spread, sun_direct.as_deref()).h;
+                let mut h = self.sky_patches(&l, &sun_light, true).h;
                 if let Some(w) = w {
                     let mut h_el = vec![0f32; 3 * n];
                     t.illuminance_into(w, &mut h_el);

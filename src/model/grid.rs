@@ -7,9 +7,13 @@
 //! transfer and its cache entry. A lighting state's grid is then a weighted sum:
 //! microseconds for a thousand points.
 
+use glam::DVec3;
+use rayon::prelude::*;
 use serde::Serialize;
 
 use crate::color::{luminance, Rgb};
+use crate::geometry::bvh::Bvh;
+use crate::geometry::obstructed;
 use crate::scene::{Grid, Scene};
 
 /// A grid with its per-group responses.
@@ -17,13 +21,18 @@ pub struct GridResponse {
     pub grid: Grid,
     /// Per group: illuminance at each point, lux, points × 3 interleaved.
     pub per_group: Vec<Vec<f32>>,
+    /// Per point: left out of the statistics, inside an object or under a surface at close
+    /// range ([`crate::geometry::obstructed`]); all false when the grid keeps them.
+    pub excluded: Vec<bool>,
 }
 
-/// Statistics of a grid for one lighting state (lux).
+/// Statistics of a grid for one lighting state (lux), over the points it measures.
 #[derive(Debug, Clone, Serialize)]
 pub struct GridStats {
-    /// Luminous illuminance at each point, lx, in grid order.
-    pub values: Vec<f32>,
+    /// Luminous illuminance at each point, lx, in grid order; None for excluded points.
+    pub values: Vec<Option<f32>>,
+    /// Points left out of the statistics.
+    pub excluded: usize,
     pub avg: f64,
     pub min: f64,
     pub max: f64,
@@ -36,16 +45,23 @@ pub struct GridStats {
 impl GridResponse {
     /// Every grid of the scene with its per-group responses, as baked into the transfer
     /// (`Transfer::grids`, [`crate::transport::probe::grid_columns`]).
-    pub fn build_all(scene: &Scene, columns: Vec<Vec<Vec<f32>>>) -> Vec<GridResponse> {
+    /// Points inside objects are marked excluded with shadow rays over `bvh`.
+    pub fn build_all(scene: &Scene, bvh: &Bvh, columns: Vec<Vec<Vec<f32>>>) -> Vec<GridResponse> {
         scene
             .grids
             .iter()
             .zip(columns)
             .map(|(grid, per_group)| GridResponse {
+                excluded: excluded_points(scene, bvh, grid),
                 grid: grid.clone(),
                 per_group,
             })
             .collect()
+    }
+
+    /// Indices of the points the statistics use.
+    pub fn measured(&self) -> impl Iterator<Item = usize> + '_ {
+        (0..self.len()).filter(|&i| !self.excluded[i])
     }
 
     /// Number of points.
@@ -82,16 +98,37 @@ impl GridResponse {
 
     /// Statistics for per-group RGB weights.
     pub fn stats(&self, weights: &[Rgb]) -> GridStats {
-        stats(self.values(weights))
+        stats(self.values(weights), &self.excluded)
     }
 }
 
-/// Average, extremes and uniformities of point values (lx).
-pub fn stats(values: Vec<f32>) -> GridStats {
-    let n = values.len().max(1) as f64;
-    let avg = values.iter().map(|&v| v as f64).sum::<f64>() / n;
-    let min = values.iter().fold(f64::INFINITY, |m, &v| m.min(v as f64));
-    let max = values.iter().fold(0f64, |m, &v| m.max(v as f64));
+/// Per point of `grid`, whether it is left out ([`crate::geometry::obstructed`]).
+fn excluded_points(scene: &Scene, bvh: &Bvh, grid: &Grid) -> Vec<bool> {
+    if grid.keep_obstructed {
+        return vec![false; grid.points.len()];
+    }
+    let n = DVec3::from_array(grid.normal);
+    grid.points
+        .par_iter()
+        .map(|p| obstructed::is_obstructed(scene, bvh, DVec3::from_array(*p), n))
+        .collect()
+}
+
+/// Average, extremes and uniformities of point values (lx) over the points not
+/// `excluded` (same length; missing entries count as measured).
+pub fn stats(values: Vec<f32>, excluded: &[bool]) -> GridStats {
+    let out = |i: usize| excluded.get(i).copied().unwrap_or(false);
+    let measured = || {
+        values
+            .iter()
+            .enumerate()
+            .filter(|(i, _)| !out(*i))
+            .map(|(_, &v)| v as f64)
+    };
+    let count = measured().count();
+    let avg = measured().sum::<f64>() / count.max(1) as f64;
+    let min = measured().fold(f64::INFINITY, f64::min);
+    let max = measured().fold(0f64, f64::max);
     let min = if min.is_finite() { min } else { 0.0 };
     GridStats {
         avg,
@@ -99,6 +136,11 @@ pub fn stats(values: Vec<f32>) -> GridStats {
         max,
         u0: if avg > 0.0 { min / avg } else { 0.0 },
         min_max: if max > 0.0 { min / max } else { 0.0 },
-        values,
+        excluded: values.len() - count,
+        values: values
+            .iter()
+            .enumerate()
+            .map(|(i, &v)| (!out(i)).then_some(v))
+            .collect(),
     }
 }

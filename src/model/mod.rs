@@ -94,7 +94,7 @@ impl Model {
     pub fn new(mut baked: Baked) -> Model {
         let groups = group_infos(&baked);
         let columns = std::mem::take(&mut baked.transfer.grids);
-        let grids = grid::GridResponse::build_all(&baked.scene, columns);
+        let grids = grid::GridResponse::build_all(&baked.scene, &baked.bvh, columns);
         let gathers =
             daylight::GatherCache::for_scene(baked.transfer.n, baked.transfer.sky.is_some());
         Model {
@@ -123,7 +123,7 @@ impl Model {
             + t.sky.as_ref().map_or(0, |s| {
                 4 * (t.n * s.k) as u64
                     + annual::ANNUAL_CACHE_BYTES as u64
-                    + 4 * (daylight::SUN_CACHE_ENTRIES * t.n) as u64
+                    + 16 * (daylight::SUN_CACHE_ENTRIES * t.n) as u64
             })
     }
 

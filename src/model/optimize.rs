@@ -268,13 +268,21 @@ impl Model {
         let terms: Vec<GridTerms> = targets
             .iter()
             .map(|t| {
+                // Only the points the statistics measure constrain the levels.
                 let gr = &self.grids[t.grid];
+                let measured = |v: Vec<f64>| -> Vec<f64> {
+                    v.into_iter()
+                        .zip(&gr.excluded)
+                        .filter(|(_, &x)| !x)
+                        .map(|(v, _)| v)
+                        .collect()
+                };
                 GridTerms {
                     free: free
                         .iter()
-                        .map(|&g| gr.group_values(g, scene.lights[g].color))
+                        .map(|&g| measured(gr.group_values(g, scene.lights[g].color)))
                         .collect(),
-                    fixed: gr.values(&fixed_w).iter().map(|&v| v as f64).collect(),
+                    fixed: measured(gr.values(&fixed_w).iter().map(|&v| v as f64).collect()),
                 }
             })
             .collect();

@@ -50,9 +50,19 @@ pub struct GridAnswer {
     pub u0: f64,
     /// Emin / Emax.
     pub min_max: f64,
-    /// Luminous illuminance at each point, lx, in grid order.
-    #[cfg_attr(feature = "server", schema(value_type = Vec<f64>))]
-    pub values: Vec<f32>,
+    /// Luminous illuminance at each point, lx, in grid order; null for a point left out
+    /// of the statistics (inside an object or under a surface at close range).
+    #[cfg_attr(feature = "server", schema(value_type = Vec<Option<f64>>))]
+    pub values: Vec<Option<f32>>,
+    /// Points left out of the statistics (null in `values`).
+    pub excluded: usize,
+    /// The EN 12464-1 zone, when the grid is declared as one.
+    #[cfg_attr(feature = "server", schema(required = true))]
+    pub kind: Option<crate::scene::grids::GridKind>,
+    /// Distance between neighbouring points, m (work planes and areas); null for
+    /// explicit points.
+    #[cfg_attr(feature = "server", schema(required = true))]
+    pub spacing: Option<f64>,
 }
 
 /// Flux and electrical power of the point luminaires in a lighting state.
@@ -362,6 +372,7 @@ impl Model {
                 .grids
                 .iter()
                 .map(|&gi| {
+                    let excluded = &self.grids[gi].excluded;
                     let g = &self.grids[gi].grid;
                     let n = DVec3::from_array(g.normal);
                     let values: Vec<f32> = g
@@ -369,7 +380,7 @@ impl Model {
                         .par_iter()
                         .map(|p| luminance64(at(DVec3::from_array(*p), n)) as f32)
                         .collect();
-                    (g.id.clone(), grid_answer(g, grid::stats(values)))
+                    (g.id.clone(), grid_answer(g, grid::stats(values, excluded)))
                 })
                 .collect(),
         };
@@ -400,5 +411,8 @@ pub(crate) fn grid_answer(g: &crate::scene::Grid, s: GridStats) -> GridAnswer {
         u0: s.u0,
         min_max: s.min_max,
         values: s.values,
+        excluded: s.excluded,
+        kind: g.kind,
+        spacing: g.spacing,
     }
 }

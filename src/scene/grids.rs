@@ -1,17 +1,41 @@
 //! Calculation grids: the `[[grids]]` of `scene.toml` resolved to points in metres with
-//! one receiver normal, either explicit point lists or work planes (a horizontal
-//! rectangle at a height above the floor, points at the centres of cells about `spacing`
-//! wide; default height 0.75 m, spacing 0.25 m).
+//! one receiver normal. A grid is one of
+//! - explicit points;
+//! - a work plane: a horizontal rectangle (`min`, `max`) or polygon (`area`) at a height
+//!   above the floor, points at the centres of cells about `spacing` wide (default height
+//!   0.75 m, spacing 0.25 m);
+//! - an EN 12464-1 area: the same with a `kind` (`task`, `surrounding`, `background`),
+//!   its cells sized by the standard ([`en12464_spacing`]). A task area brings its
+//!   immediate surrounding, a band 0.5 m wide around it, as a grid of its own
+//!   (`<id>-surrounding`); a background area leaves out a 0.5 m band along its edges (the
+//!   walls).
 
 use std::path::Path;
 
 use glam::DVec3;
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 use super::toml::GridToml;
 use super::triangles::Triangle;
 use super::{SceneError, SceneToml};
 use crate::limits::MAX_GRID_POINTS;
+
+/// The zones of EN 12464-1 a grid can stand for.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[cfg_attr(feature = "server", derive(utoipa::ToSchema))]
+#[serde(rename_all = "lowercase")]
+pub enum GridKind {
+    /// The task area.
+    Task,
+    /// The immediate surrounding of a task area (a band at least 0.5 m wide).
+    Surrounding,
+    /// The background area (the room, less a 0.5 m band along the walls).
+    Background,
+}
+
+/// Width of a task area's immediate surrounding band and of the band along the walls
+/// that background areas leave out, m (EN 12464-1).
+pub const EN12464_BAND_M: f64 = 0.5;
 
 /// A calculation grid: points (metres) with one receiver normal.
 #[derive(Debug, Clone, Serialize)]
@@ -20,12 +44,37 @@ pub struct Grid {
     pub name: String,
     pub points: Vec<[f64; 3]>,
     pub normal: [f64; 3],
-    /// Work-plane layout (columns × rows), when the grid is a rectangle.
+    /// Work-plane layout (columns × rows), when the grid is a full rectangle.
     pub layout: Option<[usize; 2]>,
+    /// The EN 12464-1 zone, when the grid is declared as one.
+    pub kind: Option<GridKind>,
+    /// Distance between neighbouring points, m (work planes and areas).
+    pub spacing: Option<f64>,
+    /// Points inside objects are kept in the statistics
+    /// ([`crate::geometry::obstructed`]).
+    pub keep_obstructed: bool,
 }
 
-/// Points (metres) and, for work planes, their layout (columns × rows).
-type Points = (Vec<[f64; 3]>, Option<[usize; 2]>);
+/// The largest spacing of calculation points, m, for an area whose relevant dimension is
+/// `d` m (EN 12464-1:2011 4.4, after EN 12193): `p = 0.2 · 5^log₁₀(d)`, at most 10 m and
+/// at most `d`.
+pub fn en12464_spacing(d: f64) -> f64 {
+    (0.2 * 5f64.powf(d.log10())).min(10.0).min(d)
+}
+
+/// The cells of an area `w` × `l` m by EN 12464-1: the relevant dimension `d` is the
+/// longer side, or the shorter one when the sides differ by a factor of 2 or more; along
+/// it, `n = ⌈d / p⌉` cells of `d / n`; the other side takes cells of that size (rounded
+/// up to whole cells, so the spacing never exceeds `p`). Returns (nw, nl).
+pub fn en12464_cells(w: f64, l: f64) -> (usize, usize) {
+    let (long, short) = (w.max(l), w.min(l));
+    let d = if long >= 2.0 * short { short } else { long };
+    let p = en12464_spacing(d);
+    let n = (d / p - 1e-9).ceil().max(1.0);
+    let cell = d / n;
+    let count = |x: f64| (x / cell - 1e-9).ceil().max(1.0) as usize;
+    (count(w), count(l))
+}
 
 /// Resolves `[[grids]]` to points in metres.
 pub(crate) fn build_grids(
@@ -44,80 +93,316 @@ pub(crate) fn build_grids(
             path: toml_path.into(),
             message: format!("grid '{}': {m}", g.id),
         };
-        if g.id.is_empty() || out.iter().any(|o| o.id == g.id) {
-            return Err(bad("id is empty or used twice".into()));
-        }
         let n = DVec3::from_array(g.normal)
             .try_normalize()
             .ok_or_else(|| bad("normal must be a non-zero vector".into()))?;
-        let (points, layout) = grid_points(g, scale, floor).map_err(bad)?;
-        if points.is_empty() || points.len() > MAX_GRID_POINTS {
-            return Err(bad(format!(
-                "{} points: need 1..{MAX_GRID_POINTS}",
-                points.len()
-            )));
+        for (id, name, kind, placed) in grid_points(g, scale, floor).map_err(bad)? {
+            if id.is_empty() || out.iter().any(|o| o.id == id) {
+                return Err(bad(format!("id '{id}' is empty or used twice")));
+            }
+            if placed.points.is_empty() || placed.points.len() > MAX_GRID_POINTS {
+                return Err(bad(format!(
+                    "{} points: need 1..{MAX_GRID_POINTS}",
+                    placed.points.len()
+                )));
+            }
+            out.push(Grid {
+                id,
+                name,
+                points: placed.points,
+                normal: n.to_array(),
+                layout: placed.layout,
+                kind,
+                spacing: placed.spacing,
+                keep_obstructed: g.keep_obstructed,
+            });
         }
-        out.push(Grid {
-            id: g.id.clone(),
-            name: g.name.clone().unwrap_or_else(|| g.id.clone()),
-            points,
-            normal: n.to_array(),
-            layout,
-        });
     }
     Ok(out)
 }
 
-/// The points of one grid, in metres; `floor` is the scene's lowest y, metres.
-fn grid_points(g: &GridToml, scale: f64, floor: f64) -> Result<Points, String> {
-    match (&g.points, g.min, g.max) {
-        (Some(p), None, None) => {
+/// Points (metres), their layout when they fill a rectangle, and their spacing (m).
+struct Placed {
+    points: Vec<[f64; 3]>,
+    layout: Option<[usize; 2]>,
+    spacing: Option<f64>,
+}
+
+/// A grid of the toml and the ones it brings (a task's surrounding).
+type Grids = Vec<(String, String, Option<GridKind>, Placed)>;
+
+/// The points of one `[[grids]]` entry; `floor` is the scene's lowest y, metres.
+fn grid_points(g: &GridToml, scale: f64, floor: f64) -> Result<Grids, String> {
+    let name = g.name.clone().unwrap_or_else(|| g.id.clone());
+    let one = |p: Placed| Ok(vec![(g.id.clone(), name.clone(), g.kind, p)]);
+    let outline: Vec<[f64; 2]> = match (&g.points, g.min, g.max, &g.area) {
+        (Some(p), None, None, None) => {
+            if g.kind.is_some() {
+                return Err("a kind needs an area (min and max, or area), not points".into());
+            }
             if p.iter().flatten().any(|x| !x.is_finite()) {
                 return Err("points must be finite".into());
             }
-            Ok((p.iter().map(|q| q.map(|x| x * scale)).collect::<Vec<_>>(), None))
+            let points = p.iter().map(|q| q.map(|x| x * scale)).collect();
+            return one(Placed {
+                points,
+                layout: None,
+                spacing: None,
+            });
         }
-        (None, Some(lo), Some(hi)) => work_plane(g, lo, hi, scale, floor),
-        _ => Err(
-            "give either points = [[x, y, z], ...] or min = [x, z], max = [x, z] (with height, spacing)".into(),
-        ),
+        (None, Some(lo), Some(hi), None) => {
+            if !(lo.iter().chain(&hi).all(|x| x.is_finite()) && hi[0] > lo[0] && hi[1] > lo[1]) {
+                return Err("max must exceed min in x and z".into());
+            }
+            vec![lo, [hi[0], lo[1]], hi, [lo[0], hi[1]]]
+        }
+        (None, None, None, Some(a)) => {
+            if a.len() < 3 || a.len() > 1000 || a.iter().flatten().any(|x| !x.is_finite()) {
+                return Err("area must be 3 to 1000 finite [x, z] corners".into());
+            }
+            a.clone()
+        }
+        _ => {
+            return Err(
+                "give one of points = [[x, y, z], ...], min = [x, z] and max = [x, z], \
+                 or area = [[x, z], ...] (with height, spacing or kind)"
+                    .into(),
+            )
+        }
+    };
+    // Metres from here on.
+    let outline: Vec<[f64; 2]> = outline.iter().map(|p| p.map(|x| x * scale)).collect();
+    let rect = g.area.is_none();
+    let h = g.height.map_or(0.75, |h| h * scale);
+    let y = floor + h;
+    let metres = |v: Option<f64>, what: &str| -> Result<f64, String> {
+        let m = v.map_or(EN12464_BAND_M, |x| x * scale);
+        if m.is_finite() && m >= 0.0 {
+            Ok(m)
+        } else {
+            Err(format!("{what} must be a length of 0 or more"))
+        }
+    };
+    if !h.is_finite() {
+        return Err("height must be finite".into());
     }
+    if g.surrounding.is_some() && g.kind != Some(GridKind::Task) {
+        return Err("surrounding is for kind = \"task\"".into());
+    }
+    if g.wall_band.is_some() && g.kind != Some(GridKind::Background) {
+        return Err("wall_band is for kind = \"background\"".into());
+    }
+    let spacing = match g.spacing {
+        Some(s) if !(s > 0.0 && s.is_finite()) => {
+            return Err("spacing must be positive and finite".into())
+        }
+        Some(s) => Some(s * scale),
+        None if g.kind.is_some() => None,
+        None => Some(0.25),
+    };
+    let mut out = Vec::new();
+    match g.kind {
+        Some(GridKind::Background) => {
+            let band = metres(g.wall_band, "wall_band")?;
+            let inside = |x: f64, z: f64| {
+                point_in_polygon(&outline, x, z) && edge_distance(&outline, x, z) >= band
+            };
+            let (lo, hi) = bounds(&outline);
+            let (lo, hi) = ([lo[0] + band, lo[1] + band], [hi[0] - band, hi[1] - band]);
+            if !(hi[0] > lo[0] && hi[1] > lo[1]) {
+                return Err(format!(
+                    "the area is narrower than twice its {band} m wall band"
+                ));
+            }
+            let full = rect;
+            out.push((
+                g.id.clone(),
+                name,
+                g.kind,
+                place(lo, hi, y, spacing, &inside, full)?,
+            ));
+        }
+        _ => {
+            let inside = |x: f64, z: f64| point_in_polygon(&outline, x, z);
+            let (lo, hi) = bounds(&outline);
+            out.push((
+                g.id.clone(),
+                name.clone(),
+                g.kind,
+                place(lo, hi, y, spacing, &inside, rect)?,
+            ));
+            if g.kind == Some(GridKind::Task) {
+                let band = metres(g.surrounding, "surrounding")?;
+                if band > 0.0 {
+                    let (olo, ohi) = ([lo[0] - band, lo[1] - band], [hi[0] + band, hi[1] + band]);
+                    let ring = |x: f64, z: f64| {
+                        !point_in_polygon(&outline, x, z)
+                            && (edge_distance(&outline, x, z) <= band
+                                || (rect
+                                    && x >= olo[0]
+                                    && x <= ohi[0]
+                                    && z >= olo[1]
+                                    && z <= ohi[1]))
+                    };
+                    out.push((
+                        format!("{}-surrounding", g.id),
+                        format!("{name} (immediate surrounding)"),
+                        Some(GridKind::Surrounding),
+                        place(olo, ohi, y, spacing, &ring, false)?,
+                    ));
+                }
+            }
+        }
+    }
+    Ok(out)
 }
 
-/// A work plane from `lo` = [x, z] to `hi` = [x, z] (scene units).
-fn work_plane(
-    g: &GridToml,
+/// Points at the centres of the cells of the rectangle `lo`..`hi` (x, z, metres) at height
+/// `y` whose centres pass `keep`; cells of `spacing`, or by EN 12464-1 when None.
+fn place(
     lo: [f64; 2],
     hi: [f64; 2],
-    scale: f64,
-    floor: f64,
-) -> Result<Points, String> {
-    let h = g.height.unwrap_or(0.75 / scale);
-    let sp = g.spacing.unwrap_or(0.25 / scale);
-    if !(sp > 0.0 && sp.is_finite() && h.is_finite()) {
-        return Err("spacing must be positive and height finite".into());
-    }
-    if !(hi[0] > lo[0] && hi[1] > lo[1]) {
-        return Err("max must exceed min in x and z".into());
-    }
-    let nx = ((hi[0] - lo[0]) / sp).ceil().max(1.0) as usize;
-    let nz = ((hi[1] - lo[1]) / sp).ceil().max(1.0) as usize;
+    y: f64,
+    spacing: Option<f64>,
+    keep: &dyn Fn(f64, f64) -> bool,
+    full: bool,
+) -> Result<Placed, String> {
+    let (w, l) = (hi[0] - lo[0], hi[1] - lo[1]);
+    let (nx, nz) = match spacing {
+        Some(sp) => {
+            let c = |x: f64| (x / sp).ceil().max(1.0);
+            let (a, b) = (c(w), c(l));
+            if a * b > MAX_GRID_POINTS as f64 {
+                return Err(format!("{a} × {b} points; the limit is {MAX_GRID_POINTS}"));
+            }
+            (a as usize, b as usize)
+        }
+        None => en12464_cells(w, l),
+    };
     if nx.saturating_mul(nz) > MAX_GRID_POINTS {
         return Err(format!(
             "{nx} × {nz} points; the limit is {MAX_GRID_POINTS}"
         ));
     }
-    let (dx, dz) = ((hi[0] - lo[0]) / nx as f64, (hi[1] - lo[1]) / nz as f64);
-    let y = floor + h * scale;
-    let mut pts = Vec::with_capacity(nx * nz);
+    let (dx, dz) = (w / nx as f64, l / nz as f64);
+    let mut points = Vec::with_capacity(if full { nx * nz } else { 0 });
     for k in 0..nz {
         for i in 0..nx {
-            pts.push([
-                (lo[0] + (i as f64 + 0.5) * dx) * scale,
-                y,
-                (lo[1] + (k as f64 + 0.5) * dz) * scale,
-            ]);
+            let (x, z) = (lo[0] + (i as f64 + 0.5) * dx, lo[1] + (k as f64 + 0.5) * dz);
+            if full || keep(x, z) {
+                points.push([x, y, z]);
+            }
         }
     }
-    Ok((pts, Some([nx, nz])))
+    Ok(Placed {
+        layout: full.then_some([nx, nz]),
+        spacing: Some(dx.max(dz)),
+        points,
+    })
+}
+
+fn bounds(p: &[[f64; 2]]) -> ([f64; 2], [f64; 2]) {
+    let mut lo = [f64::INFINITY; 2];
+    let mut hi = [f64::NEG_INFINITY; 2];
+    for q in p {
+        for c in 0..2 {
+            lo[c] = lo[c].min(q[c]);
+            hi[c] = hi[c].max(q[c]);
+        }
+    }
+    (lo, hi)
+}
+
+/// Even–odd rule.
+fn point_in_polygon(p: &[[f64; 2]], x: f64, z: f64) -> bool {
+    let mut inside = false;
+    let mut j = p.len() - 1;
+    for i in 0..p.len() {
+        let (a, b) = (p[i], p[j]);
+        if (a[1] > z) != (b[1] > z) && x < (b[0] - a[0]) * (z - a[1]) / (b[1] - a[1]) + a[0] {
+            inside = !inside;
+        }
+        j = i;
+    }
+    inside
+}
+
+/// Distance from (x, z) to the polygon's outline, m.
+fn edge_distance(p: &[[f64; 2]], x: f64, z: f64) -> f64 {
+    let mut best = f64::INFINITY;
+    for i in 0..p.len() {
+        let (a, b) = (p[i], p[(i + 1) % p.len()]);
+        let (ex, ez) = (b[0] - a[0], b[1] - a[1]);
+        let len2 = ex * ex + ez * ez;
+        let t = if len2 > 0.0 {
+            (((x - a[0]) * ex + (z - a[1]) * ez) / len2).clamp(0.0, 1.0)
+        } else {
+            0.0
+        };
+        let (dx, dz) = (a[0] + t * ex - x, a[1] + t * ez - z);
+        best = best.min((dx * dx + dz * dz).sqrt());
+    }
+    best
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// EN 12464-1's worked spacings: p = 0.2 · 5^log₁₀(d).
+    #[test]
+    fn the_standards_spacing_for_1_5_10_and_20_m() {
+        for (d, p, n) in [
+            (1.0, 0.2, 5),
+            (5.0, 0.617, 9),
+            (10.0, 1.0, 10),
+            (20.0, 1.623, 13),
+        ] {
+            let got = en12464_spacing(d);
+            assert!((got - p).abs() < 5e-4, "d = {d}: p = {got}, want {p}");
+            // A square area of side d: n = ⌈d / p⌉ cells each way.
+            assert_eq!(en12464_cells(d, d), (n, n), "d = {d}");
+        }
+        // Exactly the formula, not a table.
+        assert_eq!(en12464_spacing(10.0), 1.0);
+        assert!((en12464_spacing(5.0) - 0.2 * 5f64.powf(5f64.log10())).abs() < 1e-15);
+        assert_eq!(en12464_spacing(1000.0), 10.0, "p is at most 10 m");
+    }
+
+    #[test]
+    fn a_long_area_takes_its_short_side_as_d() {
+        // 10 × 4 m: 10 ≥ 2·4, so d = 4 m, p = 0.2·5^log10(4) = 0.5260, n = 8 cells of 0.5 m;
+        // the 10 m side takes 20 cells of 0.5 m.
+        assert_eq!(en12464_cells(10.0, 4.0), (20, 8));
+        // 6 × 4 m: d = 6 m, p = 0.7007, n = 9 cells of 0.667 m; the 4 m side 6 cells.
+        assert_eq!(en12464_cells(6.0, 4.0), (9, 6));
+    }
+
+    #[test]
+    fn polygons_bands_and_surroundings() {
+        let square = [[0.0, 0.0], [4.0, 0.0], [4.0, 4.0], [0.0, 4.0]];
+        assert!(point_in_polygon(&square, 1.0, 1.0));
+        assert!(!point_in_polygon(&square, 5.0, 1.0));
+        assert!((edge_distance(&square, 1.0, 2.0) - 1.0).abs() < 1e-12);
+        // An L-shaped room: the notch has no points.
+        let l = [
+            [0.0, 0.0],
+            [4.0, 0.0],
+            [4.0, 2.0],
+            [2.0, 2.0],
+            [2.0, 4.0],
+            [0.0, 4.0],
+        ];
+        let placed = place(
+            [0.0, 0.0],
+            [4.0, 4.0],
+            0.0,
+            Some(0.5),
+            &|x, z| point_in_polygon(&l, x, z),
+            false,
+        )
+        .unwrap();
+        assert_eq!(placed.points.len(), 64 - 16);
+        assert!(placed.points.iter().all(|p| !(p[0] > 2.0 && p[2] > 2.0)));
+    }
 }

@@ -20,7 +20,7 @@ pub mod archive;
 mod cameras;
 mod files;
 mod gltf;
-mod grids;
+pub mod grids;
 mod lights;
 mod luminaires;
 mod materials;

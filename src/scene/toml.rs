@@ -177,6 +177,21 @@ pub(crate) struct GridToml {
     pub(crate) spacing: Option<f64>,
     /// Or explicit points (scene units).
     pub(crate) points: Option<Vec<[f64; 3]>>,
+    /// Or a polygon [[x, z], ...] (scene units) at `height`, points at the centres of the
+    /// cells whose centre lies inside it.
+    pub(crate) area: Option<Vec<[f64; 2]>>,
+    /// An EN 12464-1 area: `task`, `surrounding` or `background`. Its points are placed by
+    /// the standard's spacing unless `spacing` is given.
+    pub(crate) kind: Option<crate::scene::grids::GridKind>,
+    /// Task areas: width of the immediate surrounding band (scene units; default 0.5 m, 0
+    /// for none), a grid of its own named `<id>-surrounding`.
+    pub(crate) surrounding: Option<f64>,
+    /// Background areas: width of the band along the area's edges (the walls) left out
+    /// (scene units; default 0.5 m).
+    pub(crate) wall_band: Option<f64>,
+    /// Keep points inside objects or under surfaces at close range in the statistics.
+    #[serde(default)]
+    pub(crate) keep_obstructed: bool,
     /// Receiver normal; default up.
     #[serde(default = "default_up")]
     pub(crate) normal: [f64; 3],

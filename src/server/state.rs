@@ -386,11 +386,24 @@ impl AppState {
     }
 
     /// Bakes every scene on this thread (tests, and `relight serve` replicas that want to
-    /// be ready before listening).
+    /// be ready before listening), smallest first ([`AppState::bake_order`]).
     pub fn bake_all(&self) {
-        for slot in self.slots() {
+        for slot in self.bake_order() {
             self.bake_slot(&slot);
         }
+    }
+
+    /// The scenes in the order a start bakes them: by the estimated patch count
+    /// ([`bake::estimated_patches`]), smallest first, then by id, so small scenes are
+    /// ready while a large one still bakes.
+    pub fn bake_order(&self) -> Vec<Arc<SceneSlot>> {
+        let mut keyed: Vec<(u64, Arc<SceneSlot>)> = self
+            .slots()
+            .into_iter()
+            .map(|s| (bake::estimated_patches(&s.dir), s))
+            .collect();
+        keyed.sort_by(|a, b| a.0.cmp(&b.0).then_with(|| a.1.id.cmp(&b.1.id)));
+        keyed.into_iter().map(|(_, s)| s).collect()
     }
 
     /// Bakes one scene (after any bake in progress), unless it left the list meanwhile.

@@ -42,7 +42,11 @@ function gridRow(g, s) {
     td.textContent = t;
     tr.append(td);
   }
-  tr.title = `${g.count} points; Emin/Emax ${s.min_max.toFixed(2)} (lux)`;
+  const left = s.excluded
+    ? `; ${s.excluded} inside objects left out (drawn hollow)`
+    : "";
+  const zone = s.kind ? `EN 12464-1 ${s.kind} area, ` : "";
+  tr.title = `${zone}${g.count} points${left}; Emin/Emax ${s.min_max.toFixed(2)} (lux)`;
   return tr;
 }
 
@@ -60,7 +64,7 @@ export function drawOverlay() {
   g2.setTransform(dpr, 0, 0, dpr, 0, 0);
   g2.clearRect(0, 0, w, h);
   if (!state.details || !state.gridStats || !$("#grid-overlay").checked || !viewer) return;
-  const all = Object.values(state.gridStats).flatMap((s) => s.values);
+  const all = Object.values(state.gridStats).flatMap((s) => s.values.filter((v) => v != null));
   const color = luxColour(Math.max(...all, 1e-6));
   window.relight.stats.overlayPoints = drawPoints(g2, w, h, color);
 }
@@ -88,15 +92,23 @@ function drawPoints(g2, w, h, color) {
     g.points.forEach((p, i) => {
       const q = viewer.project(p);
       if (!q || q[0] < 0 || q[1] < 0 || q[0] > w || q[1] > h) return;
-      g2.fillStyle = color(s.values[i]);
+      const v = s.values[i];
       g2.beginPath();
       g2.arc(q[0], q[1], 2.5, 0, 2 * Math.PI);
-      g2.fill();
       drawn++;
+      if (v == null) {
+        // Left out of the statistics (inside an object): hollow, no label.
+        g2.strokeStyle = "rgba(255,255,255,0.8)";
+        g2.lineWidth = 1;
+        g2.stroke();
+        return;
+      }
+      g2.fillStyle = color(v);
+      g2.fill();
       const key = `${Math.floor(q[0] / 40)},${Math.floor(q[1] / 18)}`;
       if (taken.has(key)) return;
       taken.add(key);
-      const text = fmtLux(s.values[i]);
+      const text = fmtLux(v);
       g2.fillStyle = "rgba(0,0,0,0.65)";
       g2.fillRect(q[0] - 15, q[1] - 16, 30, 13);
       g2.fillStyle = "#fff";

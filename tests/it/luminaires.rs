@@ -18,7 +18,7 @@ fn bake(s: &TempScene) -> Baked {
 }
 
 fn grid_values(b: &Baked, id: &str) -> Vec<f32> {
-    let grids = GridResponse::build_all(&b.scene, b.transfer.grids.clone());
+    let grids = GridResponse::build_all(&b.scene, &b.bvh, b.transfer.grids.clone());
     let g = grids.iter().find(|g| g.grid.id == id).unwrap();
     g.values(&vec![[1.0; 3]; b.scene.lights.len()])
 }

@@ -28,6 +28,7 @@ mod daylight;
 mod fuzz;
 mod fuzz_requests;
 mod gltf_import;
+mod grids;
 mod hardening;
 mod hierarchical;
 mod http;

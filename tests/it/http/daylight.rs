@@ -191,3 +191,56 @@ async fn renders_and_per_patch_answers_take_the_same_sky() {
         );
     }
 }
+
+/// Under a clear sky the rooflight's reference plane reported Emin 0 and U₀ 0.00: the
+/// points inside the box on the floor counted. Now they are null and counted apart, and
+/// every bundled scene's grids have U₀ > 0 under their default lighting.
+#[tokio::test]
+async fn grid_points_inside_objects_dragged_uniformity_to_zero() {
+    let _gate = common::shared();
+    let clear = json!({"type": "cie_clear", "horizontal_illuminance": 15000,
+        "direct_normal_illuminance": 70000, "sun": {"altitude": 40, "azimuth": 180}});
+    let body = json!({"sky": clear, "grids": ["floor"]});
+    let (s, _, v) = post(app(), "/api/scenes/rooflight/daylight", body.to_string()).await;
+    assert_eq!(s, StatusCode::OK, "{v}");
+    let g = &v["grids"]["floor"]["illuminance"];
+    let values = g["values"].as_array().unwrap();
+    let nulls = values.iter().filter(|v| v.is_null()).count();
+    assert!(
+        nulls > 0 && nulls == g["excluded"].as_u64().unwrap() as usize,
+        "{g}"
+    );
+    assert!(g["u0"].as_f64().unwrap() > 0.05, "{g}");
+    let min = values
+        .iter()
+        .filter_map(|v| v.as_f64())
+        .fold(f64::INFINITY, f64::min);
+    assert!((g["min"].as_f64().unwrap() - min).abs() < 1e-6 * min.max(1.0));
+
+    for scene in ["cornell-box", "desk-room", "gallery", "office"] {
+        let (s, d) = super::get(app(), &format!("/api/scenes/{scene}")).await;
+        assert_eq!(s, StatusCode::OK);
+        let ids: Vec<String> = d["grids"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|g| g["id"].as_str().unwrap().to_string())
+            .collect();
+        if ids.is_empty() {
+            continue;
+        }
+        let body = json!({"grids": ids});
+        let (s, _, v) = post(
+            app(),
+            &format!("/api/scenes/{scene}/illuminance"),
+            body.to_string(),
+        )
+        .await;
+        assert_eq!(s, StatusCode::OK, "{v}");
+        for id in &ids {
+            let g = &v["grids"][id];
+            assert!(g["u0"].as_f64().unwrap() > 0.05, "{scene}/{id}: {g}");
+            assert!(g["excluded"].is_u64(), "{scene}/{id}");
+        }
+    }
+}

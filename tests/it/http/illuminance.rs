@@ -144,6 +144,10 @@ async fn grids_answer_with_statistics_and_luminaire_power() {
             .iter()
             .map(|x| x.as_f64().unwrap())
             .collect();
+        assert_eq!(
+            g["excluded"], 0,
+            "no point of the office's grids is inside an object"
+        );
         let gr = r.grids.iter().find(|x| x.grid.id == id).unwrap();
         assert_eq!(values.len(), gr.len());
         let avg = values.iter().sum::<f64>() / values.len() as f64;

@@ -190,3 +190,46 @@ async fn a_broken_scene_is_listed_as_failed_and_the_others_serve() {
     assert_eq!(st, StatusCode::OK);
     assert!(warned(&details), "{details}");
 }
+
+/// A fresh start baked the scenes in name order, so the 2,488-patch rooflight waited behind
+/// the 177,222-patch office floor: now the smallest estimated scene bakes first.
+#[tokio::test]
+async fn small_scenes_waited_behind_large_ones_baked_in_name_order() {
+    let _gate = common::shared();
+    let dir = tempfile::tempdir().unwrap();
+    // Named so that name order would bake the large one first.
+    relight::bench::write_group_room(&dir.path().join("a-large"), 1, 6000).unwrap();
+    relight::bench::write_group_room(&dir.path().join("b-small"), 1, 300).unwrap();
+    let broken = dir.path().join("c-broken");
+    std::fs::create_dir(&broken).unwrap();
+    std::fs::write(broken.join("b.obj"), "v 0 0 0\nf 1 1 1 1\n").unwrap();
+    let s = AppState::new(config(dir.path().into(), dir.path().join("cache"))).unwrap();
+    let order: Vec<String> = s.bake_order().iter().map(|s| s.id.clone()).collect();
+    assert_eq!(order, ["c-broken", "b-small", "a-large"]);
+    // Baking in that order: when the small scene is ready, the large one has not finished.
+    let baker = s.clone();
+    let t = std::thread::spawn(move || baker.bake_all());
+    let slot = |id: &str| s.slot(id).unwrap();
+    loop {
+        let small = slot("b-small").status().0;
+        let large = slot("a-large").status().0;
+        if small == "ready" {
+            assert_ne!(
+                large, "ready",
+                "the large scene finished before the small one"
+            );
+            break;
+        }
+        assert_ne!(
+            large, "ready",
+            "the large scene finished before the small one"
+        );
+        assert_ne!(small, "failed");
+        std::thread::sleep(std::time::Duration::from_millis(2));
+    }
+    t.join().unwrap();
+    assert_eq!(slot("a-large").status().0, "ready");
+    assert!(
+        slot("a-large").ready().unwrap().patches() > 4 * slot("b-small").ready().unwrap().patches()
+    );
+}

@@ -272,13 +272,18 @@ fn answer_schemas_describe_the_model_types() {
         max: 1.5,
         u0: 0.5,
         min_max: 0.33,
-        values: vec![0.5, 1.5],
+        values: vec![Some(0.5), Some(1.5), None],
+        excluded: 1,
+        kind: Some(crate::scene::grids::GridKind::Task),
+        spacing: Some(0.2),
     };
     check("GridStats", &grid);
     check(
         "GridStats",
         GridAnswer {
             layout: None,
+            kind: None,
+            spacing: None,
             ..grid.clone()
         },
     );
