@@ -35,6 +35,7 @@
 //! [`MAX_GLTF_NODE_INSTANCES`](crate::limits::MAX_GLTF_NODE_INSTANCES). A primitive's
 //! accessors are decoded once, at its mesh's first instance.
 
+use std::collections::hash_map::Entry;
 use std::collections::{HashMap, HashSet};
 use std::path::{Path, PathBuf};
 
@@ -386,12 +387,11 @@ impl<'a> Reader<'a> {
                     format!("node{}", node.index())
                 });
                 for prim in mesh.primitives() {
-                    let key = (mesh.index(), prim.index());
-                    if !decoded.contains_key(&key) {
-                        let tris = self.primitive(&prim, &mesh, buffers)?;
-                        decoded.insert(key, tris);
-                    }
-                    let Some((positions, indices)) = &decoded[&key] else {
+                    let tris = match decoded.entry((mesh.index(), prim.index())) {
+                        Entry::Occupied(e) => e.into_mut(),
+                        Entry::Vacant(e) => e.insert(self.primitive(&prim, &mesh, buffers)?),
+                    };
+                    let Some((positions, indices)) = tris else {
                         skipped_modes += 1;
                         continue;
                     };
