@@ -17,8 +17,9 @@ pub const MAX_TEXT_BYTES: u64 = 16 << 20;
 pub const MAX_GLTF_BYTES: u64 = 512 << 20;
 /// Deepest glTF node tree (levels below a root node).
 pub const MAX_GLTF_DEPTH: usize = 256;
-/// Most node instances a glTF node tree expands to (a node reached along two paths counts
-/// twice), so shared subtrees cannot multiply without bound.
+/// Most nodes in the node tree of the glTF scene that is read. The hierarchy must be
+/// disjoint strict trees (see `scene::gltf::tree`, checked before any mesh is read), so
+/// each node is walked once and this is also the most node instances.
 pub const MAX_GLTF_NODE_INSTANCES: usize = 1_000_000;
 /// Most `v` lines in an OBJ file (for glTF: vertices over all mesh instances).
 pub const MAX_OBJ_VERTICES: usize = 2_000_000;

@@ -38,7 +38,7 @@ use crate::schema::Rgb;
 #[allow(dead_code)]
 pub(crate) struct SceneIdParam {
     /// Scene id: the scene's folder name, as listed by GET /api/scenes.
-    #[param(example = "cornell-box")]
+    #[param(example = "cornell-box", min_length = 1)]
     id: String,
 }
 

@@ -10,6 +10,9 @@ use serde_json::{json, Value};
 
 use crate::common;
 
+mod node_trees;
+pub(crate) use node_trees::{forest, tree_glb};
+
 /// A glTF document under construction: one binary buffer, its views and accessors.
 #[derive(Default)]
 pub(crate) struct Doc {
@@ -549,19 +552,11 @@ fn hostile_gltf_files_are_refused_with_a_message() {
         &|doc, _| doc["accessors"][1]["componentType"] = json!(5126),
         "indices",
     );
-    // A node cycle (the crate's validation or our depth limit refuses it).
+    // A node cycle, shared subtrees: refused by the tree check (see `node_trees`).
     bad(
         &|doc, _| doc["nodes"][0]["children"] = json!([0]),
-        "no usable triangles",
+        "nodes[0] is its own child",
     );
-    bad(
-        &|doc, _| {
-            doc["nodes"][0]["children"] = json!([0]);
-            doc["scenes"] = json!([{"nodes": [0]}]);
-        },
-        "deeper than 256 levels",
-    );
-    // Shared subtrees that double at every level: 2^40 instances without a limit.
     bad(
         &|doc, _| {
             let mut nodes: Vec<Value> = (0..40)
@@ -572,7 +567,17 @@ fn hostile_gltf_files_are_refused_with_a_message() {
             doc["nodes"] = json!(nodes);
             doc["scenes"] = json!([{"nodes": [41, 0]}]);
         },
-        "more than 1000000 node instances",
+        "nodes[1] appears twice in the children of nodes[0]",
+    );
+    // A chain deeper than the depth limit.
+    bad(
+        &|doc, _| {
+            let mut nodes: Vec<Value> = (0..300).map(|k| json!({"children": [k + 1]})).collect();
+            nodes.push(json!({"name": "floor", "mesh": 0}));
+            doc["nodes"] = json!(nodes);
+            doc["scenes"] = json!([{"nodes": [0]}]);
+        },
+        "nodes[256]: the node tree is deeper than 256 levels",
     );
     // A transform that is not finite, a vertex a long way off.
     bad(

@@ -3,7 +3,8 @@
 //! What is read, and how it maps onto relight's scene:
 //! - **Geometry**: the default scene's node tree (the first scene if none is marked, every
 //!   root node if the file has no scene), each node's transform composed with its
-//!   parents'. Meshes referenced by several nodes are instanced once per node.
+//!   parents'. Meshes referenced by several nodes are instanced once per node; the nodes
+//!   themselves must form disjoint strict trees (checked first, in [`tree`]).
 //!   `TRIANGLES`, `TRIANGLE_STRIP` and `TRIANGLE_FAN` primitives are read; points and lines
 //!   are skipped with a warning. Units are metres (`units`/`scale` in `scene.toml` still
 //!   apply). A node with a negative-determinant transform has its triangles' winding
@@ -30,8 +31,11 @@
 //! `.glb`'s binary chunk); every accessor is bounds-checked against its buffer before it is
 //! read, so a hostile file is an error, never a panic. Counts are bounded by the OBJ limits
 //! ([`MAX_OBJ_VERTICES`], [`MAX_OBJ_TRIANGLES`]) over all instances, node trees by
-//! [`MAX_GLTF_DEPTH`] and [`MAX_GLTF_NODE_INSTANCES`].
+//! [`MAX_GLTF_DEPTH`](crate::limits::MAX_GLTF_DEPTH) and
+//! [`MAX_GLTF_NODE_INSTANCES`](crate::limits::MAX_GLTF_NODE_INSTANCES). A primitive's
+//! accessors are decoded once, at its mesh's first instance.
 
+use std::collections::hash_map::Entry;
 use std::collections::{HashMap, HashSet};
 use std::path::{Path, PathBuf};
 
@@ -45,13 +49,14 @@ use super::obj::ObjPart;
 use super::{mtl, texture, SceneError, SceneToml};
 use crate::color::Rgb;
 use crate::limits::{
-    MAX_COORD_M, MAX_EXITANCE, MAX_GLTF_BYTES, MAX_GLTF_DEPTH, MAX_GLTF_NODE_INSTANCES, MAX_KD,
-    MAX_LIGHT_GROUPS, MAX_OBJ_TRIANGLES, MAX_OBJ_VERTICES, MAX_TEXTURES, MAX_TEXTURE_BYTES,
+    MAX_COORD_M, MAX_EXITANCE, MAX_GLTF_BYTES, MAX_KD, MAX_LIGHT_GROUPS, MAX_OBJ_TRIANGLES,
+    MAX_OBJ_VERTICES, MAX_TEXTURES, MAX_TEXTURE_BYTES,
 };
 use crate::photometry::{Distribution, Luminaire};
 
 mod buffers;
 mod lights;
+mod tree;
 
 use buffers::{accessor_bytes, percent_decode, view_bytes};
 pub(crate) use lights::add_gltf_luminaires;
@@ -117,6 +122,9 @@ struct Reader<'a> {
 
 /// Raw buffer contents, one per glTF buffer, each exactly its declared length.
 type Buffers = Vec<Vec<u8>>;
+
+/// A primitive's positions (file units, untransformed) and triangles.
+type Triangles = (Vec<[f32; 3]>, Vec<[u32; 3]>);
 
 impl<'a> Reader<'a> {
     fn new(
@@ -350,18 +358,10 @@ impl<'a> Reader<'a> {
         mats: &[u32],
         out: &mut GltfModel,
     ) -> Result<(), SceneError> {
-        let roots: Vec<gltf::Node<'_>> = match doc.default_scene().or_else(|| doc.scenes().next()) {
-            Some(s) => s.nodes().collect(),
-            None => {
-                let children: HashSet<usize> = doc
-                    .nodes()
-                    .flat_map(|n| n.children().map(|c| c.index()).collect::<Vec<_>>())
-                    .collect();
-                doc.nodes()
-                    .filter(|n| !children.contains(&n.index()))
-                    .collect()
-            }
-        };
+        // The hierarchy is a forest of strict trees within the limits (checked in one
+        // pass, before any mesh is decoded), so every node below is visited once.
+        let roots = tree::roots(doc).map_err(|m| self.err(m))?;
+        let all: Vec<gltf::Node<'_>> = doc.nodes().collect();
         let mut surfaces = Unique::default();
         let mut lum_ids = Unique::default();
         let mut groups: HashMap<usize, String> = HashMap::new();
@@ -369,25 +369,14 @@ impl<'a> Reader<'a> {
         let mut counts = (0usize, 0usize);
         let mut skipped_modes = 0usize;
         let mut skipped_directional = 0usize;
-        let mut stack: Vec<(gltf::Node<'_>, DMat4, usize)> = roots
+        // Each primitive's accessors are decoded once, at its first instance, and reused.
+        let mut decoded: HashMap<(usize, usize), Option<Triangles>> = HashMap::new();
+        let mut stack: Vec<(gltf::Node<'_>, DMat4)> = roots
             .into_iter()
             .rev()
-            .map(|n| (n, DMat4::IDENTITY, 0))
+            .map(|i| (all[i].clone(), DMat4::IDENTITY))
             .collect();
-        let mut visited = 0usize;
-        while let Some((node, parent, depth)) = stack.pop() {
-            visited += 1;
-            if visited > MAX_GLTF_NODE_INSTANCES {
-                return Err(self.err(format!(
-                    "the node tree expands to more than {MAX_GLTF_NODE_INSTANCES} node instances"
-                )));
-            }
-            if depth >= MAX_GLTF_DEPTH {
-                return Err(self.err(format!(
-                    "nodes[{}]: the node tree is deeper than {MAX_GLTF_DEPTH} levels (a cycle?)",
-                    node.index()
-                )));
-            }
+        while let Some((node, parent)) = stack.pop() {
             let local = node.transform().matrix().map(|c| c.map(f64::from));
             let world = parent * DMat4::from_cols_array_2d(&local);
             if !world.is_finite() {
@@ -398,11 +387,14 @@ impl<'a> Reader<'a> {
                     format!("node{}", node.index())
                 });
                 for prim in mesh.primitives() {
-                    let Some(tris) = self.primitive(&prim, &mesh, buffers, &mut skipped_modes)?
-                    else {
+                    let tris = match decoded.entry((mesh.index(), prim.index())) {
+                        Entry::Occupied(e) => e.into_mut(),
+                        Entry::Vacant(e) => e.insert(self.primitive(&prim, &mesh, buffers)?),
+                    };
+                    let Some((positions, indices)) = tris else {
+                        skipped_modes += 1;
                         continue;
                     };
-                    let (positions, indices) = tris;
                     counts.0 += positions.len();
                     counts.1 += indices.len();
                     if counts.0 > MAX_OBJ_VERTICES || counts.1 > MAX_OBJ_TRIANGLES {
@@ -411,7 +403,7 @@ impl<'a> Reader<'a> {
                              triangles over all mesh instances"
                         )));
                     }
-                    let part = self.part(&name, &world, &positions, &indices, &prim, mats)?;
+                    let part = self.part(&name, &world, positions, indices, &prim, mats)?;
                     out.parts.push(part);
                 }
             }
@@ -428,7 +420,7 @@ impl<'a> Reader<'a> {
                 )?;
             }
             for c in node.children().collect::<Vec<_>>().into_iter().rev() {
-                stack.push((c, world, depth + 1));
+                stack.push((c, world));
             }
         }
         if skipped_modes > 0 {
@@ -450,14 +442,12 @@ impl<'a> Reader<'a> {
 
     /// The positions (file units, untransformed) and triangles of one primitive; None for
     /// primitives that are not triangles.
-    #[allow(clippy::type_complexity)]
     fn primitive(
         &self,
         prim: &gltf::Primitive<'_>,
         mesh: &gltf::Mesh<'_>,
         buffers: &Buffers,
-        skipped: &mut usize,
-    ) -> Result<Option<(Vec<[f32; 3]>, Vec<[u32; 3]>)>, SceneError> {
+    ) -> Result<Option<Triangles>, SceneError> {
         use gltf::mesh::Mode;
         let what = format!("meshes[{}].primitives[{}]", mesh.index(), prim.index());
         let mode = prim.mode();
@@ -465,7 +455,6 @@ impl<'a> Reader<'a> {
             mode,
             Mode::Triangles | Mode::TriangleStrip | Mode::TriangleFan
         ) {
-            *skipped += 1;
             return Ok(None);
         }
         let pos = prim
@@ -581,8 +570,12 @@ impl<'a> Reader<'a> {
 }
 
 /// Names made unique: the first use of a name keeps it, later ones get `-2`, `-3`, ….
+/// The next suffix to try is kept per name, so n uses of one name cost O(n), not O(n²).
 #[derive(Default)]
-struct Unique(HashSet<String>);
+struct Unique {
+    taken: HashSet<String>,
+    next: HashMap<String, usize>,
+}
 
 impl Unique {
     fn take(&mut self, name: Option<&str>, fallback: impl FnOnce() -> String) -> String {
@@ -590,14 +583,17 @@ impl Unique {
             Some(n) if !n.is_empty() => n.to_string(),
             _ => fallback(),
         };
-        let mut name = base.clone();
-        let mut k = 2;
-        while self.0.contains(&name) {
-            name = format!("{base}-{k}");
-            k += 1;
+        if self.taken.insert(base.clone()) {
+            return base;
         }
-        self.0.insert(name.clone());
-        name
+        let k = self.next.entry(base.clone()).or_insert(2);
+        loop {
+            let name = format!("{base}-{k}");
+            *k += 1;
+            if self.taken.insert(name.clone()) {
+                return name;
+            }
+        }
     }
 }
 

@@ -112,7 +112,7 @@ pub(super) fn points_schema() -> RefOr<Schema> {
 /// A list of names, each at most once.
 fn names(description: &str) -> RefOr<Schema> {
     raw(
-        json!({"type": "array", "items": {"type": "string"}, "uniqueItems": true,
+        json!({"type": "array", "items": {"type": "string", "minLength": 1}, "uniqueItems": true,
         "description": description}),
     )
 }
@@ -276,6 +276,7 @@ impl BatchRequest {
 #[derive(Debug, Deserialize, ToSchema)]
 #[serde(remote = "Self", deny_unknown_fields)]
 pub(crate) struct Target {
+    #[schema(min_length = 1)]
     grid: String,
     /// lx
     #[serde(default, deserialize_with = "some")]
@@ -310,7 +311,7 @@ fn targets_schema() -> RefOr<Schema> {
 
 fn groups_schema() -> RefOr<Schema> {
     raw(
-        json!({"type": "array", "minItems": 1, "uniqueItems": true, "items": {"type": "string"},
+        json!({"type": "array", "minItems": 1, "uniqueItems": true, "items": {"type": "string", "minLength": 1},
         "description": "Groups the optimizer may dim (default: all)."}),
     )
 }

@@ -62,6 +62,7 @@ impl DaylightRequest {
 #[serde(remote = "Self", deny_unknown_fields)]
 pub(crate) struct AnnualRequest {
     /// The name of an EPW file in the scene's folder, or the text of an EPW file.
+    #[schema(min_length = 1)]
     weather: String,
     /// Grid ids (default: every grid of the scene).
     #[serde(default)]
@@ -90,6 +91,11 @@ impl AnnualRequest {
     /// The grids and occupied hours, and where the weather comes from (a file name in the
     /// scene's folder, or EPW text), checked.
     pub(crate) fn parts(&self, ready: &Ready) -> Result<AnnualParts, AppError> {
+        if self.weather.trim().is_empty() {
+            return Err(AppError::Invalid(
+                "weather is empty: name an EPW file in the scene's folder, or send its text".into(),
+            ));
+        }
         ready.site()?;
         let grids = if self.grids.is_empty() {
             (0..ready.grids.len()).collect()

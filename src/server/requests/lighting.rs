@@ -115,6 +115,7 @@ impl PartialSchema for Lights {
     fn schema() -> RefOr<Schema> {
         raw(
             json!({"type": "object", "additionalProperties": schema_ref("LightSetting"),
+            "propertyNames": {"minLength": 1},
             "description": "Light group id → setting. Groups left out keep their defaults. Unknown groups are a 422."}),
         )
     }

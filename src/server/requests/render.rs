@@ -107,7 +107,7 @@ impl<'de> Deserialize<'de> for CameraSpec {
 impl PartialSchema for CameraSpec {
     fn schema() -> RefOr<Schema> {
         raw(json!({"oneOf": [
-            {"type": "string", "description": "Preset id from scene.toml."},
+            {"type": "string", "minLength": 1, "description": "Preset id from scene.toml."},
             {"type": "object", "required": ["position", "target", "fov_deg"], "additionalProperties": false,
              "description": "A full camera. The target must differ from the position, and up must not be parallel to the view direction.",
              "properties": {"position": schema_ref("Position"), "target": schema_ref("Position"),
@@ -458,6 +458,7 @@ fn camera(spec: Option<&CameraSpec>, ready: &Ready, w: u32, h: u32) -> Result<Ca
 #[allow(dead_code)]
 pub(crate) struct RenderQuery {
     /// Camera preset id from scene.toml (default: the first).
+    #[param(min_length = 1)]
     camera: Option<String>,
     /// Width, pixels.
     #[param(schema_with = side)]

@@ -1,6 +1,7 @@
 //! `Scene::load` on glTF files: a `.gltf` with materials, a texture, lights, a node tree
 //! and an embedded buffer, its JSON mutated (bytes, lines, numbers), and a `.glb` with
-//! random bytes flipped in its binary chunk.
+//! random bytes flipped in its binary chunk; and generated node trees with a child repeated,
+//! shared by two parents, listed as a root or hung below itself, always refused.
 
 use proptest::prelude::*;
 use relight::scene::Scene;
@@ -9,7 +10,7 @@ use serde_json::json;
 use super::mutate::{apply, op};
 use super::run;
 use crate::common;
-use crate::gltf_import::{glb, Doc};
+use crate::gltf_import::{forest, glb, Doc};
 
 /// A small lit room as a glTF document and its binary buffer.
 fn seed() -> (serde_json::Value, Vec<u8>) {
@@ -119,6 +120,37 @@ fn glb_binary_mutations_never_panic_and_name_the_file() {
                 b[at] = v;
             }
             check("m.glb", &b)
+        },
+    );
+}
+
+#[test]
+fn generated_node_trees_with_repeated_or_shared_children_are_refused_naming_the_node() {
+    let _gate = common::shared();
+    run(
+        "Scene::load (.glb node trees, one fault or none)",
+        400,
+        forest(),
+        |f| {
+            let dir = tempfile::tempdir().unwrap();
+            std::fs::write(dir.path().join("t.glb"), f.glb()).unwrap();
+            match (Scene::load(dir.path()), f.fault) {
+                (Ok(_), None) => Ok(true),
+                (Ok(_), Some(phrase)) => Err(TestCaseError::fail(format!(
+                    "accepted, wanted '{phrase}': {f:?}"
+                ))),
+                (Err(e), fault) => {
+                    let m = e.to_string();
+                    prop_assert!(fault.is_some(), "a strict forest is refused: {m} ({f:?})");
+                    let phrase = fault.unwrap_or_default();
+                    prop_assert!(
+                        m.contains("/t.glb: nodes[") || m.contains("/t.glb: scenes[0]"),
+                        "{m}"
+                    );
+                    prop_assert!(m.contains(phrase), "wanted '{phrase}': {m} ({f:?})");
+                    Ok(false)
+                }
+            }
         },
     );
 }

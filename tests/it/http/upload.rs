@@ -474,6 +474,41 @@ async fn hostile_archives_are_refused_and_leave_nothing_behind() {
     assert_eq!(s, StatusCode::NOT_FOUND);
 }
 
+#[tokio::test]
+async fn glb_uploads_whose_node_trees_repeat_or_share_children_are_refused_with_422() {
+    let _gate = common::shared();
+    use proptest::strategy::{Strategy, ValueTree};
+    let srv = server(Some(TOKEN), None);
+    // The finding: a child named ten times at each of eight levels (10⁸ instances).
+    let mut children: Vec<Vec<usize>> = (0..8).map(|k| vec![k + 1; 10]).collect();
+    children.push(Vec::new());
+    let body = crate::gltf_import::tree_glb(&children, Some(&[0]));
+    let (s, v) = srv.put("x", "model/gltf-binary", Some(TOKEN), body).await;
+    assert_eq!(s, StatusCode::UNPROCESSABLE_ENTITY, "{v}");
+    assert!(
+        problem(&v, "nodes[1] appears twice in the children of nodes[0]"),
+        "{v}"
+    );
+    // Generated trees with one fault each: a repeated or shared child, a root that is a
+    // child, a cycle.
+    let mut runner = proptest::test_runner::TestRunner::deterministic();
+    let mut faulty = 0;
+    while faulty < 24 {
+        let f = crate::gltf_import::forest()
+            .new_tree(&mut runner)
+            .unwrap()
+            .current();
+        let Some(phrase) = f.fault else { continue };
+        faulty += 1;
+        let (s, v) = srv
+            .put("x", "model/gltf-binary", Some(TOKEN), f.glb())
+            .await;
+        assert_eq!(s, StatusCode::UNPROCESSABLE_ENTITY, "{v} ({f:?})");
+        assert!(problem(&v, phrase) && problem(&v, "nodes["), "{v} ({f:?})");
+    }
+    assert_eq!(srv.clean(), ["own"]);
+}
+
 /// A zip bomb, built once per run (deflating a GiB takes a few seconds).
 fn bomb() -> Vec<u8> {
     static BOMB: std::sync::OnceLock<Vec<u8>> = std::sync::OnceLock::new();

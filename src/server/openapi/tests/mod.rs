@@ -9,6 +9,7 @@ use tower::ServiceExt;
 use super::*;
 use crate::server::{router, AppState, ServerConfig};
 
+mod contract;
 mod real_answers;
 
 fn refs<'a>(v: &'a Value, out: &mut Vec<&'a str>) {
