@@ -207,7 +207,8 @@ const SUN_FIT_PATCHES: usize = 9;
 /// Non-negative luminances `c_k` of the [`SUN_FIT_PATCHES`] sky patches nearest to the sun
 /// (unit scene direction `d`) whose direct light `Σ_k c_k D_k` best matches the sun's
 /// direct light `sun` (at 1 lx normal illuminance) on the patches, in the least squares
-/// of the reflected flux (weights area × ρ). Coordinate descent on the normal equations.
+/// of the reflected flux (weights area × ρ; coordinate descent on the normal equations),
+/// then scaled so that the flux they reflect first equals the sun's.
 fn fit_sun_spread(
     t: &crate::transport::transfer::Transfer,
     site: &Site,
@@ -263,7 +264,24 @@ fn fit_sun_spread(
             c[a] = (c[a] + (r[a] - gc) / gaa).max(0.0);
         }
     }
-    ks.into_iter().zip(c).filter(|(_, c)| *c > 0.0).collect()
+    // The fit matches the pattern; the reflected flux it carries is made exact.
+    let (mut want, mut got) = (0f64, 0f64);
+    for i in 0..t.n {
+        let w = t.area[i] as f64 * luminance(t.rho[i]) as f64;
+        let row = &s.direct[i * s.k..(i + 1) * s.k];
+        want += w * sun[i] as f64;
+        got += w * ks
+            .iter()
+            .zip(&c)
+            .map(|(&k, &ck)| ck * row[k] as f64)
+            .sum::<f64>();
+    }
+    let scale = if got > 0.0 { want / got } else { 0.0 };
+    ks.into_iter()
+        .zip(c)
+        .filter(|(_, c)| *c > 0.0)
+        .map(|(k, c)| (k, c * scale))
+        .collect()
 }
 
 impl GatherCache {

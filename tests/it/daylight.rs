@@ -757,3 +757,98 @@ fn glazing_options_are_checked() {
         .to_string();
     assert!(e.contains("glazing cannot emit"), "{e}");
 }
+
+/// Behind an exterior obstruction the sun lit the room anyway (+15 % to +28 % against
+/// Radiance): its interreflection was spread over the four sky patches nearest to it,
+/// and the room saw part of those above the facade that hid the sun itself. Here a facade
+/// above a roof light hides the sun (40° due south) from the whole room while the sky
+/// around it stays partly in view; with a black ground the sun must add nothing, in every
+/// transfer mode, to points and surfaces alike. In an open room the sun's interreflection
+/// agrees across the modes.
+#[test]
+fn the_sun_behind_a_facade_lit_the_room_through_its_neighbouring_sky_patches() {
+    let _gate = common::shared();
+    let toml = format!("{SITE}ground_reflectance = 0\n[mesh]\ntarget_patches = 800\n");
+    let open = roof_room("grey", (1.4, 2.6), (1.4, 2.6), &toml);
+    let hidden = roof_room("grey", (1.4, 2.6), (1.4, 2.6), &toml);
+    // South is +z here (the default north is -z). The facade's top is 43° above the
+    // opening's north edge, so the 40° sun is hidden and its 36°–48° sky band is not.
+    let facade = quad(
+        "facade",
+        "grey",
+        [[-3., 3., 3.], [7., 3., 3.], [7., 4.49, 3.], [-3., 4.49, 3.]],
+        [0., 0., -1.],
+    );
+    let obj = hidden.path().join("scene.obj");
+    let text = std::fs::read_to_string(&obj).unwrap() + &facade;
+    std::fs::write(&obj, text).unwrap();
+    let sun = |dni: f64| {
+        json!({"type": "cie_clear", "horizontal_illuminance": 15000,
+               "direct_normal_illuminance": dni, "sun": {"altitude": 40, "azimuth": 180}})
+    };
+    let pts = [
+        [2.0, 0.85, 2.0],
+        [1.0, 0.85, 0.5],
+        [3.0, 0.85, 3.5],
+        [0.5, 0.85, 3.5],
+    ];
+    let mut open_lux = vec![];
+    for mode in [
+        TransferMode::Factored,
+        TransferMode::Columns,
+        TransferMode::Hierarchical,
+    ] {
+        let m = model(&hidden, mode);
+        let floor = m.baked.scene.surface_index("floor").unwrap();
+        let ask_all = |sky: serde_json::Value| {
+            let spec: SkySpec = serde_json::from_value(sky).unwrap();
+            let state = spec.resolve(m.site().unwrap()).unwrap();
+            let q = IlluminanceQuery {
+                surfaces: vec![floor],
+                points: pts
+                    .iter()
+                    .map(|p| (DVec3::from_array(*p), DVec3::Y))
+                    .collect(),
+                ..Default::default()
+            };
+            m.daylight(&state, None, &q, &Cancel::default()).unwrap()
+        };
+        let (with, without) = (ask_all(sun(70000.0)), ask_all(sun(0.0)));
+        for (a, b) in with.points.iter().zip(&without.points) {
+            assert!(b.lux > 10.0);
+            assert!(
+                (a.lux / b.lux - 1.0).abs() < 1e-4,
+                "{mode:?}: {} lx with the sun, {} without",
+                a.lux,
+                b.lux
+            );
+        }
+        let (fa, fb) = (
+            with.surfaces["floor"].avg.lux,
+            without.surfaces["floor"].avg.lux,
+        );
+        assert!((fa / fb - 1.0).abs() < 1e-4, "{mode:?}: floor {fa} vs {fb}");
+        // Through the open roof light the sun adds much, alike in every mode.
+        let m = model(&open, mode);
+        let spec: SkySpec = serde_json::from_value(sun(70000.0)).unwrap();
+        let state = spec.resolve(m.site().unwrap()).unwrap();
+        let q = IlluminanceQuery {
+            points: pts
+                .iter()
+                .map(|p| (DVec3::from_array(*p), DVec3::Y))
+                .collect(),
+            ..Default::default()
+        };
+        let a = m.daylight(&state, None, &q, &Cancel::default()).unwrap();
+        println!(
+            "{mode:?}: open {:?}",
+            a.points.iter().map(|p| p.lux.round()).collect::<Vec<_>>()
+        );
+        open_lux.push(a.points.iter().map(|p| p.lux).collect::<Vec<_>>());
+    }
+    for (mode, lux) in ["columns", "hierarchical"].iter().zip(&open_lux[1..]) {
+        for (a, b) in lux.iter().zip(&open_lux[0]) {
+            assert!((a / b - 1.0).abs() < 0.02, "{mode}: {a} vs factored {b}");
+        }
+    }
+}
