@@ -106,3 +106,9 @@ pub const MAX_IES_BALLAST: f64 = 100.0;
 pub const MAX_ARCHIVE_ENTRIES: usize = 1_000;
 /// Most bytes an uploaded zip archive may unpack to, in all (1 GiB).
 pub const MAX_ARCHIVE_UNPACKED: u64 = 1 << 30;
+
+/// Most work of the per-patch emission states of one batch in hierarchical mode, in
+/// link sweeps of one colour column (3 per state × (links + 2 · nodes) × the sweeps the
+/// bake's own solve took; see `model::batch::hierarchy_sweep_work`). A batch predicted
+/// over it is refused before any work. MEASURED
+pub const MAX_EMISSION_SWEEP_WORK: u64 = 20_000_000_000;
