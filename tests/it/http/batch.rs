@@ -147,11 +147,9 @@ async fn hierarchical_batches_over_the_sweep_limit_are_refused_up_front() {
         let want = t.solve(&e).unwrap();
         let got = floats(&v["results"][k]["radiosity"]);
         let scale = want.b.iter().fold(0f32, |m, x| m.max(x.abs()));
-        for i in 0..3 * n {
-            assert!(
-                (got[i] - want.b[i]).abs() <= 1e-4 * scale,
-                "state {k}, B[{i}]"
-            );
+        assert_eq!(got.len(), 3 * n);
+        for (i, (g, w)) in got.iter().zip(&want.b).enumerate() {
+            assert!((g - w).abs() <= 1e-4 * scale, "state {k}, B[{i}]");
         }
     }
     // Just over the limit: refused before any work, naming the limit and what fits.
