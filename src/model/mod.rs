@@ -12,6 +12,8 @@
 //!   RGB weights, or a per-patch emission vector).
 //! - [`query`]: per-patch radiosity B (lm/m²) or illuminance H (lux), per-surface
 //!   statistics, illuminance at points and on grids, luminaire power.
+//! - [`batch`]: many states in one query, the emission states solved together (a
+//!   [`batch::BatchPlan`] checks the count and the hierarchical mode's cost first).
 //! - [`optimize`]: least-flux dimming levels under grid targets.
 //! - [`report`]: per-surface averages and the power balance.
 //! - [`sky`]: the grammar of a sky ([`sky::SkySpec`]) and a sky resolved for the site.
@@ -32,6 +34,7 @@ use crate::bake::Baked;
 use crate::color::luminance64;
 
 pub mod annual;
+pub mod batch;
 pub mod daylight;
 pub mod error;
 pub mod grid;

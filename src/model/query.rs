@@ -172,19 +172,26 @@ impl Model {
         match l {
             Lighting::Groups(w) => Ok(t.relight(w)),
             Lighting::Emission(e) => {
-                self.require_factored()?;
-                if e.len() != 3 * t.n {
-                    return Err(QueryError::Invalid(format!(
-                        "emission has {} entries; the scene has {} patches (one [r,g,b] per patch)",
-                        e.len() / 3,
-                        t.n
-                    )));
-                }
+                self.check_emission(e)?;
                 t.solve(e).ok_or_else(|| {
                     QueryError::Invalid("this scene's transfer cannot solve an emission".into())
                 })
             }
         }
+    }
+
+    /// Refuses an emission vector that this scene's transfer cannot solve or that is not
+    /// one RGB triple per patch.
+    pub fn check_emission(&self, e: &[f32]) -> Result<(), QueryError> {
+        self.require_factored()?;
+        let n = self.patches();
+        if e.len() != 3 * n {
+            return Err(QueryError::Invalid(format!(
+                "emission has {} entries; the scene has {n} patches (one [r,g,b] per patch)",
+                e.len() / 3,
+            )));
+        }
+        Ok(())
     }
 
     /// Per-patch B (lm/m²) or H (lux) for group weights: one weighted sum.

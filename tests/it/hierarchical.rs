@@ -211,6 +211,40 @@ fn hierarchical_solves_per_patch_emission_and_survives_the_cache() {
         assert!((relit.b[k] - solved.b[k]).abs() < 1e-5 * scale, "B at {k}");
         assert!((relit.h[k] - solved.h[k]).abs() < 1e-5 * scale, "H at {k}");
     }
+    // Single patches' emissions, swept together (a batch), equal their own solves; each
+    // converges within the sweeps of the bake's group solve, which is what the batch
+    // limit (`model::batch::hierarchy_sweep_work`) predicts from.
+    let t = &b.transfer;
+    let (n, hier) = (t.n, t.hierarchy.as_ref().unwrap());
+    let singles: Vec<Vec<f32>> = (0..8)
+        .map(|k| {
+            let mut e = vec![0f32; 3 * n];
+            let p = k * n / 8 + 3;
+            e[3 * p..3 * p + 3].copy_from_slice(&[1.0, 2.0, 0.5]);
+            e
+        })
+        .collect();
+    let refs: Vec<&[f32]> = singles.iter().map(|e| e.as_slice()).collect();
+    let together = t.solve_many(&refs).unwrap();
+    for (e, s) in singles.iter().zip(&together) {
+        let one = hier.solve(
+            &t.rho,
+            e,
+            3,
+            relight::transport::transfer::HIERARCHY_TOL,
+            relight::transport::transfer::HIERARCHY_MAX_SWEEPS,
+            &|_| {},
+        );
+        eprintln!(
+            "single-patch emission: {} sweeps (the bake's: {})",
+            one.sweeps, t.info.sweeps
+        );
+        assert!(one.sweeps <= t.info.sweeps, "{} sweeps", one.sweeps);
+        let scale = one.b.iter().fold(0f32, |m, x| m.max(x.abs()));
+        for k in 0..3 * n {
+            assert!((s.b[k] - one.b[k]).abs() <= 1e-5 * scale, "B at {k}");
+        }
+    }
 }
 
 #[test]

@@ -233,7 +233,8 @@ fn batch_grids() -> RefOr<Schema> {
     names("Grid ids: also return grid statistics for each state (light-group states only).")
 }
 
-/// Lighting states, answered one by one, and what to report for each.
+/// Lighting states, answered in order (per-patch emission states are solved together),
+/// and what to report for each.
 #[derive(Debug, Deserialize, ToSchema)]
 #[serde(remote = "Self", deny_unknown_fields)]
 pub(crate) struct BatchRequest {

@@ -77,45 +77,50 @@ pub(crate) async fn batch(
     let (grids, surfaces) = body.plan(&ready)?;
     let with_radiosity = body.radiosity;
     let states = &body.states;
-    // Memory: every emission state holds a per-patch vector; every answer holds its
-    // surfaces, grids and (when asked) radiosity, then as text.
+    // Refused here, in microseconds, when the transfer cannot solve the emission states
+    // or (hierarchical) they would take too long.
+    let emission_states = states.iter().filter(|s| s.is_emission()).count();
+    let plan = ready.plan_batch(states.len(), emission_states)?;
+    // Memory: the solves' working memory (a chunk of emission states at a time), and
+    // every answer's surfaces, grids and (when asked) radiosity, then as text.
     let n = ready.patches() as u64;
-    let emission_states = states.iter().filter(|s| s.is_emission()).count() as u64;
     let grid_points: u64 = grids.iter().map(|&g| ready.grids[g].len() as u64).sum();
     let per_state =
         400 * surfaces.len() as u64 + 48 * grid_points + if with_radiosity { 150 * n } else { 0 };
-    let bytes =
-        2 * states.len() as u64 * per_state + emission_states * 12 * n + BYTES_PER_PATCH_ANSWER * n;
+    let bytes = 2 * states.len() as u64 * per_state + plan.bytes + BYTES_PER_PATCH_ANSWER * n;
     let what = format!("a batch of {} states", states.len());
     let r = ready.clone();
     let results = state
         .heavy(bytes, &what, move |cancel| {
             let states = &body.states;
+            let at = |k: usize, e: AppError| AppError::Invalid(format!("states[{k}]: {e}"));
             let mut results = Vec::with_capacity(states.len());
-            for (k, s) in states.iter().enumerate() {
-                cancel.check()?;
-                let at = |e: AppError| AppError::Invalid(format!("states[{k}]: {e}"));
-                let l = s.lighting(&r).map_err(at)?;
-                let sol = r.solve(&l)?;
-                let radiosity = with_radiosity
-                    .then(|| bytemuck::cast_slice::<f32, [f32; 3]>(&sol.b).to_vec());
-                let grid_answers = if grids.is_empty() {
-                    None
-                } else {
-                    let Lighting::Groups(w) = l else {
-                        return Err(at(AppError::Invalid(
-                            "grids need light-group states (per-patch emission has no grid columns)".into(),
-                        )));
+            r.solve_each(
+                &plan,
+                |k| states[k].lighting(&r).map_err(|e| at(k, e)),
+                cancel,
+                |k, l, sol| {
+                    let radiosity = with_radiosity
+                        .then(|| bytemuck::cast_slice::<f32, [f32; 3]>(&sol.b).to_vec());
+                    let grid_answers = if grids.is_empty() {
+                        None
+                    } else {
+                        let Lighting::Groups(w) = l else {
+                            return Err(at(k, AppError::Invalid(
+                                "grids need light-group states (per-patch emission has no grid columns)".into(),
+                            )));
+                        };
+                        Some(r.grid_answers(&grids, &w))
                     };
-                    Some(r.grid_answers(&grids, &w))
-                };
-                results.push(BatchResult {
-                    surfaces: r.surface_stats(&surfaces, &sol.h),
-                    power: PowerReport::new(r.baked.transfer.power(&sol)),
-                    radiosity,
-                    grids: grid_answers,
-                });
-            }
+                    results.push(BatchResult {
+                        surfaces: r.surface_stats(&surfaces, &sol.h),
+                        power: PowerReport::new(r.baked.transfer.power(&sol)),
+                        radiosity,
+                        grids: grid_answers,
+                    });
+                    Ok(())
+                },
+            )?;
             Ok(results)
         })
         .await?;

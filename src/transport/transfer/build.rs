@@ -2,6 +2,7 @@
 //! (factored: LU per reflectance channel with one step of refinement; columns: Jacobi) or
 //! the sweeps over the links (hierarchical).
 
+use faer::prelude::{Reborrow, ReborrowMut};
 use faer::Mat;
 
 use super::*;
@@ -98,7 +99,7 @@ fn source_matrix(
 }
 
 /// One LU of `(I − ρF)ᵀ` per distinct reflectance channel, and each channel's LU index.
-fn factor_channels(
+pub(super) fn factor_channels(
     f: &[f32],
     rho_ch: &[Vec<f32>; 3],
     n: usize,
@@ -370,27 +371,30 @@ pub fn solve_refined(
     x
 }
 
-/// Solves in place; column k is solved with the factorization of channel k % 3.
+/// Solves in place; column k is solved with the factorization of channel k % 3. The
+/// columns of each distinct factorization are solved together (one multi-right-hand-side
+/// solve), in place when one factorization serves every column.
 pub(super) fn solve_cols(lus: &[ChannelLu], channel_lu: [u8; 3], mut x: faer::MatMut<'_, f32>) {
-    let k = x.ncols();
-    let n = x.nrows();
-    for c in 0..3 {
-        let cols: Vec<usize> = (c..k).step_by(3).collect();
+    let (n, k) = (x.nrows(), x.ncols());
+    for (u, lu) in lus.iter().enumerate() {
+        let cols: Vec<usize> = (0..k)
+            .filter(|&j| channel_lu[j % 3] as usize == u)
+            .collect();
         if cols.is_empty() {
             continue;
         }
-        // Gather the channel's columns, solve them together, scatter back.
-        let mut m = Mat::<f32>::zeros(n, cols.len());
-        for (a, &col) in cols.iter().enumerate() {
-            for i in 0..n {
-                m[(i, a)] = x[(i, col)];
-            }
+        if cols.len() == k {
+            lu.solve_in_place(x.rb_mut());
+            continue;
         }
-        lus[channel_lu[c] as usize].solve_in_place(m.as_mut());
-        for (a, &col) in cols.iter().enumerate() {
-            for i in 0..n {
-                x[(i, col)] = m[(i, a)];
-            }
+        // Gather the factorization's columns, solve them together, scatter back.
+        let mut m = Mat::<f32>::zeros(n, cols.len());
+        for (a, &j) in cols.iter().enumerate() {
+            m.as_mut().col_mut(a).copy_from(x.rb().col(j));
+        }
+        lu.solve_in_place(m.as_mut());
+        for (a, &j) in cols.iter().enumerate() {
+            x.rb_mut().col_mut(j).copy_from(m.col(a));
         }
     }
 }

@@ -1,6 +1,7 @@
 //! The HTTP API through `oneshot`, checked against the library: shared state and helpers.
 
 mod annual;
+mod batch;
 mod daylight;
 mod export;
 mod illuminance;

@@ -206,9 +206,18 @@ async fn columns_mode_refuses_per_patch_emission() {
     let s = AppState::new(config(dir.path().into(), dir.path().join("cache"))).unwrap();
     s.bake_all();
     let (st, _, v) = post(
-        router(s),
+        router(s.clone()),
         "/api/scenes/room/radiosity",
         r#"{"emission": {"0": [1, 1, 1]}}"#,
+    )
+    .await;
+    assert_eq!(st, StatusCode::UNPROCESSABLE_ENTITY);
+    assert!(v["detail"].as_str().unwrap().contains("factored"), "{v}");
+    // A batch with an emission state among group states, too, before any work.
+    let (st, _, v) = post(
+        router(s),
+        "/api/scenes/room/batch",
+        r#"{"states": [{"lights": {}}, {"emission": {"0": [1, 1, 1]}}]}"#,
     )
     .await;
     assert_eq!(st, StatusCode::UNPROCESSABLE_ENTITY);
