@@ -236,18 +236,20 @@ fn fit_sun_spread(
     let m = ks.len();
     let mut g = vec![0f64; m * m];
     let mut r = vec![0f64; m];
-    for i in 0..t.n {
-        let w = t.area[i] as f64 * luminance(t.rho[i]) as f64;
+    // Reflected-flux weight and sky-patch row of every patch.
+    let weight = |i: usize| t.area[i] as f64 * luminance(t.rho[i]) as f64;
+    let rows = s.direct.chunks_exact(s.k);
+    for (i, (row, &si)) in rows.clone().zip(sun).enumerate() {
+        let w = weight(i);
         if w <= 0.0 {
             continue;
         }
-        let row = &s.direct[i * s.k..(i + 1) * s.k];
         for a in 0..m {
             let da = row[ks[a]] as f64;
             if da == 0.0 {
                 continue;
             }
-            r[a] += w * da * sun[i] as f64;
+            r[a] += w * da * si as f64;
             for b in 0..m {
                 g[a * m + b] += w * da * row[ks[b]] as f64;
             }
@@ -266,10 +268,9 @@ fn fit_sun_spread(
     }
     // The fit matches the pattern; the reflected flux it carries is made exact.
     let (mut want, mut got) = (0f64, 0f64);
-    for i in 0..t.n {
-        let w = t.area[i] as f64 * luminance(t.rho[i]) as f64;
-        let row = &s.direct[i * s.k..(i + 1) * s.k];
-        want += w * sun[i] as f64;
+    for (i, (row, &si)) in rows.zip(sun).enumerate() {
+        let w = weight(i);
+        want += w * si as f64;
         got += w * ks
             .iter()
             .zip(&c)
