@@ -144,7 +144,7 @@ surrounding = 0
         let in_band = p[0] > 3.0 && p[0] < 5.5 && p[2] > 1.0 && p[2] < 3.0;
         assert!(!in_task && in_band, "{p:?}");
     }
-    // Background 6 × 4 m less 0.5 m along the walls: 5 × 3 m, d = 5 m, p = 0.617 m, 9 cells
+    // Background 6 × 4 m less 0.5 m along the walls: 5 × 3 m, d = 5 m, p = 0.616 m, 9 cells
     // of 0.556 m; the 3 m side 6 cells.
     let b = grid("room");
     assert_eq!(

@@ -208,12 +208,19 @@ fn the_validator_refuses_what_the_schemas_refuse() {
     let stats = json!({"$ref": "#/components/schemas/GridStats"});
     let grid = |unit: &str, layout: Value| {
         json!({"name": "g", "unit": unit, "count": 1, "layout": layout, "avg": 1, "min": 1,
-               "max": 1, "u0": 1, "min_max": 1, "values": [1]})
+               "max": 1, "u0": 1, "min_max": 1, "values": [1, null], "excluded": 1,
+               "kind": "task", "spacing": 0.2})
     };
     assert!(validate(&doc, &stats, &grid("lx", json!([1, 1])), "").is_ok());
     assert!(validate(&doc, &stats, &grid("lx", Value::Null), "").is_ok());
     assert!(validate(&doc, &stats, &grid("lm", Value::Null), "").is_err());
     assert!(validate(&doc, &stats, &grid("lx", json!([1])), "").is_err());
+    let mut unzoned = grid("lx", Value::Null);
+    unzoned["kind"] = Value::Null;
+    unzoned["spacing"] = Value::Null;
+    assert!(validate(&doc, &stats, &unzoned, "").is_ok());
+    unzoned["kind"] = json!("roof");
+    assert!(validate(&doc, &stats, &unzoned, "").is_err(), "an unknown zone");
 }
 
 /// Every object an answer reaches lists all its keys.
