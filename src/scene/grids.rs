@@ -164,7 +164,7 @@ fn grid_points(g: &GridToml, scale: f64, floor: f64) -> Result<Grids, String> {
         }
         _ => {
             return Err(
-                "give one of points = [[x, y, z], ...], min = [x, z] and max = [x, z], \
+                "give either points = [[x, y, z], ...], min = [x, z] and max = [x, z], \
                  or area = [[x, z], ...] (with height, spacing or kind)"
                     .into(),
             )

@@ -220,7 +220,10 @@ fn the_validator_refuses_what_the_schemas_refuse() {
     unzoned["spacing"] = Value::Null;
     assert!(validate(&doc, &stats, &unzoned, "").is_ok());
     unzoned["kind"] = json!("roof");
-    assert!(validate(&doc, &stats, &unzoned, "").is_err(), "an unknown zone");
+    assert!(
+        validate(&doc, &stats, &unzoned, "").is_err(),
+        "an unknown zone"
+    );
 }
 
 /// Every object an answer reaches lists all its keys.
