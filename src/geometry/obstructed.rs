@@ -27,7 +27,7 @@ pub const OBSTRUCTED_SHARE: f64 = 0.5;
 /// under a surface at close range, by the rule of this module.
 pub fn is_obstructed(scene: &Scene, bvh: &Bvh, x: DVec3, n: DVec3) -> bool {
     let side = (OBSTRUCTION_RAYS as f64).sqrt() as usize;
-    let (t, b) = frame(n);
+    let (t, b) = super::frame(n);
     let o = x + n * (1e-6 * (1.0 + x.abs().max_element()));
     let from = Vec3A::from(o.as_vec3());
     let mut blocked = 0usize;
@@ -51,14 +51,4 @@ pub fn is_obstructed(scene: &Scene, bvh: &Bvh, x: DVec3, n: DVec3) -> bool {
         }
     }
     blocked as f64 >= OBSTRUCTED_SHARE * (side * side) as f64
-}
-
-/// An orthonormal pair perpendicular to unit `n`.
-fn frame(n: DVec3) -> (DVec3, DVec3) {
-    let t = if n.x.abs() < 0.9 {
-        DVec3::X.cross(n).normalize()
-    } else {
-        DVec3::Y.cross(n).normalize()
-    };
-    (t, n.cross(t))
 }

@@ -44,6 +44,7 @@ pub mod optimize;
 pub mod query;
 pub mod report;
 pub mod sky;
+pub mod sun;
 
 pub use error::QueryError;
 pub use lighting::{LightSetting, LightState, Lighting};

@@ -22,6 +22,7 @@ use rayon::prelude::*;
 use crate::daylight::tregenza::Subdivision;
 use crate::daylight::Site;
 use crate::geometry::bvh::Bvh;
+use crate::geometry::frame;
 use crate::geometry::glazing::Glazing;
 use crate::geometry::mesh::Mesh;
 
@@ -58,16 +59,6 @@ impl Reach {
                 + 4.0 * lo.abs().max(hi.abs()).max_element(),
         )
     }
-}
-
-/// An orthonormal frame (t, b, n) around unit `n`.
-fn frame(n: DVec3) -> (DVec3, DVec3) {
-    let t = if n.x.abs() < 0.9 {
-        DVec3::X.cross(n).normalize()
-    } else {
-        DVec3::Y.cross(n).normalize()
-    };
-    (t, n.cross(t))
 }
 
 /// The concentric (Shirley–Chiu) map of the unit square onto the unit disk, lifted to the
