@@ -231,7 +231,7 @@ fn office_floor(cache: &std::path::Path) {
 fn daylight() {
     use relight::model::annual::AnnualQuery;
     use relight::model::query::IlluminanceQuery;
-    use relight::model::sky::SkySpec;
+    use relight::model::sky_state::SkySpec;
     use relight::model::Cancel;
     // A copy of the office with a 1,000-point grid beside its own.
     let dir = tempfile::tempdir().unwrap();
@@ -259,7 +259,7 @@ fn daylight() {
     let m = Model::new(baked);
     let site = m.site().unwrap().clone();
     let cancel = Cancel::default();
-    let sky = |k: usize, kind: &str| -> relight::model::sky::SkyState {
+    let sky = |k: usize, kind: &str| -> relight::model::sky_state::SkyState {
         let h = 5000.0 + 500.0 * (k % 20) as f64;
         let v = match kind {
             "clear, new sun position" => serde_json::json!({"type": "cie_clear",

@@ -13,7 +13,7 @@ pub mod budget;
 pub mod color;
 pub mod daylight;
 pub mod geometry;
-pub mod limits;
+pub mod input_limits;
 pub mod model;
 pub mod photometry;
 pub mod render;

@@ -114,7 +114,7 @@ pub fn estimate_load_bytes(
 pub fn solved_columns(scene: &Scene) -> usize {
     scene.lights.len()
         + if scene.site.is_some() {
-            crate::transport::sky::subdivision().patches.len()
+            crate::transport::sky_view::subdivision().patches.len()
         } else {
             0
         }

@@ -458,12 +458,14 @@ fn sky_direct(
 ) -> Option<crate::transport::transfer::SkyDirect> {
     let glazing = scene_glazing(scene);
     let site = scene.site.as_ref()?;
-    let sub = crate::transport::sky::subdivision();
+    let sub = crate::transport::sky_view::subdivision();
     let (lo, hi) = scene.bounds();
-    let reach = crate::transport::sky::Reach::new(lo, hi);
+    let reach = crate::transport::sky_view::Reach::new(lo, hi);
     Some(crate::transport::transfer::SkyDirect {
         k: sub.patches.len(),
-        direct: crate::transport::sky::patch_sky_direct(mesh, bvh, &glazing, site, &sub, reach),
+        direct: crate::transport::sky_view::patch_sky_direct(
+            mesh, bvh, &glazing, site, &sub, reach,
+        ),
     })
 }
 

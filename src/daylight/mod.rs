@@ -9,7 +9,7 @@
 
 pub mod epw;
 pub mod perez;
-pub mod sky;
+pub mod sky_luminance;
 pub mod sun;
 pub mod tregenza;
 

@@ -41,7 +41,7 @@ use crate::daylight::epw::{self, Weather};
 use crate::daylight::sun::{self, LocalTime};
 use crate::daylight::tregenza::Subdivision;
 use crate::daylight::{perez, Site};
-use crate::transport::sky;
+use crate::transport::sky_view;
 
 /// Most grid points one annual request may ask for (its hourly values take
 /// 35 kB each).
@@ -211,12 +211,12 @@ fn hour_skies(w: &Weather, north: DVec3, ground: f64, sub: &Subdivision) -> Vec<
                 / std::f64::consts::PI) as f32;
             let mut sun = None;
             if direct > 0.0 {
-                let s = crate::daylight::sky::Sun {
+                let s = crate::daylight::sky_luminance::Sun {
                     altitude: alt,
                     azimuth: az,
                     normal_illuminance: direct,
                 };
-                for (p, l) in super::sky::sun_patches(&s, sub) {
+                for (p, l) in super::sky_state::sun_patches(&s, sub) {
                     vector[k + p] += l as f32;
                 }
                 sun = Some((site.direction(p.altitude_deg, p.azimuth_deg), direct));
@@ -333,7 +333,7 @@ impl Model {
                 "the grids have {total} points; an annual request may ask for at most {MAX_ANNUAL_POINTS}"
             )));
         }
-        let sub = sky::subdivision();
+        let sub = sky_view::subdivision();
         let k = sub.patches.len();
         let w = &q.weather;
         let t0 = std::time::Instant::now();
@@ -388,7 +388,7 @@ impl Model {
                     }
                     let mut out = vec![0f32; hours];
                     for &(h, d, en) in &sun_hours {
-                        out[h] = sky::point_sun_direct(
+                        out[h] = sky_view::point_sun_direct(
                             &self.baked.bvh,
                             &self.baked.glazing,
                             x,

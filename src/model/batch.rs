@@ -9,7 +9,7 @@
 //! memory, so a server can reserve it before any work starts.
 
 use super::{Cancel, Lighting, Model, QueryError};
-use crate::limits::MAX_EMISSION_SWEEP_WORK;
+use crate::input_limits::MAX_EMISSION_SWEEP_WORK;
 use crate::transport::transfer::{
     Solution, Transfer, TransferMode, HIERARCHY_MAX_SWEEPS, HIERARCHY_TOL, SOLVE_BYTES_PER_STATE,
     SOLVE_CHUNK,

@@ -26,14 +26,14 @@ use serde::Serialize;
 use super::grid::{self, GridStats};
 use super::query::{GridAnswer, IlluminanceQuery};
 use super::report::SurfaceIlluminance;
-use super::sky::{SkyState, SunPosition};
+use super::sky_state::{SkyState, SunPosition};
 use super::sun::{fit_sun_spread, SunOnPatches};
 use super::{Cancel, Model, QueryError};
 use crate::color::{luminance64, Rgb};
-use crate::daylight::sky::Sky;
+use crate::daylight::sky_luminance::Sky;
 use crate::daylight::Site;
 use crate::transport::probe::gather_weights;
-use crate::transport::sky::{self, Reach, SkyView};
+use crate::transport::sky_view::{self, Reach, SkyView};
 use crate::transport::transfer::{weighted_sum, SkyColumns};
 
 /// Fewest and most bytes the point-gather cache of one scene holds; in between, room for
@@ -480,7 +480,7 @@ impl Model {
             return v;
         }
         drop(suns);
-        let direct = sky::patch_sun_direct(
+        let direct = sky_view::patch_sun_direct(
             &self.baked.mesh,
             &self.baked.bvh,
             &self.baked.glazing,
@@ -533,7 +533,7 @@ impl Model {
     /// A sky's daylight on every patch.
     pub fn patch_daylight(&self, sky: &SkyState) -> Result<PatchDaylight, QueryError> {
         let site = self.site()?;
-        let sub = sky::subdivision();
+        let sub = sky_view::subdivision();
         let l = sky.patch_luminances(&sub);
         let sun = self.sun_light(sky, site);
         Ok(self.sky_patches(&l, &sun, true))
@@ -543,7 +543,7 @@ impl Model {
     /// stays): what an image shows on its patches while the sun is traced per pixel.
     pub fn patch_daylight_without_sun(&self, sky: &SkyState) -> Result<PatchDaylight, QueryError> {
         let site = self.site()?;
-        let sub = sky::subdivision();
+        let sub = sky_view::subdivision();
         let l = sky.patch_luminances(&sub);
         let sun = self.sun_light(sky, site);
         Ok(self.sky_patches(&l, &sun, false))
@@ -574,7 +574,7 @@ impl Model {
         let t = &self.baked.transfer;
         let cols = t.sky.as_ref().expect("site() checks the sky responses");
         let n = t.n;
-        let sub = sky::subdivision();
+        let sub = sky_view::subdivision();
         let l = sky.patch_luminances(&sub);
         let sun_light = self.sun_light(sky, site);
         let spread = &sun_light.spread;
@@ -610,7 +610,7 @@ impl Model {
             }
             let mut direct = g.direct_sky(sky, site);
             if let Some((s, en)) = sun {
-                direct += sky::point_sun_direct(
+                direct += sky_view::point_sun_direct(
                     &self.baked.bvh,
                     &self.baked.glazing,
                     x,

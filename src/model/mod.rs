@@ -16,7 +16,7 @@
 //!   [`batch::BatchPlan`] checks the count and the hierarchical mode's cost first).
 //! - [`optimize`]: least-flux dimming levels under grid targets.
 //! - [`report`]: per-surface averages and the power balance.
-//! - [`sky`]: the grammar of a sky ([`sky::SkySpec`]) and a sky resolved for the site.
+//! - [`sky_state`]: the grammar of a sky ([`sky_state::SkySpec`]) and a sky resolved for the site.
 //! - [`daylight`]: daylight on surfaces, points and grids, and the point-gather cache.
 //! - [`annual`]: climate-based metrics over a year of weather (sDA, ASE, UDI, EN 17037).
 //! - [`info`]: what the scene is made of (units, bounds, luminaires, grids, surfaces,
@@ -43,7 +43,7 @@ pub mod lighting;
 pub mod optimize;
 pub mod query;
 pub mod report;
-pub mod sky;
+pub mod sky_state;
 pub mod sun;
 
 pub use error::QueryError;

@@ -1,12 +1,12 @@
 //! The sun's light on every patch for one sun direction: its direct light by shadow rays
-//! ([`crate::transport::sky::patch_sun_direct`]) and its interreflection, solved through
+//! ([`crate::transport::sky_view::patch_sun_direct`]) and its interreflection, solved through
 //! the transfer or, in columns mode, carried by fitted sky patches around it.
 
 use glam::DVec3;
 
 use crate::color::luminance;
 use crate::daylight::Site;
-use crate::transport::sky;
+use crate::transport::sky_view;
 
 /// The sun's light on every patch at a normal illuminance of 1 lx.
 pub struct SunOnPatches {
@@ -43,7 +43,7 @@ pub(super) fn fit_sun_spread(
     let Some(s) = t.sky.as_ref() else {
         return vec![];
     };
-    let sub = sky::subdivision();
+    let sub = sky_view::subdivision();
     let (alt, az) = site.sky_position(d);
     let (alt, az) = (alt.to_radians(), az.to_radians());
     let dir = |a: f64, z: f64| DVec3::new(a.cos() * z.sin(), a.cos() * z.cos(), a.sin());

@@ -10,8 +10,8 @@
 //!
 //! Angles are in degrees, intensities in candela (cd), flux in lumens (lm), power in watts.
 
-use crate::limits::*;
-use crate::scene::{num, SceneError};
+use super::PhotometryError;
+use crate::input_limits::*;
 
 /// Photometric type of an IES file.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -38,21 +38,24 @@ pub struct IesData {
 }
 
 /// Parses the text of an IES LM-63 file; `path` is the display name errors use. Every
-/// rejection is a [`SceneError::Syntax`] naming the line (or [`SceneError::Invalid`] when no
-/// line applies). Counts and values are bounded by [`crate::limits`] before anything is
+/// rejection is a [`PhotometryError::Syntax`] naming the line (or [`PhotometryError::Invalid`]
+/// when no line applies). Counts and values are bounded by [`crate::input_limits`] before anything is
 /// allocated for them.
-pub fn parse_ies(path: &str, text: &str) -> Result<IesData, SceneError> {
+pub fn parse_ies(path: &str, text: &str) -> Result<IesData, PhotometryError> {
     parse_ies_file(std::path::Path::new(path), text)
 }
 
-pub(crate) fn parse_ies_file(path: &std::path::Path, text: &str) -> Result<IesData, SceneError> {
+pub(crate) fn parse_ies_file(
+    path: &std::path::Path,
+    text: &str,
+) -> Result<IesData, PhotometryError> {
     IesData::parse_lines(text).map_err(|(line, message)| match line {
-        Some(line) => SceneError::Syntax {
+        Some(line) => PhotometryError::Syntax {
             path: path.to_path_buf(),
             line,
             message,
         },
-        None => SceneError::Invalid {
+        None => PhotometryError::Invalid {
             path: path.to_path_buf(),
             message,
         },

@@ -24,6 +24,23 @@ pub use distribution::Distribution;
 pub(crate) use ies::parse_ies_file;
 pub use ies::{parse_ies, IesData, PhotometricType};
 
+/// A photometric file that cannot be read: the file (as the caller names it) and, where one
+/// applies, its 1-based line.
+#[derive(Debug, thiserror::Error)]
+pub enum PhotometryError {
+    #[error("{path}:{line}: {message}")]
+    Syntax {
+        path: std::path::PathBuf,
+        line: usize,
+        message: String,
+    },
+    #[error("{path}: {message}")]
+    Invalid {
+        path: std::path::PathBuf,
+        message: String,
+    },
+}
+
 /// A point luminaire, in metres.
 #[derive(Debug, Clone)]
 pub struct Luminaire {

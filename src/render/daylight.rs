@@ -46,10 +46,10 @@ pub fn daylight_pixels(
     let tan = (cam.fov_deg as f64).to_radians() * 0.5;
     let tan = tan.tan();
     let aspect = w as f64 / h as f64;
-    let sun_radius_cos = (crate::daylight::sky::SUN_DIAMETER_DEG / 2.0)
+    let sun_radius_cos = (crate::daylight::sky_luminance::SUN_DIAMETER_DEG / 2.0)
         .to_radians()
         .cos();
-    let disc = crate::daylight::sky::Sun::solid_angle();
+    let disc = crate::daylight::sky_luminance::Sun::solid_angle();
     let rows: Vec<(Vec<Rgb>, Vec<Rgb>)> = (0..h)
         .into_par_iter()
         .map(|y| {

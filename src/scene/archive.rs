@@ -15,7 +15,7 @@
 use std::io::{Read, Seek, SeekFrom};
 use std::path::{Path, PathBuf};
 
-use crate::limits::{MAX_ARCHIVE_ENTRIES, MAX_ARCHIVE_UNPACKED};
+use crate::input_limits::{MAX_ARCHIVE_ENTRIES, MAX_ARCHIVE_UNPACKED};
 
 /// Deepest folder nesting inside an archive.
 const MAX_DEPTH: usize = 16;

@@ -5,7 +5,7 @@
 //!   after canonicalization with symlinks followed, to a path inside the scene folder.
 //! - Only regular files are read. A FIFO, a device or a directory is refused from its
 //!   metadata, taken from the opened handle (opened non-blocking, so a FIFO never blocks).
-//! - Each kind of file has a size limit ([`crate::limits`]); reads stop at limit + 1 bytes,
+//! - Each kind of file has a size limit ([`crate::input_limits`]); reads stop at limit + 1 bytes,
 //!   so a file that grows while it is read is refused too.
 //! - Error messages name files relative to the scene folder, prefixed by the scene id
 //!   (`office/office.mtl:12: …`): no absolute server path leaks into an HTTP answer.

@@ -18,7 +18,7 @@ use serde::{Deserialize, Serialize};
 use super::toml::GridToml;
 use super::triangles::Triangle;
 use super::{SceneError, SceneToml};
-use crate::limits::MAX_GRID_POINTS;
+use crate::input_limits::MAX_GRID_POINTS;
 
 /// The zones of EN 12464-1 a grid can stand for.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]

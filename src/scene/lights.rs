@@ -14,7 +14,7 @@ use super::toml::LightToml;
 use super::triangles::{is_two_sided, Surface, Triangle};
 use super::{SceneError, SceneToml};
 use crate::color::{luminance, Rgb};
-use crate::limits::MAX_LIGHT_GROUPS;
+use crate::input_limits::MAX_LIGHT_GROUPS;
 
 /// A light group: emitters switched and dimmed together.
 #[derive(Debug, Clone, Serialize)]

@@ -14,7 +14,7 @@ use super::lights::LightGroup;
 use super::toml::LuminaireToml;
 use super::{SceneError, SceneToml};
 use crate::color::Rgb;
-use crate::limits::{MAX_CCT, MAX_TEXT_BYTES, MIN_CCT};
+use crate::input_limits::{MAX_CCT, MAX_TEXT_BYTES, MIN_CCT};
 use crate::photometry::{cct_to_rgb, parse_ies_file, Distribution, IesData, Luminaire};
 
 /// `scene.toml` as luminaires see it: to resolve `ies` references with their line.

@@ -14,7 +14,7 @@ use super::files::{self, SceneDir};
 use super::obj::ObjScan;
 use super::{mtl, texture, SceneError, SceneToml};
 use crate::color::Rgb;
-use crate::limits::{MAX_MATERIALS, MAX_TEXTURES, MAX_TEXTURE_BYTES, MAX_TEXT_BYTES};
+use crate::input_limits::{MAX_MATERIALS, MAX_TEXTURES, MAX_TEXTURE_BYTES, MAX_TEXT_BYTES};
 
 /// A material after validation.
 #[derive(Debug, Clone, Serialize)]

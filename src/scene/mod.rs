@@ -8,7 +8,7 @@
 //!
 //! Safety of input: every referenced file must resolve inside the scene folder and be a
 //! regular file within a size limit ([`files`]); every number is range-checked in the type
-//! it is computed in, against the bounds of [`crate::limits`]. Error messages name files
+//! it is computed in, against the bounds of [`crate::input_limits`]. Error messages name files
 //! as `<scene id>/<path in the folder>`, never by their absolute path.
 //!
 //! Loading runs in named steps, each in its own module: `scene.toml` ([`SceneToml`]), the
@@ -36,7 +36,6 @@ use std::path::{Path, PathBuf};
 use glam::DVec3;
 use serde::Serialize;
 
-pub(crate) use self::toml::num;
 pub use self::toml::{parse_scene_toml, SceneToml, TransferChoice};
 pub use cameras::CameraDef;
 pub(crate) use files::read_regular_file;
@@ -48,7 +47,7 @@ pub use obj::{parse_obj_str, ObjPart, ObjScan};
 pub(crate) use triangles::is_two_sided;
 pub use triangles::{Pane, Surface, Triangle};
 
-use crate::limits::MAX_OBJ_BYTES;
+use crate::input_limits::MAX_OBJ_BYTES;
 use materials::MaterialTable;
 use triangles::Geometry;
 
@@ -111,6 +110,24 @@ pub enum SceneError {
     Invalid { path: PathBuf, message: String },
     #[error("{0}: the scene has no usable triangles")]
     Empty(PathBuf),
+}
+
+impl From<crate::photometry::PhotometryError> for SceneError {
+    fn from(e: crate::photometry::PhotometryError) -> Self {
+        use crate::photometry::PhotometryError as P;
+        match e {
+            P::Syntax {
+                path,
+                line,
+                message,
+            } => SceneError::Syntax {
+                path,
+                line,
+                message,
+            },
+            P::Invalid { path, message } => SceneError::Invalid { path, message },
+        }
+    }
 }
 
 /// How finely to mesh, resolved to metres.

@@ -24,7 +24,7 @@ use std::str::SplitWhitespace;
 
 use super::SceneError;
 use crate::color::Rgb;
-use crate::limits::{MAX_EXITANCE, MAX_KD, MAX_MATERIALS};
+use crate::input_limits::{MAX_EXITANCE, MAX_KD, MAX_MATERIALS};
 
 /// One material as written in an MTL file.
 #[derive(Debug, Clone, PartialEq)]

@@ -22,7 +22,7 @@ use std::path::Path;
 
 use super::polygon;
 use super::SceneError;
-use crate::limits::{
+use crate::input_limits::{
     MAX_COORD_M, MAX_EAR_CLIP_WORK, MAX_MTLLIBS, MAX_OBJ_TRIANGLES, MAX_OBJ_VERTICES,
 };
 

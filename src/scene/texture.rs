@@ -7,7 +7,7 @@
 //! reflectance per patch; the mean is the texture's reflectance as seen from afar.
 
 use crate::color::Rgb;
-use crate::limits::{MAX_TEXTURE_PIXELS, MAX_TEXTURE_SIDE};
+use crate::input_limits::{MAX_TEXTURE_PIXELS, MAX_TEXTURE_SIDE};
 
 /// The alpha-weighted mean linear RGB of the encoded image `bytes`, or why it cannot be
 /// read.

@@ -1,5 +1,5 @@
 //! `scene.toml`: the serde structs of the file as written by the user, reading it from the
-//! scene folder, and the range checks of every number in it against [`crate::limits`].
+//! scene folder, and the range checks of every number in it against [`crate::input_limits`].
 //!
 //! Lengths in the file are in scene units (`units`/`scale`, converted to metres on load);
 //! range checks on lengths apply after scaling, in metres. Angles are in degrees, flux in
@@ -13,7 +13,7 @@ use serde::{Deserialize, Serialize};
 use super::files::{self, SceneDir};
 use super::SceneError;
 use crate::color::Rgb;
-use crate::limits::*;
+use crate::input_limits::*;
 
 /// `scene.toml`, as written by the user. Every key is optional.
 #[derive(Debug, Default, Clone, Deserialize)]
@@ -272,7 +272,7 @@ pub(crate) fn read_scene_toml(sd: &SceneDir) -> Result<TomlFile, SceneError> {
 }
 
 /// Parses the text of a `scene.toml` and checks every number in it against
-/// [`crate::limits`] (what needs the geometry, such as material names, is checked by
+/// [`crate::input_limits`] (what needs the geometry, such as material names, is checked by
 /// [`super::Scene::load`]). `path` is the display name errors use.
 pub fn parse_scene_toml(path: &str, text: &str) -> Result<SceneToml, SceneError> {
     parse_toml(Path::new(path), text)
@@ -285,16 +285,6 @@ fn parse_toml(path: &Path, text: &str) -> Result<SceneToml, SceneError> {
     })?;
     validate_toml(&cfg, path)?;
     Ok(cfg)
-}
-
-/// A number for a message: plain when moderate, else in exponent form (`1e300`, `1e-9`).
-pub(crate) fn num(v: f64) -> String {
-    let a = v.abs();
-    if v == 0.0 || !v.is_finite() || (1e-4..1e15).contains(&a) {
-        format!("{v}")
-    } else {
-        format!("{v:e}")
-    }
 }
 
 /// `lo ≤ v ≤ hi` and finite, else an error naming `what` and the range.
@@ -343,7 +333,7 @@ fn color_ok(what: &str, c: &Rgb) -> Result<(), String> {
     }
 }
 
-/// Checks the ranges of every number of a `scene.toml` (see [`crate::limits`]).
+/// Checks the ranges of every number of a `scene.toml` (see [`crate::input_limits`]).
 fn validate_toml(cfg: &SceneToml, path: &Path) -> Result<(), SceneError> {
     let inv = |message: String| SceneError::Invalid {
         path: path.to_path_buf(),

@@ -4,7 +4,7 @@ use std::net::SocketAddr;
 use std::path::PathBuf;
 use std::time::Duration;
 
-use super::limits;
+use super::admission;
 use crate::bake;
 
 /// Largest accepted request body (bytes) unless configured.
@@ -66,8 +66,8 @@ impl Default for ServerConfig {
             cors_origins: vec![],
             body_limit: DEFAULT_BODY_LIMIT,
             memory_budget: crate::budget::default_budget(),
-            max_concurrent: limits::default_max_concurrent(),
-            queue_wait: limits::DEFAULT_QUEUE_WAIT,
+            max_concurrent: admission::default_max_concurrent(),
+            queue_wait: admission::DEFAULT_QUEUE_WAIT,
             request_timeout: DEFAULT_REQUEST_TIMEOUT,
             header_timeout: DEFAULT_HEADER_TIMEOUT,
             max_connections: DEFAULT_MAX_CONNECTIONS,

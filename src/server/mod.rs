@@ -5,10 +5,10 @@
 //! runtime. Each scene has a slot: queued → baking (progress) → ready, or failed with its
 //! error. A scene that fails, even by panicking, never takes the others down.
 
+pub mod admission;
 mod config;
 pub mod error;
 pub mod json;
-pub mod limits;
 pub mod metrics;
 pub mod openapi;
 pub mod parse;
@@ -57,7 +57,7 @@ async fn track(State(state): State<Arc<AppState>>, req: Request, next: Next) -> 
 }
 
 /// Answers 503 when a request takes longer than the configured limit. Dropping the
-/// handler's future cancels its blocking work (see [`limits::Cancel`]).
+/// handler's future cancels its blocking work (see [`admission::Cancel`]).
 async fn timeout(State(state): State<Arc<AppState>>, req: Request, next: Next) -> Response {
     let limit = state.config.request_timeout;
     match tokio::time::timeout(limit, next.run(req)).await {

@@ -10,6 +10,6 @@ pub mod direct;
 pub mod formfactor;
 pub mod hierarchy;
 pub mod probe;
-pub mod sky;
+pub mod sky_view;
 pub mod solve;
 pub mod transfer;

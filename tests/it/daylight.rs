@@ -8,7 +8,7 @@ use glam::DVec3;
 use relight::bake::{load_or_bake, BakeOptions, CachePolicy};
 use relight::model::daylight::DaylightAnswer;
 use relight::model::query::IlluminanceQuery;
-use relight::model::sky::SkySpec;
+use relight::model::sky_state::SkySpec;
 use relight::model::{Cancel, Model};
 use relight::transport::transfer::TransferMode;
 use serde_json::json;
@@ -594,8 +594,8 @@ fn points_reflect_the_same_daylight_through_their_coefficients_as_through_the_pa
                     .illuminance(|d| state.luminance(&site, d), state.ground_luminance);
                 if let Some((d, en)) = state.sun_direction(&site) {
                     let (lo, hi) = m.baked.scene.bounds();
-                    let reach = relight::transport::sky::Reach::new(lo, hi);
-                    direct += relight::transport::sky::point_sun_direct(
+                    let reach = relight::transport::sky_view::Reach::new(lo, hi);
+                    direct += relight::transport::sky_view::point_sun_direct(
                         &m.baked.bvh,
                         &m.baked.glazing,
                         p.0,

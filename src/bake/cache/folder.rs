@@ -73,7 +73,7 @@ pub fn cache_key(files: &[PathBuf], settings: &serde_json::Value) -> std::io::Re
     for f in files {
         let name = f.file_name().unwrap_or_default().to_string_lossy();
         h.update(name.as_bytes());
-        let bytes = crate::scene::read_regular_file(f, crate::limits::MAX_OBJ_BYTES)?;
+        let bytes = crate::scene::read_regular_file(f, crate::input_limits::MAX_OBJ_BYTES)?;
         h.update(&(bytes.len() as u64).to_le_bytes());
         h.update(&bytes);
     }

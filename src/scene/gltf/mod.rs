@@ -31,8 +31,8 @@
 //! `.glb`'s binary chunk); every accessor is bounds-checked against its buffer before it is
 //! read, so a hostile file is an error, never a panic. Counts are bounded by the OBJ limits
 //! ([`MAX_OBJ_VERTICES`], [`MAX_OBJ_TRIANGLES`]) over all instances, node trees by
-//! [`MAX_GLTF_DEPTH`](crate::limits::MAX_GLTF_DEPTH) and
-//! [`MAX_GLTF_NODE_INSTANCES`](crate::limits::MAX_GLTF_NODE_INSTANCES). A primitive's
+//! [`MAX_GLTF_DEPTH`](crate::input_limits::MAX_GLTF_DEPTH) and
+//! [`MAX_GLTF_NODE_INSTANCES`](crate::input_limits::MAX_GLTF_NODE_INSTANCES). A primitive's
 //! accessors are decoded once, at its mesh's first instance.
 
 use std::collections::hash_map::Entry;
@@ -48,7 +48,7 @@ use super::materials::{Material, MaterialTable};
 use super::obj::ObjPart;
 use super::{mtl, texture, SceneError, SceneToml};
 use crate::color::Rgb;
-use crate::limits::{
+use crate::input_limits::{
     MAX_COORD_M, MAX_EXITANCE, MAX_GLTF_BYTES, MAX_KD, MAX_LIGHT_GROUPS, MAX_OBJ_TRIANGLES,
     MAX_OBJ_VERTICES, MAX_TEXTURES, MAX_TEXTURE_BYTES,
 };
@@ -600,10 +600,10 @@ impl Unique {
 impl MaterialTable {
     /// Adds a material read from a model file (glTF); its index.
     pub(crate) fn push(&mut self, m: Material, shown: &Path) -> Result<u32, SceneError> {
-        if self.materials.len() >= crate::limits::MAX_MATERIALS {
+        if self.materials.len() >= crate::input_limits::MAX_MATERIALS {
             return Err(invalid(
                 shown,
-                format!("more than {} materials", crate::limits::MAX_MATERIALS),
+                format!("more than {} materials", crate::input_limits::MAX_MATERIALS),
             ));
         }
         let i = self.materials.len() as u32;

@@ -8,7 +8,7 @@
 //! naming a child many times or sharing a subtree (ten copies of a child, eight levels
 //! deep, would otherwise be 10⁸ instances of one mesh).
 
-use crate::limits::{MAX_GLTF_DEPTH, MAX_GLTF_NODE_INSTANCES};
+use crate::input_limits::{MAX_GLTF_DEPTH, MAX_GLTF_NODE_INSTANCES};
 
 /// No parent, no depth, not listed.
 const NONE: usize = usize::MAX;

@@ -70,7 +70,7 @@ pub(crate) struct RadiosityRequest {
     /// Daylight from this sky (a scene with a [site]) added to the light groups' light.
     #[serde(default, deserialize_with = "some")]
     #[schema(nullable = false)]
-    sky: Option<crate::model::sky::SkySpec>,
+    sky: Option<crate::model::sky_state::SkySpec>,
 }
 
 object_only!(RadiosityRequest, "a JSON object");
@@ -84,7 +84,7 @@ impl RadiosityRequest {
     pub(crate) fn sky(
         &self,
         ready: &Ready,
-    ) -> Result<Option<crate::model::sky::SkyState>, AppError> {
+    ) -> Result<Option<crate::model::sky_state::SkyState>, AppError> {
         match &self.sky {
             None => Ok(None),
             Some(spec) => Ok(Some(spec.resolve(ready.site()?)?)),

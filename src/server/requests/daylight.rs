@@ -8,7 +8,7 @@ use super::lighting::{lighting, Lights};
 use super::{object_only, some};
 use crate::color::Rgb;
 use crate::model::query::IlluminanceQuery;
-use crate::model::sky::{SkySpec, SkyState};
+use crate::model::sky_state::{SkySpec, SkyState};
 use crate::model::Lighting;
 use crate::server::parse::grid_list;
 use crate::server::{AppError, Ready};

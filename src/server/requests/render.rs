@@ -241,7 +241,7 @@ pub(crate) struct RenderRequest {
     /// the sun's direct light is traced per pixel.
     #[serde(default, deserialize_with = "some")]
     #[schema(nullable = false)]
-    sky: Option<crate::model::sky::SkySpec>,
+    sky: Option<crate::model::sky_state::SkySpec>,
 }
 
 object_only!(RenderRequest, "a JSON object");
@@ -255,7 +255,7 @@ impl RenderRequest {
     pub(crate) fn sky(
         &self,
         ready: &Ready,
-    ) -> Result<Option<crate::model::sky::SkyState>, AppError> {
+    ) -> Result<Option<crate::model::sky_state::SkyState>, AppError> {
         let Some(spec) = &self.sky else {
             return Ok(None);
         };

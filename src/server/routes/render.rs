@@ -12,7 +12,7 @@ use axum::http::{header, HeaderMap};
 use axum::response::{IntoResponse, Response};
 
 use crate::budget::human_bytes;
-use crate::model::sky::SkyState;
+use crate::model::sky_state::SkyState;
 use crate::model::Lighting;
 use crate::render::daylight::{daylight_pixels, SunView};
 use crate::render::pipeline::{self, Frame, RenderError, RenderOptions};

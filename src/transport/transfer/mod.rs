@@ -107,7 +107,7 @@ pub struct GroupColumns {
 /// The direct light of the sky patches at unit luminance, the input of a daylight bake.
 #[derive(Clone)]
 pub struct SkyDirect {
-    /// Sky patches, the ground first ([`crate::transport::sky::subdivision`]).
+    /// Sky patches, the ground first ([`crate::transport::sky_view::subdivision`]).
     pub k: usize,
     /// Per patch and sky patch, lux per cd/m² (n × K, row-major).
     pub direct: Vec<f32>,

@@ -47,7 +47,7 @@ fn ies_reader_never_panics_and_names_file_and_line() {
                 }
                 Ok(true)
             }
-            Err(e) => check_rejection(path, &text, &e).map(|_| false),
+            Err(e) => check_rejection(path, &text, &e.into()).map(|_| false),
         }
     });
 }

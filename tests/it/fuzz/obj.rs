@@ -67,10 +67,9 @@ fn obj_reader_never_panics_and_names_file_and_line() {
                 Ok((_, parts)) => {
                     for p in parts {
                         prop_assert!(p.positions.iter().all(|c| c.is_finite()));
-                        prop_assert!(p
-                            .positions
-                            .iter()
-                            .all(|&c| (c as f64 * scale).abs() <= relight::limits::MAX_COORD_M));
+                        prop_assert!(p.positions.iter().all(
+                            |&c| (c as f64 * scale).abs() <= relight::input_limits::MAX_COORD_M
+                        ));
                         prop_assert!(p
                             .indices
                             .iter()

@@ -234,7 +234,7 @@ fn a_child_or_root_that_does_not_exist_is_refused() {
 #[test]
 fn a_tree_of_more_nodes_than_the_instance_limit_is_refused_before_meshes_are_read() {
     let _gate = common::shared();
-    let n = relight::limits::MAX_GLTF_NODE_INSTANCES;
+    let n = relight::input_limits::MAX_GLTF_NODE_INSTANCES;
     // One root over n leaves, no meshes: n + 1 nodes.
     let mut d = Doc::default();
     unit_square(&mut d);

@@ -2,7 +2,7 @@
 //! linear; and the hierarchical mode's refusal of batches over its work limit.
 
 use axum::http::StatusCode;
-use relight::limits::MAX_EMISSION_SWEEP_WORK;
+use relight::input_limits::MAX_EMISSION_SWEEP_WORK;
 use relight::model::batch::hierarchy_sweep_work;
 use relight::server::{router, AppState};
 use relight::transport::transfer::SOLVE_CHUNK;

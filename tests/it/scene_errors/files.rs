@@ -1,6 +1,6 @@
 //! Scene files on disk: escapes, FIFOs, directories, empty, non-UTF-8 and oversized files.
 
-use relight::limits;
+use relight::input_limits as limits;
 use relight::scene::Scene;
 
 use super::{assert_relative, id_of, load_err, with_obj_line, TRI};

@@ -1,6 +1,6 @@
 //! `scene.toml`: syntax, light references, units, out-of-range numbers, scene-wide counts.
 
-use relight::limits;
+use relight::input_limits as limits;
 use relight::scene::Scene;
 
 use super::{load_err, TRI};

@@ -330,7 +330,7 @@ impl Modify for Constraints {
             Color, Position, Direction, LightSetting, Lights, Emission, LightingState, Point,
             Target, Exposure, RadiosityRequest, IlluminanceRequest, BatchRequest,
             OptimizeRequest, RenderRequest, ProblemDetails, Rgb, Millis, DaylightRequest, AnnualRequest,
-            crate::model::sky::SkySpec, crate::model::sky::SunPosition,
+            crate::model::sky_state::SkySpec, crate::model::sky_state::SunPosition,
         ),
         responses(BadRequest, BadQuery, NotFound, Unauthorized, Forbidden, Conflict, TooLarge, UnsupportedMediaType, Invalid, Unavailable),
     ),

@@ -9,7 +9,7 @@ use glam::DVec3;
 use serde::{Deserialize, Serialize};
 
 use super::QueryError;
-use crate::daylight::sky::{Sky, Sun};
+use crate::daylight::sky_luminance::{Sky, Sun};
 use crate::daylight::sun::{self, LocalTime};
 use crate::daylight::tregenza::Subdivision;
 use crate::daylight::{perez, Site};

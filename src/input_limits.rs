@@ -116,3 +116,13 @@ pub const MAX_ARCHIVE_UNPACKED: u64 = 1 << 30;
 /// 7.4 s, so a batch at the limit stays well inside the 60 s request timeout; the
 /// refusal takes 3 ms.
 pub const MAX_EMISSION_SWEEP_WORK: u64 = 20_000_000_000;
+
+/// A number for a message: plain when moderate, else in exponent form (`1e300`, `1e-9`).
+pub(crate) fn num(v: f64) -> String {
+    let a = v.abs();
+    if v == 0.0 || !v.is_finite() || (1e-4..1e15).contains(&a) {
+        format!("{v}")
+    } else {
+        format!("{v:e}")
+    }
+}
