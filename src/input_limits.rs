@@ -94,6 +94,13 @@ pub const MAX_LIGHT_GROUPS: usize = 1_000;
 pub const MAX_IES_ANGLES: usize = 2_000;
 /// Most candela values in an IES file (vertical × horizontal angles).
 pub const MAX_IES_VALUES: usize = 1_000_000;
+/// Largest luminous-opening dimension of a photometric file, metres (IES feet are
+/// converted first; EULUMDAT millimetres too).
+pub const MAX_OPENING: f64 = 1000.0;
+/// Most C planes, γ angles and lamp sets of an EULUMDAT file.
+pub const MAX_LDT_PLANES: usize = 1_441;
+pub const MAX_LDT_ANGLES: usize = 1_801;
+pub const MAX_LDT_LAMP_SETS: usize = 20;
 /// Most angle/factor pairs in an IES `TILT=INCLUDE` block.
 pub const MAX_IES_TILT_PAIRS: usize = 10_000;
 /// Largest candela value of an IES file (after the multiplier and ballast factors), cd.

@@ -5,7 +5,7 @@
 use serde::Serialize;
 
 use super::Model;
-use crate::photometry::Distribution;
+use crate::photometry::{Distribution, PhotometricFormat};
 
 /// The units of the answers, and the scene's own length unit.
 #[derive(Debug, Clone, Serialize)]
@@ -64,7 +64,10 @@ pub struct Bounds {
 pub enum DistributionKind {
     Isotropic,
     Spot,
+    /// An IES LM-63 file.
     Ies,
+    /// An EULUMDAT file.
+    Ldt,
 }
 
 impl From<&Distribution> for DistributionKind {
@@ -72,7 +75,10 @@ impl From<&Distribution> for DistributionKind {
         match d {
             Distribution::Isotropic => DistributionKind::Isotropic,
             Distribution::Spot { .. } | Distribution::Cone { .. } => DistributionKind::Spot,
-            Distribution::Ies(_) => DistributionKind::Ies,
+            Distribution::Table(t) => match t.format {
+                PhotometricFormat::Ies => DistributionKind::Ies,
+                PhotometricFormat::Eulumdat => DistributionKind::Ldt,
+            },
         }
     }
 }

@@ -3,7 +3,7 @@
 //! c90 = aim × c0), and their integral over the sphere (lm per cd of the shape; for
 //! absolute IES tables, lumens).
 
-use super::ies::{IesData, PhotometricType};
+use super::table::{CandelaTable, PhotometricType};
 
 /// The shape of a luminous intensity distribution.
 #[derive(Debug, Clone)]
@@ -18,12 +18,12 @@ pub enum Distribution {
     /// `t²` with `t = (cos θ − cos outer) / (cos inner − cos outer)` (degrees, half-angles
     /// from the aim, 0 ≤ inner < outer ≤ 90).
     Cone { inner_deg: f64, outer_deg: f64 },
-    /// An IES LM-63 table.
-    Ies(Box<IesData>),
+    /// A candela table from an IES LM-63 or EULUMDAT file.
+    Table(Box<CandelaTable>),
 }
 
 impl Distribution {
-    /// Relative (Ies: absolute) intensity towards a direction given in the luminaire frame
+    /// Relative (Table: absolute) intensity towards a direction given in the luminaire frame
     /// as its components along (aim, c0, c90).
     pub(super) fn shape(&self, a: f64, c0: f64, c90: f64) -> f64 {
         match self {
@@ -47,7 +47,7 @@ impl Distribution {
                 let t = ((a - co) / (ci - co).max(1e-9)).clamp(0.0, 1.0);
                 t * t
             }
-            Distribution::Ies(d) => match d.kind {
+            Distribution::Table(d) => match d.kind {
                 PhotometricType::C => {
                     let gamma = a.clamp(-1.0, 1.0).acos().to_degrees();
                     let c = c90.atan2(c0).to_degrees();

@@ -1,55 +1,29 @@
-//! The IES LM-63 reader (1986, 1991, 1995, 2002 and 2019 headers; TILT=NONE or INCLUDE)
-//! and the candela tables it yields, photometric types C and B:
-//! - **Type C**: vertical angle γ from the nadir (0°) to the zenith (180°), horizontal
-//!   angle C about the axis from `c0` towards `c90 = aim × c0`. Symmetric files (last C of
-//!   0°, 90° or 180°) are unfolded.
-//! - **Type B**: the polar axis is the luminaire's lateral axis `r = aim × c0`. The
-//!   vertical angle V is the elevation of the plane through that axis, measured from the
-//!   aim towards `c0`, and the horizontal angle H is the angle within that plane towards
-//!   `r`. A file with H from 0° only is mirrored.
+//! The IES LM-63 reader (1986, 1991, 1995, 2002 and 2019 headers; TILT=NONE or INCLUDE),
+//! photometric types C and B, into a [`CandelaTable`].
+//!
+//! The luminous opening (width, length, height; feet or metres by the units type) follows
+//! LM-63-2002's sign conventions: length along the 0°–180° axis, width along 90°–270°,
+//! negative values for round shapes ([`LuminousOpening::from_ies`]).
 //!
 //! Angles are in degrees, intensities in candela (cd), flux in lumens (lm), power in watts.
 
-use super::PhotometryError;
+use super::table::{CandelaTable, PhotometricFormat, PhotometricType};
+use super::{LuminousOpening, PhotometryError};
 use crate::input_limits::*;
-
-/// Photometric type of an IES file.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum PhotometricType {
-    C,
-    B,
-}
-
-/// Candela table of an IES file, already multiplied by the candela multiplier and the
-/// ballast factors.
-#[derive(Debug, Clone)]
-pub struct IesData {
-    pub kind: PhotometricType,
-    /// Vertical angles, degrees, ascending.
-    pub vertical: Vec<f64>,
-    /// Horizontal angles, degrees, ascending.
-    pub horizontal: Vec<f64>,
-    /// `candela[h][v]`.
-    pub candela: Vec<Vec<f64>>,
-    /// Rated lamp lumens (lamps × lumens per lamp); None for absolute photometry (-1).
-    pub lamp_lumens: Option<f64>,
-    /// Input watts from the file.
-    pub input_watts: f64,
-}
 
 /// Parses the text of an IES LM-63 file; `path` is the display name errors use. Every
 /// rejection is a [`PhotometryError::Syntax`] naming the line (or [`PhotometryError::Invalid`]
 /// when no line applies). Counts and values are bounded by [`crate::input_limits`] before anything is
 /// allocated for them.
-pub fn parse_ies(path: &str, text: &str) -> Result<IesData, PhotometryError> {
+pub fn parse_ies(path: &str, text: &str) -> Result<CandelaTable, PhotometryError> {
     parse_ies_file(std::path::Path::new(path), text)
 }
 
 pub(crate) fn parse_ies_file(
     path: &std::path::Path,
     text: &str,
-) -> Result<IesData, PhotometryError> {
-    IesData::parse_lines(text).map_err(|(line, message)| match line {
+) -> Result<CandelaTable, PhotometryError> {
+    CandelaTable::parse_ies_lines(text).map_err(|(line, message)| match line {
         Some(line) => PhotometryError::Syntax {
             path: path.to_path_buf(),
             line,
@@ -125,18 +99,19 @@ struct Header {
     nh: usize,
     kind: PhotometricType,
     input_watts: f64,
+    opening: LuminousOpening,
 }
 
-impl IesData {
+impl CandelaTable {
     /// Parses the text of an LM-63 file. Errors name what is wrong, and the line.
-    pub fn parse(text: &str) -> Result<IesData, String> {
-        Self::parse_lines(text).map_err(|(line, m)| match line {
+    pub fn parse_ies(text: &str) -> Result<CandelaTable, String> {
+        Self::parse_ies_lines(text).map_err(|(line, m)| match line {
             Some(l) => format!("line {l}: {m}"),
             None => m,
         })
     }
 
-    fn parse_lines(text: &str) -> Result<IesData, ParseError> {
+    fn parse_ies_lines(text: &str) -> Result<CandelaTable, ParseError> {
         let mut lines = text.lines().enumerate();
         let mut tilt = None;
         for (_, line) in lines.by_ref() {
@@ -166,104 +141,17 @@ impl IesData {
         }
         let candela = read_candela(&mut nums, h.nv, h.nh, h.scale)?;
         check_angle_ranges(h.kind, &vertical, &horizontal)?;
-        Ok(IesData {
+        Ok(CandelaTable {
+            format: PhotometricFormat::Ies,
             kind: h.kind,
             vertical,
             horizontal,
             candela,
             lamp_lumens: (h.lumens_per_lamp > 0.0).then_some(h.lamps * h.lumens_per_lamp),
             input_watts: h.input_watts,
+            opening: h.opening,
         })
     }
-
-    /// Horizontal angle `h` (degrees) mapped into the measured range by the file's
-    /// symmetry: quadrant and bilateral type C files, mirrored type B files.
-    fn unfold_horizontal(&self, h: f64) -> f64 {
-        let hs = &self.horizontal;
-        match self.kind {
-            PhotometricType::C => {
-                let first = hs[0];
-                let last = *hs.last().unwrap_or(&0.0);
-                let c = h.rem_euclid(360.0);
-                if hs.len() == 1 {
-                    first
-                } else if first == 0.0 && last == 90.0 {
-                    let c = c % 180.0;
-                    if c > 90.0 {
-                        180.0 - c
-                    } else {
-                        c
-                    }
-                } else if first == 0.0 && last == 180.0 {
-                    if c > 180.0 {
-                        360.0 - c
-                    } else {
-                        c
-                    }
-                } else if first == 90.0 && last == 270.0 {
-                    if c < 90.0 {
-                        180.0 - c
-                    } else if c > 270.0 {
-                        540.0 - c
-                    } else {
-                        c
-                    }
-                } else {
-                    c
-                }
-            }
-            PhotometricType::B => {
-                if hs[0] >= 0.0 {
-                    h.abs()
-                } else {
-                    h
-                }
-            }
-        }
-    }
-
-    /// Candela at vertical angle `v` and horizontal angle `h` (degrees, in the file's own
-    /// system), with the file's symmetry unfolded. Zero outside the measured vertical range.
-    pub fn candela_at(&self, v: f64, h: f64) -> f64 {
-        let (hs, vs) = (&self.horizontal, &self.vertical);
-        let h = self.unfold_horizontal(h);
-        if v < vs[0] - 1e-9 || v > vs[vs.len() - 1] + 1e-9 {
-            return 0.0;
-        }
-        let (iv, fv) = bracket(vs, v);
-        // Full-circle type C tables wrap from the last plane back to 0°/360°.
-        let (ih, fh, wrap) = if self.kind == PhotometricType::C
-            && hs.len() > 1
-            && h > hs[hs.len() - 1]
-            && hs[0] == 0.0
-        {
-            let span = 360.0 - hs[hs.len() - 1];
-            (hs.len() - 1, (h - hs[hs.len() - 1]) / span.max(1e-9), true)
-        } else {
-            let (i, f) = bracket(hs, h);
-            (i, f, false)
-        };
-        let row = |i: usize| -> f64 {
-            let r = &self.candela[i];
-            let a = r[iv];
-            let b = r[(iv + 1).min(r.len() - 1)];
-            a + (b - a) * fv
-        };
-        let h1 = if wrap { 0 } else { (ih + 1).min(hs.len() - 1) };
-        row(ih) * (1.0 - fh) + row(h1) * fh
-    }
-}
-
-/// Index i and fraction f with `a[i] + f·(a[i+1] − a[i]) = x`, clamped to the ends.
-fn bracket(a: &[f64], x: f64) -> (usize, f64) {
-    if a.len() == 1 || x <= a[0] {
-        return (0, 0.0);
-    }
-    if x >= a[a.len() - 1] {
-        return (a.len() - 1, 0.0);
-    }
-    let i = a.partition_point(|&v| v <= x) - 1;
-    (i, (x - a[i]) / (a[i + 1] - a[i]))
 }
 
 /// Reads past the tilt data of `TILT=INCLUDE` (relight does not tilt lamps); refuses
@@ -308,10 +196,13 @@ fn read_header<'a, I: Iterator<Item = (usize, &'a str)>>(
         ));
     }
     let (ptype_line, ptype) = nums.count("photometric type", 1.0, 3.0)?;
-    nums.field("units type", 1.0, 2.0)?;
-    nums.field("width", -1e6, 1e6)?;
-    nums.field("length", -1e6, 1e6)?;
-    nums.field("height", -1e6, 1e6)?;
+    let (_, units) = nums.count("units type", 1.0, 2.0)?;
+    let feet = if units == 1 { 0.3048 } else { 1.0 };
+    let (_, width) = nums.field("width", -MAX_OPENING, MAX_OPENING)?;
+    let (_, length) = nums.field("length", -MAX_OPENING, MAX_OPENING)?;
+    let (height_line, height) = nums.field("height", -MAX_OPENING, MAX_OPENING)?;
+    let opening = LuminousOpening::from_ies(width * feet, length * feet, height * feet)
+        .map_err(|m| (Some(height_line), m))?;
     let (_, ballast) = nums.field("ballast factor", 0.0, MAX_IES_BALLAST)?;
     let (_, ballast_lamp) = nums.field("ballast-lamp photometric factor", 0.0, MAX_IES_BALLAST)?;
     let (_, input_watts) = nums.field("input watts", 0.0, MAX_WATTS)?;
@@ -334,6 +225,7 @@ fn read_header<'a, I: Iterator<Item = (usize, &'a str)>>(
         nh,
         kind,
         input_watts,
+        opening,
     })
 }
 
@@ -432,7 +324,7 @@ TILT=NONE
 
     #[test]
     fn parses_and_interpolates_a_type_c_file() {
-        let d = IesData::parse(TYPE_C).unwrap();
+        let d = CandelaTable::parse_ies(TYPE_C).unwrap();
         assert_eq!(d.kind, PhotometricType::C);
         assert_eq!(d.lamp_lumens, Some(1000.0));
         assert!((d.candela_at(0.0, 123.0) - 1000.0).abs() < 1e-9);
@@ -442,12 +334,14 @@ TILT=NONE
 
     #[test]
     fn bad_files_get_clear_errors() {
-        assert!(IesData::parse("hello").unwrap_err().contains("TILT"));
-        let e = IesData::parse(&TYPE_C.replace("1000 707.1 0", "1000 x 0")).unwrap_err();
+        assert!(CandelaTable::parse_ies("hello")
+            .unwrap_err()
+            .contains("TILT"));
+        let e = CandelaTable::parse_ies(&TYPE_C.replace("1000 707.1 0", "1000 x 0")).unwrap_err();
         assert!(e.contains("'x'"), "{e}");
-        let e = IesData::parse(&TYPE_C.replace("1000 707.1 0\n", "1000\n")).unwrap_err();
+        let e = CandelaTable::parse_ies(&TYPE_C.replace("1000 707.1 0\n", "1000\n")).unwrap_err();
         assert!(e.contains("ends"), "{e}");
-        let e = IesData::parse(&TYPE_C.replace("1 1 2 0.1", "1 3 2 0.1")).unwrap_err();
+        let e = CandelaTable::parse_ies(&TYPE_C.replace("1 1 2 0.1", "1 3 2 0.1")).unwrap_err();
         assert!(e.contains("type A"), "{e}");
     }
 }

@@ -1,4 +1,5 @@
-//! Point luminaires and their photometry: isotropic, cosine spots, and IES LM-63 files.
+//! Point luminaires and their photometry: isotropic, cosine spots, and candela tables from
+//! IES LM-63 and EULUMDAT files.
 //!
 //! A luminaire is a point at `position` (metres) with a luminous intensity distribution
 //! I(ω) in candela, oriented by `aim` (the photometric axis: nadir for type C, the beam
@@ -6,7 +7,10 @@
 //! perpendicular to the aim). Its direct illuminance at a point x on a receiver with
 //! normal n is `E = I(ω) · cos θ / d²` (lux), ω the direction from the luminaire to x.
 //!
-//! - `ies.rs`: the LM-63 reader and its candela tables (types C and B), [`IesData`].
+//! - `table.rs`: [`CandelaTable`], a candela table (types C and B) with its symmetry
+//!   unfolded on lookup, whichever file it came from.
+//! - `ies.rs`: the IES LM-63 reader; `ldt.rs`: the EULUMDAT reader.
+//! - `opening.rs`: [`LuminousOpening`], the emitting shape the files give (metres).
 //! - `distribution.rs`: the shapes of the distributions and their integrals,
 //!   [`Distribution`].
 //! - `cct.rs`: blackbody colours from a colour temperature (K).
@@ -14,6 +18,9 @@
 mod cct;
 mod distribution;
 mod ies;
+mod ldt;
+mod opening;
+mod table;
 
 use glam::DVec3;
 
@@ -21,8 +28,12 @@ use crate::color::Rgb;
 
 pub(crate) use cct::cct_to_rgb;
 pub use distribution::Distribution;
+pub use ies::parse_ies;
 pub(crate) use ies::parse_ies_file;
-pub use ies::{parse_ies, IesData, PhotometricType};
+pub use ldt::parse_ldt;
+pub(crate) use ldt::parse_ldt_file;
+pub use opening::LuminousOpening;
+pub use table::{CandelaTable, PhotometricFormat, PhotometricType};
 
 /// A photometric file that cannot be read: the file (as the caller names it) and, where one
 /// applies, its 1-based line.
@@ -124,7 +135,7 @@ impl Luminaire {
             (Some(l), _) if l.is_finite() && l >= 0.0 => l,
             (Some(l), _) => return Err(format!("lumens = {l}: must be non-negative")),
             // The table is in absolute candela (rated or measured): its integral is the flux.
-            (None, Distribution::Ies(_)) => integral,
+            (None, Distribution::Table(_)) => integral,
             (None, _) => return Err("lumens is required for isotropic and spot luminaires".into()),
         };
         let y = crate::color::luminance(color);
@@ -190,7 +201,9 @@ mod tests {
         let i = l.intensity(DVec3::X);
         assert!((i - 1000.0 / (4.0 * std::f64::consts::PI)).abs() < 1e-9);
         // A Lambertian downward hemisphere, I = I0 cos γ: Φ = π I0.
-        let d = Distribution::Ies(Box::new(IesData {
+        let d = Distribution::Table(Box::new(CandelaTable {
+            format: PhotometricFormat::Ies,
+            opening: LuminousOpening::Point,
             kind: PhotometricType::C,
             vertical: (0..=90).map(|g| g as f64).collect(),
             horizontal: vec![0.0],
@@ -213,14 +226,14 @@ mod tests {
     fn type_b_tables_follow_the_documented_axes() {
         let text = "IESNA:LM-63-2002\nTILT=NONE\n1 -1 1 3 2 2 2 0 0 0\n1 1 0\n\
                     -90 0 90\n0 90\n10 1000 20\n30 40 50\n";
-        let data = IesData::parse(text).unwrap();
+        let data = CandelaTable::parse_ies(text).unwrap();
         assert_eq!(data.kind, PhotometricType::B);
         let l = Luminaire::new(
             "b",
             DVec3::ZERO,
             DVec3::X,
             Some(DVec3::Y),
-            Distribution::Ies(Box::new(data)),
+            Distribution::Table(Box::new(data)),
             None,
             [1.0; 3],
             None,

@@ -1,8 +1,9 @@
 //! Luminaire placement: each `[[luminaires]]` entry of `scene.toml` becomes a
 //! [`Luminaire`] (position in metres, flux in lm, spot angles in degrees, colour from RGB
 //! or a colour temperature in K, power in W) in its light group, creating groups that
-//! `[[lights]]` does not define. IES files are resolved inside the scene folder, read
-//! once per file, and join the scene's files for the cache key.
+//! `[[lights]]` does not define. Photometric files (IES LM-63, EULUMDAT) are resolved inside
+//! the scene folder, read once per file and lamp set, and join the scene's files for the
+//! cache key.
 
 use std::collections::{HashMap, HashSet};
 use std::path::{Path, PathBuf};
@@ -15,7 +16,9 @@ use super::toml::LuminaireToml;
 use super::{SceneError, SceneToml};
 use crate::color::Rgb;
 use crate::input_limits::{MAX_CCT, MAX_TEXT_BYTES, MIN_CCT};
-use crate::photometry::{cct_to_rgb, parse_ies_file, Distribution, IesData, Luminaire};
+use crate::photometry::{
+    cct_to_rgb, parse_ies_file, parse_ldt_file, CandelaTable, Distribution, Luminaire,
+};
 
 /// `scene.toml` as luminaires see it: to resolve `ies` references with their line.
 pub(crate) struct TomlRef<'a> {
@@ -46,11 +49,11 @@ impl<'a> TomlRef<'a> {
     }
 }
 
-/// What luminaires share: the table of each IES file, and the integral of each IES file
-/// or spot shape.
+/// What luminaires share: the table of each photometric file (and lamp set), and the
+/// integral of each table or spot shape.
 #[derive(Default)]
 struct Shared {
-    ies_read: HashMap<PathBuf, Box<IesData>>,
+    tables: HashMap<(PathBuf, usize), Box<CandelaTable>>,
     integrals: HashMap<String, f64>,
 }
 
@@ -139,10 +142,14 @@ fn distribution(
     shared: &mut Shared,
 ) -> Result<(Distribution, Option<String>), SceneError> {
     let bad = |m: String| luminaire_error(toml.path, &l.id, m);
-    let kind = l
-        .distribution
-        .clone()
-        .unwrap_or_else(|| if l.ies.is_some() { "ies" } else { "isotropic" }.into());
+    let kind = l.distribution.clone().unwrap_or_else(|| {
+        if l.ies.is_some() || l.photometry.is_some() {
+            "photometry"
+        } else {
+            "isotropic"
+        }
+        .into()
+    });
     match kind.as_str() {
         "isotropic" => Ok((Distribution::Isotropic, None)),
         "spot" => {
@@ -159,42 +166,62 @@ fn distribution(
             };
             Ok((spot, Some(format!("spot:{beam:?}:{field:?}"))))
         }
-        "ies" => {
-            let name = l
-                .ies
-                .as_ref()
-                .ok_or_else(|| bad("distribution \"ies\" needs ies = \"file.ies\"".into()))?;
+        "photometry" | "ies" => {
+            let name = match (&l.photometry, &l.ies) {
+                (Some(n), None) | (None, Some(n)) => n,
+                (Some(_), Some(_)) => return Err(bad("give photometry or ies, not both".into())),
+                (None, None) => {
+                    return Err(bad(format!(
+                        "distribution \"{kind}\" needs photometry = \"file.ies\" or \"file.ldt\""
+                    )))
+                }
+            };
             let line = toml.line_of(name.span().start);
             let path = toml.dir.resolve(
                 name.get_ref(),
                 toml.path,
                 line,
-                &format!("luminaire '{}': ies", l.id),
+                &format!("luminaire '{}': photometry", l.id),
             )?;
-            let data = ies_table(toml.dir, &path, shared)?;
+            let lamp_set = l.lamp_set.unwrap_or(1);
+            let data = table(toml.dir, &path, lamp_set, shared)?;
             if !files.contains(&path) {
                 files.push(path.clone());
             }
-            let key = format!("ies:{}", path.display());
-            Ok((Distribution::Ies(data), Some(key)))
+            let key = format!("table:{}:{lamp_set}", path.display());
+            Ok((Distribution::Table(data), Some(key)))
         }
         other => Err(bad(format!(
-            "distribution '{other}': use isotropic, spot or ies"
+            "distribution '{other}': use isotropic, spot or photometry"
         ))),
     }
 }
 
-/// The candela table of the IES file at canonical `path`, read on first use.
-fn ies_table(dir: &SceneDir, path: &Path, shared: &mut Shared) -> Result<Box<IesData>, SceneError> {
-    if let Some(d) = shared.ies_read.get(path) {
+/// The candela table of the photometric file at canonical `path` (EULUMDAT when its name
+/// ends in `.ldt`, scaled by `lamp_set`; else IES), read on first use.
+fn table(
+    dir: &SceneDir,
+    path: &Path,
+    lamp_set: usize,
+    shared: &mut Shared,
+) -> Result<Box<CandelaTable>, SceneError> {
+    let key = (path.to_path_buf(), lamp_set);
+    if let Some(d) = shared.tables.get(&key) {
         return Ok(d.clone());
     }
     let shown = dir.display(path);
-    // IES headers are often Latin-1: only the numbers matter.
+    // Headers are often Latin-1: only the numbers matter.
     let bytes = dir.read(path, MAX_TEXT_BYTES)?;
     let text = String::from_utf8_lossy(&bytes);
-    let d = Box::new(parse_ies_file(&shown, &text)?);
-    shared.ies_read.insert(path.to_path_buf(), d.clone());
+    let is_ldt = path
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("ldt"));
+    let d = Box::new(if is_ldt {
+        parse_ldt_file(&shown, &text, Some(lamp_set))?
+    } else {
+        parse_ies_file(&shown, &text)?
+    });
+    shared.tables.insert(key, d.clone());
     Ok(d)
 }
 

@@ -144,10 +144,15 @@ pub(crate) struct LuminaireToml {
     pub(crate) c0: Option<[f64; 3]>,
     /// Total flux, lm; default: the IES file's (absolute) candela integral.
     pub(crate) lumens: Option<f64>,
-    /// "isotropic", "spot" or "ies"; default "ies" when `ies` is given, else "isotropic".
+    /// "isotropic", "spot" or "photometry" (also spelled "ies"); default "photometry" when
+    /// a file is given, else "isotropic".
     pub(crate) distribution: Option<String>,
-    /// IES LM-63 file, relative to the scene folder (with its place in `scene.toml`).
+    /// Photometric file relative to the scene folder (with its place in `scene.toml`):
+    /// EULUMDAT when it ends in `.ldt`, else IES LM-63. `ies` is the same key.
+    pub(crate) photometry: Option<::toml::Spanned<String>>,
     pub(crate) ies: Option<::toml::Spanned<String>>,
+    /// The EULUMDAT lamp set whose flux scales the table (1-based; default 1).
+    pub(crate) lamp_set: Option<usize>,
     /// Spot beam angle (50 % of peak) and field angle (cut-off), full cone, degrees.
     pub(crate) beam_deg: Option<f64>,
     pub(crate) field_deg: Option<f64>,

@@ -1,0 +1,142 @@
+//! A candela table, as photometric files give it: luminous intensity (cd) on a grid of
+//! vertical and horizontal angles (degrees), with the file's symmetry unfolded on lookup.
+//! Both readers, IES LM-63 ([`super::ies`]) and EULUMDAT ([`super::ldt`]), produce one, so
+//! everything downstream (the distribution, its flux, direct light, glare) is shared.
+//!
+//! - **Type C**: vertical angle γ from the nadir (0°) to the zenith (180°), horizontal
+//!   angle C about the axis from `c0` towards `c90 = aim × c0`. Tables whose last C is
+//!   0°, 90° or 180° (or which span 90°..270°) are unfolded by symmetry.
+//! - **Type B**: the polar axis is the luminaire's lateral axis `r = aim × c0`. The
+//!   vertical angle V is the elevation of the plane through that axis, measured from the
+//!   aim towards `c0`, and the horizontal angle H is the angle within that plane towards
+//!   `r`. A table with H from 0° only is mirrored.
+
+use super::LuminousOpening;
+
+/// Photometric type of a candela table (type A is not supported).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum PhotometricType {
+    C,
+    B,
+}
+
+/// The file format a table was read from.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum PhotometricFormat {
+    /// IES LM-63 (`.ies`).
+    Ies,
+    /// EULUMDAT (`.ldt`).
+    Eulumdat,
+}
+
+/// A candela table in absolute candela: an IES file's values times its candela multiplier
+/// and ballast factors, or an EULUMDAT file's cd/klm times its lamp flux / 1000.
+#[derive(Debug, Clone)]
+pub struct CandelaTable {
+    pub format: PhotometricFormat,
+    pub kind: PhotometricType,
+    /// Vertical angles, degrees, ascending.
+    pub vertical: Vec<f64>,
+    /// Horizontal angles, degrees, ascending.
+    pub horizontal: Vec<f64>,
+    /// `candela[h][v]`.
+    pub candela: Vec<Vec<f64>>,
+    /// Rated lamp lumens (IES: lamps × lumens per lamp; EULUMDAT: the lamp set's total
+    /// flux); None for absolute photometry.
+    pub lamp_lumens: Option<f64>,
+    /// Input watts from the file (EULUMDAT: the lamp set's wattage with ballast), W.
+    pub input_watts: f64,
+    /// The luminous opening, metres, in the luminaire frame.
+    pub opening: LuminousOpening,
+}
+
+impl CandelaTable {
+    /// Horizontal angle `h` (degrees) mapped into the measured range by the file's
+    /// symmetry: quadrant and bilateral type C files, mirrored type B files.
+    fn unfold_horizontal(&self, h: f64) -> f64 {
+        let hs = &self.horizontal;
+        match self.kind {
+            PhotometricType::C => {
+                let first = hs[0];
+                let last = *hs.last().unwrap_or(&0.0);
+                let c = h.rem_euclid(360.0);
+                if hs.len() == 1 {
+                    first
+                } else if first == 0.0 && last == 90.0 {
+                    let c = c % 180.0;
+                    if c > 90.0 {
+                        180.0 - c
+                    } else {
+                        c
+                    }
+                } else if first == 0.0 && last == 180.0 {
+                    if c > 180.0 {
+                        360.0 - c
+                    } else {
+                        c
+                    }
+                } else if first == 90.0 && last == 270.0 {
+                    if c < 90.0 {
+                        180.0 - c
+                    } else if c > 270.0 {
+                        540.0 - c
+                    } else {
+                        c
+                    }
+                } else {
+                    c
+                }
+            }
+            PhotometricType::B => {
+                if hs[0] >= 0.0 {
+                    h.abs()
+                } else {
+                    h
+                }
+            }
+        }
+    }
+
+    /// Candela at vertical angle `v` and horizontal angle `h` (degrees, in the file's own
+    /// system), with the file's symmetry unfolded. Zero outside the measured vertical range.
+    pub fn candela_at(&self, v: f64, h: f64) -> f64 {
+        let (hs, vs) = (&self.horizontal, &self.vertical);
+        let h = self.unfold_horizontal(h);
+        if v < vs[0] - 1e-9 || v > vs[vs.len() - 1] + 1e-9 {
+            return 0.0;
+        }
+        let (iv, fv) = bracket(vs, v);
+        // Full-circle type C tables wrap from the last plane back to 0°/360°.
+        let (ih, fh, wrap) = if self.kind == PhotometricType::C
+            && hs.len() > 1
+            && h > hs[hs.len() - 1]
+            && hs[0] == 0.0
+        {
+            let span = 360.0 - hs[hs.len() - 1];
+            (hs.len() - 1, (h - hs[hs.len() - 1]) / span.max(1e-9), true)
+        } else {
+            let (i, f) = bracket(hs, h);
+            (i, f, false)
+        };
+        let row = |i: usize| -> f64 {
+            let r = &self.candela[i];
+            let a = r[iv];
+            let b = r[(iv + 1).min(r.len() - 1)];
+            a + (b - a) * fv
+        };
+        let h1 = if wrap { 0 } else { (ih + 1).min(hs.len() - 1) };
+        row(ih) * (1.0 - fh) + row(h1) * fh
+    }
+}
+
+/// Index i and fraction f with `a[i] + f·(a[i+1] − a[i]) = x`, clamped to the ends.
+fn bracket(a: &[f64], x: f64) -> (usize, f64) {
+    if a.len() == 1 || x <= a[0] {
+        return (0, 0.0);
+    }
+    if x >= a[a.len() - 1] {
+        return (a.len() - 1, 0.0);
+    }
+    let i = a.partition_point(|&v| v <= x) - 1;
+    (i, (x - a[i]) / (a[i + 1] - a[i]))
+}
