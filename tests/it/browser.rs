@@ -367,12 +367,16 @@ async fn the_page_relights_live_in_headless_chromium() {
         .await;
     assert!(labels.as_u64().unwrap() >= 2, "legend labels: {labels}");
 
-    // ---- Screenshot of the page, for the record.
+    // ---- Screenshot of the page, for the record: in the target folder, and as the README's
+    // image (`docs/screenshot.png`), so the committed picture is the page as it is now.
     let png = s
         .cmd(reqwest::Method::GET, "/screenshot", Value::Null)
         .await;
+    let png = base64_decode(png.as_str().unwrap());
     let shot = Path::new(env!("CARGO_TARGET_TMPDIR")).join("browser-page.png");
-    std::fs::write(&shot, base64_decode(png.as_str().unwrap())).unwrap();
+    std::fs::write(&shot, &png).unwrap();
+    let docs = Path::new(env!("CARGO_MANIFEST_DIR")).join("docs/screenshot.png");
+    std::fs::write(&docs, &png).unwrap();
 
     // ---- Office: grid statistics, the grid overlay, and the optimizer applied to sliders.
     switch_scene(
