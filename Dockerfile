@@ -9,7 +9,7 @@
 # Configuration is by environment (RELIGHT_ADDR, RELIGHT_SCENES, RELIGHT_CACHE,
 # RELIGHT_READ_ONLY, RELIGHT_LOG, ...; `relight serve --help` lists them all).
 
-# ---- build: the same `cargo build --release` the README runs.
+# ---- build: the release binary (`cargo build --release`).
 FROM rust:1.95-slim-bookworm AS build
 WORKDIR /src
 COPY Cargo.toml Cargo.lock ./

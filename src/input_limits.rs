@@ -3,7 +3,7 @@
 //! Scenes may come from people other than the operator (a shared `scenes/` folder, an
 //! upload), so loading checks each value *before* it is used to allocate or compute, and
 //! refuses anything outside these bounds with a [`crate::scene::SceneError`] that names the
-//! file and line. The README's "Scene format" section lists the same limits.
+//! file and line. docs/scene-format.md lists the same limits.
 //!
 //! Lengths are checked in metres, after the `units`/`scale` conversion. Numbers are checked
 //! in the type the code computes with (`f32` for OBJ coordinates, `Kd` and `Ke`; `f64`

@@ -19,7 +19,7 @@ pub const BAKE_BYTES_PER_PATCH_GROUP: u64 = 128;
 /// Fixed overhead of a bake (BVH over small scenes, thread stacks, scratch).
 pub const BAKE_BYTES_BASE: u64 = 32 << 20;
 /// Hierarchical mode: links per patch assumed by the estimates (measured counts are in
-/// the README's sizing table; this bounds them).
+/// the sizing table in docs/deployment.md; this bounds them).
 pub const HIER_LINKS_PER_PATCH: u64 = 600;
 /// Hierarchical mode: bytes per link while baking (the 16-byte links of refinement, sorted
 /// in place, then the 9-byte stored links) and when loaded (9).

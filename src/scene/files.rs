@@ -1,6 +1,6 @@
 //! The scene folder on disk: where references may point, and bounded reads.
 //!
-//! Rules (see `ARCHITECTURE.md`, "Invariants"):
+//! Rules (see the `src/scene/` entry of `ARCHITECTURE.md`):
 //! - Every file a scene references (the OBJ, `scene.toml`, `mtllib`, `ies`) must resolve,
 //!   after canonicalization with symlinks followed, to a path inside the scene folder.
 //! - Only regular files are read. A FIFO, a device or a directory is refused from its

@@ -252,7 +252,7 @@ fn office_floor_is_a_real_size_scene() {
     let _gate = common::shared();
     // The bundled office floor (scenes/office-floor, written by its make_scene.py) is what
     // the hierarchical mode is for; the tests do not bake it (`relight bench --scene`
-    // measures it), but it must load and mesh to the size the README states.
+    // measures it), but it must load and mesh to the size docs/scene-format.md states.
     let dir = common::bundled_scenes().join("office-floor");
     let scene = relight::scene::Scene::load(&dir).unwrap();
     let mesh = relight::geometry::mesh::Mesh::build(&scene);
