@@ -148,6 +148,84 @@ points = [POINTS]
     }
 }
 
+/// EULUMDAT files (symmetry types 0, 2 and 4, decimal commas, CRLF) against IES twins made
+/// by an independent converter (`eulumdat-ies`, see `tests/data/photometry/make_twins.py`):
+/// the same intensities in every direction, between the planes too, and the same lumens,
+/// within 0.5 %; and in a scene, the same illuminance on a grid.
+#[test]
+fn ldt_files_and_their_ies_twins_give_the_same_light() {
+    use glam::DVec3;
+    use relight::photometry::{parse_ies, parse_ldt, Distribution, Luminaire};
+    let _gate = common::shared();
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/photometry");
+    for name in ["panel-isym0", "panel-isym2", "panel-isym4"] {
+        let read = |ext: &str| std::fs::read_to_string(dir.join(format!("{name}.{ext}"))).unwrap();
+        let ldt = parse_ldt(name, &read("ldt"), None).unwrap();
+        let ies = parse_ies(name, &read("ies")).unwrap();
+        assert_eq!(ldt.opening, ies.opening, "{name}");
+        let lum = |t| {
+            let d = Distribution::Table(Box::new(t));
+            Luminaire::new("l", DVec3::ZERO, -DVec3::Y, None, d, None, [1.0; 3], None).unwrap()
+        };
+        let (a, b) = (lum(ldt), lum(ies));
+        assert!(
+            (a.lumens / b.lumens - 1.0).abs() < 0.005,
+            "{name}: {} lm vs {} lm",
+            a.lumens,
+            b.lumens
+        );
+        let peak = (0..=36)
+            .map(|g| {
+                a.intensity(
+                    DVec3::new(0.0, -1.0, 0.0)
+                        .lerp(DVec3::X, g as f64 / 36.0)
+                        .normalize(),
+                )
+            })
+            .fold(0.0, f64::max);
+        for g in 0..=72 {
+            for c in 0..48 {
+                let (gr, cr) = ((g as f64 * 2.5).to_radians(), (c as f64 * 7.5).to_radians());
+                // C from c0 (+x) towards aim × c0 = (−y) × x = +z.
+                let d = DVec3::new(gr.sin() * cr.cos(), -gr.cos(), gr.sin() * cr.sin());
+                let (ia, ib) = (a.intensity(d), b.intensity(d));
+                assert!(
+                    (ia - ib).abs() <= 0.005 * ib.max(0.05 * peak),
+                    "{name} γ {} C {}: LDT {ia:.2} cd, IES {ib:.2} cd",
+                    g as f64 * 2.5,
+                    c as f64 * 7.5
+                );
+            }
+        }
+    }
+    // In a scene: a grid under the LDT and under its twin.
+    let toml = r#"
+transfer = "columns"
+[mesh]
+max_edge = 8.0
+[[luminaires]]
+id = "l"
+position = [0, 2.5, 0]
+photometry = "FILE"
+[[grids]]
+id = "floor"
+min = [-3, -3]
+max = [3, 3]
+height = 0
+spacing = 0.75
+"#;
+    let values = |file: &str| {
+        let s = write_scene(&floor(12.0), BLACK, Some(&toml.replace("FILE", file)));
+        std::fs::copy(dir.join(file), s.path().join(file)).unwrap();
+        grid_values(&bake(&s), "floor")
+    };
+    let (a, b) = (values("panel-isym0.ldt"), values("panel-isym0.ies"));
+    assert!(a.iter().any(|v| *v > 10.0));
+    for (x, y) in a.iter().zip(&b) {
+        assert!((x - y).abs() <= 0.005 * y.max(1.0), "{x} lx vs {y} lx");
+    }
+}
+
 /// CIE 171 §5.5 style: a diffuse square area source over a black plane; E = M · F with the
 /// closed-form point-to-rectangle configuration factor.
 #[test]

@@ -1,7 +1,7 @@
 //! Property tests (bounded fuzzing) of the scene readers: the runner and shared checks.
 //!
-//! A module per reader: the OBJ line pass and tobj, the MTL reader, `scene.toml`, IES
-//! files, and `Scene::load` end to end; `mutate` makes the inputs.
+//! A module per reader: the OBJ line pass and tobj, the MTL reader, `scene.toml`, IES and
+//! EULUMDAT files, and `Scene::load` end to end; `mutate` makes the inputs.
 //!
 //! Inputs are the bundled scenes' real files mutated at the byte, line and number level,
 //! plus random garbage. Properties: no reader ever panics, and every rejection is a
@@ -14,6 +14,7 @@
 
 mod gltf;
 mod ies;
+mod ldt;
 mod mtl;
 mod mutate;
 mod obj;
