@@ -18,6 +18,7 @@ use crate::color::Rgb;
 use crate::input_limits::{MAX_CCT, MAX_TEXT_BYTES, MIN_CCT};
 use crate::photometry::{
     cct_to_rgb, parse_ies_file, parse_ldt_file, CandelaTable, Distribution, Luminaire,
+    LuminaireSpec,
 };
 
 /// `scene.toml` as luminaires see it: to resolve `ies` references with their line.
@@ -112,18 +113,17 @@ fn build_luminaire(
             .or_insert_with(|| distribution.integral()),
         None => distribution.integral(),
     };
-    let mut lum = Luminaire::with_integral(
-        &l.id,
-        v(l.position) * scale,
-        v(l.aim),
-        l.c0.map(v),
+    let spec = LuminaireSpec {
+        id: &l.id,
+        position: v(l.position) * scale,
+        aim: v(l.aim),
+        c0: l.c0.map(v),
         distribution,
-        integral,
-        l.lumens,
+        lumens: l.lumens,
         color,
-        None,
-    )
-    .map_err(bad)?;
+        watts: None,
+    };
+    let mut lum = Luminaire::with_integral(spec, integral).map_err(bad)?;
     lum.watts = match (l.watts, l.efficacy) {
         (Some(w), _) if w.is_finite() && w >= 0.0 => Some(w),
         (None, Some(e)) if e.is_finite() && e > 0.0 => Some(lum.lumens / e),

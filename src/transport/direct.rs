@@ -1,6 +1,12 @@
-//! Direct light from point luminaires, with shadows.
+//! Direct light from luminaires, with shadows.
 //!
-//! Per patch, the direct illuminance is the average of `I(ω) cos θ / d² · V` over points
+//! At a receiver point the illuminance is `Σ_k w_k I(ω_k) cos θ_k / d_k² · V_k` over the
+//! points that stand for the luminaire ([`Luminaire::for_each_emitter`]): its photometric
+//! centre, or, for a receiver within five times its luminous opening's size, a grid over
+//! the opening, each with its own shadow ray (so near an area luminaire shadows have
+//! penumbrae).
+//!
+//! Per patch, the direct illuminance is the average of that over points
 //! spread evenly over the triangle: the centroids of its 4^k congruent sub-triangles.
 //! Every patch starts at k = 1 (4 points). A patch whose points disagree on visibility
 //! (a shadow edge crosses it) is refined to k = 3 (64 points), so penumbra-free point
@@ -36,11 +42,29 @@ pub(crate) fn sub_centroids(level: u32) -> Vec<(f64, f64)> {
         .collect()
 }
 
-/// Whether the segment from `x` (on a surface with normal `n`) to the luminaire is free.
-fn visible(bvh: &Bvh, x: DVec3, n: DVec3, l: &Luminaire, skip: u32) -> bool {
+/// Whether the segment from `x` (on a surface with normal `n`) to `p` is free.
+fn visible(bvh: &Bvh, x: DVec3, n: DVec3, p: DVec3, skip: u32) -> bool {
     let lift = 1e-6 * (1.0 + x.abs().max_element());
     let o = Vec3A::from((x + n * lift).as_vec3());
-    !bvh.occluded(o, Vec3A::from(l.position.as_vec3()), [skip, u32::MAX])
+    !bvh.occluded(o, Vec3A::from(p.as_vec3()), [skip, u32::MAX])
+}
+
+/// Shadowed illuminance (lux) of luminaire `l` at `x` (normal `n`), and whether any and
+/// whether every lit emitter point was visible. `skip` is a triangle the rays ignore.
+fn shadowed(bvh: &Bvh, l: &Luminaire, x: DVec3, n: DVec3, skip: u32) -> (f64, bool, bool) {
+    let (mut e, mut any, mut all) = (0.0, false, true);
+    l.for_each_emitter(x, |p, w| {
+        let ek = w * l.illuminance_from(p, x, n);
+        if ek > 0.0 {
+            if visible(bvh, x, n, p, skip) {
+                e += ek;
+                any = true;
+            } else {
+                all = false;
+            }
+        }
+    });
+    (e, any, all && any)
 }
 
 /// Direct illuminance (lux, luminous) of one luminaire on patch `j`, averaged over the patch.
@@ -53,25 +77,27 @@ fn patch_illuminance(
     fine: &[(f64, f64)],
 ) -> f64 {
     let p = &mesh.patches[j];
-    if p.normal.dot(l.position - p.centroid) <= 0.0 {
-        // The luminaire is behind the patch plane; a patch is never partly in front for
-        // a point source (it is planar).
+    let reach = 0.5 * l.opening.largest_dimension();
+    if p.normal.dot(l.position - p.centroid) <= -reach {
+        // The luminaire (all of its opening) is behind the patch plane.
         return 0.0;
     }
     let c = mesh.corners(j);
     let at = |&(u, v): &(f64, f64)| c[0] + (c[1] - c[0]) * u + (c[2] - c[0]) * v;
     let sample = |pts: &[(f64, f64)]| -> (f64, usize) {
         let mut sum = 0.0;
-        let mut free = 0;
+        // Points with every lit emitter visible, and points with some visible.
+        let (mut free, mut some) = (0, 0);
         for q in pts {
-            let x = at(q);
-            let e = l.illuminance(x, p.normal);
-            if e > 0.0 && visible(bvh, x, p.normal, l, p.source) {
-                sum += e;
-                free += 1;
-            }
+            let (e, any, all) = shadowed(bvh, l, at(q), p.normal, p.source);
+            sum += e;
+            some += any as usize;
+            free += all as usize;
         }
-        (sum / pts.len() as f64, free)
+        (
+            sum / pts.len() as f64,
+            if free == some { free } else { usize::MAX },
+        )
     };
     let (e, free) = sample(coarse);
     if free == 0 || free == coarse.len() {
@@ -122,15 +148,13 @@ pub fn group_direct(scene: &Scene, mesh: &Mesh, bvh: &Bvh) -> Vec<Option<Vec<f32
 }
 
 /// Direct illuminance (lux per channel) of `luminaires` at point `x` on a receiver facing
-/// `n`, exact per point, with shadows.
+/// `n`, per point, with shadows (sampled over near luminous openings).
 pub fn point_illuminance(bvh: &Bvh, luminaires: &[Luminaire], x: DVec3, n: DVec3) -> [f64; 3] {
     let mut acc = [0.0; 3];
     for l in luminaires {
-        let e = l.illuminance(x, n);
-        if e > 0.0 && visible(bvh, x, n, l, u32::MAX) {
-            for (a, &k) in acc.iter_mut().zip(&l.color) {
-                *a += e * k as f64;
-            }
+        let (e, _, _) = shadowed(bvh, l, x, n, u32::MAX);
+        for (a, &k) in acc.iter_mut().zip(&l.color) {
+            *a += e * k as f64;
         }
     }
     acc

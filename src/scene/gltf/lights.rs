@@ -66,18 +66,18 @@ impl Reader<'_> {
         }
         let color = light.color();
         let integral = distribution.integral();
-        let lum = Luminaire::with_integral(
-            &id,
+        let spec = LuminaireSpec {
+            id: &id,
             position,
             aim,
-            None,
+            c0: None,
             distribution,
-            integral,
-            Some(candela * integral),
+            lumens: Some(candela * integral),
             color,
-            None,
-        )
-        .map_err(|m| self.err(format!("light on node '{id}': {m}")))?;
+            watts: None,
+        };
+        let lum = Luminaire::with_integral(spec, integral)
+            .map_err(|m| self.err(format!("light on node '{id}': {m}")))?;
         out.luminaires.push((group, lum));
         Ok(())
     }

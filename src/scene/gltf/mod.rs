@@ -52,7 +52,7 @@ use crate::input_limits::{
     MAX_COORD_M, MAX_EXITANCE, MAX_GLTF_BYTES, MAX_KD, MAX_LIGHT_GROUPS, MAX_OBJ_TRIANGLES,
     MAX_OBJ_VERTICES, MAX_TEXTURES, MAX_TEXTURE_BYTES,
 };
-use crate::photometry::{Distribution, Luminaire};
+use crate::photometry::{Distribution, Luminaire, LuminaireSpec};
 
 mod buffers;
 mod lights;
