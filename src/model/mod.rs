@@ -16,6 +16,7 @@
 //!   [`batch::BatchPlan`] checks the count and the hierarchical mode's cost first).
 //! - [`optimize`]: least-flux dimming levels under grid targets.
 //! - [`report`]: per-surface averages and the power balance.
+//! - [`glare`]: the CIE Unified Glare Rating at observers, linear in the light groups.
 //! - [`sky_state`]: the grammar of a sky ([`sky_state::SkySpec`]) and a sky resolved for the site.
 //! - [`daylight`]: daylight on surfaces, points and grids, and the point-gather cache.
 //! - [`annual`]: climate-based metrics over a year of weather (sDA, ASE, UDI, EN 17037).
@@ -37,6 +38,7 @@ pub mod annual;
 pub mod batch;
 pub mod daylight;
 pub mod error;
+pub mod glare;
 pub mod grid;
 pub mod info;
 pub mod lighting;
@@ -82,6 +84,8 @@ pub struct Model {
     pub grids: Vec<grid::GridResponse>,
     /// Gathers of point sets asked before ([`daylight::GatherCache`]).
     pub gathers: daylight::GatherCache,
+    /// Observers' views asked before ([`glare::ViewCache`]).
+    glare_views: glare::ViewCache,
     /// Per patch and sky patch, luminous radiosity at unit sky luminance (annual metrics).
     annual_radiosity: std::sync::OnceLock<Vec<f32>>,
     /// Per grid, its daylight coefficients (annual metrics).
@@ -106,6 +110,7 @@ impl Model {
             groups,
             grids,
             gathers,
+            glare_views: Default::default(),
             annual_radiosity: Default::default(),
             annual_cache: Default::default(),
         }

@@ -11,12 +11,14 @@
 //!   unfolded on lookup, whichever file it came from.
 //! - `ies.rs`: the IES LM-63 reader; `ldt.rs`: the EULUMDAT reader.
 //! - `opening.rs`: [`LuminousOpening`], the emitting shape the files give (metres).
+//! - [`glare`]: the CIE Unified Glare Rating and its Guth position index.
 //! - `distribution.rs`: the shapes of the distributions and their integrals,
 //!   [`Distribution`].
 //! - `cct.rs`: blackbody colours from a colour temperature (K).
 
 mod cct;
 mod distribution;
+pub mod glare;
 mod ies;
 mod ldt;
 mod opening;

@@ -12,6 +12,7 @@ mod cornell;
 mod daylight;
 mod fuzz;
 mod fuzz_requests;
+mod glare;
 mod gltf_import;
 mod grids;
 mod hardening;

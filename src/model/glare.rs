@@ -1,0 +1,378 @@
+//! Discomfort glare at observers: the CIE 117 Unified Glare Rating for a lighting state
+//! ([`crate::photometry::glare`] holds the formula and the position index).
+//!
+//! For each observer (an eye and a direction of view) the glare sources are the scene's
+//! luminaires with a luminous opening that the eye sees unobstructed, in front of it, at
+//! or above its line of sight. The background luminance is `L_b = E_ind / π`, `E_ind`
+//! the illuminance at the eye on a plane facing the view from everything but the
+//! luminaires themselves: the gather of the solved radiosity (lit surfaces, and emissive
+//! surfaces, which are background, not glare sources). Daylight is not part of it.
+//!
+//! What depends only on geometry (per group, the background at unit weight; per
+//! luminaire, its distance, position index, projected area and intensity towards the eye)
+//! is computed once per observer and cached ([`ViewCache`]), so a new lighting state costs
+//! a few products per luminaire: glare is linear in the light groups, as everything else.
+//!
+//! Units: luminance cd/m², illuminance lux, solid angle sr, lengths metres.
+
+use std::collections::HashMap;
+use std::sync::{Arc, Mutex};
+
+use glam::{DVec3, Vec3A};
+use serde::{Deserialize, Serialize};
+
+use super::{Model, QueryError};
+use crate::color::{luminance64, Rgb};
+use crate::photometry::glare::{guth_position_index, ugr, GlareSource};
+
+/// Seated eye height above the floor (the scene's lowest point) when a request gives a
+/// position in plan only, metres (CIE 117 and EN 12464-1: 1.2 m seated, 1.6 m standing).
+pub const SEATED_EYE_HEIGHT: f64 = 1.2;
+/// Most observers in one request.
+pub const MAX_OBSERVERS: usize = 1_000;
+/// Observers whose geometry the cache keeps, per scene.
+const CACHED_VIEWS: usize = 4_096;
+
+/// An observer as a client gives it.
+#[derive(Debug, Clone, Deserialize, Serialize)]
+#[cfg_attr(feature = "server", derive(utoipa::ToSchema))]
+#[serde(deny_unknown_fields)]
+pub struct ObserverSpec {
+    /// Eye position, metres. Give this, or `position`.
+    pub eye: Option<[f64; 3]>,
+    /// Position in plan `[x, z]`, metres, with the eye at `height` above the floor.
+    pub position: Option<[f64; 2]>,
+    /// Eye height above the floor (the scene's lowest point) for `position`, metres;
+    /// default 1.2 (seated).
+    pub height: Option<f64>,
+    /// Direction of view (any length; usually horizontal).
+    pub direction: [f64; 3],
+}
+
+/// One luminaire's part in an observer's rating.
+#[derive(Debug, Clone, Serialize)]
+#[cfg_attr(feature = "server", derive(utoipa::ToSchema))]
+pub struct GlareTerm {
+    pub luminaire: String,
+    pub group: String,
+    /// Luminance of its luminous area towards the eye, cd/m².
+    pub luminance: f64,
+    /// Solid angle of its luminous area at the eye, sr.
+    pub solid_angle: f64,
+    /// Guth position index p.
+    pub position_index: f64,
+    /// Luminous area projected towards the eye, m².
+    pub projected_area: f64,
+    /// Distance from the eye, m.
+    pub distance: f64,
+    /// `L² ω / p²`, the luminaire's share of the sum.
+    pub term: f64,
+}
+
+/// The rating at one observer.
+#[derive(Debug, Clone, Serialize)]
+#[cfg_attr(feature = "server", derive(utoipa::ToSchema))]
+pub struct ObserverGlare {
+    /// Eye position, metres.
+    pub eye: [f64; 3],
+    /// Unit direction of view.
+    pub direction: [f64; 3],
+    /// UGR; null when no luminaire is in view or the background is black.
+    #[cfg_attr(feature = "server", schema(required = true))]
+    pub ugr: Option<f64>,
+    /// Background luminance L_b = E_ind / π, cd/m².
+    pub background_luminance: f64,
+    /// Indirect illuminance at the eye facing the view, lux.
+    pub indirect_illuminance: f64,
+    /// The luminaires in view, largest term first.
+    pub luminaires: Vec<GlareTerm>,
+    /// Luminaires lit in this state but left out, each with why (behind the eye, below the
+    /// line of sight, outside the field of view, hidden, or without a luminous area).
+    pub left_out: Vec<LeftOut>,
+}
+
+/// A luminaire that does not count, and why.
+#[derive(Debug, Clone, Serialize)]
+#[cfg_attr(feature = "server", derive(utoipa::ToSchema))]
+pub struct LeftOut {
+    pub luminaire: String,
+    pub reason: String,
+}
+
+/// What an observer sees, independent of the lighting state.
+#[derive(Debug)]
+pub struct ObserverView {
+    eye: DVec3,
+    direction: DVec3,
+    /// Per light group, the indirect illuminance at the eye at unit weight (lux, RGB).
+    background: Vec<[f64; 3]>,
+    /// Luminaires that can count, with their geometry at unit weight.
+    sources: Vec<Viewed>,
+    /// Luminaires that cannot: (group, luminaire id, reason).
+    left_out: Vec<(usize, String, String)>,
+}
+
+#[derive(Debug)]
+struct Viewed {
+    group: usize,
+    id: String,
+    /// Intensity towards the eye at unit weight, cd, and its colour (luminance 1).
+    intensity: f64,
+    color: Rgb,
+    area: f64,
+    distance: f64,
+    p: f64,
+}
+
+/// Observer views by eye and direction (to the millimetre and the thousandth).
+#[derive(Default)]
+pub struct ViewCache(Mutex<HashMap<[i64; 6], Arc<ObserverView>>>);
+
+impl ViewCache {
+    fn key(eye: DVec3, dir: DVec3) -> [i64; 6] {
+        let q = |x: f64, s: f64| (x * s).round() as i64;
+        [
+            q(eye.x, 1e3),
+            q(eye.y, 1e3),
+            q(eye.z, 1e3),
+            q(dir.x, 1e3),
+            q(dir.y, 1e3),
+            q(dir.z, 1e3),
+        ]
+    }
+}
+
+impl Model {
+    /// An observer's eye and unit view direction; errors say which field is wrong.
+    pub fn observer(&self, o: &ObserverSpec) -> Result<(DVec3, DVec3), QueryError> {
+        let bad = |m: String| Err(QueryError::Invalid(m));
+        let finite = |v: &[f64]| v.iter().all(|x| x.is_finite() && x.abs() < 1e7);
+        let eye = match (o.eye, o.position) {
+            (Some(e), None) if finite(&e) => DVec3::from_array(e),
+            (None, Some(p)) if finite(&p) => {
+                let h = o.height.unwrap_or(SEATED_EYE_HEIGHT);
+                if !(h.is_finite() && (0.0..=100.0).contains(&h)) {
+                    return bad(format!("observer height {h}: must be in 0..=100 m"));
+                }
+                let floor = self.baked.scene.bounds().0.y;
+                DVec3::new(p[0], floor + h, p[1])
+            }
+            (Some(_), Some(_)) => return bad("give an observer's eye or position, not both".into()),
+            (None, None) => {
+                return bad("an observer needs eye = [x, y, z] or position = [x, z]".into())
+            }
+            _ => return bad("observer coordinates must be finite and below 1e7 m".into()),
+        };
+        let dir = DVec3::from_array(o.direction);
+        match dir.try_normalize() {
+            Some(d) if finite(&o.direction) => Ok((eye, d)),
+            _ => bad("an observer's direction must be a finite, non-zero vector".into()),
+        }
+    }
+
+    /// The UGR at each observer for group weights `w`.
+    pub fn glare(
+        &self,
+        observers: &[(DVec3, DVec3)],
+        w: &[Rgb],
+        cancel: &super::Cancel,
+    ) -> Result<Vec<ObserverGlare>, QueryError> {
+        if observers.len() > MAX_OBSERVERS {
+            return Err(QueryError::Invalid(format!(
+                "{} observers; the limit is {MAX_OBSERVERS}",
+                observers.len()
+            )));
+        }
+        observers
+            .iter()
+            .map(|&(eye, dir)| {
+                if cancel.is_cancelled() {
+                    return Err(QueryError::Cancelled);
+                }
+                Ok(self.rate(&self.view(eye, dir), w))
+            })
+            .collect()
+    }
+
+    /// The observer's view, from the cache or computed (a gather and a shadow ray per
+    /// luminaire).
+    fn view(&self, eye: DVec3, dir: DVec3) -> Arc<ObserverView> {
+        let key = ViewCache::key(eye, dir);
+        if let Some(v) = lock(&self.glare_views.0).get(&key) {
+            return v.clone();
+        }
+        let v = Arc::new(self.compute_view(eye, dir));
+        let mut cache = lock(&self.glare_views.0);
+        if cache.len() >= CACHED_VIEWS {
+            cache.clear();
+        }
+        cache.insert(key, v.clone());
+        v
+    }
+
+    fn compute_view(&self, eye: DVec3, dir: DVec3) -> ObserverView {
+        let k = &self.baked;
+        let groups = &k.transfer.groups;
+        let mut importance = vec![0f32; 3 * k.mesh.len()];
+        for g in groups {
+            for (a, b) in importance.iter_mut().zip(&g.b) {
+                *a += b;
+            }
+        }
+        let weights =
+            crate::transport::probe::gather_weights(&k.mesh, &k.bvh, &importance, eye, dir);
+        let background = groups
+            .iter()
+            .map(|g| {
+                let mut e = [0.0; 3];
+                for &(j, wj) in &weights {
+                    for (c, ec) in e.iter_mut().enumerate() {
+                        *ec += wj * g.b[3 * j as usize + c] as f64;
+                    }
+                }
+                e
+            })
+            .collect();
+        // The view frame: R along the view, H up (world +y, made perpendicular), T across.
+        let up = (DVec3::Y - dir * DVec3::Y.dot(dir))
+            .try_normalize()
+            .unwrap_or(DVec3::Z);
+        let right = dir.cross(up);
+        let (mut sources, mut left_out) = (Vec::new(), Vec::new());
+        for (gi, g) in k.scene.lights.iter().enumerate() {
+            for l in &g.luminaires {
+                match viewed(&k.bvh, l, eye, dir, up, right) {
+                    Ok((intensity, area, distance, p)) => sources.push(Viewed {
+                        group: gi,
+                        id: l.id.clone(),
+                        intensity,
+                        color: l.color,
+                        area,
+                        distance,
+                        p,
+                    }),
+                    Err(reason) => left_out.push((gi, l.id.clone(), reason.to_string())),
+                }
+            }
+        }
+        ObserverView {
+            eye,
+            direction: dir,
+            background,
+            sources,
+            left_out,
+        }
+    }
+
+    /// The rating of one view under weights `w`.
+    fn rate(&self, v: &ObserverView, w: &[Rgb]) -> ObserverGlare {
+        let lights = &self.baked.scene.lights;
+        let mut e = [0.0; 3];
+        for (bg, wg) in v.background.iter().zip(w) {
+            for c in 0..3 {
+                e[c] += bg[c] * wg[c] as f64;
+            }
+        }
+        let e_ind = luminance64(e).max(0.0);
+        let lb = e_ind / std::f64::consts::PI;
+        let lit = |g: usize, color: &Rgb| {
+            let wg = w.get(g).copied().unwrap_or([0.0; 3]);
+            luminance64([0, 1, 2].map(|c| (wg[c] * color[c]) as f64))
+        };
+        let mut terms: Vec<GlareTerm> = v
+            .sources
+            .iter()
+            .filter_map(|s| {
+                let i = s.intensity * lit(s.group, &s.color);
+                if i <= 0.0 {
+                    return None;
+                }
+                let src = GlareSource {
+                    luminance: i / s.area,
+                    solid_angle: s.area / (s.distance * s.distance),
+                    position_index: s.p,
+                };
+                Some(GlareTerm {
+                    luminaire: s.id.clone(),
+                    group: lights[s.group].id.clone(),
+                    luminance: src.luminance,
+                    solid_angle: src.solid_angle,
+                    position_index: s.p,
+                    projected_area: s.area,
+                    distance: s.distance,
+                    term: src.term(),
+                })
+            })
+            .collect();
+        terms.sort_by(|a, b| b.term.total_cmp(&a.term));
+        let rating = ugr(
+            lb,
+            terms.iter().map(|t| GlareSource {
+                luminance: t.luminance,
+                solid_angle: t.solid_angle,
+                position_index: t.position_index,
+            }),
+        );
+        let left_out = v
+            .left_out
+            .iter()
+            .filter(|(g, _, _)| w.get(*g).is_some_and(|c| c.iter().any(|&x| x > 0.0)))
+            .map(|(_, id, reason)| LeftOut {
+                luminaire: id.clone(),
+                reason: reason.clone(),
+            })
+            .collect();
+        ObserverGlare {
+            eye: v.eye.to_array(),
+            direction: v.direction.to_array(),
+            ugr: rating,
+            background_luminance: lb,
+            indirect_illuminance: e_ind,
+            luminaires: terms,
+            left_out,
+        }
+    }
+}
+
+/// A luminaire's intensity towards the eye at unit weight (cd), projected luminous area
+/// (m²), distance (m) and position index, or why it does not count.
+fn viewed(
+    bvh: &crate::geometry::bvh::Bvh,
+    l: &crate::photometry::Luminaire,
+    eye: DVec3,
+    dir: DVec3,
+    up: DVec3,
+    right: DVec3,
+) -> Result<(f64, f64, f64, f64), &'static str> {
+    let v = l.position - eye;
+    let distance = v.length();
+    let (r, h, t) = (v.dot(dir), v.dot(up), v.dot(right));
+    if r <= 1e-9 {
+        return Err("behind the eye");
+    }
+    if h < 0.0 {
+        return Err("below the line of sight");
+    }
+    let p = guth_position_index(h / r, t / r).ok_or("outside the field of view")?;
+    let to_eye = -v / distance;
+    let area = l
+        .opening
+        .projected_area(to_eye.dot(l.aim), to_eye.dot(l.c0), to_eye.dot(l.c90()));
+    if area <= 0.0 {
+        return Err("no luminous area towards the eye (a point source, or seen from behind)");
+    }
+    // Stop a millimetre short: the luminaire often sits on the ceiling's surface.
+    let end = l.position - v / distance * 1e-3;
+    if bvh.occluded(
+        Vec3A::from(eye.as_vec3()),
+        Vec3A::from(end.as_vec3()),
+        [u32::MAX; 2],
+    ) {
+        return Err("hidden from the eye");
+    }
+    Ok((l.intensity(to_eye), area, distance, p))
+}
+
+fn lock<T>(m: &Mutex<T>) -> std::sync::MutexGuard<'_, T> {
+    m.lock().unwrap_or_else(|e| e.into_inner())
+}
