@@ -53,13 +53,13 @@ impl Ready {
     /// Gouraud shading vertices, built on first use.
     pub fn shading(&self) -> &crate::render::Shading {
         self.shading
-            .get_or_init(|| crate::render::Shading::new(&self.baked.mesh))
+            .get_or_init(|| crate::render::Shading::new(&self.model.baked.mesh))
     }
 
     /// The shading mesh as served by `GET /api/scenes/{id}/mesh`, built on first use.
     pub(crate) fn mesh_bytes(&self) -> axum::body::Bytes {
         self.mesh_bytes
-            .get_or_init(|| self.shading().mesh_bytes(&self.baked.mesh).into())
+            .get_or_init(|| self.shading().mesh_bytes(&self.model.baked.mesh).into())
             .clone()
     }
 
@@ -68,8 +68,8 @@ impl Ready {
     pub(crate) fn preview_bytes(&self) -> axum::body::Bytes {
         self.preview_bytes
             .get_or_init(|| {
-                let fine = &self.baked.mesh;
-                match crate::render::preview::preview_mesh(&self.baked.scene, fine) {
+                let fine = &self.model.baked.mesh;
+                match crate::render::preview::preview_mesh(&self.model.baked.scene, fine) {
                     Some((coarse, cs)) => self.shading().preview_bytes(fine, &coarse, &cs).into(),
                     None => self.mesh_bytes(),
                 }
