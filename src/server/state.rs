@@ -14,7 +14,7 @@ use crate::model::Model;
 pub use crate::model::GroupInfo;
 
 /// A scene ready to answer: its [`Model`] plus what only the server keeps (lazily built
-/// shading data, its pin on the memory budget). Derefs to the model.
+/// shading data, its pin on the memory budget).
 pub struct Ready {
     pub model: Model,
     pub bake_seconds: f64,
@@ -23,13 +23,6 @@ pub struct Ready {
     preview_bytes: std::sync::OnceLock<axum::body::Bytes>,
     /// This scene's share of the memory budget, held while it is loaded.
     _pin: Option<crate::budget::Pin>,
-}
-
-impl std::ops::Deref for Ready {
-    type Target = Model;
-    fn deref(&self) -> &Model {
-        &self.model
-    }
 }
 
 impl Ready {
