@@ -30,12 +30,7 @@ pub(crate) fn require_json(headers: &HeaderMap) -> Result<(), AppError> {
         ));
     };
     let ct = ct.to_str().unwrap_or("");
-    let essence = ct
-        .split(';')
-        .next()
-        .unwrap_or("")
-        .trim()
-        .to_ascii_lowercase();
+    let essence = essence(ct);
     if essence == "application/json" || (essence.contains('/') && essence.ends_with("+json")) {
         Ok(())
     } else {
@@ -44,6 +39,13 @@ pub(crate) fn require_json(headers: &HeaderMap) -> Result<(), AppError> {
             ct.chars().take(100).collect::<String>()
         )))
     }
+}
+
+/// The media type of a Content-Type value: `type/subtype` in lower case, without
+/// parameters.
+pub(crate) fn essence(content_type: &str) -> String {
+    let media = content_type.split(';').next().unwrap_or("");
+    media.trim().to_ascii_lowercase()
 }
 
 /// Parses a request body of type `T`: [`check`], then [`decode`].
@@ -267,8 +269,27 @@ impl<'de> Visitor<'de> for StrictVisitor {
     }
 }
 
+/// Exactly `N` numbers from a sequence: a shorter or longer one is refused with its
+/// length, as `expected` says.
+pub(crate) fn numbers<'de, const N: usize, A: SeqAccess<'de>>(
+    mut seq: A,
+    expected: &dyn serde::de::Expected,
+) -> Result<[f64; N], A::Error> {
+    let mut t = [0.0; N];
+    for (i, x) in t.iter_mut().enumerate() {
+        *x = seq
+            .next_element()?
+            .ok_or_else(|| A::Error::invalid_length(i, expected))?;
+    }
+    let more = count_rest(&mut seq)?;
+    if more > 0 {
+        return Err(A::Error::invalid_length(N + more, expected));
+    }
+    Ok(t)
+}
+
 /// Skips the rest of a sequence, counting its elements (for a length message).
-pub(crate) fn count_rest<'de, A: SeqAccess<'de>>(seq: &mut A) -> Result<usize, A::Error> {
+fn count_rest<'de, A: SeqAccess<'de>>(seq: &mut A) -> Result<usize, A::Error> {
     let mut n = 0;
     while seq.next_element::<IgnoredAny>()?.is_some() {
         n += 1;

@@ -1,20 +1,23 @@
-//! Request reading: the JSON body (size, content type, strictness, off the runtime when
-//! large) into a typed request ([`super::requests`]), the scene id of the path, and the
-//! checks that follow deserialization: numbers in the f32 range and limits the engine
-//! computes with, directions, and lists of ids (each id at most once). Every mistake
-//! becomes a precise 422 naming the field.
+//! Request reading. The extractors of the handlers: the scene id of the path
+//! ([`SceneId`]), its ready scene ([`ReadyScene`]) and the JSON body (size, content type,
+//! strictness, off the runtime when large) as a typed request ([`StrictJson`] of a
+//! [`super::requests`] type). Then the checks that follow deserialization: numbers in the
+//! f32 range and limits the engine computes with, directions, and lists of ids (each id at
+//! most once). Every mistake becomes a precise 422 naming the field.
 
 use std::sync::Arc;
 
 use axum::body::Bytes;
 use axum::extract::rejection::BytesRejection;
-use axum::extract::Path;
+use axum::extract::{FromRequest, FromRequestParts, Path, Request};
+use axum::http::request::Parts;
 use axum::http::{HeaderMap, StatusCode};
 use glam::DVec3;
 use serde::de::DeserializeOwned;
 
 use super::{AppError, AppState, Ready};
 pub(crate) use crate::model::error::shorten;
+use crate::model::Model;
 
 /// Most lighting states in one batch.
 pub(crate) const MAX_BATCH: usize = 1000;
@@ -36,13 +39,10 @@ const PARSED_BYTES_PER_BYTE: u64 = 12;
 /// unreadable) names no scene: 404 as a problem document, like any unknown scene.
 pub(crate) struct SceneId(pub String);
 
-impl<S: Send + Sync> axum::extract::FromRequestParts<S> for SceneId {
+impl<S: Send + Sync> FromRequestParts<S> for SceneId {
     type Rejection = AppError;
 
-    async fn from_request_parts(
-        parts: &mut axum::http::request::Parts,
-        state: &S,
-    ) -> Result<Self, Self::Rejection> {
+    async fn from_request_parts(parts: &mut Parts, state: &S) -> Result<Self, Self::Rejection> {
         match Path::<String>::from_request_parts(parts, state).await {
             Ok(Path(id)) => Ok(SceneId(id)),
             Err(e) => Err(AppError::NotFound(format!(
@@ -53,10 +53,41 @@ impl<S: Send + Sync> axum::extract::FromRequestParts<S> for SceneId {
     }
 }
 
+/// The ready scene of a `{id}` route: 404 for an unknown scene, 503 while it is queued
+/// or baking or when it failed. A POST handler takes it before its body, so these answers
+/// come before any about the body.
+pub(crate) struct ReadyScene(pub Arc<Ready>);
+
+impl FromRequestParts<Arc<AppState>> for ReadyScene {
+    type Rejection = AppError;
+
+    async fn from_request_parts(
+        parts: &mut Parts,
+        state: &Arc<AppState>,
+    ) -> Result<Self, Self::Rejection> {
+        let SceneId(id) = SceneId::from_request_parts(parts, state).await?;
+        Ok(ReadyScene(state.slot(&id)?.ready()?))
+    }
+}
+
+/// A JSON object body parsed strictly into `T` ([`parse_body`]); the last argument of a
+/// handler.
+pub(crate) struct StrictJson<T>(pub T);
+
+impl<T: DeserializeOwned + Send + 'static> FromRequest<Arc<AppState>> for StrictJson<T> {
+    type Rejection = AppError;
+
+    async fn from_request(req: Request, state: &Arc<AppState>) -> Result<Self, Self::Rejection> {
+        let headers = req.headers().clone();
+        let body = Bytes::from_request(req, state).await;
+        parse_body(state, &headers, body).await.map(StrictJson)
+    }
+}
+
 /// Parses a JSON object body into `T`: 413 for size, 415 for a content type that is not
 /// JSON, 400 for syntax, 422 for a non-object, a repeated key or content that `T` refuses.
 /// An empty body is `{}`. Large bodies are parsed off the async runtime.
-pub(crate) async fn parse_body<T: DeserializeOwned + Send + 'static>(
+async fn parse_body<T: DeserializeOwned + Send + 'static>(
     state: &Arc<AppState>,
     headers: &HeaderMap,
     body: Result<Bytes, BytesRejection>,
@@ -89,18 +120,6 @@ pub(crate) async fn parse_body<T: DeserializeOwned + Send + 'static>(
             move |_| super::json::parse(&body),
         )
         .await
-}
-
-/// The common start of a POST handler: the ready scene, then the typed body.
-pub(crate) async fn begin<T: DeserializeOwned + Send + 'static>(
-    state: &Arc<AppState>,
-    id: &str,
-    headers: &HeaderMap,
-    body: Result<Bytes, BytesRejection>,
-) -> Result<(Arc<Ready>, T), AppError> {
-    let ready = state.slot(id)?.ready()?;
-    let body = parse_body(state, headers, body).await?;
-    Ok((ready, body))
 }
 
 /// A number the engine computes with in f32: anything beyond its range would become
@@ -202,8 +221,8 @@ fn unique(
 }
 
 /// Surface indices from surface names (each once).
-pub(crate) fn surface_list(names: &[String], ready: &Ready) -> Result<Vec<usize>, AppError> {
-    let scene = &ready.baked.scene;
+pub(crate) fn surface_list(names: &[String], model: &Model) -> Result<Vec<usize>, AppError> {
+    let scene = &model.baked.scene;
     let index = |name: &str| {
         scene.surface_index(name).ok_or_else(|| {
             let known: Vec<&str> = scene.surfaces.iter().map(|s| s.name.as_str()).collect();
@@ -220,17 +239,17 @@ pub(crate) fn surface_list(names: &[String], ready: &Ready) -> Result<Vec<usize>
 }
 
 /// Grid indices from grid ids (each once).
-pub(crate) fn grid_list(ids: &[String], ready: &Ready) -> Result<Vec<usize>, AppError> {
+pub(crate) fn grid_list(ids: &[String], model: &Model) -> Result<Vec<usize>, AppError> {
     unique(
         ids,
-        |id| Ok(ready.grid_index(id)?),
+        |id| Ok(model.grid_index(id)?),
         |id| format!("grid '{id}' is listed twice in 'grids'"),
     )
 }
 
 /// Light group indices from group ids (each once).
-pub(crate) fn group_list(ids: &[String], ready: &Ready) -> Result<Vec<usize>, AppError> {
-    let scene = &ready.baked.scene;
+pub(crate) fn group_list(ids: &[String], model: &Model) -> Result<Vec<usize>, AppError> {
+    let scene = &model.baked.scene;
     let index = |id: &str| {
         scene.light_index(id).ok_or_else(|| {
             AppError::Invalid(format!(

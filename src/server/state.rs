@@ -14,7 +14,7 @@ use crate::model::Model;
 pub use crate::model::GroupInfo;
 
 /// A scene ready to answer: its [`Model`] plus what only the server keeps (lazily built
-/// shading data, its pin on the memory budget). Derefs to the model.
+/// shading data, its pin on the memory budget).
 pub struct Ready {
     pub model: Model,
     pub bake_seconds: f64,
@@ -23,13 +23,6 @@ pub struct Ready {
     preview_bytes: std::sync::OnceLock<axum::body::Bytes>,
     /// This scene's share of the memory budget, held while it is loaded.
     _pin: Option<crate::budget::Pin>,
-}
-
-impl std::ops::Deref for Ready {
-    type Target = Model;
-    fn deref(&self) -> &Model {
-        &self.model
-    }
 }
 
 impl Ready {
@@ -53,13 +46,13 @@ impl Ready {
     /// Gouraud shading vertices, built on first use.
     pub fn shading(&self) -> &crate::render::Shading {
         self.shading
-            .get_or_init(|| crate::render::Shading::new(&self.baked.mesh))
+            .get_or_init(|| crate::render::Shading::new(&self.model.baked.mesh))
     }
 
     /// The shading mesh as served by `GET /api/scenes/{id}/mesh`, built on first use.
     pub(crate) fn mesh_bytes(&self) -> axum::body::Bytes {
         self.mesh_bytes
-            .get_or_init(|| self.shading().mesh_bytes(&self.baked.mesh).into())
+            .get_or_init(|| self.shading().mesh_bytes(&self.model.baked.mesh).into())
             .clone()
     }
 
@@ -68,8 +61,8 @@ impl Ready {
     pub(crate) fn preview_bytes(&self) -> axum::body::Bytes {
         self.preview_bytes
             .get_or_init(|| {
-                let fine = &self.baked.mesh;
-                match crate::render::preview::preview_mesh(&self.baked.scene, fine) {
+                let fine = &self.model.baked.mesh;
+                match crate::render::preview::preview_mesh(&self.model.baked.scene, fine) {
                     Some((coarse, cs)) => self.shading().preview_bytes(fine, &coarse, &cs).into(),
                     None => self.mesh_bytes(),
                 }

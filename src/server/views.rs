@@ -38,7 +38,7 @@ impl View {
     pub fn group_images(&self, ready: &Ready) -> Option<&GroupImages> {
         self.groups
             .get_or_init(|| {
-                let t = &ready.baked.transfer;
+                let t = &ready.model.baked.transfer;
                 if !GroupImages::worthwhile(&self.buffer, t.group_count()) {
                     return None;
                 }
@@ -141,7 +141,7 @@ impl ViewCache {
 }
 
 fn view_key(ready: &Ready, cam: &Camera) -> ViewKey {
-    (ready.baked.scene.id.clone(), cam.key())
+    (ready.model.baked.scene.id.clone(), cam.key())
 }
 
 /// The view buffer for this scene and camera, from the cache or built now. Concurrent
@@ -159,7 +159,7 @@ pub fn view_for(state: &AppState, ready: &Ready, cam: &Camera) -> Arc<View> {
     }
     let built = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
         Arc::new(View {
-            buffer: ViewBuffer::build(&ready.baked.mesh, ready.shading(), cam),
+            buffer: ViewBuffer::build(&ready.model.baked.mesh, ready.shading(), cam),
             groups: OnceLock::new(),
         })
     }));
@@ -180,8 +180,8 @@ pub fn view_for(state: &AppState, ready: &Ready, cam: &Camera) -> Arc<View> {
 /// images when not cached yet, the linear and 8-bit images, and the encoded file.
 pub fn render_estimate(state: &AppState, ready: &Ready, o: &RenderOptions) -> u64 {
     let px = o.camera.width as u64 * o.camera.height as u64;
-    let groups = ready.baked.transfer.group_count();
-    let n = ready.baked.transfer.n as u64;
+    let groups = ready.model.baked.transfer.group_count();
+    let n = ready.model.baked.transfer.n as u64;
     let images = px * (12 + 3 + 4) + 12 * n * 3;
     let view = match lock(&state.views).peek(&view_key(ready, &o.camera)) {
         Some(v) if v.group_images_pending(groups) => GroupImages::estimate_bytes(&v.buffer, groups),

@@ -17,15 +17,17 @@ use std::borrow::Cow;
 use std::collections::BTreeMap;
 
 use serde_json::{json, Value};
-use utoipa::openapi::header::HeaderBuilder;
+use utoipa::openapi::header::{Header, HeaderBuilder};
 use utoipa::openapi::response::{Response, ResponseBuilder};
 use utoipa::openapi::schema::Schema;
 use utoipa::openapi::{ContentBuilder, Ref, RefOr, Required};
 use utoipa::{IntoParams, IntoResponses, Modify, OpenApi, PartialSchema, ToResponse, ToSchema};
 
 use super::error::ProblemDetails;
-use super::requests::bodies::{LightingState, Point, Target};
+use super::requests::batch::LightingState;
+use super::requests::illuminance::Point;
 use super::requests::lighting::{Color, Direction, Emission, LightSetting, Lights, Position};
+use super::requests::optimize::Target;
 use super::requests::render::Exposure;
 use super::requests::{raw, BatchRequest, IlluminanceRequest, OptimizeRequest};
 use super::requests::{AnnualRequest, DaylightRequest, RadiosityRequest, RenderRequest};
@@ -230,6 +232,109 @@ errors!(
     ]
 );
 
+/// A header of an answer.
+fn header(schema: impl Into<RefOr<Schema>>, description: &str) -> Header {
+    HeaderBuilder::new()
+        .schema(schema)
+        .description(Some(description))
+        .build()
+}
+
+/// The schema component `T`.
+fn of<T: ToSchema>() -> Ref {
+    Ref::from_schema_name(T::name())
+}
+
+/// A 200 answer: its description, headers and content (media type and schema).
+fn ok(
+    description: &str,
+    headers: Vec<(&str, Header)>,
+    content: Vec<(&str, Ref)>,
+) -> BTreeMap<String, RefOr<Response>> {
+    let mut r = ResponseBuilder::new().description(description);
+    for (name, h) in headers {
+        r = r.header(name, h);
+    }
+    for (media, schema) in content {
+        r = r.content(media, ContentBuilder::new().schema(Some(schema)).build());
+    }
+    BTreeMap::from([("200".to_string(), RefOr::T(r.build()))])
+}
+
+/// The headers of an answer made on request and not to be cached (an image, an export):
+/// the server time in `timing`, the exposure used, and `Cache-Control: no-store`.
+fn made<'a>(timing: &'a str, exposure: &str) -> Vec<(&'a str, Header)> {
+    vec![
+        (timing, header(of::<Millis>(), "Server time, ms.")),
+        ("X-Relight-Exposure", header(f64::schema(), exposure)),
+        ("Cache-Control", header(String::schema(), "`no-store`.")),
+    ]
+}
+
+/// A relit image in one of `content`'s formats.
+fn image(description: &str, content: Vec<(&str, Ref)>) -> BTreeMap<String, RefOr<Response>> {
+    let mut headers = made(
+        "X-Relight-Render-Ms",
+        "Shaded 8-bit images: the exposure used, stops.",
+    );
+    let range = "False colour: `low,high`, the lux range of the log scale.";
+    headers.push(("X-Relight-Falsecolor-Lux", header(String::schema(), range)));
+    ok(description, headers, content)
+}
+
+/// Declares the 200 answer of operations.
+macro_rules! answer {
+    ($name:ident, $responses:expr) => {
+        pub(crate) struct $name;
+        impl IntoResponses for $name {
+            fn responses() -> BTreeMap<String, RefOr<Response>> {
+                $responses
+            }
+        }
+    };
+}
+
+// POST …/render.
+answer!(
+    RenderImage,
+    image(
+        "The encoded image, in the requested format.",
+        vec![
+            ("image/png", of::<PngImage>()),
+            ("image/jpeg", of::<JpegImage>()),
+            ("image/x-exr", of::<ExrImage>()),
+        ],
+    )
+);
+// GET …/render.png.
+answer!(
+    RenderPng,
+    image("The PNG image.", vec![("image/png", of::<PngImage>())])
+);
+// GET …/export.glb.
+answer!(GlbFile, {
+    let mut headers = made("X-Relight-Export-Ms", "The exposure used, stops.");
+    let disposition = "`attachment; filename=\"<id>.glb\"`.";
+    headers.push(("Content-Disposition", header(String::schema(), disposition)));
+    ok(
+        "The .glb file.",
+        headers,
+        vec![("model/gltf-binary", of::<GlbModel>())],
+    )
+});
+// GET …/mesh and …/mesh/preview.
+answer!(
+    MeshBuffer,
+    ok(
+        "One binary buffer.",
+        vec![(
+            "X-Relight-Layout",
+            header(String::schema(), "The layout of the bytes.")
+        )],
+        vec![("application/octet-stream", of::<MeshBinary>())],
+    )
+);
+
 /// Constraints between fields, which the derived schemas cannot say.
 struct Constraints;
 
@@ -330,6 +435,7 @@ impl Modify for Constraints {
             Color, Position, Direction, LightSetting, Lights, Emission, LightingState, Point,
             Target, Exposure, RadiosityRequest, IlluminanceRequest, BatchRequest,
             OptimizeRequest, RenderRequest, ProblemDetails, Rgb, Millis, DaylightRequest, AnnualRequest,
+            PngImage, JpegImage, ExrImage, GlbModel, MeshBinary,
             crate::model::sky_state::SkySpec, crate::model::sky_state::SunPosition,
         ),
         responses(BadRequest, BadQuery, NotFound, Unauthorized, Forbidden, Conflict, TooLarge, UnsupportedMediaType, Invalid, Unavailable),

@@ -5,9 +5,10 @@ use std::collections::BTreeMap;
 use super::lighting::{lighting, Lights};
 use super::render::{query_choice, query_light, query_number, TonemapName, MAX_EXPOSURE};
 use crate::model::Lighting;
+use crate::model::Model;
 use crate::render::ExportOptions;
 use crate::server::parse::{number, shorten};
-use crate::server::{AppError, Ready};
+use crate::server::AppError;
 
 /// `export.glb?light.ceiling=0.5&exposure=-2&tonemap=clamp&relightable=false`.
 pub(crate) struct ExportRequest {
@@ -70,9 +71,9 @@ impl ExportRequest {
     /// The group weights (422 for unknown groups and values out of range) and options.
     pub(crate) fn resolve(
         &self,
-        ready: &Ready,
+        model: &Model,
     ) -> Result<(Vec<crate::color::Rgb>, ExportOptions), AppError> {
-        let weights = match lighting(Some(&self.lights), None, ready)? {
+        let weights = match lighting(Some(&self.lights), None, model)? {
             Lighting::Groups(w) => w,
             Lighting::Emission(_) => {
                 return Err(AppError::Internal("export: lights gave an emission".into()))

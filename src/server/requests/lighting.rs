@@ -15,10 +15,12 @@ use utoipa::{PartialSchema, ToSchema};
 use super::{raw, schema_ref, some};
 use crate::color::Rgb;
 use crate::model::lighting::{LightState, MAX_EMISSION, MAX_INTENSITY};
+use crate::model::sky_state::{SkySpec, SkyState};
 use crate::model::Lighting;
-use crate::server::json::count_rest;
+use crate::model::Model;
+use crate::server::json::numbers;
 use crate::server::parse::{bounded, shorten, MAX_COORDINATE};
-use crate::server::{AppError, Ready};
+use crate::server::AppError;
 
 /// Three JSON numbers, as sent; their ranges are checked by whoever uses them.
 #[derive(Debug, Clone, Copy)]
@@ -32,18 +34,8 @@ impl<'de> Deserialize<'de> for Triple {
             fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
                 f.write_str("an array of three numbers")
             }
-            fn visit_seq<A: SeqAccess<'de>>(self, mut seq: A) -> Result<Triple, A::Error> {
-                let mut t = [0.0; 3];
-                for (i, x) in t.iter_mut().enumerate() {
-                    *x = seq
-                        .next_element()?
-                        .ok_or_else(|| serde::de::Error::invalid_length(i, &self))?;
-                }
-                let more = count_rest(&mut seq)?;
-                if more > 0 {
-                    return Err(serde::de::Error::invalid_length(3 + more, &self));
-                }
-                Ok(Triple(t))
+            fn visit_seq<A: SeqAccess<'de>>(self, seq: A) -> Result<Triple, A::Error> {
+                numbers(seq, &self).map(Triple)
             }
         }
         d.deserialize_seq(V)
@@ -256,8 +248,8 @@ fn color(c: Color, what: &str) -> Result<Rgb, AppError> {
 }
 
 /// Per-group weights of a lighting state (absent: every group at its default).
-pub(crate) fn light_weights(lights: Option<&Lights>, ready: &Ready) -> Result<Vec<Rgb>, AppError> {
-    let scene = &ready.baked.scene;
+pub(crate) fn light_weights(lights: Option<&Lights>, model: &Model) -> Result<Vec<Rgb>, AppError> {
+    let scene = &model.baked.scene;
     let mut state = LightState::default();
     for (id, s) in lights.map(|l| &l.0).into_iter().flatten() {
         let name = shorten(id);
@@ -274,16 +266,16 @@ pub(crate) fn light_weights(lights: Option<&Lights>, ready: &Ready) -> Result<Ve
         };
         state.set(scene, id, level, rgb)?;
     }
-    Ok(ready.weights(&state)?)
+    Ok(model.weights(&state)?)
 }
 
 /// The per-patch emission vector, n × 3 (factored transfer only).
-pub(crate) fn emission_vector(e: &Emission, ready: &Ready) -> Result<Vec<f32>, AppError> {
-    ready.require_factored()?;
-    let n = ready.patches();
+pub(crate) fn emission_vector(e: &Emission, model: &Model) -> Result<Vec<f32>, AppError> {
+    model.require_factored()?;
+    let n = model.patches();
     let mut out = vec![0f32; 3 * n];
     let mut put = |i: usize, t: &Triple| -> Result<(), AppError> {
-        let rgb = ready.emission_value(i, t.0)?;
+        let rgb = model.emission_value(i, t.0)?;
         out[3 * i..3 * i + 3].copy_from_slice(&rgb);
         Ok(())
     };
@@ -319,17 +311,25 @@ pub(crate) fn emission_vector(e: &Emission, ready: &Ready) -> Result<Vec<f32>, A
     Ok(out)
 }
 
+/// A request's sky, resolved for the scene's site (which it needs).
+pub(crate) fn sky_state(
+    spec: Option<&SkySpec>,
+    model: &Model,
+) -> Result<Option<SkyState>, AppError> {
+    spec.map(|s| Ok(s.resolve(model.site()?)?)).transpose()
+}
+
 /// A lighting state from a request's `lights` and `emission` (at most one of them).
 pub(crate) fn lighting(
     lights: Option<&Lights>,
     emission: Option<&Emission>,
-    ready: &Ready,
+    model: &Model,
 ) -> Result<Lighting, AppError> {
     match (lights, emission) {
         (Some(_), Some(_)) => Err(AppError::Invalid(
             "give either 'lights' (group settings) or 'emission' (per patch), not both".into(),
         )),
-        (_, Some(e)) => Ok(Lighting::Emission(emission_vector(e, ready)?)),
-        (l, None) => Ok(Lighting::Groups(light_weights(l, ready)?)),
+        (_, Some(e)) => Ok(Lighting::Emission(emission_vector(e, model)?)),
+        (l, None) => Ok(Lighting::Groups(light_weights(l, model)?)),
     }
 }

@@ -7,12 +7,11 @@
 //! after it, by the conversions to engine terms (`lighting`, `query`, `options`, …),
 //! through [`super::parse`] and the query model.
 //!
-//! - [`lighting`]: light-group settings, per-patch emission, and the triples (colours,
-//!   positions, directions) they and the points are made of.
-//! - [`bodies`]: the radiosity, illuminance, batch and optimize requests.
-//! - [`daylight`]: the daylight request.
-//! - [`render`]: the render request and the query of `render.png`.
-//! - [`export`]: the query of `export.glb`.
+//! One module per route (as in [`super::routes`]), and [`lighting`]: light-group
+//! settings, per-patch emission, skies, and the triples (colours, positions, directions)
+//! they and the points are made of. [`illuminance`] also has the receivers (surfaces,
+//! points, grids) that the daylight request reports on; [`render`] has the query of
+//! `render.png` and the parsing of queries that `export.glb` shares.
 
 use std::fmt;
 use std::marker::PhantomData;
@@ -22,14 +21,22 @@ use serde_json::Value;
 use utoipa::openapi::schema::Schema;
 use utoipa::openapi::RefOr;
 
-pub(crate) mod bodies;
+pub(crate) mod annual;
+pub(crate) mod batch;
 pub(crate) mod daylight;
 pub(crate) mod export;
+pub(crate) mod illuminance;
 pub(crate) mod lighting;
+pub(crate) mod optimize;
+pub(crate) mod radiosity;
 pub(crate) mod render;
 
-pub(crate) use bodies::{BatchRequest, IlluminanceRequest, OptimizeRequest, RadiosityRequest};
-pub(crate) use daylight::{AnnualRequest, DaylightRequest};
+pub(crate) use annual::AnnualRequest;
+pub(crate) use batch::BatchRequest;
+pub(crate) use daylight::DaylightRequest;
+pub(crate) use illuminance::IlluminanceRequest;
+pub(crate) use optimize::OptimizeRequest;
+pub(crate) use radiosity::RadiosityRequest;
 pub(crate) use render::RenderRequest;
 // Schemas written as JSON Schema, for the union types that have their own deserializers.
 pub(crate) use crate::schema::raw;
@@ -72,6 +79,19 @@ pub(crate) use object_only;
 /// A `$ref` to a component schema.
 pub(crate) fn schema_ref(name: &str) -> Value {
     serde_json::json!({ "$ref": format!("#/components/schemas/{name}") })
+}
+
+/// A list of names, each at most once.
+pub(crate) fn names(description: &str) -> RefOr<Schema> {
+    raw(
+        serde_json::json!({"type": "array", "items": {"type": "string", "minLength": 1}, "uniqueItems": true,
+        "description": description}),
+    )
+}
+
+/// Grid ids, each at most once.
+pub(crate) fn grid_ids() -> RefOr<Schema> {
+    names("Calculation grid ids from scene.toml.")
 }
 
 /// A string from a fixed set, with its own message for anything else.

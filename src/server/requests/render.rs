@@ -11,17 +11,21 @@ use utoipa::openapi::schema::Schema;
 use utoipa::openapi::RefOr;
 use utoipa::{PartialSchema, ToSchema};
 
-use super::lighting::{lighting, Direction, Emission, LightSetting, Lights, Position, Triple};
+use super::lighting::{
+    lighting, sky_state, Direction, Emission, LightSetting, Lights, Position, Triple,
+};
 use super::{choice_impls, object_only, raw, schema_ref, some, Choice};
 use crate::model::lighting::parse_value;
+use crate::model::sky_state::{SkySpec, SkyState};
 use crate::model::Lighting;
+use crate::model::Model;
 use crate::render::pipeline::{
     RenderOptions, MAX_FOV_DEG, MAX_RANGE_LUX, MIN_FOV_DEG, MIN_RANGE_LUX,
 };
 use crate::render::{Camera, Format, ToneMap, MAX_SIDE};
-use crate::server::json::{count_rest, FIELD};
+use crate::server::json::{numbers, FIELD};
 use crate::server::parse::{bounded, bounded_triple, direction, number, shorten, MAX_COORDINATE};
-use crate::server::{AppError, Ready};
+use crate::server::AppError;
 
 /// Largest exposure, stops either way.
 pub(super) const MAX_EXPOSURE: f64 = 40.0;
@@ -175,18 +179,8 @@ impl<'de> Deserialize<'de> for LuxRange {
             fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
                 f.write_str("[low, high] in lux")
             }
-            fn visit_seq<A: SeqAccess<'de>>(self, mut seq: A) -> Result<LuxRange, A::Error> {
-                let mut t = [0.0; 2];
-                for (i, x) in t.iter_mut().enumerate() {
-                    *x = seq
-                        .next_element()?
-                        .ok_or_else(|| serde::de::Error::invalid_length(i, &self))?;
-                }
-                let more = count_rest(&mut seq)?;
-                if more > 0 {
-                    return Err(serde::de::Error::invalid_length(2 + more, &self));
-                }
-                Ok(LuxRange(t[0], t[1]))
+            fn visit_seq<A: SeqAccess<'de>>(self, seq: A) -> Result<LuxRange, A::Error> {
+                numbers(seq, &self).map(|[lo, hi]| LuxRange(lo, hi))
             }
         }
         d.deserialize_seq(V)
@@ -241,38 +235,32 @@ pub(crate) struct RenderRequest {
     /// the sun's direct light is traced per pixel.
     #[serde(default, deserialize_with = "some")]
     #[schema(nullable = false)]
-    sky: Option<crate::model::sky_state::SkySpec>,
+    sky: Option<SkySpec>,
 }
 
 object_only!(RenderRequest, "a JSON object");
 
 impl RenderRequest {
-    pub(crate) fn lighting(&self, ready: &Ready) -> Result<Lighting, AppError> {
-        lighting(self.lights.as_ref(), self.emission.as_ref(), ready)
+    pub(crate) fn lighting(&self, model: &Model) -> Result<Lighting, AppError> {
+        lighting(self.lights.as_ref(), self.emission.as_ref(), model)
     }
 
     /// The sky, resolved for the scene's site; a sky goes with light groups only.
-    pub(crate) fn sky(
-        &self,
-        ready: &Ready,
-    ) -> Result<Option<crate::model::sky_state::SkyState>, AppError> {
-        let Some(spec) = &self.sky else {
-            return Ok(None);
-        };
-        if self.emission.is_some() {
+    pub(crate) fn sky(&self, model: &Model) -> Result<Option<SkyState>, AppError> {
+        if self.sky.is_some() && self.emission.is_some() {
             return Err(AppError::Invalid(
                 "a render takes a sky with light groups (lights), not with a per-patch emission"
                     .into(),
             ));
         }
-        Ok(Some(spec.resolve(ready.site()?)?))
+        sky_state(self.sky.as_ref(), model)
     }
 
     /// The camera, image size and look, checked.
-    pub(crate) fn options(&self, ready: &Ready) -> Result<RenderOptions, AppError> {
+    pub(crate) fn options(&self, model: &Model) -> Result<RenderOptions, AppError> {
         let w = size(self.width, "width")?;
         let h = size(self.height, "height")?;
-        let camera = camera(self.camera.as_ref(), ready, w, h)?;
+        let camera = camera(self.camera.as_ref(), model, w, h)?;
         let exposure = match self.exposure {
             None | Some(Exposure::Auto) => None,
             Some(Exposure::Stops(e)) => {
@@ -408,8 +396,8 @@ fn size(v: Option<f64>, what: &str) -> Result<u32, AppError> {
     Ok(x as u32)
 }
 
-fn camera(spec: Option<&CameraSpec>, ready: &Ready, w: u32, h: u32) -> Result<Camera, AppError> {
-    let scene = &ready.baked.scene;
+fn camera(spec: Option<&CameraSpec>, model: &Model, w: u32, h: u32) -> Result<Camera, AppError> {
+    let scene = &model.baked.scene;
     let cam = match spec {
         None => {
             let def = scene.cameras.first().ok_or_else(|| {

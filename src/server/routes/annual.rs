@@ -2,21 +2,17 @@
 
 use std::sync::Arc;
 
-use axum::body::Bytes;
-use axum::extract::rejection::BytesRejection;
 use axum::extract::State;
-use axum::http::HeaderMap;
-use axum::response::IntoResponse;
 use axum::Json;
 
-use super::ApiResult;
+use super::grid_points;
 use crate::model::annual::{AnnualAnswer, AnnualQuery};
 use crate::model::QueryError;
 use crate::server::openapi::{PostErrors, SceneIdParam};
-use crate::server::parse::{begin, SceneId};
-use crate::server::requests::daylight::Weather;
+use crate::server::parse::{ReadyScene, StrictJson};
+use crate::server::requests::annual::Weather;
 use crate::server::requests::AnnualRequest;
-use crate::server::AppState;
+use crate::server::{AppError, AppState};
 
 #[utoipa::path(post, path = "/api/scenes/{id}/annual", operation_id = "annual", tag = "scenes",
     summary = "Annual climate-based metrics per grid from an EPW weather file (a file in the scene's folder, or its text): sDA300/50 %, ASE1000,250h, useful daylight illuminance bands, EN 17037's minimum level, and per point the occupied hours with at least 300 lx. Every hour is a Perez sky; the sun's direct light is traced per point and hour.",
@@ -25,22 +21,20 @@ use crate::server::AppState;
         example = json!({"weather": "mannheim.epw", "grids": ["workplane"], "occupied": ["08:00", "18:00"]})),
     responses((status = 200, description = "Annual metrics per grid.", body = AnnualAnswer), PostErrors))]
 pub(crate) async fn annual(
+    ReadyScene(ready): ReadyScene,
     State(state): State<Arc<AppState>>,
-    SceneId(id): SceneId,
-    headers: HeaderMap,
-    body: Result<Bytes, BytesRejection>,
-) -> ApiResult {
-    let (ready, body): (_, AnnualRequest) = begin(&state, &id, &headers, body).await?;
-    let (grids, occupied, weather) = body.parts(&ready)?;
-    let points: usize = grids.iter().map(|&g| ready.grids[g].len()).sum();
+    StrictJson(req): StrictJson<AnnualRequest>,
+) -> Result<Json<AnnualAnswer>, AppError> {
+    let (grids, occupied, weather) = req.parts(&ready.model)?;
+    let points = grid_points(&ready.model, &grids);
     // Sized for a leap year, before the file is read.
-    let bytes = ready.annual_bytes(&grids, 8784);
+    let bytes = ready.model.annual_bytes(&grids, 8784);
     let what = format!("annual metrics for {points} grid points");
-    let r = ready.clone();
     let answer = state
         .heavy(bytes, &what, move |cancel| {
+            let m = &ready.model;
             let weather = match weather {
-                Weather::File(name) => r.weather_file(&name)?,
+                Weather::File(name) => m.weather_file(&name)?,
                 Weather::Text(text) => crate::daylight::epw::parse(&text)
                     .map_err(|m| QueryError::Invalid(format!("weather: {m}")))?,
             };
@@ -49,8 +43,8 @@ pub(crate) async fn annual(
                 grids,
                 occupied,
             };
-            Ok(r.annual(&q, cancel)?)
+            Ok(m.annual(&q, cancel)?)
         })
         .await?;
-    Ok(Json(answer).into_response())
+    Ok(Json(answer))
 }

@@ -5,22 +5,18 @@
 use std::collections::BTreeMap;
 use std::sync::Arc;
 
-use axum::body::Bytes;
-use axum::extract::rejection::BytesRejection;
 use axum::extract::State;
-use axum::http::HeaderMap;
-use axum::response::IntoResponse;
 use axum::Json;
 use serde::Serialize;
 use utoipa::ToSchema;
 
-use super::ApiResult;
+use super::grid_points;
 use crate::model::query::{GridAnswer, BYTES_PER_PATCH_ANSWER};
 use crate::model::report::{PowerReport, SurfaceIlluminance};
 use crate::model::Lighting;
 use crate::schema::{lm, lm_per_m2, lx};
 use crate::server::openapi::{PostErrors, SceneIdParam};
-use crate::server::parse::{begin, SceneId};
+use crate::server::parse::{ReadyScene, StrictJson};
 use crate::server::requests::BatchRequest;
 use crate::server::{AppError, AppState};
 
@@ -68,36 +64,34 @@ pub(crate) struct BatchResponse {
         example = json!({"states": [{"lights": {"ceiling": 0.25}}, {"lights": {"ceiling": 1}}], "surfaces": ["floor"]})),
     responses((status = 200, description = "One result per state, in request order.", body = BatchResponse), PostErrors))]
 pub(crate) async fn batch(
+    ReadyScene(ready): ReadyScene,
     State(state): State<Arc<AppState>>,
-    SceneId(id): SceneId,
-    headers: HeaderMap,
-    body: Result<Bytes, BytesRejection>,
-) -> ApiResult {
-    let (ready, body): (_, BatchRequest) = begin(&state, &id, &headers, body).await?;
-    let (grids, surfaces) = body.plan(&ready)?;
-    let with_radiosity = body.radiosity;
-    let states = &body.states;
+    StrictJson(req): StrictJson<BatchRequest>,
+) -> Result<Json<BatchResponse>, AppError> {
+    let m = &ready.model;
+    let (grids, surfaces) = req.plan(m)?;
+    let with_radiosity = req.radiosity;
+    let states = &req.states;
     // Refused here, in microseconds, when the transfer cannot solve the emission states
     // or (hierarchical) they would take too long.
     let emission_states = states.iter().filter(|s| s.is_emission()).count();
-    let plan = ready.plan_batch(states.len(), emission_states)?;
+    let plan = m.plan_batch(states.len(), emission_states)?;
     // Memory: the solves' working memory (a chunk of emission states at a time), and
     // every answer's surfaces, grids and (when asked) radiosity, then as text.
-    let n = ready.patches() as u64;
-    let grid_points: u64 = grids.iter().map(|&g| ready.grids[g].len() as u64).sum();
+    let n = m.patches() as u64;
+    let grid_points = grid_points(m, &grids) as u64;
     let per_state =
         400 * surfaces.len() as u64 + 48 * grid_points + if with_radiosity { 150 * n } else { 0 };
     let bytes = 2 * states.len() as u64 * per_state + plan.bytes + BYTES_PER_PATCH_ANSWER * n;
     let what = format!("a batch of {} states", states.len());
-    let r = ready.clone();
     let results = state
         .heavy(bytes, &what, move |cancel| {
-            let states = &body.states;
+            let (m, states) = (&ready.model, &req.states);
             let at = |k: usize, e: AppError| AppError::Invalid(format!("states[{k}]: {e}"));
             let mut results = Vec::with_capacity(states.len());
-            r.solve_each(
+            m.solve_each(
                 &plan,
-                |k| states[k].lighting(&r).map_err(|e| at(k, e)),
+                |k| states[k].lighting(m).map_err(|e| at(k, e)),
                 cancel,
                 |k, l, sol| {
                     let radiosity = with_radiosity
@@ -110,11 +104,11 @@ pub(crate) async fn batch(
                                 "grids need light-group states (per-patch emission has no grid columns)".into(),
                             )));
                         };
-                        Some(r.grid_answers(&grids, &w))
+                        Some(m.grid_answers(&grids, &w))
                     };
                     results.push(BatchResult {
-                        surfaces: r.surface_stats(&surfaces, &sol.h),
-                        power: PowerReport::new(r.baked.transfer.power(&sol)),
+                        surfaces: m.surface_stats(&surfaces, &sol.h),
+                        power: PowerReport::new(m.baked.transfer.power(&sol)),
                         radiosity,
                         grids: grid_answers,
                     });
@@ -129,5 +123,5 @@ pub(crate) async fn batch(
         radiosity: "lm/m2",
         power: "lm",
     };
-    Ok(Json(BatchResponse { unit, results }).into_response())
+    Ok(Json(BatchResponse { unit, results }))
 }

@@ -3,19 +3,15 @@
 
 use std::sync::Arc;
 
-use axum::body::Bytes;
-use axum::extract::rejection::BytesRejection;
 use axum::extract::State;
-use axum::http::HeaderMap;
-use axum::response::IntoResponse;
 use axum::Json;
 
-use super::ApiResult;
+use super::at_points;
 use crate::model::daylight::DaylightAnswer;
 use crate::server::openapi::{PostErrors, SceneIdParam};
-use crate::server::parse::{begin, SceneId};
+use crate::server::parse::{ReadyScene, StrictJson};
 use crate::server::requests::DaylightRequest;
-use crate::server::AppState;
+use crate::server::{AppError, AppState};
 
 #[utoipa::path(post, path = "/api/scenes/{id}/daylight", operation_id = "daylight", tag = "scenes",
     summary = "Daylight from a sky (uniform, CIE overcast, CIE clear with the sun, Perez from irradiance; the sun placed by position or local time at the scene's [site]): illuminance per surface, at points (the direct sky integrated over what each point sees, the sun by a shadow ray, interreflections gathered) and on grids, with daylight factors (percent) for the CIE overcast sky. Electric light in `lights` is added.",
@@ -24,24 +20,17 @@ use crate::server::AppState;
         example = json!({"sky": {"type": "cie_overcast", "horizontal_illuminance": 10000}, "points": [{"position": [2.0, 0.8, 2.0], "normal": [0, 1, 0]}]})),
     responses((status = 200, description = "Daylight answers in lux.", body = DaylightAnswer), PostErrors))]
 pub(crate) async fn daylight(
+    ReadyScene(ready): ReadyScene,
     State(state): State<Arc<AppState>>,
-    SceneId(id): SceneId,
-    headers: HeaderMap,
-    body: Result<Bytes, BytesRejection>,
-) -> ApiResult {
-    let (ready, body): (_, DaylightRequest) = begin(&state, &id, &headers, body).await?;
-    let (sky, weights, q) = body.query(&ready)?;
-    let bytes = ready.daylight_bytes(&q);
-    let grid_points: usize = q.grids.iter().map(|&g| ready.grids[g].len()).sum();
-    let what = format!(
-        "daylight at {} points and {grid_points} grid points",
-        q.points.len()
-    );
-    let r = ready.clone();
+    StrictJson(req): StrictJson<DaylightRequest>,
+) -> Result<Json<DaylightAnswer>, AppError> {
+    let (sky, weights, q) = req.query(&ready.model)?;
+    let bytes = ready.model.daylight_bytes(&q);
+    let what = at_points("daylight", &ready.model, &q);
     let answer = state
         .heavy(bytes, &what, move |cancel| {
-            Ok(r.daylight(&sky, weights.as_deref(), &q, cancel)?)
+            Ok(ready.model.daylight(&sky, weights.as_deref(), &q, cancel)?)
         })
         .await?;
-    Ok(Json(answer).into_response())
+    Ok(Json(answer))
 }

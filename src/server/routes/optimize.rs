@@ -3,19 +3,14 @@
 
 use std::sync::Arc;
 
-use axum::body::Bytes;
-use axum::extract::rejection::BytesRejection;
 use axum::extract::State;
-use axum::http::HeaderMap;
-use axum::response::IntoResponse;
 use axum::Json;
 
-use super::ApiResult;
 use crate::model::optimize::OptimizeAnswer;
 use crate::server::openapi::{PostErrors, SceneIdParam};
-use crate::server::parse::{begin, SceneId};
+use crate::server::parse::{ReadyScene, StrictJson};
 use crate::server::requests::OptimizeRequest;
-use crate::server::AppState;
+use crate::server::{AppError, AppState};
 
 #[utoipa::path(post, path = "/api/scenes/{id}/optimize", operation_id = "optimize", tag = "scenes",
     summary = "Dimming levels (0..1 per free group, modelled colours) that meet grid targets with the least emitted flux: a linear program over the precomputed grid responses. 422 explains unreachable targets.",
@@ -25,21 +20,21 @@ use crate::server::AppState;
         example = json!({"targets": [{"grid": "desk", "eavg_min": 500, "u0_min": 0.6}]})),
     responses((status = 200, description = "The levels, flux, power and achieved statistics.", body = OptimizeAnswer), PostErrors))]
 pub(crate) async fn optimize(
+    ReadyScene(ready): ReadyScene,
     State(state): State<Arc<AppState>>,
-    SceneId(id): SceneId,
-    headers: HeaderMap,
-    body: Result<Bytes, BytesRejection>,
-) -> ApiResult {
-    let (ready, body): (_, OptimizeRequest) = begin(&state, &id, &headers, body).await?;
-    let (base, free, targets) = body.problem(&ready)?;
-    let bytes = ready.optimize_bytes(free.len(), &targets);
-    let rows: usize = targets.iter().map(|t| ready.grids[t.grid].len()).sum();
+    StrictJson(req): StrictJson<OptimizeRequest>,
+) -> Result<Json<OptimizeAnswer>, AppError> {
+    let (base, free, targets) = req.problem(&ready.model)?;
+    let bytes = ready.model.optimize_bytes(free.len(), &targets);
+    let rows: usize = targets
+        .iter()
+        .map(|t| ready.model.grids[t.grid].len())
+        .sum();
     let what = format!("optimizing {} groups over {rows} grid points", free.len());
-    let r = ready.clone();
     let answer = state
         .heavy(bytes, &what, move |_| {
-            Ok(r.optimize(&base, &free, &targets)?)
+            Ok(ready.model.optimize(&base, &free, &targets)?)
         })
         .await?;
-    Ok(Json(answer).into_response())
+    Ok(Json(answer))
 }

@@ -5,8 +5,6 @@
 use std::collections::BTreeMap;
 use std::sync::Arc;
 
-use axum::body::Bytes;
-use axum::extract::rejection::BytesRejection;
 use axum::extract::State;
 use axum::http::{header, HeaderMap};
 use axum::response::{IntoResponse, Response};
@@ -15,13 +13,13 @@ use utoipa::openapi::schema::Schema;
 use utoipa::openapi::RefOr;
 use utoipa::ToSchema;
 
-use super::{binary, wants_binary, ApiResult};
+use super::{binary, wants_binary};
 use crate::model::query::{Quantity, BYTES_PER_PATCH_ANSWER};
 use crate::model::report::{surface_averages, SurfaceAverage};
 use crate::model::Lighting;
 use crate::schema::{words, Rgb};
 use crate::server::openapi::{PostErrors, RadiosityBinary, SceneIdParam};
-use crate::server::parse::{begin, SceneId};
+use crate::server::parse::{ReadyScene, StrictJson};
 use crate::server::requests::RadiosityRequest;
 use crate::server::{AppError, AppState};
 
@@ -67,13 +65,12 @@ pub(crate) struct RadiosityResponse {
         PostErrors,
     ))]
 pub(crate) async fn radiosity(
+    ReadyScene(ready): ReadyScene,
     State(state): State<Arc<AppState>>,
-    SceneId(id): SceneId,
     headers: HeaderMap,
-    body: Result<Bytes, BytesRejection>,
-) -> ApiResult {
-    let (ready, body): (_, RadiosityRequest) = begin(&state, &id, &headers, body).await?;
-    let (want_surfaces, quantity) = (body.surfaces, body.quantity.0);
+    StrictJson(req): StrictJson<RadiosityRequest>,
+) -> Result<Response, AppError> {
+    let (want_surfaces, quantity) = (req.surfaces, req.quantity.0);
     let (key, unit, layout) = match quantity {
         Quantity::Illuminance => (
             "illuminance",
@@ -86,15 +83,15 @@ pub(crate) async fn radiosity(
             "f32 LE [patch][r,g,b] radiosity, lm/m2",
         ),
     };
-    let lighting = body.lighting(&ready)?;
-    let sky = body.sky(&ready)?;
-    let n = ready.patches();
+    let lighting = req.lighting(&ready.model)?;
+    let sky = req.sky(&ready.model)?;
+    let n = ready.model.patches();
     let binary_out = wants_binary(&headers);
     // The hot path: group weights and binary out, no surfaces, no sky: one weighted sum (a
     // memory stream of n × groups floats), answered inline.
     if let (Lighting::Groups(w), true, false, None) = (&lighting, binary_out, want_surfaces, &sky) {
         let mut out = vec![0f32; 3 * n];
-        ready.per_patch_groups(w, quantity, &mut out);
+        ready.model.per_patch_groups(w, quantity, &mut out);
         return Ok(binary(out, n, layout));
     }
     // Everything else (exact solves, JSON text of n triples) runs off the runtime.
@@ -102,13 +99,14 @@ pub(crate) async fn radiosity(
     let what = format!("the radiosity answer for {n} patches");
     state
         .heavy(bytes, &what, move |_| {
-            let b = &ready.baked;
-            let mut sol = ready.solve(&lighting)?;
+            let m = &ready.model;
+            let mut sol = m.solve(&lighting)?;
             if let Some(sky) = &sky {
-                let day = ready.patch_daylight(sky)?;
+                let day = m.patch_daylight(sky)?;
                 sol.b.iter_mut().zip(&day.b).for_each(|(a, x)| *a += x);
                 sol.h.iter_mut().zip(&day.h).for_each(|(a, x)| *a += x);
             }
+            let b = &m.baked;
             let surfaces = want_surfaces.then(|| surface_averages(&b.scene, &b.mesh, &sol));
             let values = match quantity {
                 Quantity::Illuminance => sol.h,

@@ -5,22 +5,19 @@
 use std::sync::Arc;
 use std::time::Instant;
 
-use axum::body::Bytes;
-use axum::extract::rejection::BytesRejection;
 use axum::extract::{Query, State};
-use axum::http::{header, HeaderMap};
-use axum::response::{IntoResponse, Response};
+use axum::http::HeaderName;
+use axum::response::Response;
 
+use super::{made, put};
 use crate::budget::human_bytes;
 use crate::model::sky_state::SkyState;
 use crate::model::Lighting;
 use crate::render::daylight::{daylight_pixels, SunView};
 use crate::render::pipeline::{self, Frame, RenderError, RenderOptions};
 use crate::render::ViewBuffer;
-use crate::server::openapi::{
-    ExrImage, JpegImage, Millis, PngImage, PostErrors, QueryErrors, SceneIdParam,
-};
-use crate::server::parse::{begin, SceneId};
+use crate::server::openapi::{PostErrors, QueryErrors, RenderImage, RenderPng, SceneIdParam};
+use crate::server::parse::{ReadyScene, StrictJson};
 use crate::server::requests::render::RenderQuery;
 use crate::server::requests::RenderRequest;
 use crate::server::views::{render_estimate, view_for};
@@ -105,7 +102,7 @@ async fn respond(
     if sky.is_some() {
         // Per-pixel daylight (two RGB images) and per-patch daylight (b, h and a column).
         let px = o.camera.width as u64 * o.camera.height as u64;
-        bytes += 24 * px + 36 * ready.patches() as u64;
+        bytes += 24 * px + 36 * ready.model.patches() as u64;
     }
     let what = format!(
         "a {}×{} render (view buffer up to {})",
@@ -119,25 +116,12 @@ async fn respond(
             render_image(&st, &ready, &lighting, sky.as_ref(), &o)
         })
         .await?;
-    let mut resp = ([(header::CONTENT_TYPE, format.content_type())], r.bytes).into_response();
-    let hd = resp.headers_mut();
-    if let Ok(v) = format!("{:.3}", t0.elapsed().as_secs_f64() * 1e3).parse() {
-        hd.insert("x-relight-render-ms", v);
-    }
-    if let Some(ev) = r.exposure {
-        if let Ok(v) = format!("{ev:.3}").parse() {
-            hd.insert("x-relight-exposure", v);
-        }
-    }
+    let timing = ("x-relight-render-ms", t0);
+    let mut resp = made(format.content_type(), r.bytes, timing, r.exposure);
     if let Some((lo, hi)) = r.range {
-        if let Ok(v) = format!("{lo},{hi}").parse() {
-            hd.insert("x-relight-falsecolor-lux", v);
-        }
+        let name = HeaderName::from_static("x-relight-falsecolor-lux");
+        put(&mut resp, name, format!("{lo},{hi}"));
     }
-    hd.insert(
-        header::CACHE_CONTROL,
-        "no-store".parse().expect("static header"),
-    );
     Ok(resp)
 }
 
@@ -147,53 +131,35 @@ async fn respond(
     request_body(content = RenderRequest, content_type = "application/json",
         description = "An empty body is a 512×512 PNG from the first camera preset in the default lighting state.",
         example = json!({"camera": "front", "width": 256, "height": 256, "lights": {"ceiling": 0.5}, "format": "png"})),
-    responses(
-        (status = 200, description = "The encoded image, in the requested format.",
-            headers(
-                ("X-Relight-Render-Ms" = Millis, description = "Server time, ms."),
-                ("X-Relight-Exposure" = f64, description = "Shaded 8-bit images: the exposure used, stops."),
-                ("X-Relight-Falsecolor-Lux" = String, description = "False colour: `low,high`, the lux range of the log scale."),
-                ("Cache-Control" = String, description = "`no-store`."),
-            ),
-            content((PngImage = "image/png"), (JpegImage = "image/jpeg"), (ExrImage = "image/x-exr"))),
-        PostErrors,
-    ))]
+    responses(RenderImage, PostErrors))]
 pub(crate) async fn render_post(
+    ReadyScene(ready): ReadyScene,
     State(state): State<Arc<AppState>>,
-    SceneId(id): SceneId,
-    headers: HeaderMap,
-    body: Result<Bytes, BytesRejection>,
+    StrictJson(req): StrictJson<RenderRequest>,
 ) -> Result<Response, AppError> {
-    let (ready, body): (_, RenderRequest) = begin(&state, &id, &headers, body).await?;
-    let lighting = body.lighting(&ready)?;
-    let sky = body.sky(&ready)?;
-    let o = body.options(&ready)?;
+    let lighting = req.lighting(&ready.model)?;
+    let sky = req.sky(&ready.model)?;
+    let o = req.options(&ready.model)?;
     respond(state, ready, lighting, sky, o).await
 }
 
 /// `GET …/render.png?camera=front&w=512&h=512&light.ceiling=0.5&exposure=0&mode=falsecolor`
-#[utoipa::path(get, path = "/api/scenes/{id}/render.png", operation_id = "renderPng", tag = "scenes",
+#[utoipa::path(
+    get,
+    path = "/api/scenes/{id}/render.png",
+    operation_id = "renderPng",
+    tag = "scenes",
     summary = "A relit PNG for quick use from a browser or curl, e.g. ?camera=front&w=512&h=512&light.ceiling=0.5. Besides the parameters below it takes `width`/`height` (aliases of w/h) and `light.<group>=<intensity>` or `light.<group>=r,g,b` (intensity 1 at that colour) for each light group. A parameter given twice, an unknown parameter or a value that is not a number where one is expected is a 400; values out of range, unknown cameras and light groups are 422s.",
     params(SceneIdParam, RenderQuery),
-    responses(
-        (status = 200, description = "The PNG image.",
-            headers(
-                ("X-Relight-Render-Ms" = Millis, description = "Server time, ms."),
-                ("X-Relight-Exposure" = f64, description = "Shaded 8-bit images: the exposure used, stops."),
-                ("X-Relight-Falsecolor-Lux" = String, description = "False colour: `low,high`, the lux range of the log scale."),
-                ("Cache-Control" = String, description = "`no-store`."),
-            ),
-            content((PngImage = "image/png"))),
-        QueryErrors,
-    ))]
+    responses(RenderPng, QueryErrors)
+)]
 pub(crate) async fn render_get(
+    ReadyScene(ready): ReadyScene,
     State(state): State<Arc<AppState>>,
-    SceneId(id): SceneId,
     Query(q): Query<Vec<(String, String)>>,
 ) -> Result<Response, AppError> {
-    let ready = state.slot(&id)?.ready()?;
-    let body = RenderRequest::from_query(&q)?;
-    let lighting = body.lighting(&ready)?;
-    let o = body.options(&ready)?;
+    let req = RenderRequest::from_query(&q)?;
+    let lighting = req.lighting(&ready.model)?;
+    let o = req.options(&ready.model)?;
     respond(state, ready, lighting, None, o).await
 }

@@ -4,6 +4,7 @@
 
 use std::sync::Arc;
 
+use axum::body::Bytes;
 use axum::extract::State;
 use axum::http::{header, HeaderMap};
 use axum::response::{IntoResponse, Response};
@@ -13,18 +14,19 @@ use utoipa::openapi::schema::Schema;
 use utoipa::openapi::RefOr;
 use utoipa::ToSchema;
 
-use super::{binary, wants_binary, ApiResult};
+use super::{binary, wants_binary};
 use crate::model::info::{
     Bounds, GridInfo, LuminaireInfo, PatchInfo, SiteInfo, SurfaceInfo, Units,
 };
 use crate::model::GroupInfo;
+use crate::model::Model;
 use crate::scene::CameraDef;
 use crate::schema::words;
 use crate::server::openapi::{
-    MeshBinary, PatchesBinary, SceneErrors, SceneIdParam, SizedGetErrors,
+    MeshBuffer, PatchesBinary, SceneErrors, SceneIdParam, SizedGetErrors,
 };
-use crate::server::parse::SceneId;
-use crate::server::{AppState, Ready, SceneSlot};
+use crate::server::parse::ReadyScene;
+use crate::server::{AppError, AppState, Ready, SceneSlot};
 use crate::transport::transfer::TransferMode;
 
 fn scene_status() -> RefOr<Schema> {
@@ -72,17 +74,16 @@ pub(crate) struct SceneSummary {
 impl SceneSummary {
     pub(super) fn of(slot: &SceneSlot) -> SceneSummary {
         let (status, ready, error) = slot.status();
+        let model = ready.as_ref().map(|r| &r.model);
         SceneSummary {
             id: slot.id.clone(),
-            name: ready
-                .as_ref()
-                .map_or(slot.id.clone(), |r| r.baked.scene.name.clone()),
+            name: model.map_or(slot.id.clone(), |m| m.baked.scene.name.clone()),
             status,
             progress: slot.progress(),
-            patches: ready.as_ref().map(|r| r.baked.transfer.n),
-            lights: ready.as_ref().map(|r| r.groups.clone()),
-            transfer: ready.as_ref().map(|r| r.baked.transfer.mode),
-            warnings: ready.as_ref().map(|r| r.baked.scene.warnings.clone()),
+            patches: model.map(|m| m.baked.transfer.n),
+            lights: model.map(|m| m.groups.clone()),
+            transfer: model.map(|m| m.baked.transfer.mode),
+            warnings: model.map(|m| m.baked.scene.warnings.clone()),
             error,
         }
     }
@@ -154,21 +155,21 @@ pub(crate) struct SceneDetails {
 
 impl SceneDetails {
     fn of(r: &Ready) -> SceneDetails {
-        let b = &r.baked;
+        let (m, b) = (&r.model, &r.model.baked);
         SceneDetails {
             id: b.scene.id.clone(),
             name: b.scene.name.clone(),
             status: "ready",
             patches: b.transfer.n,
             transfer: b.transfer.mode,
-            units: r.units(),
-            bounds: r.bounds(),
-            lights: r.groups.clone(),
+            units: m.units(),
+            bounds: m.bounds(),
+            lights: m.groups.clone(),
             cameras: b.scene.cameras.clone(),
-            luminaires: r.luminaires(),
-            grids: r.grid_infos(),
-            site: r.site_info(),
-            surfaces: r.surface_infos(),
+            luminaires: m.luminaires(),
+            grids: m.grid_infos(),
+            site: m.site_info(),
+            surfaces: m.surface_infos(),
             bake: BakeInfo {
                 seconds: r.bake_seconds,
                 from_cache: b.stats.from_cache,
@@ -183,12 +184,8 @@ impl SceneDetails {
     summary = "Light groups, cameras, luminaires, calculation grids, surfaces (with patch ranges), bounds, units and transfer mode of a scene.",
     params(SceneIdParam),
     responses((status = 200, description = "Scene details.", body = SceneDetails), SceneErrors))]
-pub(crate) async fn scene_details(
-    State(state): State<Arc<AppState>>,
-    SceneId(id): SceneId,
-) -> ApiResult {
-    let r = state.slot(&id)?.ready()?;
-    Ok(Json(SceneDetails::of(&r)).into_response())
+pub(crate) async fn scene_details(ReadyScene(ready): ReadyScene) -> Json<SceneDetails> {
+    Json(SceneDetails::of(&ready))
 }
 
 /// Per patch, in patch order.
@@ -211,22 +208,23 @@ pub(crate) struct Patches<'a> {
         SizedGetErrors,
     ))]
 pub(crate) async fn patches(
+    ReadyScene(ready): ReadyScene,
     State(state): State<Arc<AppState>>,
-    SceneId(id): SceneId,
     headers: HeaderMap,
-) -> ApiResult {
-    let r = state.slot(&id)?.ready()?;
+) -> Result<Response, AppError> {
     let binary_out = wants_binary(&headers);
-    let n = r.baked.mesh.len() as u64;
+    let n = ready.model.baked.mesh.len() as u64;
     let bytes = if binary_out { 64 * n } else { 800 * n };
     let what = format!("the list of {n} patches");
     state
-        .heavy(bytes, &what, move |_| Ok(patch_list(&r, binary_out)))
+        .heavy(bytes, &what, move |_| {
+            Ok(patch_list(&ready.model, binary_out))
+        })
         .await
 }
 
-fn patch_list(r: &Ready, binary_out: bool) -> Response {
-    let m = &r.baked.mesh;
+fn patch_list(model: &Model, binary_out: bool) -> Response {
+    let m = &model.baked.mesh;
     if binary_out {
         let mut out = Vec::with_capacity(8 * m.len());
         for p in &m.patches {
@@ -242,34 +240,61 @@ fn patch_list(r: &Ready, binary_out: bool) -> Response {
         );
     }
     Json(Patches {
-        patches: r.patch_infos(),
+        patches: model.patch_infos(),
     })
     .into_response()
 }
 
 /// The shading mesh (layout in [`crate::render::Shading::mesh_bytes`]).
-#[utoipa::path(get, path = "/api/scenes/{id}/mesh", operation_id = "mesh", tag = "scenes",
+#[utoipa::path(
+    get,
+    path = "/api/scenes/{id}/mesh",
+    operation_id = "mesh",
+    tag = "scenes",
     summary = "The shading mesh for client-side drawing: vertices, triangles (one per patch), surface per triangle, and per-vertex patch weights (vertex colour = Σ weight · B[patch]).",
     params(SceneIdParam),
-    responses(
-        (status = 200, description = "One binary buffer.",
-            headers(("X-Relight-Layout" = String, description = "The layout of the bytes.")),
-            content((MeshBinary = "application/octet-stream"))),
-        SizedGetErrors,
-    ))]
-pub(crate) async fn mesh(State(state): State<Arc<AppState>>, SceneId(id): SceneId) -> ApiResult {
-    let r = state.slot(&id)?.ready()?;
-    // Built once per scene, off the runtime; then a cheap clone of shared bytes.
-    let n = r.baked.mesh.len() as u64;
-    let bytes = state
-        .heavy(200 * n, "the shading mesh", move |_| Ok(r.mesh_bytes()))
-        .await?;
-    Ok(mesh_response(bytes))
+    responses(MeshBuffer, SizedGetErrors)
+)]
+pub(crate) async fn mesh(
+    ReadyScene(ready): ReadyScene,
+    State(state): State<Arc<AppState>>,
+) -> Result<Response, AppError> {
+    mesh_answer(&state, ready, 200, "the shading mesh", Ready::mesh_bytes).await
 }
 
-/// A mesh buffer with its layout header.
-fn mesh_response(bytes: axum::body::Bytes) -> Response {
-    (
+/// The preview mesh (see [`crate::render::preview`]).
+#[utoipa::path(
+    get,
+    path = "/api/scenes/{id}/mesh/preview",
+    operation_id = "meshPreview",
+    tag = "scenes",
+    summary = "A coarser shading mesh (about 30,000 triangles) for drawing while the camera moves, in the layout of /mesh. Its vertex weights refer to the scene's patches, so the same per-patch radiosity colours it. Scenes of at most 60,000 patches answer their full mesh.",
+    params(SceneIdParam),
+    responses(MeshBuffer, SizedGetErrors)
+)]
+pub(crate) async fn mesh_preview(
+    ReadyScene(ready): ReadyScene,
+    State(state): State<Arc<AppState>>,
+) -> Result<Response, AppError> {
+    // Meshing again and locating every preview vertex.
+    mesh_answer(&state, ready, 400, "the preview mesh", Ready::preview_bytes).await
+}
+
+/// A mesh buffer of `ready`'s, with its layout header: built once per scene off the
+/// runtime (`per_patch` bytes a patch while it is built), then a cheap clone of shared
+/// bytes.
+async fn mesh_answer(
+    state: &Arc<AppState>,
+    ready: Arc<Ready>,
+    per_patch: u64,
+    what: &str,
+    bytes: fn(&Ready) -> Bytes,
+) -> Result<Response, AppError> {
+    let n = ready.model.baked.mesh.len() as u64;
+    let bytes = state
+        .heavy(per_patch * n, what, move |_| Ok(bytes(&ready)))
+        .await?;
+    Ok((
         [
             (header::CONTENT_TYPE, "application/octet-stream".to_string()),
             (
@@ -280,28 +305,5 @@ fn mesh_response(bytes: axum::body::Bytes) -> Response {
         ],
         bytes,
     )
-        .into_response()
-}
-
-/// The preview mesh (see [`crate::render::preview`]).
-#[utoipa::path(get, path = "/api/scenes/{id}/mesh/preview", operation_id = "meshPreview", tag = "scenes",
-    summary = "A coarser shading mesh (about 30,000 triangles) for drawing while the camera moves, in the layout of /mesh. Its vertex weights refer to the scene's patches, so the same per-patch radiosity colours it. Scenes of at most 60,000 patches answer their full mesh.",
-    params(SceneIdParam),
-    responses(
-        (status = 200, description = "One binary buffer.",
-            headers(("X-Relight-Layout" = String, description = "The layout of the bytes.")),
-            content((MeshBinary = "application/octet-stream"))),
-        SizedGetErrors,
-    ))]
-pub(crate) async fn mesh_preview(
-    State(state): State<Arc<AppState>>,
-    SceneId(id): SceneId,
-) -> ApiResult {
-    let r = state.slot(&id)?.ready()?;
-    // Meshing again and locating every preview vertex: once per scene, off the runtime.
-    let n = r.baked.mesh.len() as u64;
-    let bytes = state
-        .heavy(400 * n, "the preview mesh", move |_| Ok(r.preview_bytes()))
-        .await?;
-    Ok(mesh_response(bytes))
+        .into_response())
 }

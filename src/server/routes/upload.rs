@@ -26,6 +26,7 @@ use utoipa::ToSchema;
 use crate::budget::human_bytes;
 use crate::scene::archive::{self, ArchiveError};
 use crate::scene::Scene;
+use crate::server::json::essence;
 use crate::server::openapi::{GlbModel, SceneIdParam, WriteErrors, ZipArchive};
 use crate::server::parse::{shorten, SceneId};
 use crate::server::state::{SceneSlot, UPLOAD_MARKER};
@@ -112,13 +113,7 @@ fn kind(headers: &HeaderMap) -> Result<Kind, AppError> {
         .get(header::CONTENT_TYPE)
         .and_then(|v| v.to_str().ok())
         .unwrap_or("");
-    let essence = ct
-        .split(';')
-        .next()
-        .unwrap_or("")
-        .trim()
-        .to_ascii_lowercase();
-    match essence.as_str() {
+    match essence(ct).as_str() {
         "model/gltf-binary" => Ok(Kind::Glb),
         "application/zip" | "application/x-zip-compressed" => Ok(Kind::Zip),
         _ => Err(AppError::UnsupportedMediaType(format!(

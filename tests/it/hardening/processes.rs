@@ -71,7 +71,7 @@ fn a_scene_bakes_in_a_child_process_and_its_failure_is_reported() {
     let (s, ready, _) = st.slot("box").unwrap().status();
     assert_eq!(s, "ready");
     // Baked by the child, loaded by the server from the entry the child wrote.
-    assert!(ready.unwrap().baked.stats.from_cache);
+    assert!(ready.unwrap().model.baked.stats.from_cache);
     let (s, _, err) = st.slot("bad").unwrap().status();
     assert_eq!(s, "failed");
     let err = err.unwrap();

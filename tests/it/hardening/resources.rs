@@ -175,6 +175,7 @@ async fn large_bodies_are_parsed_off_the_runtime_within_the_budget() {
         .unwrap()
         .ready()
         .unwrap()
+        .model
         .baked
         .transfer
         .n;

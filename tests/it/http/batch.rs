@@ -18,7 +18,7 @@ use crate::common;
 async fn batched_emission_states_were_solved_one_by_one_into_the_timeout() {
     let _gate = common::shared();
     let r = ready("cornell-box");
-    let t = &r.baked.transfer;
+    let t = &r.model.baked.transfer;
     let n = t.n;
     // More single-patch states than one chunk holds, so two chunks are solved; a
     // light-group state in between, and last the sum of all the single patches.
@@ -127,7 +127,7 @@ async fn hierarchical_batches_over_the_sweep_limit_are_refused_up_front() {
     let _gate = common::shared();
     let (_dir, s) = hierarchical_room();
     let r = s.slot("room").unwrap().ready().unwrap();
-    let t = &r.baked.transfer;
+    let t = &r.model.baked.transfer;
     assert!(t.hierarchy.is_some());
     let n = t.n;
     // A few emission states are solved together, each as its own solve would be.

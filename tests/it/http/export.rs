@@ -206,14 +206,14 @@ async fn exported_glb_matches_the_served_mesh_and_radiosity_and_imports_as_the_s
     let r = ready("desk-room");
     assert_eq!(
         g.doc["cameras"].as_array().unwrap().len(),
-        r.baked.scene.cameras.len()
+        r.model.baked.scene.cameras.len()
     );
 
     // Imported again, the file is the same geometry: the mesh's patches, in order.
     let dir = tempfile::tempdir().unwrap();
     std::fs::write(dir.path().join("relit.glb"), &b).unwrap();
     let s = Scene::load(dir.path()).unwrap();
-    let mesh = &r.baked.mesh;
+    let mesh = &r.model.baked.mesh;
     assert_eq!(s.triangles.len(), mesh.len());
     for (t, p) in s.triangles.iter().zip(&mesh.patches) {
         for k in 0..3 {

@@ -51,9 +51,10 @@ async fn illuminance_per_surface_and_at_points_matches_the_reference() {
     // Per surface: avg equals the library's area-weighted mean; min ≤ avg ≤ max.
     let floor = &v["surfaces"]["floor"];
     let r = ready("cornell-box");
-    let sol = r.baked.transfer.relight(&[[1.0; 3]]);
+    let sol = r.model.baked.transfer.relight(&[[1.0; 3]]);
     let avg =
-        &relight::model::report::surface_averages(&r.baked.scene, &r.baked.mesh, &sol)["floor"];
+        &relight::model::report::surface_averages(&r.model.baked.scene, &r.model.baked.mesh, &sol)
+            ["floor"];
     assert!((floor["avg"]["rgb"][1].as_f64().unwrap() - avg.illuminance[1]).abs() < 1e-9);
     let (mn, av, mx) = (
         floor["min"]["lux"].as_f64().unwrap(),
@@ -148,7 +149,7 @@ async fn grids_answer_with_statistics_and_luminaire_power() {
             g["excluded"], 0,
             "no point of the office's grids is inside an object"
         );
-        let gr = r.grids.iter().find(|x| x.grid.id == id).unwrap();
+        let gr = r.model.grids.iter().find(|x| x.grid.id == id).unwrap();
         assert_eq!(values.len(), gr.len());
         let avg = values.iter().sum::<f64>() / values.len() as f64;
         let min = values.iter().copied().fold(f64::INFINITY, f64::min);

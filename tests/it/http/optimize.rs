@@ -15,7 +15,7 @@ async fn optimize_finds_the_least_flux_levels_that_meet_the_targets() {
     let lv = |id: &str| v["lights"][id]["intensity"].as_f64().unwrap();
     let (a, b) = (lv("window_row"), lv("corridor_row"));
     let r = ready("office");
-    let desk = r.grids.iter().find(|g| g.grid.id == "desk").unwrap();
+    let desk = r.model.grids.iter().find(|g| g.grid.id == "desk").unwrap();
     let meets = |x: f64, y: f64| {
         let s = desk.stats(&[[x as f32; 3], [y as f32; 3]]);
         s.avg >= 500.0 * (1.0 - 1e-4) && s.u0 >= 0.6 - 1e-4

@@ -19,7 +19,7 @@ async fn radiosity_json_equals_the_library() {
     .await;
     assert_eq!(s, StatusCode::OK, "{v}");
     let r = ready("desk-room");
-    let sol = r.baked.transfer.relight(&[[0.4; 3], [2.0, 1.0, 0.5]]);
+    let sol = r.model.baked.transfer.relight(&[[0.4; 3], [2.0, 1.0, 0.5]]);
     assert_eq!(floats(&v["radiosity"]), sol.b);
     assert_eq!(v["unit"], "lm/m2");
     let desk = &v["surfaces"]["desk_top"];
@@ -33,7 +33,7 @@ async fn radiosity_json_equals_the_library() {
     .await;
     assert_eq!(
         floats(&v["radiosity"]),
-        r.baked.transfer.relight(&[[1.0; 3], [0.0; 3]]).b
+        r.model.baked.transfer.relight(&[[1.0; 3], [0.0; 3]]).b
     );
 }
 
@@ -52,12 +52,17 @@ async fn radiosity_binary_equals_the_library() {
     let r = ready("cornell-box");
     assert_eq!(
         h["x-relight-patches"],
-        r.baked.mesh.len().to_string().as_str()
+        r.model.baked.mesh.len().to_string().as_str()
     );
     let got: &[f32] = bytemuck::cast_slice(&b);
     assert_eq!(
         got,
-        r.baked.transfer.relight(&[[1.0, 0.6, 0.3]]).b.as_slice()
+        r.model
+            .baked
+            .transfer
+            .relight(&[[1.0, 0.6, 0.3]])
+            .b
+            .as_slice()
     );
 }
 
@@ -65,7 +70,7 @@ async fn radiosity_binary_equals_the_library() {
 async fn per_patch_emission_dense_and_sparse() {
     let _gate = common::shared();
     let r = ready("cornell-box");
-    let n = r.baked.mesh.len();
+    let n = r.model.baked.mesh.len();
     let mut e = vec![[0f32; 3]; n];
     e[17] = [100.0, 50.0, 25.0];
     e[n - 1] = [3.0, 3.0, 3.0];
@@ -76,7 +81,12 @@ async fn per_patch_emission_dense_and_sparse() {
     )
     .await;
     assert_eq!(s, StatusCode::OK, "{v}");
-    let want = r.baked.transfer.solve(bytemuck::cast_slice(&e)).unwrap();
+    let want = r
+        .model
+        .baked
+        .transfer
+        .solve(bytemuck::cast_slice(&e))
+        .unwrap();
     assert_eq!(floats(&v["radiosity"]), want.b);
     let sparse = json!({"emission": {"17": [100, 50, 25], (n - 1).to_string(): [3, 3, 3]}});
     let (s, _, v2) = post(

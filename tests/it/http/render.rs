@@ -88,7 +88,7 @@ async fn mesh_and_per_patch_illuminance_let_a_client_shade_like_the_server() {
     let u = |i: usize| u32::from_le_bytes(b[i..i + 4].try_into().unwrap());
     let (nv, nt, nw) = (u(8) as usize, u(12) as usize, u(16) as usize);
     let r = ready("desk-room");
-    let mesh = &r.baked.mesh;
+    let mesh = &r.model.baked.mesh;
     assert_eq!(nt, mesh.len());
     assert_eq!(b.len(), 20 + 4 * (3 * nv + 3 * nt + nt + nv + 1 + 2 * nw));
     let f = |i: usize| f32::from_bits(u(i));
@@ -134,6 +134,7 @@ async fn mesh_and_per_patch_illuminance_let_a_client_shade_like_the_server() {
     }
     // quantity = illuminance gives H (lux), binary and JSON alike.
     let weights: Vec<[f32; 3]> = r
+        .model
         .groups
         .iter()
         .map(|g| {
@@ -141,7 +142,7 @@ async fn mesh_and_per_patch_illuminance_let_a_client_shade_like_the_server() {
             g.color.map(|c| c * k)
         })
         .collect();
-    let h_want = r.baked.transfer.relight(&weights).h;
+    let h_want = r.model.baked.transfer.relight(&weights).h;
     let req = Request::post("/api/scenes/desk-room/radiosity")
         .header(header::CONTENT_TYPE, "application/json")
         .header(header::ACCEPT, "application/octet-stream")

@@ -97,7 +97,7 @@ async fn unknown_scene_is_a_404_problem() {
 async fn patches_as_json_and_binary() {
     let _gate = common::shared();
     let r = ready("cornell-box");
-    let n = r.baked.mesh.len();
+    let n = r.model.baked.mesh.len();
     let (s, v) = get(app(), "/api/scenes/cornell-box/patches").await;
     assert_eq!(s, StatusCode::OK);
     let list = v["patches"].as_array().unwrap();
@@ -113,7 +113,7 @@ async fn patches_as_json_and_binary() {
     assert_eq!(b.len(), 32 * n);
     let words: &[u32] = bytemuck::cast_slice(&b);
     let last = n - 1;
-    assert_eq!(words[8 * last], r.baked.mesh.patches[last].surface);
+    assert_eq!(words[8 * last], r.model.baked.mesh.patches[last].surface);
     let area: f64 = (0..n)
         .map(|i| f32::from_bits(words[8 * i + 1]) as f64)
         .sum();
@@ -230,6 +230,7 @@ async fn small_scenes_waited_behind_large_ones_baked_in_name_order() {
     t.join().unwrap();
     assert_eq!(slot("a-large").status().0, "ready");
     assert!(
-        slot("a-large").ready().unwrap().patches() > 4 * slot("b-small").ready().unwrap().patches()
+        slot("a-large").ready().unwrap().model.patches()
+            > 4 * slot("b-small").ready().unwrap().model.patches()
     );
 }

@@ -94,7 +94,7 @@ async fn real_server_on_a_loopback_port_relights_the_cornell_box() {
         .chunks_exact(4)
         .map(|c| f32::from_le_bytes(c.try_into().unwrap()))
         .collect();
-    let want = ready_cornell().baked.transfer.relight(&[[0.7; 3]]).b;
+    let want = ready_cornell().model.baked.transfer.relight(&[[0.7; 3]]).b;
     assert_eq!(got, want);
     server.abort();
 }

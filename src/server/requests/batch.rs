@@ -1,0 +1,92 @@
+//! The body of `POST …/batch`: lighting states and what to report for each.
+
+use serde::Deserialize;
+use serde_json::json;
+use utoipa::openapi::schema::Schema;
+use utoipa::openapi::RefOr;
+use utoipa::ToSchema;
+
+use super::lighting::{lighting, Emission, Lights};
+use super::{names, object_only, raw, schema_ref, some};
+use crate::model::{Lighting, Model};
+use crate::server::parse::{grid_list, surface_list, MAX_BATCH};
+use crate::server::AppError;
+
+/// Group settings (`lights`) or, in factored mode, a per-patch `emission`; not both.
+#[derive(Debug, Deserialize, ToSchema)]
+#[serde(remote = "Self", deny_unknown_fields)]
+pub(crate) struct LightingState {
+    #[serde(default, deserialize_with = "some")]
+    #[schema(nullable = false)]
+    lights: Option<Lights>,
+    #[serde(default, deserialize_with = "some")]
+    #[schema(nullable = false)]
+    emission: Option<Emission>,
+}
+
+object_only!(LightingState, "an object {lights} or {emission}");
+
+impl LightingState {
+    pub(crate) fn lighting(&self, model: &Model) -> Result<Lighting, AppError> {
+        lighting(self.lights.as_ref(), self.emission.as_ref(), model)
+    }
+
+    pub(crate) fn is_emission(&self) -> bool {
+        self.emission.is_some()
+    }
+}
+
+fn states_schema() -> RefOr<Schema> {
+    raw(
+        json!({"type": "array", "minItems": 1, "maxItems": MAX_BATCH,
+        "items": schema_ref("LightingState")}),
+    )
+}
+
+fn batch_surfaces() -> RefOr<Schema> {
+    names("Surfaces to report (default: all).")
+}
+
+fn batch_grids() -> RefOr<Schema> {
+    names("Grid ids: also return grid statistics for each state (light-group states only).")
+}
+
+/// Lighting states, answered in order (per-patch emission states are solved together),
+/// and what to report for each.
+#[derive(Debug, Deserialize, ToSchema)]
+#[serde(remote = "Self", deny_unknown_fields)]
+pub(crate) struct BatchRequest {
+    #[schema(schema_with = states_schema)]
+    pub states: Vec<LightingState>,
+    #[serde(default, deserialize_with = "some")]
+    #[schema(schema_with = batch_surfaces)]
+    surfaces: Option<Vec<String>>,
+    /// Also return per-patch radiosity for each state.
+    #[serde(default)]
+    #[schema(default = false)]
+    pub radiosity: bool,
+    #[serde(default)]
+    #[schema(schema_with = batch_grids)]
+    grids: Vec<String>,
+}
+
+object_only!(BatchRequest, "a JSON object");
+
+impl BatchRequest {
+    /// The grids and surfaces to report (absent surfaces: all), with the states' count
+    /// checked.
+    pub(crate) fn plan(&self, model: &Model) -> Result<(Vec<usize>, Vec<usize>), AppError> {
+        let grids = grid_list(&self.grids, model)?;
+        if self.states.is_empty() || self.states.len() > MAX_BATCH {
+            return Err(AppError::Invalid(format!(
+                "'states' has {} entries; give 1 to {MAX_BATCH}",
+                self.states.len()
+            )));
+        }
+        let surfaces = match &self.surfaces {
+            Some(names) => surface_list(names, model)?,
+            None => (0..model.baked.scene.surfaces.len()).collect(),
+        };
+        Ok((grids, surfaces))
+    }
+}

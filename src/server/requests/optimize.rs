@@ -1,0 +1,135 @@
+//! The body of `POST …/optimize`: illuminance targets on grids, the free light groups
+//! and the state of the others.
+
+use serde::Deserialize;
+use serde_json::json;
+use utoipa::openapi::schema::Schema;
+use utoipa::openapi::RefOr;
+use utoipa::ToSchema;
+
+use super::lighting::{light_weights, Lights};
+use super::{object_only, raw, schema_ref, some};
+use crate::color::Rgb;
+use crate::model::optimize::{GridTarget, MAX_TARGET_LUX};
+use crate::model::Model;
+use crate::server::parse::{group_list, number};
+use crate::server::AppError;
+
+/// Bounds on one grid: at least one; u0_min needs a positive eavg_min or emin_min as well.
+#[derive(Debug, Deserialize, ToSchema)]
+#[serde(remote = "Self", deny_unknown_fields)]
+pub(crate) struct Target {
+    #[schema(min_length = 1)]
+    grid: String,
+    /// lx
+    #[serde(default, deserialize_with = "some")]
+    #[schema(nullable = false, schema_with = lux_bound)]
+    eavg_min: Option<f64>,
+    /// lx
+    #[serde(default, deserialize_with = "some")]
+    #[schema(nullable = false, schema_with = lux_bound)]
+    emin_min: Option<f64>,
+    /// Emin/Eavg
+    #[serde(default, deserialize_with = "some")]
+    #[schema(nullable = false, schema_with = ratio_bound)]
+    u0_min: Option<f64>,
+}
+
+object_only!(Target, "an object {grid, eavg_min, emin_min, u0_min}");
+
+fn lux_bound() -> RefOr<Schema> {
+    raw(json!({"type": "number", "minimum": 0, "maximum": MAX_TARGET_LUX, "description": "lx"}))
+}
+
+fn ratio_bound() -> RefOr<Schema> {
+    raw(json!({"type": "number", "minimum": 0, "maximum": 1, "description": "Emin/Eavg"}))
+}
+
+fn targets_schema() -> RefOr<Schema> {
+    raw(
+        json!({"type": "array", "minItems": 1, "items": schema_ref("Target"),
+        "description": "At most one target per grid."}),
+    )
+}
+
+fn groups_schema() -> RefOr<Schema> {
+    raw(
+        json!({"type": "array", "minItems": 1, "uniqueItems": true, "items": {"type": "string", "minLength": 1},
+        "description": "Groups the optimizer may dim (default: all)."}),
+    )
+}
+
+/// Targets per grid, the free groups and the state of the others.
+#[derive(Debug, Deserialize, ToSchema)]
+#[serde(remote = "Self", deny_unknown_fields)]
+pub(crate) struct OptimizeRequest {
+    #[schema(schema_with = targets_schema)]
+    targets: Vec<Target>,
+    #[serde(default, deserialize_with = "some")]
+    #[schema(schema_with = groups_schema)]
+    groups: Option<Vec<String>>,
+    /// State of the groups that are not free.
+    #[serde(default)]
+    lights: Lights,
+}
+
+object_only!(OptimizeRequest, "a JSON object");
+
+/// What the optimizer is given: the base weights, the free groups, the targets.
+pub(crate) type Problem = (Vec<Rgb>, Vec<usize>, Vec<GridTarget>);
+
+impl OptimizeRequest {
+    pub(crate) fn problem(&self, model: &Model) -> Result<Problem, AppError> {
+        let base = light_weights(Some(&self.lights), model)?;
+        let free = match &self.groups {
+            None => (0..model.baked.scene.lights.len()).collect(),
+            Some(ids) if ids.is_empty() => {
+                return Err(AppError::Invalid(
+                    "'groups' must be a non-empty array of light group ids, got []".into(),
+                ))
+            }
+            Some(ids) => group_list(ids, model)?,
+        };
+        Ok((base, free, self.targets(model)?))
+    }
+
+    /// One target per grid, each checked.
+    fn targets(&self, model: &Model) -> Result<Vec<GridTarget>, AppError> {
+        if self.targets.is_empty() {
+            return Err(AppError::Invalid(
+                "'targets' must be a non-empty array like [{\"grid\": \"desk\", \"eavg_min\": 500, \"u0_min\": 0.6}]".into(),
+            ));
+        }
+        let mut parsed: Vec<GridTarget> = Vec::with_capacity(self.targets.len().min(64));
+        for (k, t) in self.targets.iter().enumerate() {
+            let gi = model.grid_index(&t.grid)?;
+            if parsed.iter().any(|t| t.grid == gi) {
+                return Err(AppError::Invalid(format!(
+                    "targets[{k}]: grid '{}' already has a target; give one target per grid with all its bounds",
+                    model.grids[gi].grid.id
+                )));
+            }
+            let bound = |v: Option<f64>, key: &str, max: f64| {
+                v.map(|x| {
+                    let x = number(x, &format!("targets[{k}].{key}"))?;
+                    if !(0.0..=max).contains(&x) {
+                        return Err(AppError::Invalid(format!(
+                            "targets[{k}].{key} = {x}: must be in 0..{max}"
+                        )));
+                    }
+                    Ok(x)
+                })
+                .transpose()
+            };
+            let g = GridTarget {
+                grid: gi,
+                eavg_min: bound(t.eavg_min, "eavg_min", MAX_TARGET_LUX)?,
+                emin_min: bound(t.emin_min, "emin_min", MAX_TARGET_LUX)?,
+                u0_min: bound(t.u0_min, "u0_min", 1.0)?,
+            };
+            g.check(&format!("targets[{k}]"))?;
+            parsed.push(g);
+        }
+        Ok(parsed)
+    }
+}
