@@ -19,35 +19,19 @@ use std::collections::HashMap;
 use std::sync::{Arc, Mutex};
 
 use glam::{DVec3, Vec3A};
-use serde::{Deserialize, Serialize};
+use serde::Serialize;
 
 use super::{Model, QueryError};
 use crate::color::{luminance64, Rgb};
 use crate::photometry::glare::{guth_position_index, ugr, GlareSource};
 
-/// Seated eye height above the floor (the scene's lowest point) when a request gives a
-/// position in plan only, metres (CIE 117 and EN 12464-1: 1.2 m seated, 1.6 m standing).
+/// Eye height above where an observer is placed, metres, when a request gives none
+/// (CIE 117 and EN 12464-1: 1.2 m seated, 1.6 m standing).
 pub const SEATED_EYE_HEIGHT: f64 = 1.2;
 /// Most observers in one request.
 pub const MAX_OBSERVERS: usize = 1_000;
 /// Observers whose geometry the cache keeps, per scene.
 const CACHED_VIEWS: usize = 4_096;
-
-/// An observer as a client gives it.
-#[derive(Debug, Clone, Deserialize, Serialize)]
-#[cfg_attr(feature = "server", derive(utoipa::ToSchema))]
-#[serde(deny_unknown_fields)]
-pub struct ObserverSpec {
-    /// Eye position, metres. Give this, or `position`.
-    pub eye: Option<[f64; 3]>,
-    /// Position in plan `[x, z]`, metres, with the eye at `height` above the floor.
-    pub position: Option<[f64; 2]>,
-    /// Eye height above the floor (the scene's lowest point) for `position`, metres;
-    /// default 1.2 (seated).
-    pub height: Option<f64>,
-    /// Direction of view (any length; usually horizontal).
-    pub direction: [f64; 3],
-}
 
 /// One luminaire's part in an observer's rating.
 #[derive(Debug, Clone, Serialize)]
@@ -143,34 +127,8 @@ impl ViewCache {
 }
 
 impl Model {
-    /// An observer's eye and unit view direction; errors say which field is wrong.
-    pub fn observer(&self, o: &ObserverSpec) -> Result<(DVec3, DVec3), QueryError> {
-        let bad = |m: String| Err(QueryError::Invalid(m));
-        let finite = |v: &[f64]| v.iter().all(|x| x.is_finite() && x.abs() < 1e7);
-        let eye = match (o.eye, o.position) {
-            (Some(e), None) if finite(&e) => DVec3::from_array(e),
-            (None, Some(p)) if finite(&p) => {
-                let h = o.height.unwrap_or(SEATED_EYE_HEIGHT);
-                if !(h.is_finite() && (0.0..=100.0).contains(&h)) {
-                    return bad(format!("observer height {h}: must be in 0..=100 m"));
-                }
-                let floor = self.baked.scene.bounds().0.y;
-                DVec3::new(p[0], floor + h, p[1])
-            }
-            (Some(_), Some(_)) => return bad("give an observer's eye or position, not both".into()),
-            (None, None) => {
-                return bad("an observer needs eye = [x, y, z] or position = [x, z]".into())
-            }
-            _ => return bad("observer coordinates must be finite and below 1e7 m".into()),
-        };
-        let dir = DVec3::from_array(o.direction);
-        match dir.try_normalize() {
-            Some(d) if finite(&o.direction) => Ok((eye, d)),
-            _ => bad("an observer's direction must be a finite, non-zero vector".into()),
-        }
-    }
-
-    /// The UGR at each observer for group weights `w`.
+    /// The UGR at each observer (eye, unit direction of view; metres) for group weights
+    /// `w`.
     pub fn glare(
         &self,
         observers: &[(DVec3, DVec3)],

@@ -108,6 +108,7 @@ pub fn router(state: Arc<AppState>) -> Router {
             post(routes::daylight::daylight),
         )
         .route("/api/scenes/{id}/annual", post(routes::annual::annual))
+        .route("/api/scenes/{id}/glare", post(routes::glare::glare))
         .route("/api/scenes/{id}/batch", post(routes::batch::batch))
         .route(
             "/api/scenes/{id}/optimize",

@@ -25,11 +25,12 @@ use utoipa::{IntoParams, IntoResponses, Modify, OpenApi, PartialSchema, ToRespon
 
 use super::error::ProblemDetails;
 use super::requests::batch::LightingState;
+use super::requests::glare::Observer;
 use super::requests::illuminance::Point;
 use super::requests::lighting::{Color, Direction, Emission, LightSetting, Lights, Position};
 use super::requests::optimize::Target;
 use super::requests::render::Exposure;
-use super::requests::{raw, BatchRequest, IlluminanceRequest, OptimizeRequest};
+use super::requests::{raw, BatchRequest, GlareRequest, IlluminanceRequest, OptimizeRequest};
 use super::requests::{AnnualRequest, DaylightRequest, RadiosityRequest, RenderRequest};
 use super::routes;
 use crate::schema::Rgb;
@@ -426,6 +427,7 @@ impl Modify for Constraints {
         routes::annual::annual,
         routes::batch::batch,
         routes::optimize::optimize,
+        routes::glare::glare,
         routes::render::render_post,
         routes::upload::put_scene,
         routes::upload::delete_scene,
@@ -435,6 +437,7 @@ impl Modify for Constraints {
             Color, Position, Direction, LightSetting, Lights, Emission, LightingState, Point,
             Target, Exposure, RadiosityRequest, IlluminanceRequest, BatchRequest,
             OptimizeRequest, RenderRequest, ProblemDetails, Rgb, Millis, DaylightRequest, AnnualRequest,
+            GlareRequest, Observer,
             PngImage, JpegImage, ExrImage, GlbModel, MeshBinary,
             crate::model::sky_state::SkySpec, crate::model::sky_state::SunPosition,
         ),

@@ -16,6 +16,7 @@ pub(crate) mod annual;
 pub(crate) mod batch;
 pub(crate) mod daylight;
 pub(crate) mod export;
+pub(crate) mod glare;
 pub(crate) mod illuminance;
 pub(crate) mod optimize;
 pub(crate) mod radiosity;

@@ -1,0 +1,44 @@
+//! `POST /api/scenes/{id}/glare`: the CIE 117 Unified Glare Rating at observers, with
+//! each luminaire's term and the background luminance.
+
+use std::sync::Arc;
+
+use axum::extract::State;
+use axum::Json;
+
+use crate::model::glare::ObserverGlare;
+use crate::server::openapi::{PostErrors, SceneIdParam};
+use crate::server::parse::{ReadyScene, StrictJson};
+use crate::server::requests::GlareRequest;
+use crate::server::{AppError, AppState};
+
+/// The ratings, one per observer in the order asked.
+#[derive(Debug, serde::Serialize, utoipa::ToSchema)]
+pub(crate) struct GlareAnswer {
+    observers: Vec<ObserverGlare>,
+}
+
+#[utoipa::path(post, path = "/api/scenes/{id}/glare", operation_id = "glare", tag = "scenes",
+    summary = "Discomfort glare (CIE 117 UGR) at observers for a lighting state: per observer the UGR, the background luminance L_b = E_ind/π (cd/m²) and each luminaire's luminance (cd/m²), solid angle (sr) and Guth position index. Luminaires need a luminous opening (the photometric file's dimensions).",
+    params(SceneIdParam),
+    request_body(content = GlareRequest, content_type = "application/json",
+        description = "A lighting state and the observers.",
+        example = json!({"observers": [{"position": [2.0, 0.0, 1.5], "direction": [1, 0, 0]}]})),
+    responses((status = 200, description = "One rating per observer.", body = GlareAnswer), PostErrors))]
+pub(crate) async fn glare(
+    ReadyScene(ready): ReadyScene,
+    State(state): State<Arc<AppState>>,
+    StrictJson(req): StrictJson<GlareRequest>,
+) -> Result<Json<GlareAnswer>, AppError> {
+    let (w, observers) = req.query(&ready.model)?;
+    // An observer's view costs a gather once (its gather weights: a few bytes per patch);
+    // later states reuse it.
+    let bytes = 16 * ready.model.baked.mesh.len() as u64 * observers.len() as u64;
+    let what = format!("glare at {} observers", observers.len());
+    let answer = state
+        .heavy(bytes, &what, move |cancel| {
+            Ok(ready.model.glare(&observers, &w, cancel)?)
+        })
+        .await?;
+    Ok(Json(GlareAnswer { observers: answer }))
+}
