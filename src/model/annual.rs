@@ -14,8 +14,8 @@
 //! position is computed at the middle of each hour (EPW rows are the hours ending then) for
 //! the weather file's location, in the scene's orientation (its `north`).
 //!
-//! Metrics, over the occupied hours (local standard time, hours whose middle lies in
-//! `[start, end)`):
+//! Metrics ([`super::metrics`], with their thresholds and sources), over the occupied
+//! hours (local standard time, hours whose middle lies in `[start, end)`):
 //! - sDA300/50 %: the share of points with at least 300 lx for at least half the hours;
 //! - ASE1000,250h: the share of points with direct sunlight alone of at least 1000 lx for
 //!   more than 250 hours;
@@ -29,12 +29,16 @@
 
 use std::collections::BTreeMap;
 use std::sync::Arc;
+use std::time::{Duration, Instant};
 
 use faer::{Accum, Mat, Par};
 use glam::DVec3;
 use rayon::prelude::*;
 use serde::Serialize;
 
+use super::metrics::{self, PointHours};
+pub use super::metrics::{En17037, Udi};
+use super::sun::sky_direction;
 use super::{Cancel, Model, QueryError};
 use crate::color::luminance64;
 use crate::daylight::epw::{self, Weather};
@@ -78,27 +82,6 @@ pub struct WeatherInfo {
     pub daylight_hours: usize,
 }
 
-/// Useful daylight illuminance: the mean share of occupied hours per band, percent.
-#[derive(Debug, Clone, Serialize)]
-#[cfg_attr(feature = "server", derive(utoipa::ToSchema))]
-pub struct Udi {
-    pub below_100: f64,
-    pub from_100_to_3000: f64,
-    pub above_3000: f64,
-}
-
-/// EN 17037's minimum-level check.
-#[derive(Debug, Clone, Serialize)]
-#[cfg_attr(feature = "server", derive(utoipa::ToSchema))]
-pub struct En17037 {
-    /// Share of daylight hours with at least 300 lx over half the grid, percent.
-    pub hours_300_lx_over_50_percent: f64,
-    /// Share of daylight hours with at least 100 lx over 95 % of the grid, percent.
-    pub hours_100_lx_over_95_percent: f64,
-    /// Both shares at least 50 %.
-    pub minimum_level_met: bool,
-}
-
 /// One grid's annual metrics.
 #[derive(Debug, Clone, Serialize)]
 #[cfg_attr(feature = "server", derive(utoipa::ToSchema))]
@@ -139,7 +122,6 @@ struct HourSky {
 
 /// The hours' skies.
 fn hour_skies(w: &Weather, north: DVec3, ground: f64, sub: &Subdivision) -> Vec<HourSky> {
-    let k = sub.patches.len();
     let site = Site::new(
         w.location.latitude_deg,
         w.location.longitude_deg,
@@ -155,85 +137,200 @@ fn hour_skies(w: &Weather, north: DVec3, ground: f64, sub: &Subdivision) -> Vec<
     // every later one.
     w.hours
         .iter()
-        .map(|h| {
-            let mut vector = vec![0f32; 2 * k];
-            let t = LocalTime::new(year, h.month, h.day, h.hour as f64 - 0.5);
-            let Ok(t) = t else {
-                return HourSky {
-                    vector,
-                    sun: None,
-                    daylight: false,
-                };
-            };
-            let p = sun::position(&site, &t);
-            let alt = p.altitude_deg.to_radians();
-            let daylight = alt > 0.0;
-            let dew = h.dew_point_c.unwrap_or(perez::DEFAULT_DEW_POINT_C);
-            let Some(c) = perez::conditions(
-                h.direct_normal_irradiance,
-                h.diffuse_horizontal_irradiance,
-                alt,
-                t.day_of_year(),
-                dew,
-            ) else {
-                return HourSky {
-                    vector,
-                    sun: None,
-                    daylight,
-                };
-            };
-            // The Perez sky at the patch centres, scaled so the patches give the diffuse
-            // horizontal illuminance.
-            let az = p.azimuth_deg.to_radians();
-            let sun_alt = std::f64::consts::FRAC_PI_2 - c.sun_zenith;
-            let rel: Vec<f64> = centres[1..]
-                .iter()
-                .map(|&(a, z)| {
-                    let gamma = angle((a, z), (sun_alt, az));
-                    perez::relative_luminance(&c.params, std::f64::consts::FRAC_PI_2 - a, gamma)
-                })
-                .collect();
-            let eh: f64 = rel
-                .iter()
-                .zip(&sub.patches[1..])
-                .map(|(l, p)| l * p.solid_angle * p.centre().0.sin())
-                .sum();
-            let scale = if eh > 0.0 {
-                c.diffuse_illuminance / eh
-            } else {
-                0.0
-            };
-            for (i, l) in rel.iter().enumerate() {
-                vector[i + 1] = (l * scale) as f32;
-            }
-            let direct = if daylight { c.direct_illuminance } else { 0.0 };
-            vector[0] = (ground * (c.diffuse_illuminance + direct * alt.sin().max(0.0))
-                / std::f64::consts::PI) as f32;
-            let mut sun = None;
-            if direct > 0.0 {
-                let s = crate::daylight::sky_luminance::Sun {
-                    altitude: alt,
-                    azimuth: az,
-                    normal_illuminance: direct,
-                };
-                for (p, l) in super::sky_state::sun_patches(&s, sub) {
-                    vector[k + p] += l as f32;
-                }
-                sun = Some((site.direction(p.altitude_deg, p.azimuth_deg), direct));
-            }
-            HourSky {
-                vector,
-                sun,
-                daylight,
-            }
-        })
+        .map(|h| hour_sky(h, &site, year, ground, sub, &centres))
         .collect()
+}
+
+/// The sky of weather row `h` in `year` at `site` (ground reflectance `ground`); the sky
+/// patches' `centres`. Dark for a row without a valid time or without diffuse light.
+fn hour_sky(
+    h: &epw::Hour,
+    site: &Site,
+    year: i32,
+    ground: f64,
+    sub: &Subdivision,
+    centres: &[(f64, f64)],
+) -> HourSky {
+    let k = sub.patches.len();
+    let mut vector = vec![0f32; 2 * k];
+    let t = LocalTime::new(year, h.month, h.day, h.hour as f64 - 0.5);
+    let Ok(t) = t else {
+        return HourSky {
+            vector,
+            sun: None,
+            daylight: false,
+        };
+    };
+    let p = sun::position(site, &t);
+    let alt = p.altitude_deg.to_radians();
+    let daylight = alt > 0.0;
+    let dew = h.dew_point_c.unwrap_or(perez::DEFAULT_DEW_POINT_C);
+    let Some(c) = perez::conditions(
+        h.direct_normal_irradiance,
+        h.diffuse_horizontal_irradiance,
+        alt,
+        t.day_of_year(),
+        dew,
+    ) else {
+        return HourSky {
+            vector,
+            sun: None,
+            daylight,
+        };
+    };
+    let az = p.azimuth_deg.to_radians();
+    perez_patches(&c, az, sub, centres, &mut vector[1..k]);
+    let direct = if daylight { c.direct_illuminance } else { 0.0 };
+    vector[0] = (ground * (c.diffuse_illuminance + direct * alt.sin().max(0.0))
+        / std::f64::consts::PI) as f32;
+    let mut sun = None;
+    if direct > 0.0 {
+        let s = crate::daylight::sky_luminance::Sun {
+            altitude: alt,
+            azimuth: az,
+            normal_illuminance: direct,
+        };
+        for (p, l) in super::sky_state::sun_patches(&s, sub) {
+            vector[k + p] += l as f32;
+        }
+        sun = Some((site.direction(p.altitude_deg, p.azimuth_deg), direct));
+    }
+    HourSky {
+        vector,
+        sun,
+        daylight,
+    }
+}
+
+/// The Perez sky of conditions `c` (the sun at azimuth `sun_azimuth`, radians) at the sky
+/// patches' centres (`centres`, the ground first), cd/m², into `out` (one per sky patch):
+/// scaled so that the patches give the diffuse horizontal illuminance.
+fn perez_patches(
+    c: &perez::Conditions,
+    sun_azimuth: f64,
+    sub: &Subdivision,
+    centres: &[(f64, f64)],
+    out: &mut [f32],
+) {
+    let sun_alt = std::f64::consts::FRAC_PI_2 - c.sun_zenith;
+    let rel: Vec<f64> = centres[1..]
+        .iter()
+        .map(|&(a, z)| {
+            let gamma = angle((a, z), (sun_alt, sun_azimuth));
+            perez::relative_luminance(&c.params, std::f64::consts::FRAC_PI_2 - a, gamma)
+        })
+        .collect();
+    let eh: f64 = rel
+        .iter()
+        .zip(&sub.patches[1..])
+        .map(|(l, p)| l * p.solid_angle * p.centre().0.sin())
+        .sum();
+    let scale = if eh > 0.0 {
+        c.diffuse_illuminance / eh
+    } else {
+        0.0
+    };
+    for (o, l) in out.iter_mut().zip(&rel) {
+        *o = (l * scale) as f32;
+    }
 }
 
 /// Angle between two sky positions (altitude, azimuth), radians.
 fn angle(a: (f64, f64), b: (f64, f64)) -> f64 {
-    let d = |(al, az): (f64, f64)| DVec3::new(al.cos() * az.sin(), al.cos() * az.cos(), al.sin());
+    let d = |(al, az): (f64, f64)| sky_direction(al, az);
     d(a).dot(d(b)).clamp(-1.0, 1.0).acos()
+}
+
+/// The year's skies as every grid shares them.
+struct Year {
+    skies: Vec<HourSky>,
+    /// The sky matrix, 2K × hours.
+    matrix: Mat<f32>,
+    /// Per hour: whether it is occupied.
+    occupied: Vec<bool>,
+    occupied_hours: usize,
+    /// Hours with the sun above the horizon.
+    daylight_hours: usize,
+    /// How long the skies took.
+    sky_time: Duration,
+}
+
+impl Year {
+    /// The skies of weather `w` (taking `sky_time`) with the occupied hours of the day
+    /// `[start, end)`, for `k` sky patches.
+    fn new(
+        w: &Weather,
+        skies: Vec<HourSky>,
+        sky_time: Duration,
+        (start, end): (f64, f64),
+        k: usize,
+    ) -> Year {
+        let occupied: Vec<bool> = w
+            .hours
+            .iter()
+            .map(|h| {
+                let mid = h.hour as f64 - 0.5;
+                mid >= start && mid < end
+            })
+            .collect();
+        Year {
+            occupied_hours: occupied.iter().filter(|&&o| o).count(),
+            daylight_hours: skies.iter().filter(|s| s.daylight).count(),
+            matrix: Mat::<f32>::from_fn(2 * k, skies.len(), |r, c| skies[c].vector[r]),
+            occupied,
+            skies,
+            sky_time,
+        }
+    }
+
+    fn hours(&self) -> usize {
+        self.skies.len()
+    }
+}
+
+/// A grid's illuminance per point and hour, lx: the matrix product (points × hours) and the
+/// direct sun (per point, per hour).
+struct Hourly {
+    product: Mat<f32>,
+    sun: Vec<Vec<f32>>,
+}
+
+impl Hourly {
+    /// Point `r`'s illuminance in hour `h`, in all.
+    fn at(&self, r: usize, h: usize) -> f32 {
+        self.product[(r, h)] + self.sun[r][h]
+    }
+
+    /// Each point's counts over the occupied hours; `None` for a point `excluded`.
+    fn point_hours(&self, excluded: &[bool], occupied: &[bool]) -> Vec<Option<PointHours>> {
+        (0..self.sun.len())
+            .map(|r| {
+                (!excluded[r]).then(|| {
+                    let hours = (0..occupied.len()).filter(|&h| occupied[h]);
+                    PointHours::count(hours.map(|h| (self.at(r, h), self.sun[r][h])))
+                })
+            })
+            .collect()
+    }
+
+    /// EN 17037's minimum level per daylight hour over the `measured` points: the hours
+    /// that met the target level and those that met the minimum target level.
+    fn en17037_hours(&self, skies: &[HourSky], measured: &[usize]) -> (usize, usize) {
+        let (mut target, mut minimum) = (0usize, 0usize);
+        let mut col = vec![0f32; measured.len()];
+        for (h, s) in skies.iter().enumerate() {
+            if !s.daylight || measured.is_empty() {
+                continue;
+            }
+            for (c, &r) in col.iter_mut().zip(measured) {
+                *c = self.at(r, h);
+            }
+            let (t, m) = metrics::en17037_hour(&mut col);
+            target += usize::from(t);
+            minimum += usize::from(m);
+        }
+        (target, minimum)
+    }
 }
 
 impl Model {
@@ -267,12 +364,7 @@ impl Model {
         sub: &Subdivision,
         cancel: &Cancel,
     ) -> Result<Arc<Mat<f32>>, QueryError> {
-        if let Some(c) = self
-            .annual_cache
-            .lock()
-            .unwrap_or_else(|p| p.into_inner())
-            .get(&gi)
-        {
+        if let Some(c) = super::lock(&self.annual_cache).get(&gi) {
             return Ok(c.clone());
         }
         let site = self.site()?;
@@ -302,7 +394,7 @@ impl Model {
             .collect();
         cancel.check()?;
         let coef = Arc::new(Mat::<f32>::from_fn(pts.len(), 2 * k, |r, c| rows[r][c]));
-        let mut cache = self.annual_cache.lock().unwrap_or_else(|p| p.into_inner());
+        let mut cache = super::lock(&self.annual_cache);
         let held: usize = cache.values().map(|m| 4 * m.nrows() * m.ncols()).sum();
         if held + 4 * pts.len() * 2 * k <= ANNUAL_CACHE_BYTES {
             cache.insert(gi, coef.clone());
@@ -334,166 +426,16 @@ impl Model {
             )));
         }
         let sub = sky_view::subdivision();
-        let k = sub.patches.len();
         let w = &q.weather;
-        let t0 = std::time::Instant::now();
+        let t0 = Instant::now();
         let skies = hour_skies(w, site.north, site.ground_reflectance, &sub);
-        let t_sky = t0.elapsed();
+        let sky_time = t0.elapsed();
         cancel.check()?;
-        let hours = skies.len();
-        let occupied: Vec<bool> = w
-            .hours
-            .iter()
-            .map(|h| {
-                let mid = h.hour as f64 - 0.5;
-                mid >= q.occupied.0 && mid < q.occupied.1
-            })
-            .collect();
-        let occ_hours = occupied.iter().filter(|&&o| o).count();
-        let day_hours = skies.iter().filter(|s| s.daylight).count();
-        // The sky matrix, 2K × hours.
-        let sky_m = Mat::<f32>::from_fn(2 * k, hours, |r, c| skies[c].vector[r]);
-        let reach = self.reach();
+        let year = Year::new(w, skies, sky_time, q.occupied, sub.patches.len());
         let mut grids = BTreeMap::new();
         for &gi in &q.grids {
-            let grid = &self.grids[gi].grid;
-            let pts = self.grid_receivers(gi);
-            let t1 = std::time::Instant::now();
-            let coef = self.annual_coefficients(gi, &pts, &sub, cancel)?;
-            let t_gather = t1.elapsed();
-            let p = pts.len();
-            cancel.check()?;
-            let t_coef = t_gather;
-            let mut e = Mat::<f32>::zeros(p, hours);
-            faer::linalg::matmul::matmul(
-                e.as_mut(),
-                Accum::Replace,
-                coef.as_ref(),
-                sky_m.as_ref(),
-                1.0,
-                Par::rayon(0),
-            );
-            cancel.check()?;
-            // The direct sun, exact per point and hour; the columns of `e` are per hour.
-            let sun_hours: Vec<(usize, DVec3, f64)> = skies
-                .iter()
-                .enumerate()
-                .filter_map(|(h, s)| s.sun.map(|(d, en)| (h, d, en)))
-                .collect();
-            let direct_sun: Vec<Vec<f32>> = pts
-                .par_iter()
-                .map(|&(x, n)| {
-                    if cancel.is_cancelled() {
-                        return vec![];
-                    }
-                    let mut out = vec![0f32; hours];
-                    for &(h, d, en) in &sun_hours {
-                        out[h] = sky_view::point_sun_direct(
-                            &self.baked.bvh,
-                            &self.baked.glazing,
-                            x,
-                            n,
-                            d,
-                            en,
-                            reach,
-                        ) as f32;
-                    }
-                    out
-                })
-                .collect();
-            cancel.check()?;
-            let t_sun = t1.elapsed();
-            // Per point metrics.
-            let mut sda = 0usize;
-            let mut ase = 0usize;
-            let mut udi = [0f64; 3];
-            let mut above_300 = Vec::with_capacity(p);
-            let excluded = &self.grids[gi].excluded;
-            let measured: Vec<usize> = self.grids[gi].measured().collect();
-            let m = measured.len();
-            for (r, ds) in direct_sun.iter().enumerate() {
-                if excluded[r] {
-                    above_300.push(None);
-                    continue;
-                }
-                let (mut n300, mut nsun, mut bands) = (0u32, 0u32, [0u32; 3]);
-                for h in 0..hours {
-                    if !occupied[h] {
-                        continue;
-                    }
-                    let v = e[(r, h)] + ds[h];
-                    n300 += u32::from(v >= 300.0);
-                    nsun += u32::from(ds[h] >= 1000.0);
-                    bands[if v < 100.0 {
-                        0
-                    } else if v <= 3000.0 {
-                        1
-                    } else {
-                        2
-                    }] += 1;
-                }
-                if occ_hours > 0 && 2 * n300 as usize >= occ_hours {
-                    sda += 1;
-                }
-                if nsun > 250 {
-                    ase += 1;
-                }
-                for b in 0..3 {
-                    udi[b] += bands[b] as f64 / occ_hours.max(1) as f64;
-                }
-                above_300.push(Some(n300));
-            }
-            // EN 17037 per daylight hour: the median and the 5th percentile of the grid.
-            let (mut h300, mut h100) = (0usize, 0usize);
-            let mut col = vec![0f32; m];
-            for (h, s) in skies.iter().enumerate() {
-                if !s.daylight || m == 0 {
-                    continue;
-                }
-                for (c, &r) in col.iter_mut().zip(&measured) {
-                    *c = e[(r, h)] + direct_sun[r][h];
-                }
-                col.sort_by(f32::total_cmp);
-                // At least half the points ≥ 300: the point at rank ⌊m/2⌋ from the top.
-                if col[m - m.div_ceil(2)] >= 300.0 {
-                    h300 += 1;
-                }
-                // At least 95 % ≥ 100.
-                if col[m - (0.95 * m as f64).ceil() as usize] >= 100.0 {
-                    h100 += 1;
-                }
-            }
-            tracing::info!(
-                "annual {}: {p} points × {hours} h: skies {:.0} ms, coefficients {:.0} ms, product and sun {:.0} ms, metrics {:.0} ms",
-                grid.id,
-                t_sky.as_secs_f64() * 1e3,
-                t_gather.as_secs_f64() * 1e3,
-                (t_sun - t_coef).as_secs_f64() * 1e3,
-                (t1.elapsed() - t_sun).as_secs_f64() * 1e3
-            );
-            let pct = |a: usize, b: usize| 100.0 * a as f64 / b.max(1) as f64;
-            let (s300, s100) = (pct(h300, day_hours), pct(h100, day_hours));
-            grids.insert(
-                grid.id.clone(),
-                AnnualGrid {
-                    name: grid.name.clone(),
-                    count: p,
-                    excluded: p - m,
-                    sda_300_50: pct(sda, m),
-                    ase_1000_250: pct(ase, m),
-                    udi: Udi {
-                        below_100: 100.0 * udi[0] / m.max(1) as f64,
-                        from_100_to_3000: 100.0 * udi[1] / m.max(1) as f64,
-                        above_3000: 100.0 * udi[2] / m.max(1) as f64,
-                    },
-                    en17037: En17037 {
-                        hours_300_lx_over_50_percent: s300,
-                        hours_100_lx_over_95_percent: s100,
-                        minimum_level_met: s300 >= 50.0 && s100 >= 50.0,
-                    },
-                    hours_above_300: above_300,
-                },
-            );
+            let answer = self.annual_grid(gi, &year, &sub, cancel)?;
+            grids.insert(self.grids[gi].grid.id.clone(), answer);
         }
         Ok(AnnualAnswer {
             weather: WeatherInfo {
@@ -501,12 +443,98 @@ impl Model {
                 latitude: w.location.latitude_deg,
                 longitude: w.location.longitude_deg,
                 timezone: w.location.timezone_h,
-                hours,
-                occupied_hours: occ_hours,
-                daylight_hours: day_hours,
+                hours: year.hours(),
+                occupied_hours: year.occupied_hours,
+                daylight_hours: year.daylight_hours,
             },
             grids,
         })
+    }
+
+    /// Grid `gi`'s annual metrics over `year`.
+    fn annual_grid(
+        &self,
+        gi: usize,
+        year: &Year,
+        sub: &Subdivision,
+        cancel: &Cancel,
+    ) -> Result<AnnualGrid, QueryError> {
+        let response = &self.grids[gi];
+        let pts = self.grid_receivers(gi);
+        let t1 = Instant::now();
+        let coef = self.annual_coefficients(gi, &pts, sub, cancel)?;
+        let t_coef = t1.elapsed();
+        cancel.check()?;
+        let hourly = self.hourly(&pts, &coef, year, cancel)?;
+        let t_sun = t1.elapsed();
+        let points = hourly.point_hours(&response.excluded, &year.occupied);
+        let climate = metrics::climate_metrics(&points, year.occupied_hours);
+        let measured: Vec<usize> = response.measured().collect();
+        let (target, minimum) = hourly.en17037_hours(&year.skies, &measured);
+        tracing::info!(
+            "annual {}: {} points × {} h: skies {:.0} ms, coefficients {:.0} ms, product and sun {:.0} ms, metrics {:.0} ms",
+            response.grid.id,
+            pts.len(),
+            year.hours(),
+            year.sky_time.as_secs_f64() * 1e3,
+            t_coef.as_secs_f64() * 1e3,
+            (t_sun - t_coef).as_secs_f64() * 1e3,
+            (t1.elapsed() - t_sun).as_secs_f64() * 1e3
+        );
+        Ok(AnnualGrid {
+            name: response.grid.name.clone(),
+            count: pts.len(),
+            excluded: pts.len() - climate.measured,
+            sda_300_50: climate.sda,
+            ase_1000_250: climate.ase,
+            udi: climate.udi,
+            en17037: metrics::en17037(target, minimum, year.daylight_hours),
+            hours_above_300: points.iter().map(|p| p.map(|p| p.sda_hours)).collect(),
+        })
+    }
+
+    /// The illuminance at points `pts` every hour of `year`: daylight coefficients `coef`
+    /// times the sky matrix, and the direct sun, exact per point and hour.
+    fn hourly(
+        &self,
+        pts: &[(DVec3, DVec3)],
+        coef: &Mat<f32>,
+        year: &Year,
+        cancel: &Cancel,
+    ) -> Result<Hourly, QueryError> {
+        let hours = year.hours();
+        let mut product = Mat::<f32>::zeros(pts.len(), hours);
+        faer::linalg::matmul::matmul(
+            product.as_mut(),
+            Accum::Replace,
+            coef.as_ref(),
+            year.matrix.as_ref(),
+            1.0,
+            Par::rayon(0),
+        );
+        cancel.check()?;
+        let sun_hours: Vec<(usize, DVec3, f64)> = year
+            .skies
+            .iter()
+            .enumerate()
+            .filter_map(|(h, s)| s.sun.map(|(d, en)| (h, d, en)))
+            .collect();
+        let reach = self.reach();
+        let sun: Vec<Vec<f32>> = pts
+            .par_iter()
+            .map(|&(x, n)| {
+                if cancel.is_cancelled() {
+                    return vec![];
+                }
+                let mut out = vec![0f32; hours];
+                for &(h, d, en) in &sun_hours {
+                    out[h] = self.sun_at(x, n, (d, en), reach) as f32;
+                }
+                out
+            })
+            .collect();
+        cancel.check()?;
+        Ok(Hourly { product, sun })
     }
 
     /// The weather file `name` in the scene's folder: a plain file name ending in `.epw`,

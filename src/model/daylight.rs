@@ -24,6 +24,8 @@ use rayon::prelude::*;
 use serde::Serialize;
 
 use super::grid::{self, GridStats};
+use super::metrics;
+pub use super::metrics::DaylightFactors;
 use super::query::{GridAnswer, IlluminanceQuery};
 use super::report::SurfaceIlluminance;
 use super::sky_state::{SkyState, SunPosition};
@@ -220,19 +222,6 @@ pub struct PatchDaylight {
     pub b: Vec<f32>,
 }
 
-/// Daylight factor statistics of a grid, percent.
-#[derive(Debug, Clone, Serialize)]
-#[cfg_attr(feature = "server", derive(utoipa::ToSchema))]
-pub struct DaylightFactors {
-    pub avg: f64,
-    pub min: f64,
-    pub max: f64,
-    pub median: f64,
-    /// Per point, in grid order; null for points left out of the statistics.
-    #[cfg_attr(feature = "server", schema(value_type = Vec<Option<f64>>))]
-    pub values: Vec<Option<f32>>,
-}
-
 /// One grid under a sky: illuminance statistics (lux) and, for the CIE overcast sky,
 /// daylight factors.
 #[derive(Debug, Clone, Serialize)]
@@ -306,6 +295,14 @@ fn key(points: &[(DVec3, DVec3)]) -> u64 {
     h.digest()
 }
 
+/// The entry of a least-recently-used list that `hit` finds, moved to the front.
+fn touch<T>(list: &mut VecDeque<T>, hit: impl Fn(&T) -> bool) -> Option<&T> {
+    let pos = list.iter().position(hit)?;
+    let entry = list.remove(pos).expect("position is in range");
+    list.push_front(entry);
+    list.front()
+}
+
 impl Model {
     /// The scene's site, or why daylight cannot be asked of it.
     pub fn site(&self) -> Result<&Site, QueryError> {
@@ -326,6 +323,13 @@ impl Model {
             .iter()
             .map(|p| (DVec3::from_array(*p), n))
             .collect()
+    }
+
+    /// The sun's direct illuminance (lux) at point `x` (m) on a receiver facing `n`: the
+    /// sun in unit scene direction `d` at normal illuminance `en`, with one shadow ray
+    /// (through the glazing) out to `reach`.
+    pub(super) fn sun_at(&self, x: DVec3, n: DVec3, (d, en): (DVec3, f64), reach: Reach) -> f64 {
+        sky_view::point_sun_direct(&self.baked.bvh, &self.baked.glazing, x, n, d, en, reach)
     }
 
     pub(super) fn reach(&self) -> Reach {
@@ -367,16 +371,9 @@ impl Model {
     ) -> Result<Arc<Vec<PointGather>>, QueryError> {
         let k = key(points);
         {
-            let mut e = self
-                .gathers
-                .entries
-                .lock()
-                .unwrap_or_else(|p| p.into_inner());
-            if let Some(pos) = e.iter().position(|(kk, _, _)| *kk == k) {
-                let hit = e.remove(pos).expect("position is in range");
-                let g = hit.1.clone();
-                e.push_front(hit);
-                return Ok(g);
+            let mut e = super::lock(&self.gathers.entries);
+            if let Some((_, g, _)) = touch(&mut e, |(kk, _, _)| *kk == k) {
+                return Ok(g.clone());
             }
         }
         let k_ = &self.baked;
@@ -407,11 +404,7 @@ impl Model {
         let list = Arc::new(list);
         let limit = self.gathers.limit as usize;
         if bytes <= limit {
-            let mut e = self
-                .gathers
-                .entries
-                .lock()
-                .unwrap_or_else(|p| p.into_inner());
+            let mut e = super::lock(&self.gathers.entries);
             e.push_front((k, list.clone(), bytes));
             let mut total: usize = e.iter().map(|x| x.2).sum();
             while total > limit {
@@ -472,12 +465,9 @@ impl Model {
     /// for the last [`SUN_CACHE_ENTRIES`] directions.
     fn sun_on_patches(&self, d: DVec3) -> Arc<SunOnPatches> {
         let k = key(&[(d, DVec3::ZERO)]);
-        let mut suns = self.gathers.suns.lock().unwrap_or_else(|p| p.into_inner());
-        if let Some(pos) = suns.iter().position(|(kk, _)| *kk == k) {
-            let hit = suns.remove(pos).expect("position is in range");
-            let v = hit.1.clone();
-            suns.push_front(hit);
-            return v;
+        let mut suns = super::lock(&self.gathers.suns);
+        if let Some((_, v)) = touch(&mut suns, |(kk, _)| *kk == k) {
+            return v.clone();
         }
         drop(suns);
         let direct = sky_view::patch_sun_direct(
@@ -508,7 +498,7 @@ impl Model {
             interreflected,
             spread,
         });
-        let mut suns = self.gathers.suns.lock().unwrap_or_else(|p| p.into_inner());
+        let mut suns = super::lock(&self.gathers.suns);
         suns.push_front((k, v.clone()));
         suns.truncate(SUN_CACHE_ENTRIES);
         v
@@ -532,21 +522,31 @@ impl Model {
 
     /// A sky's daylight on every patch.
     pub fn patch_daylight(&self, sky: &SkyState) -> Result<PatchDaylight, QueryError> {
-        let site = self.site()?;
-        let sub = sky_view::subdivision();
-        let l = sky.patch_luminances(&sub);
-        let sun = self.sun_light(sky, site);
-        Ok(self.sky_patches(&l, &sun, true))
+        self.sky_on_patches(sky, true)
     }
 
     /// A sky's daylight on every patch without the sun's direct light (its interreflection
     /// stays): what an image shows on its patches while the sun is traced per pixel.
     pub fn patch_daylight_without_sun(&self, sky: &SkyState) -> Result<PatchDaylight, QueryError> {
+        self.sky_on_patches(sky, false)
+    }
+
+    /// A sky's daylight on every patch, with the sun's direct light or without.
+    fn sky_on_patches(
+        &self,
+        sky: &SkyState,
+        with_direct_sun: bool,
+    ) -> Result<PatchDaylight, QueryError> {
+        let (_, l, sun) = self.sky_light(sky)?;
+        Ok(self.sky_patches(&l, &sun, with_direct_sun))
+    }
+
+    /// A sky at the scene's site: the site, the mean luminances of the sky patches (cd/m²,
+    /// 0 the ground) and the sun's light on the patches.
+    fn sky_light(&self, sky: &SkyState) -> Result<(&Site, Vec<f64>, SunLight), QueryError> {
         let site = self.site()?;
-        let sub = sky_view::subdivision();
-        let l = sky.patch_luminances(&sub);
-        let sun = self.sun_light(sky, site);
-        Ok(self.sky_patches(&l, &sun, false))
+        let l = sky.patch_luminances(&sky_view::subdivision());
+        Ok((site, l, self.sun_light(sky, site)))
     }
 
     /// A length beyond the scene, m (for escape rays).
@@ -570,18 +570,91 @@ impl Model {
         q: &IlluminanceQuery,
         cancel: &Cancel,
     ) -> Result<DaylightAnswer, QueryError> {
-        let site = self.site()?;
+        let (site, l, sun_light) = self.sky_light(sky)?;
+        let light = PointLight::new(self, sky, site, &l, &sun_light, w);
+        let points = light
+            .at_points(&q.points, cancel)?
+            .into_iter()
+            .map(|(e, daylight)| DaylightPoint {
+                lux: luminance64(e),
+                rgb: e,
+                daylight_factor: light.daylight_factor(daylight),
+            })
+            .collect();
+        let mut grids = BTreeMap::new();
+        for &gi in &q.grids {
+            cancel.check()?;
+            let answer = self.daylight_grid(gi, &light, cancel)?;
+            grids.insert(self.grids[gi].grid.id.clone(), answer);
+        }
+        cancel.check()?;
+        Ok(DaylightAnswer {
+            unit: "lx",
+            sky: SkyInfo::of(sky),
+            points,
+            surfaces: self.daylight_surfaces(&q.surfaces, &l, &sun_light, w),
+            grids,
+        })
+    }
+
+    /// Grid `gi` under the sky of `light`: its illuminance and, for the CIE overcast sky,
+    /// its daylight factors.
+    fn daylight_grid(
+        &self,
+        gi: usize,
+        light: &PointLight,
+        cancel: &Cancel,
+    ) -> Result<DaylightGrid, QueryError> {
+        let response = &self.grids[gi];
+        let pts = self.grid_receivers(gi);
+        let (values, dfs): (Vec<f32>, Vec<f32>) = light
+            .at_points(&pts, cancel)?
+            .into_iter()
+            .map(|(e, daylight)| {
+                let df = light.daylight_factor(daylight).unwrap_or(0.0);
+                (luminance64(e) as f32, df as f32)
+            })
+            .unzip();
+        let excluded = &response.excluded;
+        let stats: GridStats = grid::stats(values, excluded);
+        let daylight_factor =
+            (light.sky.df_reference).map(|_| metrics::daylight_factors(&dfs, excluded));
+        Ok(DaylightGrid {
+            illuminance: super::query::grid_answer(&response.grid, stats),
+            daylight_factor,
+        })
+    }
+
+    /// Illuminance statistics of `surfaces` under sky patch luminances `l` and the sun's
+    /// light, plus the electric light of group weights `w`.
+    fn daylight_surfaces(
+        &self,
+        surfaces: &[usize],
+        l: &[f64],
+        sun_light: &SunLight,
+        w: Option<&[Rgb]>,
+    ) -> BTreeMap<String, SurfaceIlluminance> {
+        if surfaces.is_empty() {
+            return BTreeMap::new();
+        }
+        // Per-patch illuminance for the surfaces' statistics.
+        let mut h = self.sky_patches(l, sun_light, true).h;
+        if let Some(w) = w {
+            let mut h_el = vec![0f32; 3 * self.patches()];
+            self.baked.transfer.illuminance_into(w, &mut h_el);
+            for (a, b) in h.iter_mut().zip(&h_el) {
+                *a += b;
+            }
+        }
+        self.surface_stats(surfaces, &h)
+    }
+
+    /// The sun's reflected light, lm/m² per patch (n × 3), for gathering exactly at points:
+    /// its first reflection, plus its interreflection where it is solved (else the
+    /// daylight coefficients carry it with the sky's).
+    fn sun_reflected(&self, sun_light: &SunLight) -> Option<Vec<f32>> {
         let t = &self.baked.transfer;
-        let cols = t.sky.as_ref().expect("site() checks the sky responses");
-        let n = t.n;
-        let sub = sky_view::subdivision();
-        let l = sky.patch_luminances(&sub);
-        let sun_light = self.sun_light(sky, site);
-        let spread = &sun_light.spread;
-        // The sun's reflected light, lm/m² per patch, gathered exactly at points: its first
-        // reflection, plus its interreflection where it is solved (else the coefficients
-        // carry it with the sky's).
-        let sun_b: Option<Vec<f32>> = sun_light.direct.as_ref().map(|sd| {
+        sun_light.direct.as_ref().map(|sd| {
             let ind = sun_light.interreflected.as_deref();
             sd.iter()
                 .zip(&t.rho)
@@ -591,157 +664,125 @@ impl Model {
                     [h(0) * r[0], h(1) * r[1], h(2) * r[2]]
                 })
                 .collect()
-        });
+        })
+    }
+}
+
+/// What the light at a point needs under one sky: the sky patch luminances and the sun's
+/// light, the electric light of group weights `w` when asked.
+struct PointLight<'a> {
+    model: &'a Model,
+    sky: &'a SkyState,
+    site: &'a Site,
+    cols: &'a SkyColumns,
+    /// Sky patch luminances, cd/m² (0 the ground).
+    l: &'a [f64],
+    /// The sun's spread over the sky patches ([`SunLight::spread`]).
+    spread: &'a [(usize, f64)],
+    /// [`Model::sun_reflected`].
+    sun_b: Option<Vec<f32>>,
+    /// The sun's scene direction and normal illuminance.
+    sun: Option<(DVec3, f64)>,
+    reach: Reach,
+    w: Option<&'a [Rgb]>,
+    /// The electric light's radiosity, lm/m² (n × 3; empty without `w`).
+    b_el: Vec<f32>,
+}
+
+impl<'a> PointLight<'a> {
+    fn new(
+        model: &'a Model,
+        sky: &'a SkyState,
+        site: &'a Site,
+        l: &'a [f64],
+        sun_light: &'a SunLight,
+        w: Option<&'a [Rgb]>,
+    ) -> PointLight<'a> {
+        let t = &model.baked.transfer;
         let mut b_el = vec![];
         if let Some(w) = w {
-            b_el = vec![0f32; 3 * n];
+            b_el = vec![0f32; 3 * t.n];
             t.relight_into(w, &mut b_el);
         }
-        let sun = sky.sun_direction(site);
-        let reach = self.reach();
-        // One point: (all light, daylight alone), RGB lux.
-        let at = |g: &PointGather, x: DVec3, nrm: DVec3| -> ([f64; 3], f64) {
-            let mut e = g.reflected(cols, &t.rho, &l, spread);
-            if let Some(b) = &sun_b {
-                let s = g.gather(b);
-                for c in 0..3 {
-                    e[c] += s[c];
-                }
+        PointLight {
+            model,
+            sky,
+            site,
+            cols: t.sky.as_ref().expect("site() checks the sky responses"),
+            l,
+            spread: &sun_light.spread,
+            sun_b: model.sun_reflected(sun_light),
+            sun: sky.sun_direction(site),
+            reach: model.reach(),
+            w,
+            b_el,
+        }
+    }
+
+    /// The light at point `x` (m) facing `nrm` with gather `g`: (all light, daylight
+    /// alone), RGB lux.
+    fn at(&self, g: &PointGather, x: DVec3, nrm: DVec3) -> ([f64; 3], f64) {
+        let m = self.model;
+        let mut e = g.reflected(self.cols, &m.baked.transfer.rho, self.l, self.spread);
+        if let Some(b) = &self.sun_b {
+            let s = g.gather(b);
+            for c in 0..3 {
+                e[c] += s[c];
             }
-            let mut direct = g.direct_sky(sky, site);
-            if let Some((s, en)) = sun {
-                direct += sky_view::point_sun_direct(
-                    &self.baked.bvh,
-                    &self.baked.glazing,
-                    x,
-                    nrm,
-                    s,
-                    en,
-                    reach,
-                );
+        }
+        let mut direct = g.direct_sky(self.sky, self.site);
+        if let Some(sun) = self.sun {
+            direct += m.sun_at(x, nrm, sun, self.reach);
+        }
+        for c in &mut e {
+            *c += direct;
+        }
+        let daylight = luminance64(e);
+        if let Some(w) = self.w {
+            let el = g.gather(&self.b_el);
+            m.add_luminaires(w, x, nrm, &mut e);
+            for c in 0..3 {
+                e[c] += el[c];
             }
-            for c in &mut e {
-                *c += direct;
-            }
-            let daylight = luminance64(e);
-            if let Some(w) = w {
-                let el = g.gather(&b_el);
-                for (g, l) in self.baked.scene.lights.iter().zip(w) {
-                    if g.luminaires.is_empty() || l.iter().all(|&c| c == 0.0) {
-                        continue;
-                    }
-                    let d = crate::transport::direct::point_illuminance(
-                        &self.baked.bvh,
-                        &g.luminaires,
-                        x,
-                        nrm,
-                    );
-                    for c in 0..3 {
-                        e[c] += l[c] as f64 * d[c];
-                    }
-                }
-                for c in 0..3 {
-                    e[c] += el[c];
-                }
-            }
-            (e, daylight)
-        };
-        let df = |daylight: f64| sky.df_reference.map(|r| 100.0 * daylight / r.max(1e-9));
-        let gathers = self.gathers(&q.points, cancel)?;
-        let points = q
-            .points
+        }
+        (e, daylight)
+    }
+
+    /// The light at `points` (position m, unit normal), gathered in parallel: (all light,
+    /// daylight alone) per point, as [`PointLight::at`].
+    fn at_points(
+        &self,
+        points: &[(DVec3, DVec3)],
+        cancel: &Cancel,
+    ) -> Result<Vec<([f64; 3], f64)>, QueryError> {
+        let gathers = self.model.gathers(points, cancel)?;
+        Ok(points
             .par_iter()
             .zip(gathers.par_iter())
-            .map(|(&(x, nrm), g)| {
-                let (e, daylight) = at(g, x, nrm);
-                DaylightPoint {
-                    lux: luminance64(e),
-                    rgb: e,
-                    daylight_factor: df(daylight),
-                }
-            })
-            .collect();
-        let mut grids = BTreeMap::new();
-        for &gi in &q.grids {
-            cancel.check()?;
-            let grid = &self.grids[gi].grid;
-            let pts = self.grid_receivers(gi);
-            let gathers = self.gathers(&pts, cancel)?;
-            let (values, dfs): (Vec<f32>, Vec<f32>) = pts
-                .par_iter()
-                .zip(gathers.par_iter())
-                .map(|(&(x, nrm), g)| {
-                    let (e, daylight) = at(g, x, nrm);
-                    (luminance64(e) as f32, df(daylight).unwrap_or(0.0) as f32)
-                })
-                .unzip();
-            let excluded = &self.grids[gi].excluded;
-            let stats: GridStats = grid::stats(values, excluded);
-            let daylight_factor = sky.df_reference.map(|_| {
-                let mut sorted: Vec<f32> = dfs
-                    .iter()
-                    .zip(excluded)
-                    .filter(|(_, &x)| !x)
-                    .map(|(&v, _)| v)
-                    .collect();
-                sorted.sort_by(f32::total_cmp);
-                let m = sorted.len();
-                let median = if m == 0 {
-                    0.0
-                } else if m % 2 == 1 {
-                    sorted[m / 2] as f64
-                } else {
-                    0.5 * (sorted[m / 2 - 1] + sorted[m / 2]) as f64
-                };
-                DaylightFactors {
-                    avg: sorted.iter().map(|&v| v as f64).sum::<f64>() / m.max(1) as f64,
-                    min: sorted.first().copied().unwrap_or(0.0) as f64,
-                    max: sorted.last().copied().unwrap_or(0.0) as f64,
-                    median,
-                    values: dfs
-                        .iter()
-                        .zip(excluded)
-                        .map(|(&v, &x)| (!x).then_some(v))
-                        .collect(),
-                }
-            });
-            grids.insert(
-                grid.id.clone(),
-                DaylightGrid {
-                    illuminance: super::query::grid_answer(grid, stats),
-                    daylight_factor,
-                },
-            );
-        }
-        cancel.check()?;
+            .map(|(&(x, nrm), g)| self.at(g, x, nrm))
+            .collect())
+    }
+
+    /// The daylight factor of `daylight` lux, percent, under the CIE overcast sky.
+    fn daylight_factor(&self, daylight: f64) -> Option<f64> {
+        self.sky
+            .df_reference
+            .map(|r| 100.0 * daylight / r.max(1e-9))
+    }
+}
+
+impl SkyInfo {
+    /// The sky as it was resolved.
+    fn of(sky: &SkyState) -> SkyInfo {
         let en = sky.sun.map_or(0.0, |s| s.normal_illuminance);
-        Ok(DaylightAnswer {
-            unit: "lx",
-            sky: SkyInfo {
-                kind: sky.kind,
-                sun: sky.sun_position,
-                direct_normal_illuminance: en,
-                diffuse_horizontal_illuminance: sky.diffuse_horizontal,
-                global_horizontal_illuminance: sky.diffuse_horizontal
-                    + sky.sun.map_or(0.0, |s| en * s.altitude.sin()),
-                ground_luminance: sky.ground_luminance,
-            },
-            points,
-            surfaces: if q.surfaces.is_empty() {
-                BTreeMap::new()
-            } else {
-                // Per-patch illuminance for the surfaces' statistics.
-                let mut h = self.sky_patches(&l, &sun_light, true).h;
-                if let Some(w) = w {
-                    let mut h_el = vec![0f32; 3 * n];
-                    t.illuminance_into(w, &mut h_el);
-                    for (a, b) in h.iter_mut().zip(&h_el) {
-                        *a += b;
-                    }
-                }
-                self.surface_stats(&q.surfaces, &h)
-            },
-            grids,
-        })
+        SkyInfo {
+            kind: sky.kind,
+            sun: sky.sun_position,
+            direct_normal_illuminance: en,
+            diffuse_horizontal_illuminance: sky.diffuse_horizontal,
+            global_horizontal_illuminance: sky.diffuse_horizontal
+                + sky.sun.map_or(0.0, |s| en * s.altitude.sin()),
+            ground_luminance: sky.ground_luminance,
+        }
     }
 }

@@ -144,3 +144,47 @@ pub fn stats(values: Vec<f32>, excluded: &[bool]) -> GridStats {
             .collect(),
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn stats_are_over_the_measured_points_with_u0_emin_over_eavg() {
+        let s = stats(
+            vec![100.0, 200.0, 1000.0, 300.0],
+            &[false, false, true, false],
+        );
+        assert_eq!((s.avg, s.min, s.max), (200.0, 100.0, 300.0));
+        assert_eq!(s.u0, 0.5);
+        assert_eq!(s.min_max, 100.0 / 300.0);
+        assert_eq!(s.excluded, 1);
+        assert_eq!(s.values, vec![Some(100.0), Some(200.0), None, Some(300.0)]);
+        // The excluded point, brightest or darkest, changes nothing.
+        let t = stats(vec![100.0, 200.0, 0.0, 300.0], &[false, false, true, false]);
+        assert_eq!((t.avg, t.min, t.u0), (200.0, 100.0, 0.5));
+    }
+
+    #[test]
+    fn points_without_an_exclusion_flag_are_measured() {
+        let s = stats(vec![10.0, 30.0, 20.0], &[true]);
+        assert_eq!((s.avg, s.min, s.max, s.excluded), (25.0, 20.0, 30.0, 1));
+        assert_eq!(s.u0, 0.8);
+    }
+
+    #[test]
+    fn a_dark_or_empty_grid_has_zero_uniformity() {
+        let s = stats(vec![0.0, 0.0], &[]);
+        assert_eq!(
+            (s.avg, s.min, s.max, s.u0, s.min_max),
+            (0.0, 0.0, 0.0, 0.0, 0.0)
+        );
+        let s = stats(vec![5.0, 6.0], &[true, true]);
+        assert_eq!(
+            (s.avg, s.min, s.max, s.u0, s.min_max),
+            (0.0, 0.0, 0.0, 0.0, 0.0)
+        );
+        assert_eq!(s.excluded, 2);
+        assert_eq!(s.values, vec![None, None]);
+    }
+}

@@ -192,10 +192,115 @@ impl Lighting {
 
 /// Comma-separated ids of the scene's light groups.
 pub fn known_ids(scene: &Scene) -> String {
-    let ids: Vec<&str> = scene.lights.iter().map(|l| l.id.as_str()).collect();
-    if ids.is_empty() {
-        "none".into()
-    } else {
-        ids.join(", ")
+    super::error::known_list(scene.lights.iter().map(|l| l.id.as_str()))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The office: groups `window_row` and `corridor_row`, both at intensity 1, white.
+    fn office() -> Scene {
+        Scene::load(&std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/office"))
+            .expect("the office scene loads")
+    }
+
+    #[test]
+    fn parse_value_reads_an_intensity_or_a_colour() {
+        assert_eq!(parse_value("0.25"), Ok((Some(0.25), None)));
+        assert_eq!(
+            parse_value(" 1, 0.5 ,0"),
+            Ok((Some(1.0), Some([1.0, 0.5, 0.0])))
+        );
+        assert_eq!(parse_value("half"), Err("not a number".to_string()));
+        assert_eq!(
+            parse_value("1,2"),
+            Err("give one intensity or three RGB values".to_string())
+        );
+    }
+
+    #[test]
+    fn validate_refuses_negative_non_finite_and_huge_numbers() {
+        let ok = |intensity: f32, color: Rgb| LightSetting { intensity, color }.validate("g");
+        assert!(ok(0.0, [0.0; 3]).is_ok());
+        assert!(ok(MAX_INTENSITY, [MAX_INTENSITY; 3]).is_ok());
+        for bad in [
+            ok(-0.1, [1.0; 3]),
+            ok(f32::NAN, [1.0; 3]),
+            ok(2e6, [1.0; 3]),
+            ok(1.0, [1.0, -1.0, 1.0]),
+            ok(1.0, [1.0, f32::INFINITY, 1.0]),
+            ok(1.0, [2e6, 1.0, 1.0]),
+        ] {
+            assert!(matches!(bad, Err(LightError::Invalid { ref id, .. }) if id == "g"));
+        }
+    }
+
+    #[test]
+    fn weights_are_intensity_times_colour_with_defaults_for_groups_left_out() {
+        let scene = office();
+        let mut state = LightState::default();
+        assert_eq!(state.weights(&scene).unwrap(), vec![[1.0; 3], [1.0; 3]]);
+        state
+            .set(&scene, "corridor_row", Some(0.5), Some([1.0, 0.5, 0.0]))
+            .unwrap();
+        assert_eq!(
+            state.weights(&scene).unwrap(),
+            vec![[1.0; 3], [0.5, 0.25, 0.0]]
+        );
+        // A colour alone keeps the default intensity, an intensity alone the colour.
+        state
+            .set(&scene, "window_row", None, Some([0.0, 1.0, 2.0]))
+            .unwrap();
+        assert_eq!(state.weights(&scene).unwrap()[0], [0.0, 1.0, 2.0]);
+        state.set(&scene, "window_row", Some(3.0), None).unwrap();
+        assert_eq!(state.weights(&scene).unwrap()[0], [3.0; 3]);
+    }
+
+    #[test]
+    fn parse_args_reads_command_line_settings_and_names_the_known_groups() {
+        let scene = office();
+        let state =
+            LightState::parse_args(&scene, &["window_row=0.25", "corridor_row=0,1,0.5"]).unwrap();
+        assert_eq!(
+            state.weights(&scene).unwrap(),
+            vec![[0.25; 3], [0.0, 1.0, 0.5]]
+        );
+        let e = LightState::parse_args(&scene, &["desk=1"]).unwrap_err();
+        assert_eq!(
+            e,
+            LightError::UnknownGroup {
+                id: "desk".into(),
+                known: "window_row, corridor_row".into()
+            }
+        );
+        assert!(matches!(
+            LightState::parse_args(&scene, &["window_row"]),
+            Err(LightError::Syntax(_))
+        ));
+        // Out of f32's range: refused, not infinite.
+        assert!(matches!(
+            LightState::parse_args(&scene, &["window_row=1e40"]),
+            Err(LightError::Invalid { .. })
+        ));
+        // A state naming an unknown group is refused when resolved.
+        let mut bad = LightState::default();
+        bad.lights.insert(
+            "nowhere".into(),
+            LightSetting {
+                intensity: 1.0,
+                color: [1.0; 3],
+            },
+        );
+        assert!(matches!(
+            bad.weights(&scene),
+            Err(LightError::UnknownGroup { .. })
+        ));
+    }
+
+    #[test]
+    fn known_ids_lists_the_groups_or_none() {
+        assert_eq!(known_ids(&office()), "window_row, corridor_row");
+        assert_eq!(super::super::error::known_list([]), "none");
     }
 }

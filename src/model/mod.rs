@@ -20,6 +20,8 @@
 //! - [`sky_state`]: the grammar of a sky ([`sky_state::SkySpec`]) and a sky resolved for the site.
 //! - [`daylight`]: daylight on surfaces, points and grids, and the point-gather cache.
 //! - [`annual`]: climate-based metrics over a year of weather (sDA, ASE, UDI, EN 17037).
+//! - [`metrics`]: those metrics and the daylight-factor statistics as pure functions of
+//!   illuminance values, with their thresholds as named constants.
 //! - [`info`]: what the scene is made of (units, bounds, luminaires, grids, surfaces,
 //!   patches), for clients.
 //!
@@ -42,6 +44,7 @@ pub mod glare;
 pub mod grid;
 pub mod info;
 pub mod lighting;
+pub mod metrics;
 pub mod optimize;
 pub mod query;
 pub mod report;
@@ -174,6 +177,12 @@ fn group_infos(baked: &Baked) -> Vec<GroupInfo> {
             }
         })
         .collect()
+}
+
+/// A cache's lock; one poisoned by a query that panicked is taken over (the caches hold
+/// whole entries only).
+fn lock<T>(m: &std::sync::Mutex<T>) -> std::sync::MutexGuard<'_, T> {
+    m.lock().unwrap_or_else(std::sync::PoisonError::into_inner)
 }
 
 /// Raised when whoever asked for a piece of work no longer wants it (an HTTP client that

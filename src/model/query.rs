@@ -117,15 +117,11 @@ impl Model {
             .iter()
             .position(|r| r.grid.id == id)
             .ok_or_else(|| {
-                let known: Vec<&str> = self.grids.iter().map(|r| r.grid.id.as_str()).collect();
+                let known = self.grids.iter().map(|r| r.grid.id.as_str());
                 QueryError::Invalid(format!(
                     "unknown grid '{}' (known: {})",
                     super::error::shorten(id),
-                    if known.is_empty() {
-                        "none".to_string()
-                    } else {
-                        known.join(", ")
-                    }
+                    super::error::known_list(known)
                 ))
             })
     }
@@ -241,7 +237,15 @@ impl Model {
     pub fn point_illuminance(&self, b: &[f32], w: Option<&[Rgb]>, x: DVec3, n: DVec3) -> [f64; 3] {
         let k = &self.baked;
         let mut e = crate::transport::probe::illuminance_at(&k.mesh, &k.bvh, b, x, n);
-        for (g, w) in k.scene.lights.iter().zip(w.unwrap_or(&[])) {
+        self.add_luminaires(w.unwrap_or(&[]), x, n, &mut e);
+        e
+    }
+
+    /// Adds to `e` (RGB lux) the direct light of the luminaires of group weights `w` at
+    /// point `x` (m) on a receiver facing `n`, with shadow rays.
+    pub(super) fn add_luminaires(&self, w: &[Rgb], x: DVec3, n: DVec3, e: &mut [f64; 3]) {
+        let k = &self.baked;
+        for (g, w) in k.scene.lights.iter().zip(w) {
             if g.luminaires.is_empty() || w.iter().all(|&c| c == 0.0) {
                 continue;
             }
@@ -250,7 +254,6 @@ impl Model {
                 e[c] += w[c] as f64 * d[c];
             }
         }
-        e
     }
 
     /// A grid's answer for group weights: a weighted sum of its per-group responses.
@@ -311,60 +314,61 @@ impl Model {
         q: &IlluminanceQuery,
         cancel: &Cancel,
     ) -> Result<IlluminanceAnswer, QueryError> {
-        let w = l.weights();
-        if let (Some(w), true) = (w, q.points.is_empty()) {
-            let mut h = vec![0f32; 3 * self.patches()];
-            self.per_patch_groups(w, Quantity::Illuminance, &mut h);
-            return Ok(IlluminanceAnswer {
-                unit: "lx",
-                points: vec![],
-                surfaces: self.surface_stats(&q.surfaces, &h),
-                grids: self.grid_answers(&q.grids, w),
-                power: Some(self.luminaire_power(w)),
-            });
+        match l.weights() {
+            Some(w) => self.group_illuminance(w, q, cancel),
+            None => self.solved_illuminance(l, q, cancel),
         }
-        if let Some(w) = w {
-            // Group lighting: the points' gathers come from the cache.
-            let b = self.per_patch(l, Quantity::Radiosity)?;
-            let h = self.per_patch(l, Quantity::Illuminance)?;
+    }
+
+    /// [`Model::illuminance`] for group weights `w`: weighted sums, and the points'
+    /// gathers from the cache.
+    fn group_illuminance(
+        &self,
+        w: &[Rgb],
+        q: &IlluminanceQuery,
+        cancel: &Cancel,
+    ) -> Result<IlluminanceAnswer, QueryError> {
+        let mut h = vec![0f32; 3 * self.patches()];
+        self.per_patch_groups(w, Quantity::Illuminance, &mut h);
+        let points = if q.points.is_empty() {
+            vec![]
+        } else {
+            let mut b = vec![0f32; 3 * self.patches()];
+            self.per_patch_groups(w, Quantity::Radiosity, &mut b);
             let gathers = self.gathers(&q.points, cancel)?;
-            let points = q
-                .points
+            q.points
                 .iter()
                 .zip(gathers.iter())
                 .map(|(&(x, n), g)| {
                     let mut e = g.gather(&b);
-                    for (light, wl) in self.baked.scene.lights.iter().zip(w) {
-                        if light.luminaires.is_empty() || wl.iter().all(|&c| c == 0.0) {
-                            continue;
-                        }
-                        let d = crate::transport::direct::point_illuminance(
-                            &self.baked.bvh,
-                            &light.luminaires,
-                            x,
-                            n,
-                        );
-                        for c in 0..3 {
-                            e[c] += wl[c] as f64 * d[c];
-                        }
-                    }
+                    self.add_luminaires(w, x, n, &mut e);
                     Lux::new(e)
                 })
-                .collect();
-            return Ok(IlluminanceAnswer {
-                unit: "lx",
-                points,
-                surfaces: self.surface_stats(&q.surfaces, &h),
-                grids: self.grid_answers(&q.grids, w),
-                power: Some(self.luminaire_power(w)),
-            });
-        }
+                .collect()
+        };
+        Ok(IlluminanceAnswer {
+            unit: "lx",
+            points,
+            surfaces: self.surface_stats(&q.surfaces, &h),
+            grids: self.grid_answers(&q.grids, w),
+            power: Some(self.luminaire_power(w)),
+        })
+    }
+
+    /// [`Model::illuminance`] for a per-patch emission: one solve, and every point (grid
+    /// points too) gathered from it.
+    fn solved_illuminance(
+        &self,
+        l: &Lighting,
+        q: &IlluminanceQuery,
+        cancel: &Cancel,
+    ) -> Result<IlluminanceAnswer, QueryError> {
         let sol = self.solve(l)?;
         let at = |x: DVec3, n: DVec3| -> [f64; 3] {
             if cancel.is_cancelled() {
                 [0.0; 3]
             } else {
-                self.point_illuminance(&sol.b, w, x, n)
+                self.point_illuminance(&sol.b, None, x, n)
             }
         };
         let points: Vec<Lux> = q
@@ -373,31 +377,28 @@ impl Model {
             .map(|(x, n)| Lux::new(at(*x, *n)))
             .collect();
         cancel.check()?;
-        let grids = match w {
-            Some(w) => self.grid_answers(&q.grids, w),
-            None => q
-                .grids
-                .iter()
-                .map(|&gi| {
-                    let excluded = &self.grids[gi].excluded;
-                    let g = &self.grids[gi].grid;
-                    let n = DVec3::from_array(g.normal);
-                    let values: Vec<f32> = g
-                        .points
-                        .par_iter()
-                        .map(|p| luminance64(at(DVec3::from_array(*p), n)) as f32)
-                        .collect();
-                    (g.id.clone(), grid_answer(g, grid::stats(values, excluded)))
-                })
-                .collect(),
-        };
+        let grids = q
+            .grids
+            .iter()
+            .map(|&gi| {
+                let excluded = &self.grids[gi].excluded;
+                let g = &self.grids[gi].grid;
+                let n = DVec3::from_array(g.normal);
+                let values: Vec<f32> = g
+                    .points
+                    .par_iter()
+                    .map(|p| luminance64(at(DVec3::from_array(*p), n)) as f32)
+                    .collect();
+                (g.id.clone(), grid_answer(g, grid::stats(values, excluded)))
+            })
+            .collect();
         cancel.check()?;
         Ok(IlluminanceAnswer {
             unit: "lx",
             points,
             surfaces: self.surface_stats(&q.surfaces, &sol.h),
             grids,
-            power: w.map(|w| self.luminaire_power(w)),
+            power: None,
         })
     }
 }

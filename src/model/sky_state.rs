@@ -8,6 +8,7 @@
 use glam::DVec3;
 use serde::{Deserialize, Serialize};
 
+use super::sun::nearest_sky_patches;
 use super::QueryError;
 use crate::daylight::sky_luminance::{Sky, Sun};
 use crate::daylight::sun::{self, LocalTime};
@@ -113,25 +114,39 @@ pub struct SkyState {
     pub df_reference: Option<f64>,
 }
 
-fn lux(x: f64, what: &str) -> Result<f64, QueryError> {
-    if x.is_finite() && (0.0..=MAX_DAYLIGHT_LUX).contains(&x) {
+/// `x` when it lies in 0 … `max` (`unit`), else why not: `sky.{what}` is out of range.
+fn in_range(x: f64, max: f64, unit: &str, what: &str) -> Result<f64, QueryError> {
+    if x.is_finite() && (0.0..=max).contains(&x) {
         Ok(x)
     } else {
         Err(QueryError::Invalid(format!(
-            "sky.{what} = {x}: use 0 … {MAX_DAYLIGHT_LUX} lx"
+            "sky.{what} = {x}: use 0 … {max} {unit}"
         )))
     }
 }
 
+fn lux(x: f64, what: &str) -> Result<f64, QueryError> {
+    in_range(x, MAX_DAYLIGHT_LUX, "lx", what)
+}
+
 fn irradiance(x: f64, what: &str) -> Result<f64, QueryError> {
-    if x.is_finite() && (0.0..=MAX_IRRADIANCE).contains(&x) {
-        Ok(x)
-    } else {
-        Err(QueryError::Invalid(format!(
-            "sky.{what} = {x}: use 0 … {MAX_IRRADIANCE} W/m²"
-        )))
+    in_range(x, MAX_IRRADIANCE, "W/m²", what)
+}
+
+/// A dew point, °C, checked (−90 … 60); [`perez::DEFAULT_DEW_POINT_C`] when none is given.
+fn dew_point(d: Option<f64>) -> Result<f64, QueryError> {
+    match d {
+        Some(d) if d.is_finite() && (-90.0..=60.0).contains(&d) => Ok(d),
+        Some(d) => Err(QueryError::Invalid(format!(
+            "sky.dew_point = {d}: use −90 … 60 °C"
+        ))),
+        None => Ok(perez::DEFAULT_DEW_POINT_C),
     }
 }
+
+/// A sky's luminance distribution, its sun, its diffuse horizontal illuminance (lux) and
+/// the reference of its daylight factors.
+type Distribution = (Sky, Option<Sun>, f64, Option<f64>);
 
 impl SkySpec {
     /// The sky's type name.
@@ -195,6 +210,22 @@ impl SkySpec {
     /// distribution.
     pub fn resolve(&self, site: &Site) -> Result<SkyState, QueryError> {
         let placed = self.sun_position(site)?;
+        let (sky, sun, diffuse, df_reference) = self.distribution(placed)?;
+        let global = diffuse + sun.map_or(0.0, |s| s.normal_illuminance * s.altitude.sin());
+        Ok(SkyState {
+            kind: self.kind(),
+            sky,
+            sun,
+            sun_position: placed.map(|(p, _)| p),
+            diffuse_horizontal: diffuse,
+            ground_luminance: site.ground_reflectance * global / std::f64::consts::PI,
+            df_reference,
+        })
+    }
+
+    /// The sky's distribution with the sun `placed` ([`SkySpec::sun_position`]), its
+    /// numbers checked.
+    fn distribution(&self, placed: Option<(SunPosition, u32)>) -> Result<Distribution, QueryError> {
         let need_sun = || {
             placed.ok_or_else(|| {
                 QueryError::Invalid(format!(
@@ -203,7 +234,7 @@ impl SkySpec {
                 ))
             })
         };
-        let (sky, sun, diffuse, df_reference) = match *self {
+        Ok(match *self {
             SkySpec::Uniform {
                 horizontal_illuminance,
                 ..
@@ -234,7 +265,7 @@ impl SkySpec {
             SkySpec::Perez {
                 direct_normal_irradiance,
                 diffuse_horizontal_irradiance,
-                dew_point,
+                dew_point: dew,
                 ..
             } => {
                 let dni = irradiance(direct_normal_irradiance, "direct_normal_irradiance")?;
@@ -242,15 +273,7 @@ impl SkySpec {
                     diffuse_horizontal_irradiance,
                     "diffuse_horizontal_irradiance",
                 )?;
-                let dew = match dew_point {
-                    Some(d) if d.is_finite() && (-90.0..=60.0).contains(&d) => d,
-                    Some(d) => {
-                        return Err(QueryError::Invalid(format!(
-                            "sky.dew_point = {d}: use −90 … 60 °C"
-                        )))
-                    }
-                    None => perez::DEFAULT_DEW_POINT_C,
-                };
+                let dew = dew_point(dew)?;
                 let (p, day) = need_sun()?;
                 match perez::conditions(dni, dhi, p.altitude.to_radians(), day, dew) {
                     None => (Sky::uniform(0.0), None, 0.0, None),
@@ -262,16 +285,6 @@ impl SkySpec {
                     ),
                 }
             }
-        };
-        let global = diffuse + sun.map_or(0.0, |s| s.normal_illuminance * s.altitude.sin());
-        Ok(SkyState {
-            kind: self.kind(),
-            sky,
-            sun,
-            sun_position: placed.map(|(p, _)| p),
-            diffuse_horizontal: diffuse,
-            ground_luminance: site.ground_reflectance * global / std::f64::consts::PI,
-            df_reference,
         })
     }
 }
@@ -340,17 +353,7 @@ impl SkyState {
 /// (as Radiance's `gendaymtx` does): (patch, luminance cd/m²) pairs whose
 /// luminance × solid angle sums to the sun's normal illuminance.
 pub fn sun_patches(s: &Sun, sub: &Subdivision) -> Vec<(usize, f64)> {
-    let dir = |alt: f64, az: f64| DVec3::new(alt.cos() * az.sin(), alt.cos() * az.cos(), alt.sin());
-    let sd = dir(s.altitude, s.azimuth);
-    let mut near: Vec<(f64, usize)> = sub.patches[1..]
-        .iter()
-        .enumerate()
-        .map(|(i, p)| {
-            let (a, z) = p.centre();
-            (dir(a, z).dot(sd), i + 1)
-        })
-        .collect();
-    near.sort_by(|a, b| b.0.total_cmp(&a.0));
+    let mut near = nearest_sky_patches(sub, s.altitude, s.azimuth);
     near.truncate(4);
     let w: Vec<f64> = near.iter().map(|(c, _)| 1.0 / (1.002 - c)).collect();
     let total: f64 = w.iter().sum();
@@ -363,4 +366,156 @@ pub fn sun_patches(s: &Sun, sub: &Subdivision) -> Vec<(usize, f64)> {
             )
         })
         .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::transport::sky_view;
+
+    /// Mannheim; north is −z; ground reflectance 0.2.
+    fn site() -> Site {
+        Site::new(49.49, 8.47, 1.0, DVec3::NEG_Z, 0.2).unwrap()
+    }
+
+    fn spec(v: serde_json::Value) -> SkySpec {
+        serde_json::from_value(v).unwrap()
+    }
+
+    fn resolved(v: serde_json::Value) -> SkyState {
+        spec(v).resolve(&site()).unwrap()
+    }
+
+    fn error(v: serde_json::Value) -> String {
+        spec(v).resolve(&site()).unwrap_err().to_string()
+    }
+
+    /// A CIE clear sky of 10,000 lx with a sun of 60,000 lx at `altitude` degrees, due
+    /// south.
+    fn clear(altitude: f64) -> SkyState {
+        resolved(
+            serde_json::json!({"type": "cie_clear", "horizontal_illuminance": 10000,
+            "direct_normal_illuminance": 60000, "sun": {"altitude": altitude, "azimuth": 180}}),
+        )
+    }
+
+    #[test]
+    fn a_uniform_sky_has_luminance_e_over_pi_and_ground_rho_e_over_pi() {
+        let pi = std::f64::consts::PI;
+        let s = resolved(serde_json::json!({"type": "uniform", "horizontal_illuminance": 10000}));
+        assert_eq!(s.kind, "uniform");
+        assert_eq!(s.diffuse_horizontal, 10000.0);
+        assert_eq!(s.ground_luminance, 0.2 * 10000.0 / pi);
+        assert!(s.sun.is_none() && s.df_reference.is_none());
+        let l = s.patch_luminances(&sky_view::subdivision());
+        assert_eq!(l.len(), 146);
+        assert_eq!(l[0], s.ground_luminance);
+        for &v in &l[1..] {
+            assert!((v - 10000.0 / pi).abs() < 1e-9 * v, "{v}");
+        }
+    }
+
+    #[test]
+    fn the_overcast_sky_is_the_daylight_factor_reference_and_has_no_sun() {
+        let s = resolved(
+            serde_json::json!({"type": "cie_overcast", "horizontal_illuminance": 12000,
+            "sun": {"altitude": 30, "azimuth": 180}}),
+        );
+        assert_eq!(s.df_reference, Some(12000.0));
+        assert!(s.sun.is_none());
+        // The position is kept for the answer.
+        assert_eq!(
+            s.sun_position,
+            Some(SunPosition {
+                altitude: 30.0,
+                azimuth: 180.0
+            })
+        );
+    }
+
+    #[test]
+    fn a_clear_sky_adds_the_sun_to_the_global_illuminance() {
+        let s = clear(30.0);
+        let sun = s.sun.unwrap();
+        assert_eq!(sun.normal_illuminance, 60000.0);
+        // Global: 10000 + 60000 sin 30° = 40000 lx; the ground ρ E / π.
+        let global = 10000.0 + 60000.0 * 30f64.to_radians().sin();
+        assert_eq!(s.ground_luminance, 0.2 * global / std::f64::consts::PI);
+        // Its scene direction: due south (+z, north being −z), 30° up.
+        let (d, en) = s.sun_direction(&site()).unwrap();
+        assert_eq!(en, 60000.0);
+        assert!(
+            (d - DVec3::new(0.0, 0.5, 0.75f64.sqrt())).length() < 1e-12,
+            "{d}"
+        );
+        // Below the horizon: no sun.
+        let s = clear(-5.0);
+        assert!(s.sun.is_none());
+        assert_eq!(s.ground_luminance, 0.2 * 10000.0 / std::f64::consts::PI);
+    }
+
+    #[test]
+    fn resolve_names_what_is_wrong() {
+        use serde_json::json;
+        assert_eq!(
+            error(
+                json!({"type": "cie_clear", "horizontal_illuminance": 1, "direct_normal_illuminance": 1})
+            ),
+            "sky of type cie_clear: give the sun (altitude, azimuth) or a time"
+        );
+        assert_eq!(
+            error(json!({"type": "uniform", "horizontal_illuminance": 3e5})),
+            "sky.horizontal_illuminance = 300000: use 0 … 200000 lx"
+        );
+        assert_eq!(
+            error(json!({"type": "perez", "direct_normal_irradiance": 2000,
+                "diffuse_horizontal_irradiance": 100, "sun": {"altitude": 30, "azimuth": 180}})),
+            "sky.direct_normal_irradiance = 2000: use 0 … 1500 W/m²"
+        );
+        assert_eq!(
+            error(
+                json!({"type": "perez", "direct_normal_irradiance": 200, "dew_point": 61,
+                "diffuse_horizontal_irradiance": 100, "sun": {"altitude": 30, "azimuth": 180}})
+            ),
+            "sky.dew_point = 61: use −90 … 60 °C"
+        );
+        assert!(error(json!({"type": "uniform", "horizontal_illuminance": 1,
+            "sun": {"altitude": 91, "azimuth": 0}}))
+        .starts_with("sky.sun.altitude = 91"));
+        assert!(error(json!({"type": "uniform", "horizontal_illuminance": 1,
+            "sun": {"altitude": 10, "azimuth": 0}, "time": "2026-06-21T12:00"}))
+        .contains("not both"));
+    }
+
+    #[test]
+    fn a_perez_sky_without_diffuse_light_is_dark() {
+        let s = resolved(
+            serde_json::json!({"type": "perez", "direct_normal_irradiance": 500,
+            "diffuse_horizontal_irradiance": 0, "sun": {"altitude": 30, "azimuth": 180}}),
+        );
+        assert_eq!((s.diffuse_horizontal, s.ground_luminance), (0.0, 0.0));
+        assert!(s.sun.is_none());
+    }
+
+    #[test]
+    fn the_sun_is_spread_over_its_four_nearest_patches_keeping_its_illuminance() {
+        let sub = sky_view::subdivision();
+        let sun = Sun {
+            altitude: 0.6,
+            azimuth: 2.5,
+            normal_illuminance: 80000.0,
+        };
+        let spread = sun_patches(&sun, &sub);
+        assert_eq!(spread.len(), 4);
+        // Each patch's share, lux: the patch the sun is in comes first and carries the
+        // most; the shares add up to the sun's normal illuminance.
+        let share: Vec<f64> = spread
+            .iter()
+            .map(|&(k, l)| l * sub.patches[k].solid_angle)
+            .collect();
+        assert_eq!(spread[0].0, sub.patch_of(0.6, 2.5));
+        assert!(share.iter().all(|&e| e > 0.0 && e <= share[0]), "{share:?}");
+        let e: f64 = share.iter().sum();
+        assert!((e - 80000.0).abs() < 1e-9 * 80000.0, "{e}");
+    }
 }

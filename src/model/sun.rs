@@ -5,6 +5,7 @@
 use glam::DVec3;
 
 use crate::color::luminance;
+use crate::daylight::tregenza::Subdivision;
 use crate::daylight::Site;
 use crate::transport::sky_view;
 
@@ -26,6 +27,36 @@ pub struct SunOnPatches {
     pub spread: Vec<(usize, f64)>,
 }
 
+/// The unit vector of sky position (`altitude`, `azimuth`), radians, in the sky's own frame
+/// (x east, y north, z up).
+pub(super) fn sky_direction(altitude: f64, azimuth: f64) -> DVec3 {
+    DVec3::new(
+        altitude.cos() * azimuth.sin(),
+        altitude.cos() * azimuth.cos(),
+        altitude.sin(),
+    )
+}
+
+/// The sky patches of `sub` (not the ground) by closeness to sky position (`altitude`,
+/// `azimuth`), radians: (cosine of the angle to the patch centre, patch), nearest first.
+pub(super) fn nearest_sky_patches(
+    sub: &Subdivision,
+    altitude: f64,
+    azimuth: f64,
+) -> Vec<(f64, usize)> {
+    let to = sky_direction(altitude, azimuth);
+    let mut near: Vec<(f64, usize)> = sub.patches[1..]
+        .iter()
+        .enumerate()
+        .map(|(i, p)| {
+            let (a, z) = p.centre();
+            (sky_direction(a, z).dot(to), i + 1)
+        })
+        .collect();
+    near.sort_by(|a, b| b.0.total_cmp(&a.0));
+    near
+}
+
 /// Sky patches around the sun that [`fit_sun_spread`] may use.
 const SUN_FIT_PATCHES: usize = 9;
 
@@ -45,18 +76,7 @@ pub(super) fn fit_sun_spread(
     };
     let sub = sky_view::subdivision();
     let (alt, az) = site.sky_position(d);
-    let (alt, az) = (alt.to_radians(), az.to_radians());
-    let dir = |a: f64, z: f64| DVec3::new(a.cos() * z.sin(), a.cos() * z.cos(), a.sin());
-    let sd = dir(alt, az);
-    let mut near: Vec<(f64, usize)> = sub.patches[1..]
-        .iter()
-        .enumerate()
-        .map(|(i, p)| {
-            let (a, z) = p.centre();
-            (-dir(a, z).dot(sd), i + 1)
-        })
-        .collect();
-    near.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let near = nearest_sky_patches(&sub, alt.to_radians(), az.to_radians());
     let ks: Vec<usize> = near.iter().take(SUN_FIT_PATCHES).map(|x| x.1).collect();
     let m = ks.len();
     let mut g = vec![0f64; m * m];
@@ -108,4 +128,35 @@ pub(super) fn fit_sun_spread(
         .filter(|(_, c)| *c > 0.0)
         .map(|(k, c)| (k, c * scale))
         .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn sky_directions_are_east_north_up() {
+        let half_pi = std::f64::consts::FRAC_PI_2;
+        assert!((sky_direction(0.0, 0.0) - DVec3::Y).length() < 1e-15);
+        assert!((sky_direction(0.0, half_pi) - DVec3::X).length() < 1e-15);
+        assert!((sky_direction(half_pi, 1.0) - DVec3::Z).length() < 1e-15);
+        let d = sky_direction(0.3, 4.0);
+        assert!((d.length() - 1.0).abs() < 1e-15);
+        assert!((d.z - 0.3f64.sin()).abs() < 1e-15);
+    }
+
+    #[test]
+    fn nearest_sky_patches_start_with_the_patch_around_the_position() {
+        let sub = sky_view::subdivision();
+        for k in [1, 17, 60, 100, 130, 145] {
+            let (alt, az) = sub.patches[k].centre();
+            let (alt, az) = (alt - 0.01, az + 0.01);
+            let near = nearest_sky_patches(&sub, alt, az);
+            assert_eq!(near.len(), sub.patches.len() - 1);
+            assert_eq!(near[0].1, k);
+            assert_eq!(sub.patch_of(alt, az), k);
+            assert!(near.windows(2).all(|w| w[0].0 >= w[1].0));
+            assert!(near.iter().all(|&(_, k)| k >= 1), "never the ground");
+        }
+    }
 }
