@@ -4,6 +4,7 @@ mod annual;
 mod batch;
 mod daylight;
 mod export;
+mod glare;
 mod illuminance;
 mod optimize;
 mod radiosity;
