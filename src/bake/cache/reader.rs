@@ -14,7 +14,7 @@ use super::format::{
     MAX_HEADER_BYTES, PREAMBLE,
 };
 use super::CacheError;
-use crate::transport::hierarchy::{Hierarchy, StoredHierarchy};
+use crate::transport::hierarchy::{Hierarchy, StoredLinks};
 use crate::transport::solve::ChannelLu;
 use crate::transport::transfer::{Factored, GroupColumns, SkyColumns, Transfer, TransferMode};
 
@@ -311,16 +311,14 @@ fn hierarchy(
     let mut vis = bytemuck::cast_slice::<f32, u8>(&take("vis")?).to_vec();
     vis.truncate(src.len());
     let sigma = take("sigma")?;
-    let stored = StoredHierarchy {
-        children,
+    let links = StoredLinks {
         offsets,
         src,
         k,
         vis,
-        sigma,
-        stats: h.hierarchy.unwrap_or_default(),
     };
-    Hierarchy::from_parts(area, stored)
+    let stats = h.hierarchy.unwrap_or_default();
+    Hierarchy::from_parts(area, children, links, sigma, stats)
         .ok_or_else(|| corrupt("the hierarchy's links are inconsistent".into()))
 }
 

@@ -274,11 +274,7 @@ impl<'a> Reader<'a> {
         let base = pbr.base_color_factor();
         let metallic = pbr.metallic_factor().clamp(0.0, 1.0);
         let mut kd: Rgb = std::array::from_fn(|c| (1.0 - metallic) * base[c]);
-        if let Some(info) = pbr.base_color_texture() {
-            if let Some(mean) = self.texture_mean(info.texture(), name, textures)? {
-                kd = std::array::from_fn(|c| kd[c] * mean[c]);
-            }
-        }
+        kd = self.tinted(kd, pbr.base_color_texture(), name, textures)?;
         if kd.iter().any(|x| !x.is_finite() || *x < 0.0) {
             return Err(self.err(format!(
                 "material '{name}': base colour {kd:?} must be finite and ≥ 0"
@@ -323,11 +319,7 @@ impl<'a> Reader<'a> {
         let ef = m.emissive_factor();
         let mut ke: Rgb = std::array::from_fn(|c| std::f32::consts::PI * ef[c] * strength);
         if ke.iter().any(|&x| x > 0.0) {
-            if let Some(info) = m.emissive_texture() {
-                if let Some(mean) = self.texture_mean(info.texture(), name, textures)? {
-                    ke = std::array::from_fn(|c| ke[c] * mean[c]);
-                }
-            }
+            ke = self.tinted(ke, m.emissive_texture(), name, textures)?;
         }
         if ke
             .iter()
@@ -339,6 +331,26 @@ impl<'a> Reader<'a> {
             )));
         }
         Ok(ke)
+    }
+
+    /// `c` times the mean colour of the texture `info` of material `material`, when it
+    /// has one that can be read.
+    fn tinted(
+        &mut self,
+        c: Rgb,
+        info: Option<gltf::texture::Info<'_>>,
+        material: &str,
+        textures: &mut Textures<'_>,
+    ) -> Result<Rgb, SceneError> {
+        let Some(info) = info else {
+            return Ok(c);
+        };
+        Ok(
+            match self.texture_mean(info.texture(), material, textures)? {
+                Some(mean) => std::array::from_fn(|k| c[k] * mean[k]),
+                None => c,
+            },
+        )
     }
 
     /// The mean linear colour of a texture's image, or None (with a warning) when it

@@ -72,16 +72,12 @@ pub struct Hierarchy {
     pub stats: HierarchyStats,
 }
 
-/// What the cache stores of a [`Hierarchy`] (the fields of the same names; node areas
-/// follow from the patches').
-pub struct StoredHierarchy {
-    pub children: Vec<[u32; 2]>,
+/// The links of a [`Hierarchy`] as the cache stores them (the fields of the same names).
+pub struct StoredLinks {
     pub offsets: Vec<u32>,
     pub src: Vec<u32>,
     pub k: Vec<f32>,
     pub vis: Vec<u8>,
-    pub sigma: Vec<f32>,
-    pub stats: HierarchyStats,
 }
 
 /// A solve's result, per patch and column (row-major n × C).
@@ -98,16 +94,19 @@ pub struct HierarchySolution {
 impl Hierarchy {
     /// Rebuilds a hierarchy from its stored parts over patches of area `leaf_area`; None
     /// when they are inconsistent.
-    pub fn from_parts(leaf_area: &[f32], parts: StoredHierarchy) -> Option<Hierarchy> {
-        let StoredHierarchy {
-            children,
+    pub fn from_parts(
+        leaf_area: &[f32],
+        children: Vec<[u32; 2]>,
+        links: StoredLinks,
+        sigma: Vec<f32>,
+        stats: HierarchyStats,
+    ) -> Option<Hierarchy> {
+        let StoredLinks {
             offsets,
             src,
             k,
             vis,
-            sigma,
-            stats,
-        } = parts;
+        } = links;
         let n = leaf_area.len();
         let nodes = n + children.len();
         let links = src.len();
