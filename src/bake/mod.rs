@@ -7,7 +7,7 @@
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-use glam::Vec3A;
+use glam::{DVec3, Vec3A};
 use serde::Serialize;
 
 use crate::geometry::bvh::Bvh;
@@ -227,23 +227,21 @@ pub struct Baked {
     pub stats: BakeStats,
 }
 
+/// Corner triples in single precision, for the ray structures.
+fn single<'a>(corners: impl Iterator<Item = &'a [DVec3; 3]>) -> Vec<[Vec3A; 3]> {
+    corners
+        .map(|c| c.map(|p| Vec3A::from(p.as_vec3())))
+        .collect()
+}
+
 /// BVH over the scene's input triangles (ids = scene triangle indices).
 pub fn scene_bvh(scene: &Scene) -> Bvh {
-    let tris: Vec<[Vec3A; 3]> = scene
-        .triangles
-        .iter()
-        .map(|t| t.p.map(|p| Vec3A::from(p.as_vec3())))
-        .collect();
-    Bvh::new(&tris)
+    Bvh::new(&single(scene.triangles.iter().map(|t| &t.p)))
 }
 
 /// The scene's glazing panes with their transmittances.
 pub fn scene_glazing(scene: &Scene) -> Glazing {
-    let tris: Vec<[Vec3A; 3]> = scene
-        .glazing
-        .iter()
-        .map(|g| g.p.map(|p| Vec3A::from(p.as_vec3())))
-        .collect();
+    let tris = single(scene.glazing.iter().map(|g| &g.p));
     Glazing::new(
         &tris,
         scene.glazing.iter().map(|g| g.transmittance).collect(),

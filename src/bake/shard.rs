@@ -270,66 +270,108 @@ fn read_shard(path: &Path, key: &str, fingerprint: u64, id: ShardId) -> Result<P
         .file_name()
         .map(|s| s.to_string_lossy().into_owned())
         .unwrap_or_default();
-    let bad = |m: String| format!("shard {} of {} ({name}): {m}", id.k, id.n);
-    let file = std::fs::File::open(path).map_err(|e| bad(e.to_string()))?;
-    let size = file.metadata().map_err(|e| bad(e.to_string()))?.len();
+    read_checked_shard(path, key, fingerprint, id)
+        .map_err(|m| format!("shard {} of {} ({name}): {m}", id.k, id.n))
+}
+
+/// [`read_shard`], its errors without the shard's name.
+fn read_checked_shard(
+    path: &Path,
+    key: &str,
+    fingerprint: u64,
+    id: ShardId,
+) -> Result<Part, String> {
+    let file = std::fs::File::open(path).map_err(|e| e.to_string())?;
+    let size = file.metadata().map_err(|e| e.to_string())?.len();
     let mut r = BufReader::with_capacity(1 << 20, file);
+    let (h, hlen) = read_header(&mut r, size)?;
+    check_header(&h, key, fingerprint, id)?;
+    let data = read_data(&mut r, &h, size - 16 - hlen)?;
+    let (links, hits) = decode(&data, h.links);
+    Ok(Part {
+        roots: h.roots,
+        links,
+        hits,
+        refine_s: h.refine_s,
+        closure_s: h.closure_s,
+    })
+}
+
+/// The header of a shard file of `size` bytes, and its length, once the magic and
+/// version are this relight's.
+fn read_header(r: &mut impl Read, size: u64) -> Result<(Header, u64), String> {
     let mut pre = [0u8; 16];
     r.read_exact(&mut pre)
-        .map_err(|_| bad("corrupt: too short".into()))?;
+        .map_err(|_| "corrupt: too short".to_string())?;
     if &pre[..8] != MAGIC {
-        return Err(bad("not a relight shard file".into()));
+        return Err("not a relight shard file".into());
     }
     let version = u32::from_le_bytes([pre[8], pre[9], pre[10], pre[11]]);
     if version != VERSION {
-        return Err(bad(format!(
+        return Err(format!(
             "shard format {version}, this relight reads {VERSION}"
-        )));
+        ));
     }
     let hlen = u32::from_le_bytes([pre[12], pre[13], pre[14], pre[15]]) as u64;
     if hlen > (16 << 20) || 16 + hlen > size {
-        return Err(bad(format!("corrupt: header length {hlen}")));
+        return Err(format!("corrupt: header length {hlen}"));
     }
     let mut hb = vec![0u8; hlen as usize];
     r.read_exact(&mut hb)
-        .map_err(|_| bad("corrupt: truncated header".into()))?;
-    let h: Header = serde_json::from_slice(&hb).map_err(|e| bad(format!("corrupt header: {e}")))?;
+        .map_err(|_| "corrupt: truncated header".to_string())?;
+    let h: Header = serde_json::from_slice(&hb).map_err(|e| format!("corrupt header: {e}"))?;
+    Ok((h, hlen))
+}
+
+/// Checks that a shard's header is of this bake: its cache key, mesh and shard id.
+fn check_header(h: &Header, key: &str, fingerprint: u64, id: ShardId) -> Result<(), String> {
     if h.key != key {
-        return Err(bad(format!(
+        return Err(format!(
             "foreign: made for cache key {} (other scene files or settings), this bake is {key}",
             h.key
-        )));
+        ));
     }
     if h.mesh_fingerprint != format!("{fingerprint:016x}") {
-        return Err(bad("foreign: made from another mesh".into()));
+        return Err("foreign: made from another mesh".into());
     }
     if (h.shard, h.shards) != (id.k, id.n) {
-        return Err(bad(format!(
+        return Err(format!(
             "its header says shard {} of {}: renamed or duplicated",
             h.shard, h.shards
-        )));
+        ));
     }
+    Ok(())
+}
+
+/// The data section, `len` bytes after the header, once its size matches the header's
+/// counts and its checksum the header's.
+fn read_data(r: &mut impl Read, h: &Header, len: u64) -> Result<Vec<u8>, String> {
     let want = h
         .links
         .checked_mul(LINK_BYTES)
         .and_then(|a| h.hits.checked_mul(HIT_BYTES).and_then(|b| a.checked_add(b)));
-    if want != Some(size - 16 - hlen) {
-        return Err(bad(format!(
-            "corrupt: {} data bytes, the header implies {}",
-            size - 16 - hlen,
+    if want != Some(len) {
+        return Err(format!(
+            "corrupt: {len} data bytes, the header implies {}",
             want.map_or("too many".to_string(), |w| w.to_string())
-        )));
+        ));
     }
-    let mut data = vec![0u8; (size - 16 - hlen) as usize];
+    let mut data = vec![0u8; len as usize];
     r.read_exact(&mut data)
-        .map_err(|_| bad("corrupt: truncated data".into()))?;
+        .map_err(|_| "corrupt: truncated data".to_string())?;
     let mut x = Xxh3::new();
     x.update(&data);
     if format!("{:016x}", x.digest()) != h.xxh3 {
-        return Err(bad("corrupt: checksum mismatch".into()));
+        return Err("corrupt: checksum mismatch".into());
     }
+    Ok(data)
+}
+
+/// The links and closure hits of a data section holding `links` links (the inverse of
+/// [`encode`]).
+fn decode(data: &[u8], links: u64) -> (Vec<Link>, Vec<(u32, f64)>) {
     let word = |b: &[u8], i: usize| u32::from_le_bytes([b[i], b[i + 1], b[i + 2], b[i + 3]]);
-    let (lb, hb) = data.split_at((h.links * LINK_BYTES) as usize);
+    let (lb, hb) = data.split_at((links * LINK_BYTES) as usize);
     let links = lb
         .chunks_exact(LINK_BYTES as usize)
         .map(|c| Link {
@@ -347,13 +389,7 @@ fn read_shard(path: &Path, key: &str, fingerprint: u64, id: ShardId) -> Result<P
             (word(c, 0), f64::from_bits(u64::from_le_bytes(f)))
         })
         .collect();
-    Ok(Part {
-        roots: h.roots,
-        links,
-        hits,
-        refine_s: h.refine_s,
-        closure_s: h.closure_s,
-    })
+    (links, hits)
 }
 
 /// The shard files of the bake with key `key`, by shard index: every index of one N must

@@ -73,79 +73,10 @@ fn bench(
     transfer: Option<relight::scene::TransferChoice>,
 ) -> Result<()> {
     let Some(case) = case else {
-        outln!(
-            "{:<12} {:>7} {:>3} {:>9} {:>8} {:>8} {:>9} {:>9} {:>9} {:>10} {:>10} {:>9} {:>8}",
-            "case",
-            "patches",
-            "grp",
-            "mode",
-            "ff s",
-            "solve s",
-            "cold s",
-            "cached s",
-            "cache MB",
-            "relight µs",
-            "solve E ms",
-            "peak MB",
-            "Mrays/s"
-        );
-        for c in BENCH_CASES {
-            let mut cmd = std::process::Command::new(std::env::current_exe()?);
-            cmd.args(["bench", "--json", "--case", c, "--scenes"])
-                .arg(scenes);
-            if let Some(t) = transfer {
-                cmd.args(["--transfer", t.name()]);
-            }
-            let out = cmd.output()?;
-            anyhow::ensure!(
-                out.status.success(),
-                "case {c} failed: {}",
-                String::from_utf8_lossy(&out.stderr)
-            );
-            let r: serde_json::Value = serde_json::from_slice(&out.stdout)?;
-            let f = |k: &str| r[k].as_f64().unwrap_or(f64::NAN);
-            outln!(
-                "{:<12} {:>7} {:>3} {:>9} {:>8.2} {:>8.2} {:>9.2} {:>9.3} {:>9.1} {:>10.1} {:>10} {:>9.0} {:>8.2}",
-                c,
-                r["patches"],
-                r["groups"],
-                r["mode"].as_str().unwrap_or(""),
-                f("form_factor_s"),
-                f("solve_s"),
-                f("cold_bake_s"),
-                f("cached_load_s"),
-                f("cache_mb"),
-                f("relight_us"),
-                r["solve_emission_ms"]
-                    .as_f64()
-                    .map_or("-".to_string(), |v| format!("{v:.1}")),
-                f("peak_rss_mb"),
-                f("mrays_per_core"),
-            );
-        }
-        return Ok(());
+        return bench_table(scenes, transfer);
     };
     let tmp = tempfile::tempdir()?;
-    let (dir, opts) = match case.as_str() {
-        "cornell" => (scenes.join("cornell-box"), BakeOptions::default()),
-        "cornell-10k" => (
-            scenes.join("cornell-box"),
-            BakeOptions {
-                max_edge: Some(0.033),
-                // Factored at 10k patches, to measure the LU at that size.
-                mode: Some(relight::transport::transfer::TransferMode::Factored),
-                ..Default::default()
-            },
-        ),
-        "groups-10k" => {
-            relight::bench::write_group_room(tmp.path(), 8, BENCH_ROOM_TARGET)?;
-            (tmp.path().to_path_buf(), BakeOptions::default())
-        }
-        other => anyhow::bail!(
-            "unknown case '{other}': use one of {}",
-            BENCH_CASES.join(", ")
-        ),
-    };
+    let (dir, opts) = case_scene(&case, scenes, tmp.path())?;
     let opts = match transfer {
         Some(t) => BakeOptions {
             mode: None,
@@ -161,4 +92,84 @@ fn bench(
         outln!("{}", serde_json::to_string_pretty(&r)?);
     }
     Ok(())
+}
+
+/// Every case, each in its own process (so that peak memory is the case's own), as a
+/// table.
+fn bench_table(scenes: &Path, transfer: Option<relight::scene::TransferChoice>) -> Result<()> {
+    outln!(
+        "{:<12} {:>7} {:>3} {:>9} {:>8} {:>8} {:>9} {:>9} {:>9} {:>10} {:>10} {:>9} {:>8}",
+        "case",
+        "patches",
+        "grp",
+        "mode",
+        "ff s",
+        "solve s",
+        "cold s",
+        "cached s",
+        "cache MB",
+        "relight µs",
+        "solve E ms",
+        "peak MB",
+        "Mrays/s"
+    );
+    for c in BENCH_CASES {
+        let mut cmd = std::process::Command::new(std::env::current_exe()?);
+        cmd.args(["bench", "--json", "--case", c, "--scenes"])
+            .arg(scenes);
+        if let Some(t) = transfer {
+            cmd.args(["--transfer", t.name()]);
+        }
+        let out = cmd.output()?;
+        anyhow::ensure!(
+            out.status.success(),
+            "case {c} failed: {}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        let r: serde_json::Value = serde_json::from_slice(&out.stdout)?;
+        let f = |k: &str| r[k].as_f64().unwrap_or(f64::NAN);
+        outln!(
+            "{:<12} {:>7} {:>3} {:>9} {:>8.2} {:>8.2} {:>9.2} {:>9.3} {:>9.1} {:>10.1} {:>10} {:>9.0} {:>8.2}",
+            c,
+            r["patches"],
+            r["groups"],
+            r["mode"].as_str().unwrap_or(""),
+            f("form_factor_s"),
+            f("solve_s"),
+            f("cold_bake_s"),
+            f("cached_load_s"),
+            f("cache_mb"),
+            f("relight_us"),
+            r["solve_emission_ms"]
+                .as_f64()
+                .map_or("-".to_string(), |v| format!("{v:.1}")),
+            f("peak_rss_mb"),
+            f("mrays_per_core"),
+        );
+    }
+    Ok(())
+}
+
+/// The scene folder and bake options of bench case `case`; `tmp` holds a generated scene.
+fn case_scene(case: &str, scenes: &Path, tmp: &Path) -> Result<(std::path::PathBuf, BakeOptions)> {
+    Ok(match case {
+        "cornell" => (scenes.join("cornell-box"), BakeOptions::default()),
+        "cornell-10k" => (
+            scenes.join("cornell-box"),
+            BakeOptions {
+                max_edge: Some(0.033),
+                // Factored at 10k patches, to measure the LU at that size.
+                mode: Some(relight::transport::transfer::TransferMode::Factored),
+                ..Default::default()
+            },
+        ),
+        "groups-10k" => {
+            relight::bench::write_group_room(tmp, 8, BENCH_ROOM_TARGET)?;
+            (tmp.to_path_buf(), BakeOptions::default())
+        }
+        other => anyhow::bail!(
+            "unknown case '{other}': use one of {}",
+            BENCH_CASES.join(", ")
+        ),
+    })
 }

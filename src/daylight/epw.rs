@@ -80,29 +80,65 @@ fn short(s: &str) -> String {
     s.chars().take(40).collect()
 }
 
-/// Parses an EPW file's bytes. Header comments are often Latin-1, not UTF-8: invalid
-/// bytes are read as U+FFFD (the fields relight reads are ASCII).
-pub fn parse_bytes(bytes: &[u8]) -> Result<Weather, String> {
-    if bytes.len() > MAX_EPW_BYTES {
+/// Refuses a weather file of `len` bytes over [`MAX_EPW_BYTES`].
+fn check_size(len: usize) -> Result<(), String> {
+    if len > MAX_EPW_BYTES {
         return Err(format!(
             "the weather file is larger than {} MiB",
             MAX_EPW_BYTES >> 20
         ));
     }
+    Ok(())
+}
+
+/// Parses an EPW file's bytes. Header comments are often Latin-1, not UTF-8: invalid
+/// bytes are read as U+FFFD (the fields relight reads are ASCII).
+pub fn parse_bytes(bytes: &[u8]) -> Result<Weather, String> {
+    check_size(bytes.len())?;
     parse(&String::from_utf8_lossy(bytes))
 }
 
 /// Parses an EPW file's text.
 pub fn parse(text: &str) -> Result<Weather, String> {
-    if text.len() > MAX_EPW_BYTES {
-        return Err(format!(
-            "the weather file is larger than {} MiB",
-            MAX_EPW_BYTES >> 20
-        ));
-    }
+    check_size(text.len())?;
     let mut lines = text.lines().enumerate().map(|(i, l)| (i + 1, l));
     let (n, first) = lines.next().ok_or("the weather file is empty")?;
-    let loc: Vec<&str> = first.split(',').collect();
+    let location = parse_location(first, n)?;
+    // The other seven header lines.
+    for _ in 0..7 {
+        lines
+            .next()
+            .ok_or("the weather file ends inside its header")?;
+    }
+    let mut hours = Vec::with_capacity(8784);
+    for (n, l) in lines {
+        if l.trim().is_empty() {
+            continue;
+        }
+        if l.len() > MAX_LINE {
+            return Err(format!("line {n}: longer than {} KiB", MAX_LINE >> 10));
+        }
+        if hours.len() == 8784 {
+            return Err(format!("line {n}: more than 8,784 hourly rows"));
+        }
+        let row = Row {
+            fields: l.split(',').collect(),
+            line: n,
+        };
+        hours.push(row.hour()?);
+    }
+    if hours.len() != 8760 && hours.len() != 8784 {
+        return Err(format!(
+            "the weather file has {} hourly rows; a year has 8,760 (8,784 in a leap year)",
+            hours.len()
+        ));
+    }
+    Ok(Weather { location, hours })
+}
+
+/// The `LOCATION` line `l`, line `n` of the file.
+fn parse_location(l: &str, n: usize) -> Result<Location, String> {
+    let loc: Vec<&str> = l.split(',').collect();
     if loc.first().map(|s| s.trim()) != Some("LOCATION") {
         return Err(format!("line {n}: an EPW file starts with a LOCATION line"));
     }
@@ -121,84 +157,83 @@ pub fn parse(text: &str) -> Result<Weather, String> {
             "line {n}: latitude, longitude or time zone out of range"
         ));
     }
-    // The other seven header lines.
-    for _ in 0..7 {
-        lines
-            .next()
-            .ok_or("the weather file ends inside its header")?;
+    Ok(location)
+}
+
+/// The fields of one hourly row, and its line number.
+struct Row<'a> {
+    fields: Vec<&'a str>,
+    line: usize,
+}
+
+impl Row<'_> {
+    fn hour(&self) -> Result<Hour, String> {
+        Ok(Hour {
+            month: self.int(2, "month", 1, 12)?,
+            day: self.int(3, "day", 1, 31)?,
+            hour: self.int(4, "hour", 1, 24)?,
+            global_horizontal_irradiance: self.radiation(14, "global horizontal radiation")?,
+            direct_normal_irradiance: self.radiation(15, "direct normal radiation")?,
+            diffuse_horizontal_irradiance: self.radiation(16, "diffuse horizontal radiation")?,
+            global_horizontal_illuminance: self.lux(17, "global horizontal illuminance")?,
+            direct_normal_illuminance: self.lux(18, "direct normal illuminance")?,
+            diffuse_horizontal_illuminance: self.lux(19, "diffuse horizontal illuminance")?,
+            dew_point_c: self.dew_point()?,
+        })
     }
-    let mut hours = Vec::with_capacity(8784);
-    for (n, l) in lines {
-        if l.trim().is_empty() {
-            continue;
+
+    /// Whole number field `k`, within `lo..=hi`.
+    fn int(&self, k: usize, what: &str, lo: u32, hi: u32) -> Result<u32, String> {
+        let n = self.line;
+        let s = field(&self.fields, k, n)?;
+        match s.parse::<u32>() {
+            Ok(x) if (lo..=hi).contains(&x) => Ok(x),
+            _ => Err(format!(
+                "line {n}: field {k} ({what}) must be {lo}–{hi}: '{}'",
+                short(s)
+            )),
         }
-        if l.len() > MAX_LINE {
-            return Err(format!("line {n}: longer than {} KiB", MAX_LINE >> 10));
+    }
+
+    /// Radiation field `k`, Wh/m²; missing (9999) is an error.
+    fn radiation(&self, k: usize, what: &str) -> Result<f64, String> {
+        let n = self.line;
+        let x = number(&self.fields, k, n, what)?;
+        if !(0.0..9999.0).contains(&x) {
+            return Err(format!(
+                "line {n}: field {k} ({what}) is missing or out of range: {x}"
+            ));
         }
-        if hours.len() == 8784 {
-            return Err(format!("line {n}: more than 8,784 hourly rows"));
+        Ok(x)
+    }
+
+    /// Illuminance field `k`, lux; None when missing (999999).
+    fn lux(&self, k: usize, what: &str) -> Result<Option<f64>, String> {
+        let n = self.line;
+        let x = number(&self.fields, k, n, what)?;
+        if x >= 999_999.0 {
+            return Ok(None);
         }
-        let f: Vec<&str> = l.split(',').collect();
-        let int = |k: usize, what: &str, lo: u32, hi: u32| -> Result<u32, String> {
-            let s = field(&f, k, n)?;
-            match s.parse::<u32>() {
-                Ok(x) if (lo..=hi).contains(&x) => Ok(x),
-                _ => Err(format!(
-                    "line {n}: field {k} ({what}) must be {lo}–{hi}: '{}'",
-                    short(s)
-                )),
-            }
-        };
-        let radiation = |k: usize, what: &str| -> Result<f64, String> {
-            let x = number(&f, k, n, what)?;
-            if !(0.0..9999.0).contains(&x) {
-                return Err(format!(
-                    "line {n}: field {k} ({what}) is missing or out of range: {x}"
-                ));
-            }
-            Ok(x)
-        };
-        let lux = |k: usize, what: &str| -> Result<Option<f64>, String> {
-            let x = number(&f, k, n, what)?;
-            if x >= 999_999.0 {
-                return Ok(None);
-            }
-            if !(0.0..=200_000.0).contains(&x) {
-                return Err(format!("line {n}: field {k} ({what}) out of range: {x}"));
-            }
+        if !(0.0..=200_000.0).contains(&x) {
+            return Err(format!("line {n}: field {k} ({what}) out of range: {x}"));
+        }
+        Ok(Some(x))
+    }
+
+    /// The dew point temperature (field 8), °C; None when missing (99.9).
+    fn dew_point(&self) -> Result<Option<f64>, String> {
+        let n = self.line;
+        let x = number(&self.fields, 8, n, "dew point temperature")?;
+        if x >= 99.9 {
+            Ok(None)
+        } else if (-90.0..70.0).contains(&x) {
             Ok(Some(x))
-        };
-        hours.push(Hour {
-            month: int(2, "month", 1, 12)?,
-            day: int(3, "day", 1, 31)?,
-            hour: int(4, "hour", 1, 24)?,
-            global_horizontal_irradiance: radiation(14, "global horizontal radiation")?,
-            direct_normal_irradiance: radiation(15, "direct normal radiation")?,
-            diffuse_horizontal_irradiance: radiation(16, "diffuse horizontal radiation")?,
-            global_horizontal_illuminance: lux(17, "global horizontal illuminance")?,
-            direct_normal_illuminance: lux(18, "direct normal illuminance")?,
-            diffuse_horizontal_illuminance: lux(19, "diffuse horizontal illuminance")?,
-            dew_point_c: {
-                let x = number(&f, 8, n, "dew point temperature")?;
-                if x >= 99.9 {
-                    None
-                } else if (-90.0..70.0).contains(&x) {
-                    Some(x)
-                } else {
-                    return Err(format!(
-                        "line {n}: field 8 (dew point temperature) out of range: {x}"
-                    ));
-                }
-            },
-        });
+        } else {
+            Err(format!(
+                "line {n}: field 8 (dew point temperature) out of range: {x}"
+            ))
+        }
     }
-    if hours.len() != 8760 && hours.len() != 8784 {
-        return Err(format!(
-            "the weather file has {} hourly rows; a year has 8,760 (8,784 in a leap year)",
-            hours.len()
-        ));
-    }
-    Ok(Weather { location, hours })
 }
 
 #[cfg(test)]
@@ -207,6 +242,15 @@ mod tests {
 
     const MANNHEIM_BYTES: &[u8] = include_bytes!("../../tests/data/weather/mannheim.epw");
     const CHICAGO: &[u8] = include_bytes!("../../tests/data/weather/chicago.epw");
+
+    /// Annual global horizontal irradiation, kWh/m².
+    fn annual_kwh(w: &super::Weather) -> f64 {
+        w.hours
+            .iter()
+            .map(|h| h.global_horizontal_irradiance)
+            .sum::<f64>()
+            / 1000.0
+    }
 
     #[test]
     fn real_weather_files_parse_with_plausible_totals() {
@@ -226,21 +270,11 @@ mod tests {
             (1, 1, 1)
         );
         // Annual global horizontal irradiation, kWh/m²: central Europe receives 1000–1300.
-        let kwh: f64 = w
-            .hours
-            .iter()
-            .map(|h| h.global_horizontal_irradiance)
-            .sum::<f64>()
-            / 1000.0;
+        let kwh = annual_kwh(&w);
         assert!((1000.0..1300.0).contains(&kwh), "{kwh} kWh/m²");
         let c = parse_bytes(CHICAGO).unwrap();
         assert!((c.location.latitude_deg - 41.98).abs() < 0.01 && c.location.timezone_h == -6.0);
-        let kwh: f64 = c
-            .hours
-            .iter()
-            .map(|h| h.global_horizontal_irradiance)
-            .sum::<f64>()
-            / 1000.0;
+        let kwh = annual_kwh(&c);
         assert!((1200.0..1600.0).contains(&kwh), "{kwh} kWh/m²");
         // Luminous efficacy of daylight, global: about 100–125 lm/W in the yearly mean.
         let (lux, wm2) = c.hours.iter().fold((0.0, 0.0), |(a, b), h| {

@@ -103,22 +103,36 @@ impl Bvh {
         to: Vec3A,
         mut visit: impl FnMut(usize, &Tri, Vec3A, (f32, f32)) -> bool,
     ) -> bool {
-        if self.tris.is_empty() {
-            return false;
-        }
         let d = to - from;
         let (tmin, tmax) = (1e-5f32, 1.0 - 1e-5f32);
         let inv = d.recip();
+        self.traverse(
+            |n| slab(n.lo, n.hi, from, inv, tmin, tmax),
+            |k| visit(k, &self.tris[k], d, (tmin, tmax)),
+        )
+    }
+
+    /// Depth first through the nodes whose box passes `enter`, calling `visit` with the
+    /// index of every stored triangle in the leaves reached, until it returns true;
+    /// whether it did.
+    #[inline(always)]
+    fn traverse(
+        &self,
+        mut enter: impl FnMut(&Node) -> bool,
+        mut visit: impl FnMut(usize) -> bool,
+    ) -> bool {
+        if self.tris.is_empty() {
+            return false;
+        }
         let mut stack = [0u32; 64];
         let mut sp = 0usize;
         let mut node = 0u32;
         loop {
             let n = &self.nodes[node as usize];
-            if slab(n.lo, n.hi, from, inv, tmin, tmax) {
+            if enter(n) {
                 if n.count > 0 {
                     for k in n.first..n.first + n.count {
-                        let k = k as usize;
-                        if visit(k, &self.tris[k], d, (tmin, tmax)) {
+                        if visit(k as usize) {
                             return true;
                         }
                     }
@@ -142,77 +156,37 @@ impl Bvh {
     /// Appends to `out` the id of every triangle whose bounding box overlaps the box
     /// `lo..hi` (boxes touching at a face count).
     pub fn overlapping(&self, lo: Vec3A, hi: Vec3A, out: &mut Vec<u32>) {
-        if self.tris.is_empty() {
-            return;
-        }
-        let mut stack = [0u32; 64];
-        let mut sp = 0usize;
-        let mut node = 0u32;
-        loop {
-            let n = &self.nodes[node as usize];
-            if n.lo.cmple(hi).all() && lo.cmple(n.hi).all() {
-                if n.count > 0 {
-                    for k in n.first..n.first + n.count {
-                        let t = &self.tris[k as usize];
-                        let (a, b, c) = (t.v0, t.v0 + t.e1, t.v0 + t.e2);
-                        if a.min(b).min(c).cmple(hi).all() && lo.cmple(a.max(b).max(c)).all() {
-                            out.push(self.ids[k as usize]);
-                        }
-                    }
-                } else {
-                    if sp < stack.len() {
-                        stack[sp] = n.first + 1;
-                        sp += 1;
-                    }
-                    node = n.first;
-                    continue;
+        self.traverse(
+            |n| n.lo.cmple(hi).all() && lo.cmple(n.hi).all(),
+            |k| {
+                let t = &self.tris[k];
+                let (a, b, c) = (t.v0, t.v0 + t.e1, t.v0 + t.e2);
+                if a.min(b).min(c).cmple(hi).all() && lo.cmple(a.max(b).max(c)).all() {
+                    out.push(self.ids[k]);
                 }
-            }
-            if sp == 0 {
-                return;
-            }
-            sp -= 1;
-            node = stack[sp];
-        }
+                false
+            },
+        );
     }
 
     /// Distance parameter of the nearest hit along `from + t·d`, t in (tmin, tmax), with
     /// the id of the triangle hit.
     pub fn nearest(&self, from: Vec3A, d: Vec3A, tmin: f32, tmax: f32) -> Option<(f32, u32)> {
-        if self.tris.is_empty() {
-            return None;
-        }
         let inv = d.recip();
         let mut best: Option<(f32, u32)> = None;
-        let mut tmax = tmax;
-        let mut stack = [0u32; 64];
-        let mut sp = 0usize;
-        let mut node = 0u32;
-        loop {
-            let n = &self.nodes[node as usize];
-            if slab(n.lo, n.hi, from, inv, tmin, tmax) {
-                if n.count > 0 {
-                    for k in n.first..n.first + n.count {
-                        if let Some(t) = hit_t(&self.tris[k as usize], from, d, tmin, tmax) {
-                            tmax = t;
-                            best = Some((t, self.ids[k as usize]));
-                        }
-                    }
-                } else {
-                    if sp < stack.len() {
-                        stack[sp] = n.first + 1;
-                        sp += 1;
-                    }
-                    node = n.first;
-                    continue;
+        // The far end shrinks to each hit; the box test sees it.
+        let tmax = std::cell::Cell::new(tmax);
+        self.traverse(
+            |n| slab(n.lo, n.hi, from, inv, tmin, tmax.get()),
+            |k| {
+                if let Some(t) = hit_t(&self.tris[k], from, d, tmin, tmax.get()) {
+                    tmax.set(t);
+                    best = Some((t, self.ids[k]));
                 }
-            }
-            if sp == 0 {
-                return best;
-            }
-            sp -= 1;
-            node = stack[sp];
-        }
+                false
+            },
+        );
+        best
     }
 }
 

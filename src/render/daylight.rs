@@ -39,73 +39,29 @@ pub fn daylight_pixels(
     reach: f64,
 ) -> (Vec<Rgb>, Vec<Rgb>) {
     let (w, h) = (cam.width as usize, cam.height as usize);
-    let pos = cam.position.as_dvec3();
-    let fwd = (cam.target - cam.position).normalize().as_dvec3();
-    let right = fwd.cross(cam.up.as_dvec3()).normalize();
-    let up = right.cross(fwd);
-    let tan = (cam.fov_deg as f64).to_radians() * 0.5;
-    let tan = tan.tan();
-    let aspect = w as f64 / h as f64;
-    let sun_radius_cos = (crate::daylight::sky_luminance::SUN_DIAMETER_DEG / 2.0)
-        .to_radians()
-        .cos();
-    let disc = crate::daylight::sky_luminance::Sun::solid_angle();
+    let tracer = PixelTracer {
+        mesh,
+        bvh,
+        glazing,
+        rho,
+        sun,
+        sky,
+        reach,
+        rays: CameraRays::new(cam),
+        sun_radius_cos: (crate::daylight::sky_luminance::SUN_DIAMETER_DEG / 2.0)
+            .to_radians()
+            .cos(),
+        disc: crate::daylight::sky_luminance::Sun::solid_angle(),
+    };
     let rows: Vec<(Vec<Rgb>, Vec<Rgb>)> = (0..h)
         .into_par_iter()
         .map(|y| {
             let mut rad = Vec::with_capacity(w);
             let mut lux = Vec::with_capacity(w);
             for x in 0..w {
-                let sx = ((x as f64 + 0.5) / w as f64) * 2.0 - 1.0;
-                let sy = 1.0 - ((y as f64 + 0.5) / h as f64) * 2.0;
-                let d = (fwd + right * (sx * tan * aspect) + up * (sy * tan)).normalize();
-                let p = view.center_patch[y * w + x];
-                if p == u32::MAX {
-                    let mut l = sky(d);
-                    if let Some(s) = sun {
-                        if d.dot(s.direction) >= sun_radius_cos {
-                            l += s.normal_illuminance / disc;
-                        }
-                    }
-                    // Seen through glazing, dimmed by it.
-                    l *= glazing.transmittance(pos, pos + d * reach);
-                    rad.push([l as f32; 3]);
-                    lux.push([0.0; 3]);
-                    continue;
-                }
-                let Some(s) = sun else {
-                    rad.push([0.0; 3]);
-                    lux.push([0.0; 3]);
-                    continue;
-                };
-                let patch = &mesh.patches[p as usize];
-                let n = patch.normal;
-                let cos = n.dot(s.direction);
-                let denom = n.dot(d);
-                if cos <= 0.0 || denom.abs() < 1e-12 {
-                    rad.push([0.0; 3]);
-                    lux.push([0.0; 3]);
-                    continue;
-                }
-                let t = n.dot(patch.centroid - pos) / denom;
-                let hit = pos + d * t;
-                let o = hit + n * (1e-6 * (1.0 + hit.abs().max_element()));
-                let far = o + s.direction * reach;
-                let free = !bvh.occluded(
-                    Vec3A::from(o.as_vec3()),
-                    Vec3A::from(far.as_vec3()),
-                    [patch.source, u32::MAX],
-                );
-                if !free {
-                    rad.push([0.0; 3]);
-                    lux.push([0.0; 3]);
-                    continue;
-                }
-                let e = (s.normal_illuminance * cos * glazing.transmittance(o, far)) as f32;
-                let r = rho[p as usize];
-                let k = std::f32::consts::FRAC_1_PI * e;
-                rad.push([r[0] * k, r[1] * k, r[2] * k]);
-                lux.push([e; 3]);
+                let (r, l) = tracer.pixel(x, y, view.center_patch[y * w + x]);
+                rad.push(r);
+                lux.push(l);
             }
             (rad, lux)
         })
@@ -117,4 +73,122 @@ pub fn daylight_pixels(
         lux.extend(l);
     }
     (rad, lux)
+}
+
+/// The rays through the pixel centres of a camera.
+struct CameraRays {
+    pos: DVec3,
+    fwd: DVec3,
+    right: DVec3,
+    up: DVec3,
+    /// tan(fov / 2).
+    tan: f64,
+    aspect: f64,
+    w: usize,
+    h: usize,
+}
+
+impl CameraRays {
+    fn new(cam: &Camera) -> CameraRays {
+        let (w, h) = (cam.width as usize, cam.height as usize);
+        let fwd = (cam.target - cam.position).normalize().as_dvec3();
+        let right = fwd.cross(cam.up.as_dvec3()).normalize();
+        let tan = (cam.fov_deg as f64).to_radians() * 0.5;
+        CameraRays {
+            pos: cam.position.as_dvec3(),
+            fwd,
+            right,
+            up: right.cross(fwd),
+            tan: tan.tan(),
+            aspect: w as f64 / h as f64,
+            w,
+            h,
+        }
+    }
+
+    /// Unit direction through the centre of pixel (x, y).
+    #[inline]
+    fn dir(&self, x: usize, y: usize) -> DVec3 {
+        let sx = ((x as f64 + 0.5) / self.w as f64) * 2.0 - 1.0;
+        let sy = 1.0 - ((y as f64 + 0.5) / self.h as f64) * 2.0;
+        (self.fwd + self.right * (sx * self.tan * self.aspect) + self.up * (sy * self.tan))
+            .normalize()
+    }
+}
+
+/// What [`daylight_pixels`] traces against.
+struct PixelTracer<'a> {
+    mesh: &'a Mesh,
+    bvh: &'a Bvh,
+    glazing: &'a Glazing,
+    rho: &'a [Rgb],
+    sun: Option<SunView>,
+    sky: &'a (dyn Fn(DVec3) -> f64 + Sync),
+    reach: f64,
+    rays: CameraRays,
+    /// Cosine of the sun's angular radius.
+    sun_radius_cos: f64,
+    /// The sun disc's solid angle, sr.
+    disc: f64,
+}
+
+impl PixelTracer<'_> {
+    /// Radiance and illuminance of pixel (x, y), which sees patch `p` (`u32::MAX`: none).
+    #[inline]
+    fn pixel(&self, x: usize, y: usize, p: u32) -> (Rgb, Rgb) {
+        let d = self.rays.dir(x, y);
+        if p == u32::MAX {
+            return ([self.outside(d) as f32; 3], [0.0; 3]);
+        }
+        let Some(s) = self.sun else {
+            return ([0.0; 3], [0.0; 3]);
+        };
+        match self.sunlight(p, d, s) {
+            Some(e) => {
+                let r = self.rho[p as usize];
+                let k = std::f32::consts::FRAC_1_PI * e;
+                ([r[0] * k, r[1] * k, r[2] * k], [e; 3])
+            }
+            None => ([0.0; 3], [0.0; 3]),
+        }
+    }
+
+    /// The luminance seen out of the scene along `d`: the sky's (the ground's below the
+    /// horizon) and the sun's disc, dimmed by the glazing on the way.
+    #[inline]
+    fn outside(&self, d: DVec3) -> f64 {
+        let mut l = (self.sky)(d);
+        if let Some(s) = self.sun {
+            if d.dot(s.direction) >= self.sun_radius_cos {
+                l += s.normal_illuminance / self.disc;
+            }
+        }
+        // Seen through glazing, dimmed by it.
+        let pos = self.rays.pos;
+        l * self.glazing.transmittance(pos, pos + d * self.reach)
+    }
+
+    /// The sun's illuminance (lux) where the ray along `d` meets patch `p`; None where the
+    /// patch faces away or the sun is blocked.
+    #[inline]
+    fn sunlight(&self, p: u32, d: DVec3, s: SunView) -> Option<f32> {
+        let pos = self.rays.pos;
+        let patch = &self.mesh.patches[p as usize];
+        let n = patch.normal;
+        let cos = n.dot(s.direction);
+        let denom = n.dot(d);
+        if cos <= 0.0 || denom.abs() < 1e-12 {
+            return None;
+        }
+        let t = n.dot(patch.centroid - pos) / denom;
+        let hit = pos + d * t;
+        let o = hit + n * (1e-6 * (1.0 + hit.abs().max_element()));
+        let far = o + s.direction * self.reach;
+        let free = !self.bvh.occluded(
+            Vec3A::from(o.as_vec3()),
+            Vec3A::from(far.as_vec3()),
+            [patch.source, u32::MAX],
+        );
+        free.then(|| (s.normal_illuminance * cos * self.glazing.transmittance(o, far)) as f32)
+    }
 }

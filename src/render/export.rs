@@ -155,15 +155,13 @@ pub fn export_glb(
     weights: &[Rgb],
     o: &ExportOptions,
 ) -> Exported {
-    let scene = &model.baked.scene;
-    let mesh = &model.baked.mesh;
-    let n = mesh.len();
-    let inv_pi = std::f32::consts::FRAC_1_PI;
-    let radiance =
-        |b: Vec<Rgb>| -> Vec<[f32; 3]> { b.into_iter().map(|c| c.map(|x| x * inv_pi)).collect() };
-    let mut per_patch = vec![0f32; 3 * n];
-    model.per_patch_groups(weights, Quantity::Radiosity, &mut per_patch);
-    let l = radiance(shading.vertex_values(&per_patch));
+    let ex = Export {
+        model,
+        shading,
+        weights,
+    };
+    let mut per_patch = vec![0f32; 3 * model.baked.mesh.len()];
+    let l = ex.radiance(weights, &mut per_patch);
     let ev = o.exposure.unwrap_or_else(|| auto_exposure(&l));
     let k = ev.exp2();
     let color: Vec<[f32; 3]> = l
@@ -171,12 +169,6 @@ pub fn export_glb(
         .map(|c| c.map(|x| tone_curve(x * k, o.tonemap)))
         .collect();
 
-    let mut pos = vec![[0f32; 3]; shading.len()];
-    for (p, c) in mesh.patches.iter().zip(shading.corners()) {
-        for k in 0..3 {
-            pos[c[k] as usize] = mesh.vertices[p.v[k] as usize].as_vec3().to_array();
-        }
-    }
     let mut b = Builder {
         bin: Vec::new(),
         views: Vec::new(),
@@ -189,36 +181,142 @@ pub fn export_glb(
     b.accessors.push(json!({
         "bufferView": iv, "componentType": 5125, "count": ilen / 4, "type": "SCALAR"
     }));
-    let position = b.vec3(&pos, true);
+    let position = b.vec3(&ex.positions(), true);
     let color_0 = b.vec3(&color, false);
     let mut attributes = json!({"POSITION": position, "COLOR_0": color_0});
-
-    let ids: Vec<&str> = scene.lights.iter().map(|g| g.id.as_str()).collect();
-    let names = attribute_names(&ids);
-    let mut groups = Vec::new();
-    for (g, light) in scene.lights.iter().enumerate() {
-        let mut entry = json!({
-            "id": light.id,
-            "name": light.name,
-            "weight": weights.get(g).copied().unwrap_or([0.0; 3]),
-        });
-        if o.relightable {
-            let mut one = vec![[0f32; 3]; weights.len()];
-            one[g] = [1.0; 3];
-            model.per_patch_groups(&one, Quantity::Radiosity, &mut per_patch);
-            let lg = radiance(shading.vertex_values(&per_patch));
-            attributes[&names[g]] = json!(b.vec3(&lg, false));
-            entry["attribute"] = json!(names[g]);
-        }
-        groups.push(entry);
+    let groups = ex.groups(o.relightable, &mut b, &mut attributes, &mut per_patch);
+    let doc = ex.document(attributes, groups, (ev, o.tonemap), &b);
+    Exported {
+        bytes: glb(&doc, &b.bin),
+        exposure: ev,
     }
-    let surfaces: Vec<Value> = scene
-        .surfaces
-        .iter()
-        .zip(&mesh.surface_patches)
-        .map(|(s, r)| json!({"name": s.name, "first_triangle": r.start, "triangles": r.end - r.start}))
-        .collect();
+}
 
+/// What one export reads.
+struct Export<'a> {
+    model: &'a Model,
+    shading: &'a Shading,
+    weights: &'a [Rgb],
+}
+
+impl Export<'_> {
+    /// Radiance (cd/m²) at the shading vertices under group weights `weights`;
+    /// `per_patch` is scratch space of 3 floats a patch.
+    fn radiance(&self, weights: &[Rgb], per_patch: &mut [f32]) -> Vec<[f32; 3]> {
+        let inv_pi = std::f32::consts::FRAC_1_PI;
+        self.model
+            .per_patch_groups(weights, Quantity::Radiosity, per_patch);
+        self.shading
+            .vertex_values(per_patch)
+            .into_iter()
+            .map(|c| c.map(|x| x * inv_pi))
+            .collect()
+    }
+
+    /// The shading vertices' positions, metres.
+    fn positions(&self) -> Vec<[f32; 3]> {
+        let mesh = &self.model.baked.mesh;
+        let mut pos = vec![[0f32; 3]; self.shading.len()];
+        for (p, c) in mesh.patches.iter().zip(self.shading.corners()) {
+            for k in 0..3 {
+                pos[c[k] as usize] = mesh.vertices[p.v[k] as usize].as_vec3().to_array();
+            }
+        }
+        pos
+    }
+
+    /// The light groups' entries of `asset.extras.relight`; when `relightable`, each
+    /// group's `_LIGHT_*` attribute too, written to `b` and named in `attributes`.
+    fn groups(
+        &self,
+        relightable: bool,
+        b: &mut Builder,
+        attributes: &mut Value,
+        per_patch: &mut [f32],
+    ) -> Vec<Value> {
+        let lights = &self.model.baked.scene.lights;
+        let ids: Vec<&str> = lights.iter().map(|g| g.id.as_str()).collect();
+        let names = attribute_names(&ids);
+        let mut groups = Vec::new();
+        for (g, light) in lights.iter().enumerate() {
+            let mut entry = json!({
+                "id": light.id,
+                "name": light.name,
+                "weight": self.weights.get(g).copied().unwrap_or([0.0; 3]),
+            });
+            if relightable {
+                let mut one = vec![[0f32; 3]; self.weights.len()];
+                one[g] = [1.0; 3];
+                let lg = self.radiance(&one, per_patch);
+                attributes[&names[g]] = json!(b.vec3(&lg, false));
+                entry["attribute"] = json!(names[g]);
+            }
+            groups.push(entry);
+        }
+        groups
+    }
+
+    /// The glTF JSON document over the binary chunk of `b`: one mesh of `attributes`, the
+    /// camera presets, and `groups`, the surfaces and the exposure (stops) and tone map
+    /// in `asset.extras.relight`.
+    fn document(
+        &self,
+        attributes: Value,
+        groups: Vec<Value>,
+        (ev, tonemap): (f32, ToneMap),
+        b: &Builder,
+    ) -> Value {
+        let scene = &self.model.baked.scene;
+        let surfaces: Vec<Value> = scene
+            .surfaces
+            .iter()
+            .zip(&self.model.baked.mesh.surface_patches)
+            .map(|(s, r)| json!({"name": s.name, "first_triangle": r.start, "triangles": r.end - r.start}))
+            .collect();
+        let (nodes, cameras) = nodes_and_cameras(scene);
+        let units = self.model.units();
+        let mut doc = json!({
+            "asset": {
+                "version": "2.0",
+                "generator": concat!("relight ", env!("CARGO_PKG_VERSION")),
+                "extras": {"relight": {
+                    "scene": scene.id,
+                    "units": {
+                        "length": units.length,
+                        "COLOR_0": "display value after exposure and tone map, linear",
+                        "_LIGHT_": "radiance at intensity 1, white, cd/m2, linear RGB",
+                    },
+                    "exposure": ev,
+                    "tonemap": match tonemap { ToneMap::Clamp => "clamp", ToneMap::Filmic => "filmic" },
+                    "groups": groups,
+                    "surfaces": surfaces,
+                }},
+            },
+            "extensionsUsed": ["KHR_materials_unlit"],
+            "scene": 0,
+            "scenes": [{"name": scene.name, "nodes": (0..nodes.len()).collect::<Vec<_>>()}],
+            "nodes": nodes,
+            "meshes": [{"name": scene.id, "primitives": [{
+                "attributes": attributes, "indices": 0, "material": 0, "mode": 4
+            }]}],
+            "materials": [{
+                "name": "relit",
+                "pbrMetallicRoughness": {"baseColorFactor": [1.0, 1.0, 1.0, 1.0], "metallicFactor": 0.0, "roughnessFactor": 1.0},
+                "extensions": {"KHR_materials_unlit": {}},
+            }],
+            "buffers": [{"byteLength": b.bin.len()}],
+            "bufferViews": b.views,
+            "accessors": b.accessors,
+        });
+        if !cameras.is_empty() {
+            doc["cameras"] = json!(cameras);
+        }
+        doc
+    }
+}
+
+/// The scene's nodes (the mesh, then a node per camera preset) and its glTF cameras.
+fn nodes_and_cameras(scene: &crate::scene::Scene) -> (Vec<Value>, Vec<Value>) {
     let mut nodes = vec![json!({"name": scene.id, "mesh": 0})];
     let mut cameras = Vec::new();
     for def in &scene.cameras {
@@ -231,47 +329,7 @@ pub fn export_glb(
             nodes.push(node);
         }
     }
-    let units = model.units();
-    let mut doc = json!({
-        "asset": {
-            "version": "2.0",
-            "generator": concat!("relight ", env!("CARGO_PKG_VERSION")),
-            "extras": {"relight": {
-                "scene": scene.id,
-                "units": {
-                    "length": units.length,
-                    "COLOR_0": "display value after exposure and tone map, linear",
-                    "_LIGHT_": "radiance at intensity 1, white, cd/m2, linear RGB",
-                },
-                "exposure": ev,
-                "tonemap": match o.tonemap { ToneMap::Clamp => "clamp", ToneMap::Filmic => "filmic" },
-                "groups": groups,
-                "surfaces": surfaces,
-            }},
-        },
-        "extensionsUsed": ["KHR_materials_unlit"],
-        "scene": 0,
-        "scenes": [{"name": scene.name, "nodes": (0..nodes.len()).collect::<Vec<_>>()}],
-        "nodes": nodes,
-        "meshes": [{"name": scene.id, "primitives": [{
-            "attributes": attributes, "indices": 0, "material": 0, "mode": 4
-        }]}],
-        "materials": [{
-            "name": "relit",
-            "pbrMetallicRoughness": {"baseColorFactor": [1.0, 1.0, 1.0, 1.0], "metallicFactor": 0.0, "roughnessFactor": 1.0},
-            "extensions": {"KHR_materials_unlit": {}},
-        }],
-        "buffers": [{"byteLength": b.bin.len()}],
-        "bufferViews": b.views,
-        "accessors": b.accessors,
-    });
-    if !cameras.is_empty() {
-        doc["cameras"] = json!(cameras);
-    }
-    Exported {
-        bytes: glb(&doc, &b.bin),
-        exposure: ev,
-    }
+    (nodes, cameras)
 }
 
 /// The GLB container: a 12-byte header, the JSON chunk (padded with spaces) and the

@@ -87,34 +87,22 @@ fn legend(out: &mut [u8], width: u32, height: u32, lo: f32, hi: f32) {
             last = Some(r);
         }
     }
+    let mut canvas = Canvas {
+        out,
+        w: width,
+        h: height,
+    };
     for v in chosen {
         let text = format!("{} lx", lux_label(v));
         let tw = text.len() as u32 * 6 * px;
         let x0 = width.saturating_sub(bar + tw + 3 * px) as i64;
         let y0 = (row(v) - glyph_h as i64 / 2).clamp(0, (height - glyph_h) as i64);
         // Dark plate, then the text; a tick mark into the bar.
-        fill(
-            out,
-            width,
-            height,
-            x0 - px as i64,
-            y0 - px as i64,
-            tw + 2 * px,
-            glyph_h + 2 * px,
-            [20, 20, 20],
-        );
-        draw_text(out, width, height, x0, y0, px, &text, [255, 255, 255]);
+        let plate = (x0 - px as i64, y0 - px as i64);
+        canvas.fill(plate, tw + 2 * px, glyph_h + 2 * px, [20, 20, 20]);
+        canvas.text((x0, y0), px, &text, [255, 255, 255]);
         let ty = row(v).clamp(0, height as i64 - 1);
-        fill(
-            out,
-            width,
-            height,
-            (width - bar) as i64,
-            ty,
-            bar / 3,
-            px,
-            [20, 20, 20],
-        );
+        canvas.fill(((width - bar) as i64, ty), bar / 3, px, [20, 20, 20]);
     }
 }
 
@@ -133,27 +121,36 @@ fn trim_number(v: f32) -> String {
     s.to_string()
 }
 
-#[allow(clippy::too_many_arguments)]
-fn fill(out: &mut [u8], w: u32, h: u32, x0: i64, y0: i64, fw: u32, fh: u32, c: [u8; 3]) {
-    for y in y0.max(0)..(y0 + fh as i64).min(h as i64) {
-        for x in x0.max(0)..(x0 + fw as i64).min(w as i64) {
-            let i = 3 * (y as usize * w as usize + x as usize);
-            out[i..i + 3].copy_from_slice(&c);
-        }
-    }
+/// An RGB8 image to draw on, `w` × `h`.
+struct Canvas<'a> {
+    out: &'a mut [u8],
+    w: u32,
+    h: u32,
 }
 
-/// Draws `text` with its top-left corner at (x0, y0), each font pixel `px` × `px`.
-#[allow(clippy::too_many_arguments)]
-fn draw_text(out: &mut [u8], w: u32, h: u32, x0: i64, y0: i64, px: u32, text: &str, c: [u8; 3]) {
-    for (k, ch) in text.chars().enumerate() {
-        let g = glyph(ch);
-        for (r, bits) in g.iter().enumerate() {
-            for col in 0..5 {
-                if bits & (0x10 >> col) != 0 {
-                    let x = x0 + ((k * 6 + col) as u32 * px) as i64;
-                    let y = y0 + (r as u32 * px) as i64;
-                    fill(out, w, h, x, y, px, px, c);
+impl Canvas<'_> {
+    /// Fills the rectangle `fw` × `fh` at (x0, y0) with `c`, clipped to the image.
+    fn fill(&mut self, (x0, y0): (i64, i64), fw: u32, fh: u32, c: [u8; 3]) {
+        let (w, h) = (self.w, self.h);
+        for y in y0.max(0)..(y0 + fh as i64).min(h as i64) {
+            for x in x0.max(0)..(x0 + fw as i64).min(w as i64) {
+                let i = 3 * (y as usize * w as usize + x as usize);
+                self.out[i..i + 3].copy_from_slice(&c);
+            }
+        }
+    }
+
+    /// Draws `text` with its top-left corner at (x0, y0), each font pixel `px` × `px`.
+    fn text(&mut self, (x0, y0): (i64, i64), px: u32, text: &str, c: [u8; 3]) {
+        for (k, ch) in text.chars().enumerate() {
+            let g = glyph(ch);
+            for (r, bits) in g.iter().enumerate() {
+                for col in 0..5 {
+                    if bits & (0x10 >> col) != 0 {
+                        let x = x0 + ((k * 6 + col) as u32 * px) as i64;
+                        let y = y0 + (r as u32 * px) as i64;
+                        self.fill((x, y), px, px, c);
+                    }
                 }
             }
         }

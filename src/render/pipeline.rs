@@ -75,18 +75,10 @@ pub fn render(
         groups,
         shading,
     } = frame;
-    let (w, h) = (o.camera.width, o.camera.height);
     if o.falsecolor {
         let per_patch = model.per_patch(lighting, Quantity::Illuminance)?;
         let img = view.gather(&shading.vertex_values(&per_patch), 1.0);
-        let (lo, hi) = o.range.unwrap_or_else(|| default_range(&img));
-        let rgb = false_color(&img, w, h, lo, hi);
-        let bytes = encode_8bit(&rgb, w, h, o.format).map_err(RenderError::Encode)?;
-        return Ok(Rendered {
-            bytes,
-            range: Some((lo, hi)),
-            exposure: None,
-        });
+        return finish_false_color(o, &img);
     }
     if let (Lighting::Groups(wts), Some(gi)) = (lighting, groups) {
         return finish(
@@ -115,7 +107,6 @@ pub fn render_values(
     o: &RenderOptions,
 ) -> Result<Rendered, RenderError> {
     let Frame { view, shading, .. } = frame;
-    let (w, hh) = (o.camera.width, o.camera.height);
     let add = |mut img: Vec<Rgb>, more: &[Rgb]| {
         for (p, e) in img.iter_mut().zip(more) {
             for c in 0..3 {
@@ -126,14 +117,7 @@ pub fn render_values(
     };
     if o.falsecolor {
         let img = add(view.gather(&shading.vertex_values(h), 1.0), extra.1);
-        let (lo, hi) = o.range.unwrap_or_else(|| default_range(&img));
-        let rgb = false_color(&img, w, hh, lo, hi);
-        let bytes = encode_8bit(&rgb, w, hh, o.format).map_err(RenderError::Encode)?;
-        return Ok(Rendered {
-            bytes,
-            range: Some((lo, hi)),
-            exposure: None,
-        });
+        return finish_false_color(o, &img);
     }
     let values = shading.vertex_values(b);
     let scale = std::f32::consts::FRAC_1_PI;
@@ -166,6 +150,20 @@ fn default_range(img: &[Rgb]) -> (f32, f32) {
     let max = img.iter().map(|p| luminance(*p)).fold(0.0, f32::max);
     let max = if max > 0.0 { max } else { 1.0 };
     (max / 100.0, max)
+}
+
+/// Encodes an illuminance image `img` (lux) in false colour, over `o.range` or the
+/// image's [`default_range`].
+fn finish_false_color(o: &RenderOptions, img: &[Rgb]) -> Result<Rendered, RenderError> {
+    let (w, h) = (o.camera.width, o.camera.height);
+    let (lo, hi) = o.range.unwrap_or_else(|| default_range(img));
+    let rgb = false_color(img, w, h, lo, hi);
+    let bytes = encode_8bit(&rgb, w, h, o.format).map_err(RenderError::Encode)?;
+    Ok(Rendered {
+        bytes,
+        range: Some((lo, hi)),
+        exposure: None,
+    })
 }
 
 /// Encodes a shaded image: linear EXR/PFM from `linear`, else 8-bit from `tonemapped`.

@@ -192,8 +192,12 @@ fn rasterize(mesh: &Mesh, cam: &Camera, s: u32) -> (Vec<f32>, Vec<Sample>) {
         let d = p.as_vec3() - cam.position;
         Vec3::new(d.dot(right), d.dot(up), d.dot(fwd))
     };
-    let mut depth = vec![f32::INFINITY; sw * sh];
-    let mut sample: Vec<Sample> = vec![(u32::MAX, 0.0, 0.0); sw * sh];
+    let mut zb = ZBuffer {
+        sw,
+        sh,
+        depth: vec![f32::INFINITY; sw * sh],
+        sample: vec![(u32::MAX, 0.0, 0.0); sw * sh],
+    };
     let project = |c: Vec3| -> (f32, f32) {
         let x = c.x / (c.z * tan * aspect);
         let y = c.y / (c.z * tan);
@@ -211,18 +215,10 @@ fn rasterize(mesh: &Mesh, cam: &Camera, s: u32) -> (Vec<f32>, Vec<Sample>) {
             continue;
         }
         for k in 1..poly.len() - 1 {
-            raster_triangle(
-                [poly[0], poly[k], poly[k + 1]],
-                pi as u32,
-                &project,
-                sw,
-                sh,
-                &mut depth,
-                &mut sample,
-            );
+            zb.triangle([poly[0], poly[k], poly[k + 1]], pi as u32, &project);
         }
     }
-    (depth, sample)
+    (zb.depth, zb.sample)
 }
 
 /// Clips a camera-space triangle against the near plane z = `near`; the polygon keeps
@@ -288,73 +284,75 @@ fn resolve_rows(sample: &[Sample], shading: &Shading, w: usize, h: usize, s: u32
         .collect()
 }
 
-#[allow(clippy::too_many_arguments)]
-fn raster_triangle(
-    t: [(Vec3, Vec3); 3],
-    patch: u32,
-    project: &impl Fn(Vec3) -> (f32, f32),
+/// The depth and sample buffers of [`rasterize`], `sw` × `sh` samples.
+struct ZBuffer {
     sw: usize,
     sh: usize,
-    depth: &mut [f32],
-    sample: &mut [Sample],
-) {
-    let s = t.map(|(c, _)| project(c));
-    let iz = t.map(|(c, _)| 1.0 / c.z);
-    let area = (s[1].0 - s[0].0) * (s[2].1 - s[0].1) - (s[2].0 - s[0].0) * (s[1].1 - s[0].1);
-    if area.abs() < 1e-12 {
-        return;
-    }
-    let minx = s
+    depth: Vec<f32>,
+    sample: Vec<Sample>,
+}
+
+/// The samples `first..=last` along one axis that screen coordinates `v` span, clipped to
+/// `0..n` (`last` negative: all before the first).
+#[inline]
+fn span(v: [f32; 3], n: usize) -> (usize, isize) {
+    let first = v
         .iter()
-        .map(|p| p.0)
+        .copied()
         .fold(f32::INFINITY, f32::min)
         .floor()
         .max(0.0) as usize;
-    let maxx = (s
-        .iter()
-        .map(|p| p.0)
-        .fold(f32::NEG_INFINITY, f32::max)
-        .ceil() as isize)
-        .min(sw as isize - 1);
-    let miny = s
-        .iter()
-        .map(|p| p.1)
-        .fold(f32::INFINITY, f32::min)
-        .floor()
-        .max(0.0) as usize;
-    let maxy = (s
-        .iter()
-        .map(|p| p.1)
-        .fold(f32::NEG_INFINITY, f32::max)
-        .ceil() as isize)
-        .min(sh as isize - 1);
-    if maxx < 0 || maxy < 0 {
-        return;
-    }
-    let inv_area = 1.0 / area;
-    for y in miny..=maxy as usize {
-        let py = y as f32 + 0.5;
-        for x in minx..=maxx as usize {
-            let px = x as f32 + 0.5;
-            // Edge functions (screen-space barycentrics), inclusive with a tiny tolerance
-            // so shared edges leave no gaps.
-            let w0 = ((s[1].0 - px) * (s[2].1 - py) - (s[2].0 - px) * (s[1].1 - py)) * inv_area;
-            let w1 = ((s[2].0 - px) * (s[0].1 - py) - (s[0].0 - px) * (s[2].1 - py)) * inv_area;
-            let w2 = 1.0 - w0 - w1;
-            const E: f32 = -1e-6;
-            if w0 < E || w1 < E || w2 < E {
-                continue;
+    let last =
+        (v.iter().copied().fold(f32::NEG_INFINITY, f32::max).ceil() as isize).min(n as isize - 1);
+    (first, last)
+}
+
+impl ZBuffer {
+    /// Rasterizes the camera-space triangle `t` (corners with their barycentric tags) of
+    /// patch `patch`, keeping the nearest sample; `project` maps camera space to samples.
+    fn triangle(
+        &mut self,
+        t: [(Vec3, Vec3); 3],
+        patch: u32,
+        project: &impl Fn(Vec3) -> (f32, f32),
+    ) {
+        let s = t.map(|(c, _)| project(c));
+        let iz = t.map(|(c, _)| 1.0 / c.z);
+        let area = (s[1].0 - s[0].0) * (s[2].1 - s[0].1) - (s[2].0 - s[0].0) * (s[1].1 - s[0].1);
+        if area.abs() < 1e-12 {
+            return;
+        }
+        let (minx, maxx) = span(s.map(|p| p.0), self.sw);
+        let (miny, maxy) = span(s.map(|p| p.1), self.sh);
+        if maxx < 0 || maxy < 0 {
+            return;
+        }
+        let inv_area = 1.0 / area;
+        for y in miny..=maxy as usize {
+            let py = y as f32 + 0.5;
+            for x in minx..=maxx as usize {
+                let px = x as f32 + 0.5;
+                // Edge functions (screen-space barycentrics), inclusive with a tiny
+                // tolerance so shared edges leave no gaps.
+                let w0 = ((s[1].0 - px) * (s[2].1 - py) - (s[2].0 - px) * (s[1].1 - py)) * inv_area;
+                let w1 = ((s[2].0 - px) * (s[0].1 - py) - (s[0].0 - px) * (s[2].1 - py)) * inv_area;
+                let w2 = 1.0 - w0 - w1;
+                const E: f32 = -1e-6;
+                if w0 < E || w1 < E || w2 < E {
+                    continue;
+                }
+                // Perspective-correct interpolation.
+                let z_inv = w0 * iz[0] + w1 * iz[1] + w2 * iz[2];
+                let z = 1.0 / z_inv;
+                let idx = y * self.sw + x;
+                if z >= self.depth[idx] {
+                    continue;
+                }
+                self.depth[idx] = z;
+                let bary =
+                    (t[0].1 * (w0 * iz[0]) + t[1].1 * (w1 * iz[1]) + t[2].1 * (w2 * iz[2])) * z;
+                self.sample[idx] = (patch, bary.y, bary.z);
             }
-            // Perspective-correct interpolation.
-            let z_inv = w0 * iz[0] + w1 * iz[1] + w2 * iz[2];
-            let z = 1.0 / z_inv;
-            let idx = y * sw + x;
-            if z >= depth[idx] {
-                continue;
-            }
-            depth[idx] = z;
-            let bary = (t[0].1 * (w0 * iz[0]) + t[1].1 * (w1 * iz[1]) + t[2].1 * (w2 * iz[2])) * z;
-            sample[idx] = (patch, bary.y, bary.z);
         }
     }
 }

@@ -99,8 +99,42 @@ fn entry_path(name: &str) -> Result<Option<Vec<String>>, String> {
     Ok(Some(parts))
 }
 
+/// An entry to unpack: its index in the archive, its path parts and whether it is a folder.
+struct Entry {
+    index: usize,
+    parts: Vec<String>,
+    is_dir: bool,
+}
+
 /// Unpacks the zip file at `zip` into the existing, empty folder `dest`.
 pub fn unpack_zip(zip: &Path, dest: &Path) -> Result<Unpacked, ArchiveError> {
+    let mut archive = open_archive(zip)?;
+    let entries = list_entries(&mut archive)?;
+    let strip = wrapping_folder(&entries);
+    // Second pass: unpack, counting the bytes that really come out.
+    let mut out = Unpacked { files: 0, bytes: 0 };
+    for entry in entries {
+        let rel: PathBuf = entry.parts[strip..].iter().collect();
+        if rel.as_os_str().is_empty() {
+            continue;
+        }
+        let path = dest.join(&rel);
+        if entry.is_dir {
+            std::fs::create_dir_all(&path)?;
+            continue;
+        }
+        let room = MAX_ARCHIVE_UNPACKED - out.bytes;
+        out.bytes += unpack_file(&mut archive, entry.index, &rel, &path, room)?;
+        out.files += 1;
+    }
+    if out.files == 0 {
+        return Err(ArchiveError::Invalid("the archive holds no files".into()));
+    }
+    Ok(out)
+}
+
+/// The archive at `zip`, once its entry count (declared and parsed) is within the limit.
+fn open_archive(zip: &Path) -> Result<zip::ZipArchive<std::fs::File>, ArchiveError> {
     let mut f = std::fs::File::open(zip)?;
     match declared_entries(&mut f)? {
         None => {
@@ -108,22 +142,27 @@ pub fn unpack_zip(zip: &Path, dest: &Path) -> Result<Unpacked, ArchiveError> {
                 "not a zip archive (no end-of-central-directory record)".into(),
             ))
         }
-        Some(n) if n > MAX_ARCHIVE_ENTRIES as u64 => {
-            return Err(ArchiveError::TooLarge(format!(
-                "the archive has more than {MAX_ARCHIVE_ENTRIES} entries"
-            )))
-        }
+        Some(n) if n > MAX_ARCHIVE_ENTRIES as u64 => return Err(too_many_entries()),
         Some(_) => {}
     }
-    let mut archive = zip::ZipArchive::new(f)
+    let archive = zip::ZipArchive::new(f)
         .map_err(|e| ArchiveError::Invalid(format!("not a readable zip archive: {e}")))?;
     if archive.len() > MAX_ARCHIVE_ENTRIES {
-        return Err(ArchiveError::TooLarge(format!(
-            "the archive has more than {MAX_ARCHIVE_ENTRIES} entries"
-        )));
+        return Err(too_many_entries());
     }
-    // First pass, on the headers: names, kinds, declared sizes.
-    let mut entries: Vec<(usize, Vec<String>, bool)> = Vec::new();
+    Ok(archive)
+}
+
+fn too_many_entries() -> ArchiveError {
+    ArchiveError::TooLarge(format!(
+        "the archive has more than {MAX_ARCHIVE_ENTRIES} entries"
+    ))
+}
+
+/// First pass, on the headers: names, kinds, declared sizes. The entries to unpack, in
+/// archive order (skipped ones and the root itself left out).
+fn list_entries(archive: &mut zip::ZipArchive<std::fs::File>) -> Result<Vec<Entry>, ArchiveError> {
+    let mut entries = Vec::new();
     let mut declared = 0u64;
     for i in 0..archive.len() {
         let e = archive
@@ -143,91 +182,103 @@ pub fn unpack_zip(zip: &Path, dest: &Path) -> Result<Unpacked, ArchiveError> {
         }
         let is_dir = e.is_dir();
         if !is_dir {
-            if let Some(mode) = e.unix_mode() {
-                // Anything but a regular file (a FIFO, a device, a socket).
-                if mode & 0o170000 != 0 && mode & 0o170000 != 0o100000 {
-                    return Err(ArchiveError::Invalid(format!(
-                        "entry '{shown}' is not a regular file"
-                    )));
-                }
-            }
-            if e.encrypted() {
-                return Err(ArchiveError::Invalid(format!(
-                    "entry '{shown}' is encrypted"
-                )));
-            }
+            check_file_entry(&e, &shown)?;
             declared = declared.saturating_add(e.size());
             if declared > MAX_ARCHIVE_UNPACKED {
                 return Err(ArchiveError::TooLarge(too_large()));
             }
         }
         if !parts.is_empty() {
-            entries.push((i, parts, is_dir));
+            entries.push(Entry {
+                index: i,
+                parts,
+                is_dir,
+            });
         }
     }
-    // One folder around everything is the scene folder itself: unwrap it.
-    let strip = match entries.first() {
-        Some((_, first, _))
-            if entries.iter().all(|(_, p, d)| {
-                p.len() >= 2 && p[0] == first[0] || (*d && p.len() == 1 && p[0] == first[0])
+    Ok(entries)
+}
+
+/// Refuses a file entry that is not a plain, readable file.
+fn check_file_entry(
+    e: &zip::read::ZipFile<'_, std::fs::File>,
+    shown: &str,
+) -> Result<(), ArchiveError> {
+    if let Some(mode) = e.unix_mode() {
+        // Anything but a regular file (a FIFO, a device, a socket).
+        if mode & 0o170000 != 0 && mode & 0o170000 != 0o100000 {
+            return Err(ArchiveError::Invalid(format!(
+                "entry '{shown}' is not a regular file"
+            )));
+        }
+    }
+    if e.encrypted() {
+        return Err(ArchiveError::Invalid(format!(
+            "entry '{shown}' is encrypted"
+        )));
+    }
+    Ok(())
+}
+
+/// How many leading path parts to strip: 1 when one folder is around everything (that
+/// folder is the scene folder itself: unwrap it), else 0.
+fn wrapping_folder(entries: &[Entry]) -> usize {
+    match entries.first() {
+        Some(first)
+            if entries.iter().all(|e| {
+                let p = &e.parts;
+                p.len() >= 2 && p[0] == first.parts[0]
+                    || (e.is_dir && p.len() == 1 && p[0] == first.parts[0])
             }) =>
         {
             1
         }
         _ => 0,
+    }
+}
+
+/// Writes entry `index` to the new file `path` (`rel` in messages), at most `room` bytes;
+/// the bytes written.
+fn unpack_file(
+    archive: &mut zip::ZipArchive<std::fs::File>,
+    index: usize,
+    rel: &Path,
+    path: &Path,
+    room: u64,
+) -> Result<u64, ArchiveError> {
+    if let Some(parent) = path.parent() {
+        std::fs::create_dir_all(parent)?;
+    }
+    let mut file = match std::fs::OpenOptions::new()
+        .write(true)
+        .create_new(true)
+        .open(path)
+    {
+        Ok(f) => f,
+        Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => {
+            return Err(ArchiveError::Invalid(format!(
+                "entry '{}' appears twice (or as a file and a folder)",
+                rel.display()
+            )))
+        }
+        Err(e) => return Err(e.into()),
     };
-    // Second pass: unpack, counting the bytes that really come out.
-    let mut out = Unpacked { files: 0, bytes: 0 };
-    for (i, parts, is_dir) in entries {
-        let rel: PathBuf = parts[strip..].iter().collect();
-        if rel.as_os_str().is_empty() {
-            continue;
-        }
-        let path = dest.join(&rel);
-        if is_dir {
-            std::fs::create_dir_all(&path)?;
-            continue;
-        }
-        if let Some(parent) = path.parent() {
-            std::fs::create_dir_all(parent)?;
-        }
-        let mut file = match std::fs::OpenOptions::new()
-            .write(true)
-            .create_new(true)
-            .open(&path)
+    let mut entry = archive
+        .by_index(index)
+        .map_err(|e| ArchiveError::Invalid(format!("entry '{}': {e}", rel.display())))?;
+    let n = std::io::copy(&mut (&mut entry).take(room + 1), &mut file).map_err(|e| {
+        if e.kind() == std::io::ErrorKind::InvalidData
+            || e.kind() == std::io::ErrorKind::UnexpectedEof
         {
-            Ok(f) => f,
-            Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => {
-                return Err(ArchiveError::Invalid(format!(
-                    "entry '{}' appears twice (or as a file and a folder)",
-                    rel.display()
-                )))
-            }
-            Err(e) => return Err(e.into()),
-        };
-        let mut entry = archive
-            .by_index(i)
-            .map_err(|e| ArchiveError::Invalid(format!("entry '{}': {e}", rel.display())))?;
-        let room = MAX_ARCHIVE_UNPACKED - out.bytes;
-        let n = std::io::copy(&mut (&mut entry).take(room + 1), &mut file).map_err(|e| {
-            if e.kind() == std::io::ErrorKind::InvalidData
-                || e.kind() == std::io::ErrorKind::UnexpectedEof
-            {
-                ArchiveError::Invalid(format!("entry '{}' is corrupt: {e}", rel.display()))
-            } else {
-                ArchiveError::Io(e)
-            }
-        })?;
-        if n > room {
-            return Err(ArchiveError::TooLarge(too_large()));
+            ArchiveError::Invalid(format!("entry '{}' is corrupt: {e}", rel.display()))
+        } else {
+            ArchiveError::Io(e)
         }
-        out.bytes += n;
-        out.files += 1;
+    })?;
+    if n > room {
+        return Err(ArchiveError::TooLarge(too_large()));
     }
-    if out.files == 0 {
-        return Err(ArchiveError::Invalid("the archive holds no files".into()));
-    }
-    Ok(out)
+    Ok(n)
 }
 
 fn too_large() -> String {

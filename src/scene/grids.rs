@@ -134,33 +134,47 @@ type Grids = Vec<(String, String, Option<GridKind>, Placed)>;
 /// The points of one `[[grids]]` entry; `floor` is the scene's lowest y, metres.
 fn grid_points(g: &GridToml, scale: f64, floor: f64) -> Result<Grids, String> {
     let name = g.name.clone().unwrap_or_else(|| g.id.clone());
-    let one = |p: Placed| Ok(vec![(g.id.clone(), name.clone(), g.kind, p)]);
-    let outline: Vec<[f64; 2]> = match (&g.points, g.min, g.max, &g.area) {
-        (Some(p), None, None, None) => {
-            if g.kind.is_some() {
-                return Err("a kind needs an area (min and max, or area), not points".into());
-            }
-            if p.iter().flatten().any(|x| !x.is_finite()) {
-                return Err("points must be finite".into());
-            }
-            let points = p.iter().map(|q| q.map(|x| x * scale)).collect();
-            return one(Placed {
-                points,
-                layout: None,
-                spacing: None,
-            });
+    let outline = match declared_outline(g)? {
+        Declared::Points(p) => {
+            let placed = explicit_points(g, p, scale)?;
+            return Ok(vec![(g.id.clone(), name, g.kind, placed)]);
         }
+        Declared::Outline(outline) => outline,
+    };
+    let area = Area::new(g, &outline, scale, floor)?;
+    match g.kind {
+        Some(GridKind::Background) => Ok(vec![(
+            g.id.clone(),
+            name,
+            g.kind,
+            area.background(g.wall_band, scale)?,
+        )]),
+        _ => area.plane_and_surrounding(g, name, scale),
+    }
+}
+
+/// What a `[[grids]]` entry gives: explicit points, or an area's outline ([x, z], in the
+/// scene's units).
+enum Declared<'a> {
+    Points(&'a [[f64; 3]]),
+    Outline(Vec<[f64; 2]>),
+}
+
+/// The points or outline of a `[[grids]]` entry, once they are given one way only.
+fn declared_outline(g: &GridToml) -> Result<Declared<'_>, String> {
+    Ok(match (&g.points, g.min, g.max, &g.area) {
+        (Some(p), None, None, None) => Declared::Points(p),
         (None, Some(lo), Some(hi), None) => {
             if !(lo.iter().chain(&hi).all(|x| x.is_finite()) && hi[0] > lo[0] && hi[1] > lo[1]) {
                 return Err("max must exceed min in x and z".into());
             }
-            vec![lo, [hi[0], lo[1]], hi, [lo[0], hi[1]]]
+            Declared::Outline(vec![lo, [hi[0], lo[1]], hi, [lo[0], hi[1]]])
         }
         (None, None, None, Some(a)) => {
             if a.len() < 3 || a.len() > 1000 || a.iter().flatten().any(|x| !x.is_finite()) {
                 return Err("area must be 3 to 1000 finite [x, z] corners".into());
             }
-            a.clone()
+            Declared::Outline(a.clone())
         }
         _ => {
             return Err(
@@ -169,92 +183,135 @@ fn grid_points(g: &GridToml, scale: f64, floor: f64) -> Result<Grids, String> {
                     .into(),
             )
         }
-    };
-    // Metres from here on.
-    let outline: Vec<[f64; 2]> = outline.iter().map(|p| p.map(|x| x * scale)).collect();
-    let rect = g.area.is_none();
-    let h = g.height.map_or(0.75, |h| h * scale);
-    let y = floor + h;
-    let metres = |v: Option<f64>, what: &str| -> Result<f64, String> {
-        let m = v.map_or(EN12464_BAND_M, |x| x * scale);
-        if m.is_finite() && m >= 0.0 {
-            Ok(m)
-        } else {
-            Err(format!("{what} must be a length of 0 or more"))
+    })
+}
+
+/// Explicit points, in metres.
+fn explicit_points(g: &GridToml, p: &[[f64; 3]], scale: f64) -> Result<Placed, String> {
+    if g.kind.is_some() {
+        return Err("a kind needs an area (min and max, or area), not points".into());
+    }
+    if p.iter().flatten().any(|x| !x.is_finite()) {
+        return Err("points must be finite".into());
+    }
+    Ok(Placed {
+        points: p.iter().map(|q| q.map(|x| x * scale)).collect(),
+        layout: None,
+        spacing: None,
+    })
+}
+
+/// A band width given in the scene's units (EN 12464-1's 0.5 m when None), in metres.
+fn band_metres(v: Option<f64>, scale: f64, what: &str) -> Result<f64, String> {
+    let m = v.map_or(EN12464_BAND_M, |x| x * scale);
+    if m.is_finite() && m >= 0.0 {
+        Ok(m)
+    } else {
+        Err(format!("{what} must be a length of 0 or more"))
+    }
+}
+
+/// A work plane or EN 12464-1 area, in metres.
+struct Area {
+    /// [x, z] corners.
+    outline: Vec<[f64; 2]>,
+    /// Given as min and max (a full rectangle), not as a polygon.
+    rect: bool,
+    /// Height of the points.
+    y: f64,
+    /// Cell size; None: by EN 12464-1.
+    spacing: Option<f64>,
+}
+
+impl Area {
+    /// The area of entry `g` whose `outline` is in the scene's units, once its options
+    /// are checked.
+    fn new(g: &GridToml, outline: &[[f64; 2]], scale: f64, floor: f64) -> Result<Self, String> {
+        let outline: Vec<[f64; 2]> = outline.iter().map(|p| p.map(|x| x * scale)).collect();
+        let h = g.height.map_or(0.75, |h| h * scale);
+        if !h.is_finite() {
+            return Err("height must be finite".into());
         }
-    };
-    if !h.is_finite() {
-        return Err("height must be finite".into());
-    }
-    if g.surrounding.is_some() && g.kind != Some(GridKind::Task) {
-        return Err("surrounding is for kind = \"task\"".into());
-    }
-    if g.wall_band.is_some() && g.kind != Some(GridKind::Background) {
-        return Err("wall_band is for kind = \"background\"".into());
-    }
-    let spacing = match g.spacing {
-        Some(s) if !(s > 0.0 && s.is_finite()) => {
-            return Err("spacing must be positive and finite".into())
+        if g.surrounding.is_some() && g.kind != Some(GridKind::Task) {
+            return Err("surrounding is for kind = \"task\"".into());
         }
-        Some(s) => Some(s * scale),
-        None if g.kind.is_some() => None,
-        None => Some(0.25),
-    };
-    let mut out = Vec::new();
-    match g.kind {
-        Some(GridKind::Background) => {
-            let band = metres(g.wall_band, "wall_band")?;
-            let inside = |x: f64, z: f64| {
-                point_in_polygon(&outline, x, z) && edge_distance(&outline, x, z) >= band
-            };
-            let (lo, hi) = bounds(&outline);
-            let (lo, hi) = ([lo[0] + band, lo[1] + band], [hi[0] - band, hi[1] - band]);
-            if !(hi[0] > lo[0] && hi[1] > lo[1]) {
-                return Err(format!(
-                    "the area is narrower than twice its {band} m wall band"
+        if g.wall_band.is_some() && g.kind != Some(GridKind::Background) {
+            return Err("wall_band is for kind = \"background\"".into());
+        }
+        let spacing = match g.spacing {
+            Some(s) if !(s > 0.0 && s.is_finite()) => {
+                return Err("spacing must be positive and finite".into())
+            }
+            Some(s) => Some(s * scale),
+            None if g.kind.is_some() => None,
+            None => Some(0.25),
+        };
+        Ok(Area {
+            outline,
+            rect: g.area.is_none(),
+            y: floor + h,
+            spacing,
+        })
+    }
+
+    /// A background area: the points at least `wall_band` from its edges.
+    fn background(&self, wall_band: Option<f64>, scale: f64) -> Result<Placed, String> {
+        let band = band_metres(wall_band, scale, "wall_band")?;
+        let outline = &self.outline;
+        let inside = |x: f64, z: f64| {
+            point_in_polygon(outline, x, z) && edge_distance(outline, x, z) >= band
+        };
+        let (lo, hi) = bounds(outline);
+        let (lo, hi) = ([lo[0] + band, lo[1] + band], [hi[0] - band, hi[1] - band]);
+        if !(hi[0] > lo[0] && hi[1] > lo[1]) {
+            return Err(format!(
+                "the area is narrower than twice its {band} m wall band"
+            ));
+        }
+        place(lo, hi, self.y, self.spacing, &inside, self.rect)
+    }
+
+    /// A work plane or task or surrounding area, and a task's immediate surrounding.
+    fn plane_and_surrounding(
+        &self,
+        g: &GridToml,
+        name: String,
+        scale: f64,
+    ) -> Result<Grids, String> {
+        let outline = &self.outline;
+        let inside = |x: f64, z: f64| point_in_polygon(outline, x, z);
+        let (lo, hi) = bounds(outline);
+        let mut out = vec![(
+            g.id.clone(),
+            name.clone(),
+            g.kind,
+            place(lo, hi, self.y, self.spacing, &inside, self.rect)?,
+        )];
+        if g.kind == Some(GridKind::Task) {
+            let band = band_metres(g.surrounding, scale, "surrounding")?;
+            if band > 0.0 {
+                out.push((
+                    format!("{}-surrounding", g.id),
+                    format!("{name} (immediate surrounding)"),
+                    Some(GridKind::Surrounding),
+                    self.surrounding(lo, hi, band)?,
                 ));
             }
-            let full = rect;
-            out.push((
-                g.id.clone(),
-                name,
-                g.kind,
-                place(lo, hi, y, spacing, &inside, full)?,
-            ));
         }
-        _ => {
-            let inside = |x: f64, z: f64| point_in_polygon(&outline, x, z);
-            let (lo, hi) = bounds(&outline);
-            out.push((
-                g.id.clone(),
-                name.clone(),
-                g.kind,
-                place(lo, hi, y, spacing, &inside, rect)?,
-            ));
-            if g.kind == Some(GridKind::Task) {
-                let band = metres(g.surrounding, "surrounding")?;
-                if band > 0.0 {
-                    let (olo, ohi) = ([lo[0] - band, lo[1] - band], [hi[0] + band, hi[1] + band]);
-                    let ring = |x: f64, z: f64| {
-                        !point_in_polygon(&outline, x, z)
-                            && (edge_distance(&outline, x, z) <= band
-                                || (rect
-                                    && x >= olo[0]
-                                    && x <= ohi[0]
-                                    && z >= olo[1]
-                                    && z <= ohi[1]))
-                    };
-                    out.push((
-                        format!("{}-surrounding", g.id),
-                        format!("{name} (immediate surrounding)"),
-                        Some(GridKind::Surrounding),
-                        place(olo, ohi, y, spacing, &ring, false)?,
-                    ));
-                }
-            }
-        }
+        Ok(out)
     }
-    Ok(out)
+
+    /// The band `band` m wide around the area (bounds `lo`..`hi`).
+    fn surrounding(&self, lo: [f64; 2], hi: [f64; 2], band: f64) -> Result<Placed, String> {
+        let outline = &self.outline;
+        let (olo, ohi) = ([lo[0] - band, lo[1] - band], [hi[0] + band, hi[1] + band]);
+        let ring = |x: f64, z: f64| {
+            !point_in_polygon(outline, x, z)
+                && (edge_distance(outline, x, z) <= band
+                    || (self.rect && x >= olo[0] && x <= ohi[0] && z >= olo[1] && z <= ohi[1]))
+        };
+        place(olo, ohi, self.y, self.spacing, &ring, false)
+    }
 }
 
 /// Points at the centres of the cells of the rectangle `lo`..`hi` (x, z, metres) at height

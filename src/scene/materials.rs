@@ -162,32 +162,7 @@ impl MaterialTable {
         };
         let base = if m.kd_given { m.kd } else { [1.0; 3] };
         let kd: Rgb = std::array::from_fn(|c| base[c] * mean[c]);
-        m.kd = match mtl::clamp_kd(kd) {
-            Some(k) if strict => {
-                return Err(SceneError::BadMaterial {
-                    path: shown.to_path_buf(),
-                    line,
-                    material: m.name.clone(),
-                    message: format!(
-                        "Kd × map_Kd = {} {} {}: diffuse reflectance must be in [0, 1) per \
-                         channel (strict = true; a lenient load would use {} {} {})",
-                        kd[0], kd[1], kd[2], k[0], k[1], k[2]
-                    ),
-                });
-            }
-            Some(k) => {
-                warnings.push(format!(
-                    "{}:{line}: material '{}': Kd × map_Kd reaches 1: scaled to {} {} {}",
-                    shown.display(),
-                    m.name,
-                    k[0],
-                    k[1],
-                    k[2]
-                ));
-                k
-            }
-            None => kd,
-        };
+        m.kd = textured_kd(&m, kd, (shown, line), strict, warnings)?;
         Ok(m)
     }
 
@@ -349,4 +324,41 @@ pub(crate) fn mtllib_names(raw: &str) -> Vec<String> {
         names.push(cur);
     }
     names
+}
+
+/// The reflectance `kd` (`Kd` × `map_Kd`) of material `m`, defined at `line` of `shown`,
+/// scaled down like a `Kd` of 1 or more if a channel reaches 1 (strict: an error).
+fn textured_kd(
+    m: &mtl::MtlMaterial,
+    kd: Rgb,
+    (shown, line): (&Path, usize),
+    strict: bool,
+    warnings: &mut Vec<String>,
+) -> Result<Rgb, SceneError> {
+    Ok(match mtl::clamp_kd(kd) {
+        Some(k) if strict => {
+            return Err(SceneError::BadMaterial {
+                path: shown.to_path_buf(),
+                line,
+                material: m.name.clone(),
+                message: format!(
+                    "Kd × map_Kd = {} {} {}: diffuse reflectance must be in [0, 1) per \
+                     channel (strict = true; a lenient load would use {} {} {})",
+                    kd[0], kd[1], kd[2], k[0], k[1], k[2]
+                ),
+            });
+        }
+        Some(k) => {
+            warnings.push(format!(
+                "{}:{line}: material '{}': Kd × map_Kd reaches 1: scaled to {} {} {}",
+                shown.display(),
+                m.name,
+                k[0],
+                k[1],
+                k[2]
+            ));
+            k
+        }
+        None => kd,
+    })
 }

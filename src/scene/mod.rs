@@ -179,43 +179,17 @@ impl Scene {
         let (units, scale) = self::toml::resolve_units(cfg, &toml.path)?;
         let mut warnings = Vec::new();
         let mut files = Vec::new();
-        let (model_name, mut table, parts, model_luminaires) = match model {
-            files::ModelFile::Obj(obj_path) => {
-                let obj_name = sd.display(&obj_path);
-                let scan = {
-                    let text = files::to_text(&obj_name, sd.read(&obj_path, MAX_OBJ_BYTES)?)?;
-                    obj::scan_obj(&obj_name, &text, scale, cfg.strict)?
-                };
-                warnings.extend(scan.warnings.iter().cloned());
-                files.push(obj_path);
-                let mut table =
-                    MaterialTable::read(&sd, &obj_name, &scan, cfg, &mut files, &mut warnings)?;
-                table.add_missing(&scan.usemtl, &obj_name, cfg, &mut warnings)?;
-                let parts = obj::read_obj(&obj_name, &scan, &table.names())?;
-                (obj_name, table, parts, Vec::new())
-            }
-            files::ModelFile::Gltf(path) => {
-                let name = sd.display(&path);
-                files.push(path.clone());
-                let m = gltf::read_gltf(&sd, &path, cfg, scale, &mut files, &mut warnings)?;
-                (name, m.table, m.parts, m.luminaires)
-            }
-        };
+        let ModelRead {
+            name: model_name,
+            table,
+            parts,
+            luminaires: model_luminaires,
+        } = read_model(&sd, model, cfg, scale, &mut files, &mut warnings)?;
         if let Some(p) = &toml.canon {
             files.push(p.clone());
         }
-        table.check_options(cfg, &toml.path)?;
-        let mut geometry = Geometry::build(
-            &parts,
-            scale,
-            cfg,
-            &mut table,
-            &model_name,
-            &toml.path,
-            &mut warnings,
-        )?;
-        drop(parts);
-        let glazing = geometry.split_glazing(cfg, &table.materials, &toml.path, &model_name)?;
+        let (geometry, glazing, table) =
+            build_geometry(&model_name, table, parts, &toml, scale, &mut warnings)?;
         let Geometry {
             surfaces,
             surf_index,
@@ -294,6 +268,79 @@ impl Scene {
     pub fn surface_index(&self, name: &str) -> Option<usize> {
         self.surfaces.iter().position(|s| s.name == name)
     }
+}
+
+/// What the scene's model file gives: its name in messages, the materials, one part per
+/// object (file units) and, from glTF, luminaires (metres) with their light group's id.
+struct ModelRead {
+    name: PathBuf,
+    table: MaterialTable,
+    parts: Vec<ObjPart>,
+    luminaires: Vec<(String, crate::photometry::Luminaire)>,
+}
+
+/// Reads the model file (OBJ with its MTL files, or glTF), adding the files read to
+/// `files`.
+fn read_model(
+    sd: &files::SceneDir,
+    model: files::ModelFile,
+    cfg: &SceneToml,
+    scale: f64,
+    files: &mut Vec<PathBuf>,
+    warnings: &mut Vec<String>,
+) -> Result<ModelRead, SceneError> {
+    match model {
+        files::ModelFile::Obj(obj_path) => {
+            let obj_name = sd.display(&obj_path);
+            let scan = {
+                let text = files::to_text(&obj_name, sd.read(&obj_path, MAX_OBJ_BYTES)?)?;
+                obj::scan_obj(&obj_name, &text, scale, cfg.strict)?
+            };
+            warnings.extend(scan.warnings.iter().cloned());
+            files.push(obj_path);
+            let mut table = MaterialTable::read(sd, &obj_name, &scan, cfg, files, warnings)?;
+            table.add_missing(&scan.usemtl, &obj_name, cfg, warnings)?;
+            let parts = obj::read_obj(&obj_name, &scan, &table.names())?;
+            Ok(ModelRead {
+                name: obj_name,
+                table,
+                parts,
+                luminaires: Vec::new(),
+            })
+        }
+        files::ModelFile::Gltf(path) => {
+            let name = sd.display(&path);
+            files.push(path.clone());
+            let m = gltf::read_gltf(sd, &path, cfg, scale, files, warnings)?;
+            Ok(ModelRead {
+                name,
+                table: m.table,
+                parts: m.parts,
+                luminaires: m.luminaires,
+            })
+        }
+    }
+}
+
+/// The model's triangles by surface (file units to metres), its glazing split off, and
+/// the materials table as the triangles left it; the model's materials checked against
+/// `scene.toml`.
+fn build_geometry(
+    model_name: &Path,
+    mut table: MaterialTable,
+    parts: Vec<ObjPart>,
+    toml: &self::toml::TomlFile,
+    scale: f64,
+    warnings: &mut Vec<String>,
+) -> Result<(Geometry, Vec<Pane>, MaterialTable), SceneError> {
+    let cfg = &toml.cfg;
+    table.check_options(cfg, &toml.path)?;
+    let mut geometry = Geometry::build(
+        &parts, scale, cfg, &mut table, model_name, &toml.path, warnings,
+    )?;
+    drop(parts);
+    let glazing = geometry.split_glazing(cfg, &table.materials, &toml.path, model_name)?;
+    Ok((geometry, glazing, table))
 }
 
 /// Reads the regular file at `path`, refusing anything over `limit` bytes; the message

@@ -22,6 +22,7 @@ use std::collections::HashMap;
 use std::path::Path;
 use std::str::SplitWhitespace;
 
+use super::obj::Skipped;
 use super::SceneError;
 use crate::color::Rgb;
 use crate::input_limits::{MAX_EXITANCE, MAX_KD, MAX_MATERIALS};
@@ -92,8 +93,7 @@ pub(crate) fn parse_mtl(path: &Path, text: &str, strict: bool) -> Result<MtlLibr
         lib: MtlLibrary::default(),
         given: Vec::new(),
         lines_of: HashMap::new(),
-        unknown: Vec::new(),
-        unknown_count: 0,
+        unknown: Skipped::default(),
     };
     for (i, raw) in text.lines().enumerate() {
         let line = i + 1;
@@ -123,12 +123,7 @@ pub(crate) fn parse_mtl(path: &Path, text: &str, strict: bool) -> Result<MtlLibr
             "map_Kd" => p.map_kd(line, words),
             k if NUMERIC.contains(&k) => check_numeric(k, words).map_err(|m| p.syntax(line, m))?,
             k if IGNORED.contains(&k) || k.starts_with("map_") => {}
-            k => {
-                p.unknown_count += 1;
-                if p.unknown.len() < 3 {
-                    p.unknown.push((k.chars().take(40).collect(), line));
-                }
-            }
+            k => p.unknown.note(k, line),
         }
     }
     Ok(p.finish())
@@ -145,9 +140,8 @@ struct MtlParser<'a> {
     given: Vec<[bool; 2]>,
     /// Line of each material's `newmtl`.
     lines_of: HashMap<String, usize>,
-    /// The first few unknown statements (keyword, line), and how many there were.
-    unknown: Vec<(String, usize)>,
-    unknown_count: usize,
+    /// The unknown statements.
+    unknown: Skipped,
 }
 
 impl MtlParser<'_> {
@@ -275,22 +269,10 @@ impl MtlParser<'_> {
 
     /// The library, with one warning summing up the unknown statements.
     fn finish(mut self) -> MtlLibrary {
-        let (unknown, unknown_count) = (&self.unknown, self.unknown_count);
-        if unknown_count > 0 {
-            let at: Vec<String> = unknown
-                .iter()
-                .map(|(k, l)| format!("'{k}' on line {l}"))
-                .collect();
-            self.lib.warnings.push(format!(
-                "{}: {unknown_count} unknown statement(s) ignored ({}{})",
-                self.path.display(),
-                at.join(", "),
-                if unknown_count > unknown.len() {
-                    ", …"
-                } else {
-                    ""
-                }
-            ));
+        if let Some(s) = self.unknown.summary("unknown statement(s) ignored") {
+            self.lib
+                .warnings
+                .push(format!("{}: {s}", self.path.display()));
         }
         self.lib
     }

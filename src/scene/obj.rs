@@ -157,8 +157,7 @@ pub(crate) fn scan_obj(
         ntex: 0,
         nnorm: 0,
         colored: None,
-        ignored: Vec::new(),
-        ignored_count: 0,
+        ignored: Skipped::default(),
         dangling: Tally::default(),
         short_faces: Tally::default(),
         clip_budget: MAX_EAR_CLIP_WORK,
@@ -223,9 +222,8 @@ struct Scanner<'a> {
     nnorm: usize,
     /// Whether vertices carry colours (set by the first vertex).
     colored: Option<bool>,
-    /// The first few ignored statements (keyword, line), and how many there were.
-    ignored: Vec<(String, usize)>,
-    ignored_count: usize,
+    /// The point, line and free-form statements ignored.
+    ignored: Skipped,
     /// Faces with corners whose texture coordinate or normal index is undefined.
     dangling: Tally,
     /// Faces of fewer than three vertices, skipped.
@@ -438,10 +436,7 @@ impl Scanner<'_> {
 
     /// Notes an ignored point, line or free-form statement.
     fn ignore(&mut self, key: &str, line: usize) {
-        self.ignored_count += 1;
-        if self.ignored.len() < 3 {
-            self.ignored.push((key.to_string(), line));
-        }
+        self.ignored.note(key, line);
     }
 
     /// The scan, with one warning for each kind of thing skipped or ignored.
@@ -471,21 +466,11 @@ impl Scanner<'_> {
                 ));
             }
         }
-        let (ignored, ignored_count) = (&self.ignored, self.ignored_count);
-        if ignored_count > 0 {
-            let at: Vec<String> = ignored
-                .iter()
-                .map(|(k, l)| format!("'{k}' on line {l}"))
-                .collect();
-            self.s.warnings.push(format!(
-                "{shown}: {ignored_count} point, line or free-form statement(s) ignored ({}{})",
-                at.join(", "),
-                if ignored_count > ignored.len() {
-                    ", …"
-                } else {
-                    ""
-                }
-            ));
+        if let Some(s) = self
+            .ignored
+            .summary("point, line or free-form statement(s) ignored")
+        {
+            self.s.warnings.push(format!("{shown}: {s}"));
         }
         self.s
     }
@@ -589,5 +574,42 @@ fn short(l: &str) -> String {
         format!("{}…", l.chars().take(60).collect::<String>())
     } else {
         l.to_string()
+    }
+}
+
+/// Statements passed over: the first few (keyword, at most 40 characters, and line) and
+/// how many there were.
+#[derive(Default)]
+pub(super) struct Skipped {
+    first: Vec<(String, usize)>,
+    count: usize,
+}
+
+impl Skipped {
+    /// Notes statement `key` on `line`.
+    pub(super) fn note(&mut self, key: &str, line: usize) {
+        self.count += 1;
+        if self.first.len() < 3 {
+            self.first.push((key.chars().take(40).collect(), line));
+        }
+    }
+
+    /// `<count> <what> ('key' on line l, …)`, for a warning; None when nothing was
+    /// passed over.
+    pub(super) fn summary(&self, what: &str) -> Option<String> {
+        if self.count == 0 {
+            return None;
+        }
+        let at: Vec<String> = self
+            .first
+            .iter()
+            .map(|(k, l)| format!("'{k}' on line {l}"))
+            .collect();
+        let more = if self.count > self.first.len() {
+            ", …"
+        } else {
+            ""
+        };
+        Some(format!("{} {what} ({}{more})", self.count, at.join(", ")))
     }
 }

@@ -81,28 +81,22 @@ mod tests {
 
     #[test]
     fn mean_is_linear_and_alpha_weighted() {
-        // Half the texels sRGB 188 (linear 0.5029), half black: mean 0.2514.
-        let half = png(4, 2, |x, _| {
-            if x < 2 {
-                [188, 188, 188, 255]
-            } else {
-                [0, 0, 0, 255]
-            }
-        });
-        let m = mean_linear_rgb(&half).unwrap();
+        // Half the texels sRGB 188 (linear 0.5029), half `right`.
+        let grey_left = |right: [u8; 4]| {
+            png(
+                4,
+                2,
+                |x, _| if x < 2 { [188, 188, 188, 255] } else { right },
+            )
+        };
+        // The right half black: mean 0.2514.
+        let m = mean_linear_rgb(&grey_left([0, 0, 0, 255])).unwrap();
         assert!(
             (m[0] as f64 - 0.5 * srgb_to_linear(188.0 / 255.0)).abs() < 1e-6,
             "{m:?}"
         );
         // The black half transparent: only the grey counts.
-        let alpha = png(4, 2, |x, _| {
-            if x < 2 {
-                [188, 188, 188, 255]
-            } else {
-                [0, 0, 0, 0]
-            }
-        });
-        let m = mean_linear_rgb(&alpha).unwrap();
+        let m = mean_linear_rgb(&grey_left([0, 0, 0, 0])).unwrap();
         assert!(
             (m[1] as f64 - srgb_to_linear(188.0 / 255.0)).abs() < 1e-6,
             "{m:?}"

@@ -176,17 +176,7 @@ impl Geometry {
             path: toml_path.to_path_buf(),
             message,
         };
-        for (kind, opts) in [("surface", &cfg.surface), ("material", &cfg.material)] {
-            for (name, o) in opts {
-                if let Some(t) = o.transmittance {
-                    if !(0.0..=1.0).contains(&t) {
-                        return Err(bad(format!(
-                            "[{kind}.{name}] transmittance = {t}: must be in 0..1"
-                        )));
-                    }
-                }
-            }
-        }
+        check_transmittances(cfg).map_err(bad)?;
         let of_surface: Vec<Option<f64>> = self
             .surfaces
             .iter()
@@ -224,9 +214,15 @@ impl Geometry {
         if kept.is_empty() {
             return Err(SceneError::Empty(obj_name.to_path_buf()));
         }
-        // Drop the surfaces left empty, renumbering the rest.
+        self.triangles = kept;
+        self.drop_empty_surfaces();
+        Ok(panes)
+    }
+
+    /// Drops the surfaces left without triangles, renumbering the rest.
+    fn drop_empty_surfaces(&mut self) {
         let mut used = vec![false; self.surfaces.len()];
-        for t in &kept {
+        for t in &self.triangles {
             used[t.surface as usize] = true;
         }
         let mut new_index = vec![u32::MAX; self.surfaces.len()];
@@ -237,7 +233,7 @@ impl Geometry {
                 surfaces.push(s);
             }
         }
-        for t in &mut kept {
+        for t in &mut self.triangles {
             t.surface = new_index[t.surface as usize];
         }
         self.surf_index = surfaces
@@ -246,9 +242,23 @@ impl Geometry {
             .map(|(i, s)| (s.name.clone(), i as u32))
             .collect();
         self.surfaces = surfaces;
-        self.triangles = kept;
-        Ok(panes)
     }
+}
+
+/// Checks that every `transmittance` of `[surface.*]` and `[material.*]` is in 0..1.
+fn check_transmittances(cfg: &SceneToml) -> Result<(), String> {
+    for (kind, opts) in [("surface", &cfg.surface), ("material", &cfg.material)] {
+        for (name, o) in opts {
+            if let Some(t) = o.transmittance {
+                if !(0.0..=1.0).contains(&t) {
+                    return Err(format!(
+                        "[{kind}.{name}] transmittance = {t}: must be in 0..1"
+                    ));
+                }
+            }
+        }
+    }
+    Ok(())
 }
 
 /// Zero area, or a sliver thinner than 1e-6 of its longest edge.

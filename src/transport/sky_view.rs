@@ -180,6 +180,141 @@ pub fn patch_sky_direct(
     rows.concat()
 }
 
+/// What a ray sees: 0 blocked, 1 sky, 2 ground; and the transmittance on the way, bits.
+type Class = (u8, u32);
+
+/// The transmittance of a ray of class `k`.
+#[inline]
+fn share(k: Class) -> f32 {
+    f32::from_bits(k.1)
+}
+
+/// Whether grid corner (i, j) of the coarse view grid lies on its rim.
+#[inline]
+fn rim(i: usize, j: usize) -> bool {
+    let g = VIEW_GRID;
+    i == 0 || j == 0 || i == g || j == g
+}
+
+/// Rays from one receiver point of a [`SkyView`].
+struct Viewer<'a> {
+    bvh: &'a Bvh,
+    glazing: &'a Glazing,
+    /// The point, off its surface.
+    o: DVec3,
+    /// The receiver's frame: tangent, bitangent, normal.
+    t: DVec3,
+    b: DVec3,
+    n: DVec3,
+    reach: Reach,
+}
+
+impl Viewer<'_> {
+    /// The direction at (u, v) of the coarse grid, in cells.
+    #[inline]
+    fn dir(&self, u: f64, v: f64) -> DVec3 {
+        let g = VIEW_GRID as f64;
+        cosine_dir(u / g, v / g, self.t, self.b, self.n)
+    }
+
+    /// What the ray along unit `d` sees.
+    #[inline]
+    fn class(&self, d: DVec3) -> Class {
+        let tr = transmitted(self.bvh, self.glazing, self.o, d, self.reach, u32::MAX) as f32;
+        if tr <= 0.0 {
+            (0, 0)
+        } else if d.y >= 0.0 {
+            (1, tr.to_bits())
+        } else {
+            (2, tr.to_bits())
+        }
+    }
+
+    /// Whether the horizon crosses cell (i, j), whose centre ray is `d`.
+    fn crosses_horizon(&self, i: usize, j: usize, d: DVec3) -> bool {
+        let y = |a: usize, c: usize| self.dir((i + a) as f64, (j + c) as f64).y;
+        let corners = [y(0, 0), y(1, 0), y(0, 1), y(1, 1)];
+        corners.iter().any(|c| (*c >= 0.0) != (d.y >= 0.0))
+    }
+
+    /// The escaped rays of cell (i, j), of solid-angle share `cell`, refined into
+    /// [`VIEW_REFINE`]² rays.
+    fn refine(&self, i: usize, j: usize, cell: f64, rays: &mut Vec<([f32; 3], f32)>) {
+        let r = VIEW_REFINE;
+        let sub = cell / (r * r) as f64;
+        for sj in 0..r {
+            for si in 0..r {
+                let u = i as f64 + (si as f64 + 0.5) / r as f64;
+                let v = j as f64 + (sj as f64 + 0.5) / r as f64;
+                let d = self.dir(u, v);
+                let k = self.class(d);
+                if k.0 != 0 {
+                    rays.push((d.as_vec3().to_array(), sub as f32 * share(k)));
+                }
+            }
+        }
+    }
+}
+
+/// The coarse grid of a [`SkyView`]: each cell's centre ray and what it sees, and what
+/// the rays through the corners of the rim cells see.
+struct Coarse {
+    centres: Vec<(DVec3, Class)>,
+    /// Rim corners (others `(u8::MAX, 0)`), (g + 1)² row-major.
+    corners: Vec<Class>,
+}
+
+impl Coarse {
+    fn trace(view: &Viewer) -> Coarse {
+        let g = VIEW_GRID;
+        let centres = (0..g * g)
+            .map(|c| {
+                let d = view.dir((c % g) as f64 + 0.5, (c / g) as f64 + 0.5);
+                (d, view.class(d))
+            })
+            .collect();
+        // The corners of the rim cells too: a cell on the rim (directions near the
+        // receiver's plane) has no outer neighbour, and an edge (a window sill) that
+        // crosses it between its centre and the plane shows only at its corners. Inner
+        // cells have neighbours all round.
+        let corners = (0..(g + 1) * (g + 1))
+            .map(|c| {
+                let (i, j) = (c % (g + 1), c / (g + 1));
+                if rim(i, j) {
+                    view.class(view.dir(i as f64, j as f64))
+                } else {
+                    (u8::MAX, 0)
+                }
+            })
+            .collect();
+        Coarse { centres, corners }
+    }
+
+    /// Whether cell (i, j), of class `k`, has a neighbour (or a rim corner) that sees
+    /// otherwise.
+    fn differs(&self, i: usize, j: usize, k: Class) -> bool {
+        let g = VIEW_GRID;
+        let corner = |i: usize, j: usize| self.corners[j * (g + 1) + i];
+        let at = |i: usize, j: usize| self.centres[j * g + i].1;
+        let mut differs = [(0, 0), (1, 0), (0, 1), (1, 1)]
+            .iter()
+            .any(|&(a, c)| rim(i + a, j + c) && corner(i + a, j + c) != k);
+        if i > 0 {
+            differs |= at(i - 1, j) != k;
+        }
+        if i + 1 < g {
+            differs |= at(i + 1, j) != k;
+        }
+        if j > 0 {
+            differs |= at(i, j - 1) != k;
+        }
+        if j + 1 < g {
+            differs |= at(i, j + 1) != k;
+        }
+        differs
+    }
+}
+
 /// What a point sees of the sky and the ground: escaped directions with their
 /// cosine-weighted share (shares of the whole hemisphere sum to 1), merged per 3° cell
 /// ([`SkyView::merged`]).
@@ -194,112 +329,32 @@ impl SkyView {
     pub fn trace(bvh: &Bvh, glazing: &Glazing, x: DVec3, n: DVec3, reach: Reach) -> SkyView {
         let n = n.normalize();
         let (t, b) = frame(n);
-        let o = lifted(x, n);
+        let view = Viewer {
+            bvh,
+            glazing,
+            o: lifted(x, n),
+            t,
+            b,
+            n,
+            reach,
+        };
+        let coarse = Coarse::trace(&view);
         let g = VIEW_GRID;
-        // (0 blocked, 1 sky, 2 ground; the transmittance on the way, bits).
-        let class = |d: DVec3| -> (u8, u32) {
-            let tr = transmitted(bvh, glazing, o, d, reach, u32::MAX) as f32;
-            if tr <= 0.0 {
-                (0, 0)
-            } else if d.y >= 0.0 {
-                (1, tr.to_bits())
-            } else {
-                (2, tr.to_bits())
-            }
-        };
-        let share = |k: (u8, u32)| f32::from_bits(k.1);
-        let centre = |i: usize, j: usize| {
-            cosine_dir(
-                (i as f64 + 0.5) / g as f64,
-                (j as f64 + 0.5) / g as f64,
-                t,
-                b,
-                n,
-            )
-        };
-        let coarse: Vec<(DVec3, (u8, u32))> = (0..g * g)
-            .map(|c| {
-                let d = centre(c % g, c / g);
-                (d, class(d))
-            })
-            .collect();
-        // The corners of the rim cells too: a cell on the rim (directions near the
-        // receiver's plane) has no outer neighbour, and an edge (a window sill) that
-        // crosses it between its centre and the plane shows only at its corners. Inner
-        // cells have neighbours all round.
-        let rim = |i: usize, j: usize| i == 0 || j == 0 || i == g || j == g;
-        let corners: Vec<(u8, u32)> = (0..(g + 1) * (g + 1))
-            .map(|c| {
-                let (i, j) = (c % (g + 1), c / (g + 1));
-                if rim(i, j) {
-                    class(cosine_dir(
-                        i as f64 / g as f64,
-                        j as f64 / g as f64,
-                        t,
-                        b,
-                        n,
-                    ))
-                } else {
-                    (u8::MAX, 0)
-                }
-            })
-            .collect();
-        let corner = |i: usize, j: usize| corners[j * (g + 1) + i];
-        let at = |i: usize, j: usize| coarse[j * g + i].1;
         let cell = 1.0 / (g * g) as f64;
         let mut rays = Vec::new();
         for j in 0..g {
             for i in 0..g {
-                let (d, k) = coarse[j * g + i];
-                let mut differs = [(0, 0), (1, 0), (0, 1), (1, 1)]
-                    .iter()
-                    .any(|&(a, c)| rim(i + a, j + c) && corner(i + a, j + c) != k);
-                if i > 0 {
-                    differs |= at(i - 1, j) != k;
-                }
-                if i + 1 < g {
-                    differs |= at(i + 1, j) != k;
-                }
-                if j > 0 {
-                    differs |= at(i, j - 1) != k;
-                }
-                if j + 1 < g {
-                    differs |= at(i, j + 1) != k;
-                }
+                let (d, k) = coarse.centres[j * g + i];
                 // A cell the horizon crosses is refined too: the horizon is sharp.
-                if !differs && k.0 != 0 {
-                    let y = |a: usize, c: usize| {
-                        cosine_dir(
-                            (i + a) as f64 / g as f64,
-                            (j + c) as f64 / g as f64,
-                            t,
-                            b,
-                            n,
-                        )
-                        .y
-                    };
-                    let corners = [y(0, 0), y(1, 0), y(0, 1), y(1, 1)];
-                    differs = corners.iter().any(|c| (*c >= 0.0) != (d.y >= 0.0));
-                }
+                let differs =
+                    coarse.differs(i, j, k) || (k.0 != 0 && view.crosses_horizon(i, j, d));
                 if !differs {
                     if k.0 != 0 {
                         rays.push((d.as_vec3().to_array(), cell as f32 * share(k)));
                     }
                     continue;
                 }
-                let r = VIEW_REFINE;
-                let sub = cell / (r * r) as f64;
-                for sj in 0..r {
-                    for si in 0..r {
-                        let u = (i as f64 + (si as f64 + 0.5) / r as f64) / g as f64;
-                        let v = (j as f64 + (sj as f64 + 0.5) / r as f64) / g as f64;
-                        let d = cosine_dir(u, v, t, b, n);
-                        let k = class(d);
-                        if k.0 != 0 {
-                            rays.push((d.as_vec3().to_array(), sub as f32 * share(k)));
-                        }
-                    }
-                }
+                view.refine(i, j, cell, &mut rays);
             }
         }
         SkyView::merged(rays)

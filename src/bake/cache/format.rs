@@ -71,8 +71,11 @@ pub(super) enum Kind {
     Lu,
 }
 
+/// Sections by name, with their kinds and exact lengths in bytes.
+type Sections = Vec<(String, Kind, u64)>;
+
 /// The sections a header must list, with their kinds and exact lengths in bytes.
-pub(super) fn expected_sections(h: &Header) -> Option<Vec<(String, Kind, u64)>> {
+pub(super) fn expected_sections(h: &Header) -> Option<Sections> {
     let n = h.patch_count as u64;
     let vec3 = n.checked_mul(12)?;
     let vec1 = n.checked_mul(4)?;
@@ -91,6 +94,31 @@ pub(super) fn expected_sections(h: &Header) -> Option<Vec<(String, Kind, u64)>> 
             out.push((format!("{c}{g}"), Kind::Floats, vec3));
         }
     }
+    grid_sections(h, &mut out)?;
+    sky_sections(h, &mut out)?;
+    match h.mode {
+        TransferMode::Columns => {
+            if h.lu_count != 0 {
+                return None;
+            }
+        }
+        TransferMode::Hierarchical => hierarchy_sections(h, &mut out)?,
+        TransferMode::Factored => {
+            if !(1..=3).contains(&h.lu_count) {
+                return None;
+            }
+            out.push(("f".to_string(), Kind::Floats, square));
+            for k in 0..h.lu_count {
+                out.push((format!("lu{k}"), Kind::Lu, square));
+                out.push((format!("perm{k}"), Kind::Floats, vec1));
+            }
+        }
+    }
+    Some(out)
+}
+
+/// Adds one section per grid and group; None when they cannot all be listed.
+fn grid_sections(h: &Header, out: &mut Sections) -> Option<()> {
     // Every grid needs one section per group, listed in the (bounded) header.
     if h.grid_points.len().saturating_mul(h.groups) > h.sections.len() {
         return None;
@@ -104,57 +132,52 @@ pub(super) fn expected_sections(h: &Header) -> Option<Vec<(String, Kind, u64)>> 
             ));
         }
     }
-    if h.sky_patches > 0 {
-        if h.sky_patches > h.sections.len() {
-            return None;
-        }
-        out.push((
-            "skyd".to_string(),
-            Kind::Floats,
-            vec1.checked_mul(h.sky_patches as u64)?,
-        ));
-        for k in 0..h.sky_patches {
-            out.push((sky_section(k), Kind::Floats, vec3));
-        }
+    Some(())
+}
+
+/// Adds the sky's sections (the direct part, one per sky patch), if any; None when they
+/// cannot all be listed.
+fn sky_sections(h: &Header, out: &mut Sections) -> Option<()> {
+    if h.sky_patches == 0 {
+        return Some(());
     }
-    match h.mode {
-        TransferMode::Columns => {
-            if h.lu_count != 0 {
-                return None;
-            }
-        }
-        TransferMode::Hierarchical => {
-            if h.lu_count != 0 || n == 0 {
-                return None;
-            }
-            let links = h.links;
-            out.push((
-                "children".to_string(),
-                Kind::Floats,
-                (n - 1).checked_mul(8)?,
-            ));
-            out.push(("offsets".to_string(), Kind::Floats, n.checked_mul(8)?));
-            out.push(("src".to_string(), Kind::Floats, links.checked_mul(4)?));
-            out.push(("k".to_string(), Kind::Floats, links.checked_mul(4)?));
-            out.push((
-                "vis".to_string(),
-                Kind::Floats,
-                links.div_ceil(4).checked_mul(4)?,
-            ));
-            out.push(("sigma".to_string(), Kind::Floats, vec1));
-        }
-        TransferMode::Factored => {
-            if !(1..=3).contains(&h.lu_count) {
-                return None;
-            }
-            out.push(("f".to_string(), Kind::Floats, square));
-            for k in 0..h.lu_count {
-                out.push((format!("lu{k}"), Kind::Lu, square));
-                out.push((format!("perm{k}"), Kind::Floats, vec1));
-            }
-        }
+    if h.sky_patches > h.sections.len() {
+        return None;
     }
-    Some(out)
+    let n = h.patch_count as u64;
+    out.push((
+        "skyd".to_string(),
+        Kind::Floats,
+        n.checked_mul(4)?.checked_mul(h.sky_patches as u64)?,
+    ));
+    for k in 0..h.sky_patches {
+        out.push((sky_section(k), Kind::Floats, n.checked_mul(12)?));
+    }
+    Some(())
+}
+
+/// Adds the hierarchy's sections (its tree and links); None for an inconsistent header.
+fn hierarchy_sections(h: &Header, out: &mut Sections) -> Option<()> {
+    let n = h.patch_count as u64;
+    if h.lu_count != 0 || n == 0 {
+        return None;
+    }
+    let links = h.links;
+    out.push((
+        "children".to_string(),
+        Kind::Floats,
+        (n - 1).checked_mul(8)?,
+    ));
+    out.push(("offsets".to_string(), Kind::Floats, n.checked_mul(8)?));
+    out.push(("src".to_string(), Kind::Floats, links.checked_mul(4)?));
+    out.push(("k".to_string(), Kind::Floats, links.checked_mul(4)?));
+    out.push((
+        "vis".to_string(),
+        Kind::Floats,
+        links.div_ceil(4).checked_mul(4)?,
+    ));
+    out.push(("sigma".to_string(), Kind::Floats, n.checked_mul(4)?));
+    Some(())
 }
 
 /// The section of grid `i`'s response to group `g`.

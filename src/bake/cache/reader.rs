@@ -14,7 +14,7 @@ use super::format::{
     MAX_HEADER_BYTES, PREAMBLE,
 };
 use super::CacheError;
-use crate::transport::hierarchy::Hierarchy;
+use crate::transport::hierarchy::{Hierarchy, StoredLinks};
 use crate::transport::solve::ChannelLu;
 use crate::transport::transfer::{Factored, GroupColumns, SkyColumns, Transfer, TransferMode};
 
@@ -311,17 +311,15 @@ fn hierarchy(
     let mut vis = bytemuck::cast_slice::<f32, u8>(&take("vis")?).to_vec();
     vis.truncate(src.len());
     let sigma = take("sigma")?;
-    Hierarchy::from_parts(
-        area,
-        children,
+    let links = StoredLinks {
         offsets,
         src,
         k,
         vis,
-        sigma,
-        h.hierarchy.unwrap_or_default(),
-    )
-    .ok_or_else(|| corrupt("the hierarchy's links are inconsistent".into()))
+    };
+    let stats = h.hierarchy.unwrap_or_default();
+    Hierarchy::from_parts(area, children, links, sigma, stats)
+        .ok_or_else(|| corrupt("the hierarchy's links are inconsistent".into()))
 }
 
 /// The factorization of a factored entry: its LUs with their permutations, the channel

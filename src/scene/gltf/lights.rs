@@ -4,22 +4,18 @@ use super::*;
 
 impl Reader<'_> {
     /// A `KHR_lights_punctual` light on `node`: a luminaire in the light's group.
-    #[allow(clippy::too_many_arguments)]
     pub(super) fn light(
         &mut self,
         node: &gltf::Node<'_>,
         light: &gltf::khr_lights_punctual::Light<'_>,
         world: &DMat4,
-        ids: &mut Unique,
-        groups: &mut HashMap<usize, String>,
-        group_names: &mut Unique,
-        skipped: &mut usize,
+        names: &mut LightNames,
         out: &mut GltfModel,
     ) -> Result<(), SceneError> {
         use gltf::khr_lights_punctual::Kind;
         let distribution = match light.kind() {
             Kind::Directional => {
-                *skipped += 1;
+                names.skipped_directional += 1;
                 return Ok(());
             }
             Kind::Point => Distribution::Isotropic,
@@ -44,20 +40,24 @@ impl Reader<'_> {
                 }
             }
         };
-        let group = match groups.get(&light.index()) {
+        let group = match names.groups.get(&light.index()) {
             Some(g) => g.clone(),
             None => {
-                if groups.len() >= MAX_LIGHT_GROUPS {
+                if names.groups.len() >= MAX_LIGHT_GROUPS {
                     return Err(self.err(format!("more than {MAX_LIGHT_GROUPS} lights")));
                 }
-                let g = group_names.take(light.name().map(sanitize_id).as_deref(), || {
-                    format!("light{}", light.index())
-                });
-                groups.insert(light.index(), g.clone());
+                let g = names
+                    .group_names
+                    .take(light.name().map(sanitize_id).as_deref(), || {
+                        format!("light{}", light.index())
+                    });
+                names.groups.insert(light.index(), g.clone());
                 g
             }
         };
-        let id = ids.take(node.name(), || format!("node{}", node.index()));
+        let id = names
+            .ids
+            .take(node.name(), || format!("node{}", node.index()));
         let position = world.transform_point3(DVec3::ZERO) * self.scale;
         let aim = world.transform_vector3(DVec3::NEG_Z);
         let candela = light.intensity() as f64;

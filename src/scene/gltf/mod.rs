@@ -123,8 +123,38 @@ struct Reader<'a> {
 /// Raw buffer contents, one per glTF buffer, each exactly its declared length.
 type Buffers = Vec<Vec<u8>>;
 
+/// Where material textures come from: the buffers, and the files read (a texture file is
+/// added); `count` textures read so far.
+struct Textures<'b> {
+    buffers: &'b Buffers,
+    count: usize,
+    files: &'b mut Vec<PathBuf>,
+}
+
 /// A primitive's positions (file units, untransformed) and triangles.
 type Triangles = (Vec<[f32; 3]>, Vec<[u32; 3]>);
+
+/// What the walk keeps for the mesh instances: the buffers and the relight material of
+/// each glTF material, unique surface names, the vertex and triangle counts so far, the
+/// primitives skipped, and each primitive's triangles, decoded at its first instance.
+struct Instances<'b> {
+    buffers: &'b Buffers,
+    mats: &'b [u32],
+    surfaces: Unique,
+    counts: (usize, usize),
+    skipped_modes: usize,
+    decoded: HashMap<(usize, usize), Option<Triangles>>,
+}
+
+/// What the walk keeps for the lights: unique luminaire ids, the light group of each
+/// light definition (by index) with unique group names, and the lights skipped.
+#[derive(Default)]
+struct LightNames {
+    ids: Unique,
+    groups: HashMap<usize, String>,
+    group_names: Unique,
+    skipped_directional: usize,
+}
 
 impl<'a> Reader<'a> {
     fn new(
@@ -188,7 +218,12 @@ impl<'a> Reader<'a> {
         }
         let buffers = self.buffers(&gltf, files)?;
         let mut table = MaterialTable::default();
-        let mats = self.materials(&gltf.document, &buffers, &mut table, files)?;
+        let mut textures = Textures {
+            buffers: &buffers,
+            count: 0,
+            files,
+        };
+        let mats = self.materials(&gltf.document, &mut textures, &mut table)?;
         let mut out = GltfModel {
             table,
             parts: Vec::new(),
@@ -202,77 +237,16 @@ impl<'a> Reader<'a> {
     fn materials(
         &mut self,
         doc: &gltf::Document,
-        buffers: &Buffers,
+        textures: &mut Textures<'_>,
         table: &mut MaterialTable,
-        files: &mut Vec<PathBuf>,
     ) -> Result<Vec<u32>, SceneError> {
         let mut names = Unique::default();
-        let mut textures = 0usize;
         let mut out = Vec::new();
         for m in doc.materials() {
             let i = m.index().unwrap_or(0);
             let name = names.take(m.name(), || format!("material{i}"));
-            let pbr = m.pbr_metallic_roughness();
-            let base = pbr.base_color_factor();
-            let metallic = pbr.metallic_factor().clamp(0.0, 1.0);
-            let mut kd: Rgb = std::array::from_fn(|c| (1.0 - metallic) * base[c]);
-            if let Some(info) = pbr.base_color_texture() {
-                if let Some(mean) =
-                    self.texture_mean(info.texture(), &name, buffers, &mut textures, files)?
-                {
-                    kd = std::array::from_fn(|c| kd[c] * mean[c]);
-                }
-            }
-            if kd.iter().any(|x| !x.is_finite() || *x < 0.0) {
-                return Err(self.err(format!(
-                    "material '{name}': base colour {kd:?} must be finite and ≥ 0"
-                )));
-            }
-            if metallic >= 1.0 && base[..3].iter().any(|&b| b > 0.0) {
-                self.warnings.push(format!(
-                    "{}: material '{name}' is fully metallic (metallicFactor 1, the glTF \
-                     default): it reflects no diffuse light",
-                    self.shown.display()
-                ));
-            }
-            if let Some(k) = mtl::clamp_kd(kd) {
-                if self.cfg.strict {
-                    return Err(self.err(format!(
-                        "material '{name}': diffuse reflectance {kd:?} must be below 1 per \
-                         channel (strict = true; a lenient load would use {k:?})"
-                    )));
-                }
-                self.warnings.push(format!(
-                    "{}: material '{name}': diffuse reflectance reaches 1: scaled to {} {} {} \
-                     (at most {MAX_KD})",
-                    self.shown.display(),
-                    k[0],
-                    k[1],
-                    k[2]
-                ));
-                kd = k;
-            }
-            let strength = m.emissive_strength().unwrap_or(1.0);
-            let ef = m.emissive_factor();
-            let mut ke: Rgb = std::array::from_fn(|c| std::f32::consts::PI * ef[c] * strength);
-            if ke.iter().any(|&x| x > 0.0) {
-                if let Some(info) = m.emissive_texture() {
-                    if let Some(mean) =
-                        self.texture_mean(info.texture(), &name, buffers, &mut textures, files)?
-                    {
-                        ke = std::array::from_fn(|c| ke[c] * mean[c]);
-                    }
-                }
-            }
-            if ke
-                .iter()
-                .any(|x| !x.is_finite() || *x < 0.0 || *x > MAX_EXITANCE)
-            {
-                return Err(self.err(format!(
-                    "material '{name}': emission (π × emissiveFactor × strength) {ke:?} lm/m² \
-                     must be in [0, {MAX_EXITANCE}]"
-                )));
-            }
+            let kd = self.reflectance(&m, &name, textures)?;
+            let ke = self.emission(&m, &name, textures)?;
             let two_sided =
                 m.double_sided() || self.cfg.material.get(&name).is_some_and(|o| o.two_sided);
             out.push(table.push(
@@ -288,18 +262,107 @@ impl<'a> Reader<'a> {
         Ok(out)
     }
 
+    /// The diffuse reflectance of material `m` (named `name`): `(1 − metallic) × base
+    /// colour ×` its texture's mean, scaled below 1 (or refused, strict).
+    fn reflectance(
+        &mut self,
+        m: &gltf::Material<'_>,
+        name: &str,
+        textures: &mut Textures<'_>,
+    ) -> Result<Rgb, SceneError> {
+        let pbr = m.pbr_metallic_roughness();
+        let base = pbr.base_color_factor();
+        let metallic = pbr.metallic_factor().clamp(0.0, 1.0);
+        let mut kd: Rgb = std::array::from_fn(|c| (1.0 - metallic) * base[c]);
+        kd = self.tinted(kd, pbr.base_color_texture(), name, textures)?;
+        if kd.iter().any(|x| !x.is_finite() || *x < 0.0) {
+            return Err(self.err(format!(
+                "material '{name}': base colour {kd:?} must be finite and ≥ 0"
+            )));
+        }
+        if metallic >= 1.0 && base[..3].iter().any(|&b| b > 0.0) {
+            self.warnings.push(format!(
+                "{}: material '{name}' is fully metallic (metallicFactor 1, the glTF \
+                 default): it reflects no diffuse light",
+                self.shown.display()
+            ));
+        }
+        if let Some(k) = mtl::clamp_kd(kd) {
+            if self.cfg.strict {
+                return Err(self.err(format!(
+                    "material '{name}': diffuse reflectance {kd:?} must be below 1 per \
+                     channel (strict = true; a lenient load would use {k:?})"
+                )));
+            }
+            self.warnings.push(format!(
+                "{}: material '{name}': diffuse reflectance reaches 1: scaled to {} {} {} \
+                 (at most {MAX_KD})",
+                self.shown.display(),
+                k[0],
+                k[1],
+                k[2]
+            ));
+            kd = k;
+        }
+        Ok(kd)
+    }
+
+    /// The exitance of material `m` (named `name`), lm/m²: `π × emissiveFactor ×
+    /// strength ×` its emissive texture's mean.
+    fn emission(
+        &mut self,
+        m: &gltf::Material<'_>,
+        name: &str,
+        textures: &mut Textures<'_>,
+    ) -> Result<Rgb, SceneError> {
+        let strength = m.emissive_strength().unwrap_or(1.0);
+        let ef = m.emissive_factor();
+        let mut ke: Rgb = std::array::from_fn(|c| std::f32::consts::PI * ef[c] * strength);
+        if ke.iter().any(|&x| x > 0.0) {
+            ke = self.tinted(ke, m.emissive_texture(), name, textures)?;
+        }
+        if ke
+            .iter()
+            .any(|x| !x.is_finite() || *x < 0.0 || *x > MAX_EXITANCE)
+        {
+            return Err(self.err(format!(
+                "material '{name}': emission (π × emissiveFactor × strength) {ke:?} lm/m² \
+                 must be in [0, {MAX_EXITANCE}]"
+            )));
+        }
+        Ok(ke)
+    }
+
+    /// `c` times the mean colour of the texture `info` of material `material`, when it
+    /// has one that can be read.
+    fn tinted(
+        &mut self,
+        c: Rgb,
+        info: Option<gltf::texture::Info<'_>>,
+        material: &str,
+        textures: &mut Textures<'_>,
+    ) -> Result<Rgb, SceneError> {
+        let Some(info) = info else {
+            return Ok(c);
+        };
+        Ok(
+            match self.texture_mean(info.texture(), material, textures)? {
+                Some(mean) => std::array::from_fn(|k| c[k] * mean[k]),
+                None => c,
+            },
+        )
+    }
+
     /// The mean linear colour of a texture's image, or None (with a warning) when it
     /// cannot be read and the load is lenient.
     fn texture_mean(
         &mut self,
         tex: gltf::Texture<'_>,
         material: &str,
-        buffers: &Buffers,
-        count: &mut usize,
-        files: &mut Vec<PathBuf>,
+        textures: &mut Textures<'_>,
     ) -> Result<Option<Rgb>, SceneError> {
-        *count += 1;
-        if *count > MAX_TEXTURES {
+        textures.count += 1;
+        if textures.count > MAX_TEXTURES {
             return Err(self.err(format!("more than {MAX_TEXTURES} textures")));
         }
         let img = tex.source();
@@ -311,7 +374,7 @@ impl<'a> Reader<'a> {
                     files::human_bytes(MAX_TEXTURE_BYTES)
                 )))
             }
-            gltf::image::Source::View { view, .. } => view_bytes(&view, buffers)
+            gltf::image::Source::View { view, .. } => view_bytes(&view, textures.buffers)
                 .map(<[u8]>::to_vec)
                 .ok_or_else(|| self.err(format!("{what}: its bufferView lies outside its buffer"))),
             gltf::image::Source::Uri { uri, .. } => {
@@ -319,7 +382,9 @@ impl<'a> Reader<'a> {
                 match percent_decode(uri) {
                     Some(name) if plain && !self.cfg.strict => {
                         match self.sd.resolve_lenient(&name, self.shown, 0, &what)? {
-                            Some(_) => self.uri_bytes(uri, &what, MAX_TEXTURE_BYTES, files),
+                            Some(_) => {
+                                self.uri_bytes(uri, &what, MAX_TEXTURE_BYTES, textures.files)
+                            }
                             None => {
                                 self.warnings.push(format!(
                                     "{}: texture '{name}' of material '{material}' is not in \
@@ -330,7 +395,7 @@ impl<'a> Reader<'a> {
                             }
                         }
                     }
-                    _ => self.uri_bytes(uri, &what, MAX_TEXTURE_BYTES, files),
+                    _ => self.uri_bytes(uri, &what, MAX_TEXTURE_BYTES, textures.files),
                 }
             }
         }?;
@@ -362,15 +427,15 @@ impl<'a> Reader<'a> {
         // pass, before any mesh is decoded), so every node below is visited once.
         let roots = tree::roots(doc).map_err(|m| self.err(m))?;
         let all: Vec<gltf::Node<'_>> = doc.nodes().collect();
-        let mut surfaces = Unique::default();
-        let mut lum_ids = Unique::default();
-        let mut groups: HashMap<usize, String> = HashMap::new();
-        let mut group_names = Unique::default();
-        let mut counts = (0usize, 0usize);
-        let mut skipped_modes = 0usize;
-        let mut skipped_directional = 0usize;
-        // Each primitive's accessors are decoded once, at its first instance, and reused.
-        let mut decoded: HashMap<(usize, usize), Option<Triangles>> = HashMap::new();
+        let mut instances = Instances {
+            buffers,
+            mats,
+            surfaces: Unique::default(),
+            counts: (0, 0),
+            skipped_modes: 0,
+            decoded: HashMap::new(),
+        };
+        let mut lights = LightNames::default();
         let mut stack: Vec<(gltf::Node<'_>, DMat4)> = roots
             .into_iter()
             .rev()
@@ -383,46 +448,56 @@ impl<'a> Reader<'a> {
                 return Err(self.err(format!("nodes[{}]: transform is not finite", node.index())));
             }
             if let Some(mesh) = node.mesh() {
-                let name = surfaces.take(node.name().or(mesh.name()), || {
-                    format!("node{}", node.index())
-                });
-                for prim in mesh.primitives() {
-                    let tris = match decoded.entry((mesh.index(), prim.index())) {
-                        Entry::Occupied(e) => e.into_mut(),
-                        Entry::Vacant(e) => e.insert(self.primitive(&prim, &mesh, buffers)?),
-                    };
-                    let Some((positions, indices)) = tris else {
-                        skipped_modes += 1;
-                        continue;
-                    };
-                    counts.0 += positions.len();
-                    counts.1 += indices.len();
-                    if counts.0 > MAX_OBJ_VERTICES || counts.1 > MAX_OBJ_TRIANGLES {
-                        return Err(self.err(format!(
-                            "more than {MAX_OBJ_VERTICES} vertices or {MAX_OBJ_TRIANGLES} \
-                             triangles over all mesh instances"
-                        )));
-                    }
-                    let part = self.part(&name, &world, positions, indices, &prim, mats)?;
-                    out.parts.push(part);
-                }
+                self.mesh_parts(&node, &mesh, &world, &mut instances, out)?;
             }
             if let Some(light) = node.light() {
-                self.light(
-                    &node,
-                    &light,
-                    &world,
-                    &mut lum_ids,
-                    &mut groups,
-                    &mut group_names,
-                    &mut skipped_directional,
-                    out,
-                )?;
+                self.light(&node, &light, &world, &mut lights, out)?;
             }
             for c in node.children().collect::<Vec<_>>().into_iter().rev() {
                 stack.push((c, world));
             }
         }
+        self.warn_skipped(instances.skipped_modes, lights.skipped_directional);
+        Ok(())
+    }
+
+    /// The parts of `mesh` instanced by `node` at `world`.
+    fn mesh_parts(
+        &mut self,
+        node: &gltf::Node<'_>,
+        mesh: &gltf::Mesh<'_>,
+        world: &DMat4,
+        inst: &mut Instances<'_>,
+        out: &mut GltfModel,
+    ) -> Result<(), SceneError> {
+        let name = inst.surfaces.take(node.name().or(mesh.name()), || {
+            format!("node{}", node.index())
+        });
+        for prim in mesh.primitives() {
+            let tris = match inst.decoded.entry((mesh.index(), prim.index())) {
+                Entry::Occupied(e) => e.into_mut(),
+                Entry::Vacant(e) => e.insert(self.primitive(&prim, mesh, inst.buffers)?),
+            };
+            let Some((positions, indices)) = tris else {
+                inst.skipped_modes += 1;
+                continue;
+            };
+            inst.counts.0 += positions.len();
+            inst.counts.1 += indices.len();
+            if inst.counts.0 > MAX_OBJ_VERTICES || inst.counts.1 > MAX_OBJ_TRIANGLES {
+                return Err(self.err(format!(
+                    "more than {MAX_OBJ_VERTICES} vertices or {MAX_OBJ_TRIANGLES} \
+                     triangles over all mesh instances"
+                )));
+            }
+            let part = self.part(&name, world, positions, indices, &prim, inst.mats)?;
+            out.parts.push(part);
+        }
+        Ok(())
+    }
+
+    /// Warns of the primitives (points, lines) and lights (directional) the walk skipped.
+    fn warn_skipped(&mut self, skipped_modes: usize, skipped_directional: usize) {
         if skipped_modes > 0 {
             self.warnings.push(format!(
                 "{}: {skipped_modes} primitive(s) of points or lines skipped (only triangles \
@@ -437,7 +512,6 @@ impl<'a> Reader<'a> {
                 self.shown.display()
             ));
         }
-        Ok(())
     }
 
     /// The positions (file units, untransformed) and triangles of one primitive; None for
@@ -457,60 +531,11 @@ impl<'a> Reader<'a> {
         ) {
             return Ok(None);
         }
-        let pos = prim
-            .get(&gltf::Semantic::Positions)
-            .ok_or_else(|| self.err(format!("{what}: no POSITION attribute")))?;
-        if pos.data_type() != gltf::accessor::DataType::F32
-            || pos.dimensions() != gltf::accessor::Dimensions::Vec3
-            || pos.normalized()
-        {
-            return Err(self.err(format!(
-                "{what}: POSITION must be float VEC3 (quantized positions are not read)"
-            )));
-        }
-        let raw = accessor_bytes(&pos, buffers, 12, MAX_OBJ_VERTICES)
-            .map_err(|m| self.err(format!("{what}: POSITION {m}")))?;
-        let positions: Vec<[f32; 3]> = raw
-            .map(|b| {
-                std::array::from_fn(|k| {
-                    f32::from_le_bytes(b[4 * k..4 * k + 4].try_into().unwrap_or([0; 4]))
-                })
-            })
-            .collect();
+        let positions = self.positions(prim, &what, buffers)?;
         let n = positions.len();
         let list: Vec<u32> = match prim.indices() {
             None => (0..n as u32).collect(),
-            Some(acc) => {
-                use gltf::accessor::DataType;
-                let size = match acc.data_type() {
-                    DataType::U8 => 1,
-                    DataType::U16 => 2,
-                    DataType::U32 => 4,
-                    other => {
-                        return Err(self.err(format!(
-                            "{what}: indices must be unsigned integers, not {other:?}"
-                        )))
-                    }
-                };
-                if acc.dimensions() != gltf::accessor::Dimensions::Scalar {
-                    return Err(self.err(format!("{what}: indices must be SCALAR")));
-                }
-                let raw = accessor_bytes(&acc, buffers, size, 3 * MAX_OBJ_TRIANGLES)
-                    .map_err(|m| self.err(format!("{what}: indices {m}")))?;
-                let list: Vec<u32> = raw
-                    .map(|b| match size {
-                        1 => b[0] as u32,
-                        2 => u16::from_le_bytes([b[0], b[1]]) as u32,
-                        _ => u32::from_le_bytes([b[0], b[1], b[2], b[3]]),
-                    })
-                    .collect();
-                if let Some(bad) = list.iter().find(|&&i| i as usize >= n) {
-                    return Err(
-                        self.err(format!("{what}: index {bad} out of range ({n} vertices)"))
-                    );
-                }
-                list
-            }
+            Some(acc) => self.indices(&acc, &what, buffers, n)?,
         };
         let tris: Vec<[u32; 3]> = match mode {
             Mode::Triangles => list.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect(),
@@ -528,6 +553,72 @@ impl<'a> Reader<'a> {
                 .collect(),
         };
         Ok(Some((positions, tris)))
+    }
+
+    /// The POSITION attribute of primitive `prim` (named `what` in errors).
+    fn positions(
+        &self,
+        prim: &gltf::Primitive<'_>,
+        what: &str,
+        buffers: &Buffers,
+    ) -> Result<Vec<[f32; 3]>, SceneError> {
+        let pos = prim
+            .get(&gltf::Semantic::Positions)
+            .ok_or_else(|| self.err(format!("{what}: no POSITION attribute")))?;
+        if pos.data_type() != gltf::accessor::DataType::F32
+            || pos.dimensions() != gltf::accessor::Dimensions::Vec3
+            || pos.normalized()
+        {
+            return Err(self.err(format!(
+                "{what}: POSITION must be float VEC3 (quantized positions are not read)"
+            )));
+        }
+        let raw = accessor_bytes(&pos, buffers, 12, MAX_OBJ_VERTICES)
+            .map_err(|m| self.err(format!("{what}: POSITION {m}")))?;
+        Ok(raw
+            .map(|b| {
+                std::array::from_fn(|k| {
+                    f32::from_le_bytes(b[4 * k..4 * k + 4].try_into().unwrap_or([0; 4]))
+                })
+            })
+            .collect())
+    }
+
+    /// The vertex indices of accessor `acc` (of primitive `what`), each below `n`.
+    fn indices(
+        &self,
+        acc: &gltf::Accessor<'_>,
+        what: &str,
+        buffers: &Buffers,
+        n: usize,
+    ) -> Result<Vec<u32>, SceneError> {
+        use gltf::accessor::DataType;
+        let size = match acc.data_type() {
+            DataType::U8 => 1,
+            DataType::U16 => 2,
+            DataType::U32 => 4,
+            other => {
+                return Err(self.err(format!(
+                    "{what}: indices must be unsigned integers, not {other:?}"
+                )))
+            }
+        };
+        if acc.dimensions() != gltf::accessor::Dimensions::Scalar {
+            return Err(self.err(format!("{what}: indices must be SCALAR")));
+        }
+        let raw = accessor_bytes(acc, buffers, size, 3 * MAX_OBJ_TRIANGLES)
+            .map_err(|m| self.err(format!("{what}: indices {m}")))?;
+        let list: Vec<u32> = raw
+            .map(|b| match size {
+                1 => b[0] as u32,
+                2 => u16::from_le_bytes([b[0], b[1]]) as u32,
+                _ => u32::from_le_bytes([b[0], b[1], b[2], b[3]]),
+            })
+            .collect();
+        if let Some(bad) = list.iter().find(|&&i| i as usize >= n) {
+            return Err(self.err(format!("{what}: index {bad} out of range ({n} vertices)")));
+        }
+        Ok(list)
     }
 
     /// One part: the primitive's triangles in file units, transformed by `world`.

@@ -19,23 +19,43 @@ const NONE: usize = usize::MAX;
 /// [`MAX_GLTF_NODE_INSTANCES`] nodes and [`MAX_GLTF_DEPTH`] levels. Errors name the node.
 pub(super) fn roots(doc: &gltf::Document) -> Result<Vec<usize>, String> {
     let json = doc.as_json();
-    let n = json.nodes.len();
-    let children = |p: usize| json.nodes[p].children.iter().flatten().map(|c| c.value());
-    let exists = |i: usize, what: &dyn Fn() -> String| {
-        if i < n {
-            Ok(())
-        } else {
-            Err(format!(
-                "{} names nodes[{i}], which does not exist (the file has {n} nodes)",
-                what()
-            ))
-        }
+    let parent = parents(json)?;
+    check_scenes(json, &parent)?;
+    let depth = depths(json, &parent)?;
+    let roots: Vec<usize> = match doc.default_scene().or_else(|| doc.scenes().next()) {
+        Some(s) => s.nodes().map(|r| r.index()).collect(),
+        None => (0..parent.len()).filter(|&i| parent[i] == NONE).collect(),
     };
-    // Every child has one parent, and names it once.
+    check_walk(json, &roots, &depth)?;
+    Ok(roots)
+}
+
+/// The children of node `p`.
+fn children(json: &gltf::json::Root, p: usize) -> impl Iterator<Item = usize> + '_ {
+    json.nodes[p].children.iter().flatten().map(|c| c.value())
+}
+
+/// Checks that node `i` exists; `what` names where the file names it.
+fn exists(json: &gltf::json::Root, i: usize, what: &dyn Fn() -> String) -> Result<(), String> {
+    let n = json.nodes.len();
+    if i < n {
+        Ok(())
+    } else {
+        Err(format!(
+            "{} names nodes[{i}], which does not exist (the file has {n} nodes)",
+            what()
+        ))
+    }
+}
+
+/// Each node's parent ([`NONE`] for none), once every child has one parent and names it
+/// once.
+fn parents(json: &gltf::json::Root) -> Result<Vec<usize>, String> {
+    let n = json.nodes.len();
     let mut parent = vec![NONE; n];
     for p in 0..n {
-        for c in children(p) {
-            exists(c, &|| format!("nodes[{p}].children"))?;
+        for c in children(json, p) {
+            exists(json, c, &|| format!("nodes[{p}].children"))?;
             if c == p {
                 return Err(format!(
                     "nodes[{p}] is its own child (a cycle in the node tree)"
@@ -58,11 +78,15 @@ pub(super) fn roots(doc: &gltf::Document) -> Result<Vec<usize>, String> {
             }
         }
     }
-    // A scene lists root nodes, each once.
-    let mut listed = vec![NONE; n];
+    Ok(parent)
+}
+
+/// Checks that a scene lists root nodes, each once.
+fn check_scenes(json: &gltf::json::Root, parent: &[usize]) -> Result<(), String> {
+    let mut listed = vec![NONE; parent.len()];
     for (s, scene) in json.scenes.iter().enumerate() {
         for r in scene.nodes.iter().map(|r| r.value()) {
-            exists(r, &|| format!("scenes[{s}].nodes"))?;
+            exists(json, r, &|| format!("scenes[{s}].nodes"))?;
             if parent[r] != NONE {
                 return Err(format!(
                     "scenes[{s}].nodes names nodes[{r}], which is the child of nodes[{}] (a \
@@ -76,6 +100,12 @@ pub(super) fn roots(doc: &gltf::Document) -> Result<Vec<usize>, String> {
             listed[r] = s;
         }
     }
+    Ok(())
+}
+
+/// Each node's depth below its parentless ancestor, once no node is its own ancestor.
+fn depths(json: &gltf::json::Root, parent: &[usize]) -> Result<Vec<usize>, String> {
+    let n = parent.len();
     // Down from the parentless nodes, each node is reached once (from its one parent). A
     // node never reached has a parent that is never reached either: it lies on a cycle or
     // below one, and its parents lead round the cycle.
@@ -85,7 +115,7 @@ pub(super) fn roots(doc: &gltf::Document) -> Result<Vec<usize>, String> {
         depth[i] = 0;
     }
     while let Some(p) = stack.pop() {
-        for c in children(p) {
+        for c in children(json, p) {
             depth[c] = depth[p] + 1;
             stack.push(c);
         }
@@ -102,13 +132,14 @@ pub(super) fn roots(doc: &gltf::Document) -> Result<Vec<usize>, String> {
             parent[k]
         ));
     }
-    let roots: Vec<usize> = match doc.default_scene().or_else(|| doc.scenes().next()) {
-        Some(s) => s.nodes().map(|r| r.index()).collect(),
-        None => (0..n).filter(|&i| parent[i] == NONE).collect(),
-    };
-    // The walk's size and depth, before it starts. In a strict tree the walk visits each
-    // node once, so this is bounded by the node count; the limit bounds it in absolute terms.
-    let mut stack = roots.clone();
+    Ok(depth)
+}
+
+/// Checks the walk's size and depth from `roots`, before it starts. In a strict tree the
+/// walk visits each node once, so this is bounded by the node count; the limit bounds it
+/// in absolute terms.
+fn check_walk(json: &gltf::json::Root, roots: &[usize], depth: &[usize]) -> Result<(), String> {
+    let mut stack = roots.to_vec();
     let mut count = 0usize;
     while let Some(p) = stack.pop() {
         count += 1;
@@ -122,7 +153,7 @@ pub(super) fn roots(doc: &gltf::Document) -> Result<Vec<usize>, String> {
                 "nodes[{p}]: the node tree is deeper than {MAX_GLTF_DEPTH} levels"
             ));
         }
-        stack.extend(children(p));
+        stack.extend(children(json, p));
     }
-    Ok(roots)
+    Ok(())
 }

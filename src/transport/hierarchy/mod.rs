@@ -72,6 +72,14 @@ pub struct Hierarchy {
     pub stats: HierarchyStats,
 }
 
+/// The links of a [`Hierarchy`] as the cache stores them (the fields of the same names).
+pub struct StoredLinks {
+    pub offsets: Vec<u32>,
+    pub src: Vec<u32>,
+    pub k: Vec<f32>,
+    pub vis: Vec<u8>,
+}
+
 /// A solve's result, per patch and column (row-major n × C).
 pub struct HierarchySolution {
     /// Radiosity, lm/m².
@@ -84,18 +92,21 @@ pub struct HierarchySolution {
 }
 
 impl Hierarchy {
-    /// Rebuilds a hierarchy from its stored parts; None when they are inconsistent.
-    #[allow(clippy::too_many_arguments)]
+    /// Rebuilds a hierarchy from its stored parts over patches of area `leaf_area`; None
+    /// when they are inconsistent.
     pub fn from_parts(
         leaf_area: &[f32],
         children: Vec<[u32; 2]>,
-        offsets: Vec<u32>,
-        src: Vec<u32>,
-        k: Vec<f32>,
-        vis: Vec<u8>,
+        links: StoredLinks,
         sigma: Vec<f32>,
         stats: HierarchyStats,
     ) -> Option<Hierarchy> {
+        let StoredLinks {
+            offsets,
+            src,
+            k,
+            vis,
+        } = links;
         let n = leaf_area.len();
         let nodes = n + children.len();
         let links = src.len();
@@ -359,7 +370,7 @@ impl Plan {
     ) -> Part {
         let t0 = Instant::now();
         let t = &self.tree;
-        let links = refine::refine(t, &self.glow, &self.geo, bvh, roots, opts, ff, progress);
+        let links = refine::refine(self, bvh, roots, opts, ff, progress);
         let refine_s = t0.elapsed().as_secs_f64();
         let t1 = Instant::now();
         let mut mine = vec![false; t.planes.len()];
@@ -390,19 +401,72 @@ impl Plan {
         opts: HierarchyOptions,
     ) -> Result<(Hierarchy, Vec<f32>), String> {
         let tree = self.tree;
-        let mut covered = vec![false; tree.nodes()];
-        for r in parts.iter().flat_map(|p| &p.roots) {
-            let Some(c) = covered.get_mut(*r as usize) else {
-                return Err(format!("node {r} is not in the tree"));
-            };
-            if *c || !tree.plane_roots.contains(r) {
-                return Err(format!("plane root {r} is repeated or not a plane root"));
-            }
-            *c = true;
+        check_cover(&tree, &parts)?;
+        let joined = Joined::new(&tree, parts)?;
+        let mut h = Hierarchy::from_sorted_links(&tree, &joined.links);
+        let leaf_links = joined
+            .links
+            .iter()
+            .filter(|l| (l.r as usize) < tree.n && (l.s as usize) < tree.n)
+            .count() as u64;
+        drop(joined.links);
+        let sums = h.factor_sums();
+        let (sigma, escape) = closure::combine(&sums, &joined.hits, opts.closure_rays);
+        let gaps: Vec<f64> = sums
+            .iter()
+            .zip(&joined.hits)
+            .map(|(s, h)| (s - h).abs())
+            .collect();
+        h.stats = HierarchyStats {
+            nodes: tree.nodes() as u64,
+            links: h.src.len() as u64,
+            leaf_links,
+            closure_mean: gaps.iter().sum::<f64>() / gaps.len().max(1) as f64,
+            closure_max: gaps.iter().copied().fold(0.0, f64::max),
+            sigma_min: sigma
+                .iter()
+                .map(|&x| x as f64)
+                .fold(f64::INFINITY, f64::min),
+            sigma_max: sigma.iter().map(|&x| x as f64).fold(0.0, f64::max),
+            refine_s: joined.refine_s,
+            closure_s: joined.closure_s,
+        };
+        h.sigma = sigma;
+        Ok((h, escape))
+    }
+}
+
+/// Checks that `parts` cover every plane root of `tree` exactly once.
+fn check_cover(tree: &Tree, parts: &[Part]) -> Result<(), String> {
+    let mut covered = vec![false; tree.nodes()];
+    for r in parts.iter().flat_map(|p| &p.roots) {
+        let Some(c) = covered.get_mut(*r as usize) else {
+            return Err(format!("node {r} is not in the tree"));
+        };
+        if *c || !tree.plane_roots.contains(r) {
+            return Err(format!("plane root {r} is repeated or not a plane root"));
         }
-        if let Some(r) = tree.plane_roots.iter().find(|&&r| !covered[r as usize]) {
-            return Err(format!("no part covers plane root {r}"));
-        }
+        *c = true;
+    }
+    if let Some(r) = tree.plane_roots.iter().find(|&&r| !covered[r as usize]) {
+        return Err(format!("no part covers plane root {r}"));
+    }
+    Ok(())
+}
+
+/// The parts of a bake joined: all links in a total order, every patch's hit fraction,
+/// and the seconds the parts took.
+struct Joined {
+    links: Vec<refine::Link>,
+    hits: Vec<f64>,
+    refine_s: f64,
+    closure_s: f64,
+}
+
+impl Joined {
+    /// Joins `parts`, once every patch of `tree` has one hit fraction and every link
+    /// names nodes of the tree.
+    fn new(tree: &Tree, parts: Vec<Part>) -> Result<Joined, String> {
         let nodes = tree.nodes();
         let mut hits = vec![f64::NAN; tree.n];
         let (mut refine_s, mut closure_s) = (0.0, 0.0);
@@ -430,18 +494,28 @@ impl Plan {
         // A total order, so that the stored links (and every sum over them) are the same
         // bits however the parts were grouped.
         links.par_sort_unstable_by_key(|l| (l.r, l.s, l.k.to_bits(), l.vis));
+        Ok(Joined {
+            links,
+            hits,
+            refine_s,
+            closure_s,
+        })
+    }
+}
+
+impl Hierarchy {
+    /// The hierarchy of `tree` with `links` sorted by receiver (CSR), before closure (σ
+    /// 1, no stats).
+    fn from_sorted_links(tree: &Tree, links: &[refine::Link]) -> Hierarchy {
+        let nodes = tree.nodes();
         let mut offsets = vec![0u32; nodes + 1];
-        for l in &links {
+        for l in links {
             offsets[l.r as usize + 1] += 1;
         }
         for k in 0..nodes {
             offsets[k + 1] += offsets[k];
         }
-        let leaf_links = links
-            .iter()
-            .filter(|l| (l.r as usize) < tree.n && (l.s as usize) < tree.n)
-            .count() as u64;
-        let mut h = Hierarchy {
+        Hierarchy {
             n: tree.n,
             children: tree.children.clone(),
             offsets,
@@ -451,27 +525,7 @@ impl Plan {
             sigma: vec![1.0; tree.n],
             area: tree.area.iter().map(|&a| a as f32).collect(),
             stats: HierarchyStats::default(),
-        };
-        drop(links);
-        let sums = h.factor_sums();
-        let (sigma, escape) = closure::combine(&sums, &hits, opts.closure_rays);
-        let gaps: Vec<f64> = sums.iter().zip(&hits).map(|(s, h)| (s - h).abs()).collect();
-        h.stats = HierarchyStats {
-            nodes: nodes as u64,
-            links: h.src.len() as u64,
-            leaf_links,
-            closure_mean: gaps.iter().sum::<f64>() / gaps.len().max(1) as f64,
-            closure_max: gaps.iter().copied().fold(0.0, f64::max),
-            sigma_min: sigma
-                .iter()
-                .map(|&x| x as f64)
-                .fold(f64::INFINITY, f64::min),
-            sigma_max: sigma.iter().map(|&x| x as f64).fold(0.0, f64::max),
-            refine_s,
-            closure_s,
-        };
-        h.sigma = sigma;
-        Ok((h, escape))
+        }
     }
 }
 

@@ -33,6 +33,7 @@ use rayon::prelude::*;
 use serde::Serialize;
 
 use super::tree::{Tree, NONE};
+use super::Plan;
 use crate::geometry::bvh::Bvh;
 use crate::transport::formfactor::{
     directed, height_above, point_to_polygon, quadrature_level, quadrature_tables, sample_triangle,
@@ -93,26 +94,24 @@ struct Ctx<'a> {
     quad: [Vec<DVec3>; 5],
 }
 
-/// The links of every receiver under the plane roots `roots`, in no particular order.
-/// `progress` gets the finished fraction of their receiver area.
+/// The links of every receiver under the plane roots `roots` of `plan`'s tree, in no
+/// particular order. `progress` gets the finished fraction of their receiver area.
 ///
-/// `glow[i]` is patch i's own source term (emission plus first reflection of luminaire
+/// The plan's `glow[i]` is patch i's own source term (emission plus first reflection of luminaire
 /// light, all groups at intensity 1) over the scene's mean radiosity. A link from a
 /// source node whose brightest leaf has glow w must keep its spread below ε / (1 + w):
 /// the error that matters is the factor's error times the source's radiosity (Hanrahan's
 /// BF refinement), estimated before the solve from the sources.
-#[allow(clippy::too_many_arguments)]
 pub(crate) fn refine(
-    tree: &Tree,
-    glow: &[f32],
-    geo: &[PatchGeo],
+    plan: &Plan,
     bvh: &Bvh,
     roots: &[u32],
     opts: HierarchyOptions,
     ff: FormFactorOptions,
     progress: &(dyn Fn(f64) + Sync),
 ) -> Vec<Link> {
-    let mut node_glow: Vec<f32> = glow.to_vec();
+    let tree = &plan.tree;
+    let mut node_glow: Vec<f32> = plan.glow.to_vec();
     node_glow.resize(tree.n, 0.0);
     for ch in &tree.children {
         node_glow.push(node_glow[ch[0] as usize].max(node_glow[ch[1] as usize]));
@@ -120,7 +119,7 @@ pub(crate) fn refine(
     let ctx = Ctx {
         tree,
         glow: node_glow,
-        geo,
+        geo: &plan.geo,
         bvh,
         opts,
         ff,
@@ -290,24 +289,49 @@ impl Ctx<'_> {
         (sample_triangle(c, rng.next_f64(), rng.next_f64()), k)
     }
 
-    /// The unoccluded factor estimate of one point pair: from x (on a receiver of normal
-    /// `nr`) to the whole source when it is a patch (exact), else to the point y of leaf
-    /// `ly` standing for the source's area `area_s`.
-    #[allow(clippy::too_many_arguments)]
-    fn pair_factor(
-        &self,
-        nr: DVec3,
-        x: DVec3,
-        s: u32,
-        y: DVec3,
-        ly: u32,
-        area_s: f64,
-        leaf_source: bool,
-    ) -> f64 {
-        if leaf_source {
-            let g = &self.geo[s as usize];
+    /// What the point pairs of the link r ← s share.
+    #[inline]
+    fn ends(&self, r: u32, s: u32) -> LinkEnds {
+        let t = self.tree;
+        LinkEnds {
+            r,
+            s,
+            nr: t.planes[t.plane[r as usize] as usize].0,
+            area_s: t.area[s as usize],
+            leaf_source: t.is_leaf(s),
+        }
+    }
+
+    /// Pair `k` of `count` stratified point pairs of the link `e` (receiver strata in
+    /// order, source strata reversed): a point of the receiver and its patch, a point of
+    /// the source and its patch.
+    #[inline]
+    fn pair(&self, e: &LinkEnds, k: u32, count: u32, rng: &mut Rng) -> (DVec3, u32, DVec3, u32) {
+        let ur = (k as f64 + rng.next_f64()) / count as f64;
+        let us = ((count - 1 - k) as f64 + rng.next_f64()) / count as f64;
+        let (x, lx) = self.sample(e.r, ur, rng);
+        let (y, ly) = self.sample(e.s, us, rng);
+        (x, lx, y, ly)
+    }
+
+    /// Whether the segment x → y is blocked (the triangles of patches `lx` and `ly`
+    /// skipped).
+    #[inline]
+    fn blocked(&self, x: DVec3, lx: u32, y: DVec3, ly: u32) -> bool {
+        let src = [self.geo[lx as usize].source, self.geo[ly as usize].source];
+        self.bvh
+            .occluded(Vec3A::from(x.as_vec3()), Vec3A::from(y.as_vec3()), src)
+    }
+
+    /// The unoccluded factor estimate of one point pair of the link `e`: from x (on the
+    /// receiver) to the whole source when it is a patch (exact), else to the point y of
+    /// leaf `ly` standing for the source's area.
+    #[inline]
+    fn pair_factor(&self, e: &LinkEnds, x: DVec3, y: DVec3, ly: u32) -> f64 {
+        if e.leaf_source {
+            let g = &self.geo[e.s as usize];
             if g.n.dot(x - g.centroid) > 0.0 {
-                point_to_polygon(x, nr, &g.c)
+                point_to_polygon(x, e.nr, &g.c)
             } else {
                 0.0
             }
@@ -316,9 +340,9 @@ impl Ctx<'_> {
             let d2 = d.length_squared();
             if d2 > 0.0 {
                 let ny = self.geo[ly as usize].n;
-                let cr = nr.dot(d).max(0.0);
+                let cr = e.nr.dot(d).max(0.0);
                 let cs = (-ny.dot(d)).max(0.0);
-                area_s * cr * cs / (PI * d2 * d2)
+                e.area_s * cr * cs / (PI * d2 * d2)
             } else {
                 0.0
             }
@@ -331,24 +355,14 @@ impl Ctx<'_> {
     /// visibility ray and the factor is the mean of factor × visibility; else `vis`
     /// scales the mean factor.
     fn fresh_value(&self, r: u32, s: u32, count: u32, rays: bool, vis: f64) -> (f64, f64) {
-        let t = self.tree;
-        let nr = t.planes[t.plane[r as usize] as usize].0;
-        let leaf_source = t.is_leaf(s);
-        let area_s = t.area[s as usize];
+        let e = self.ends(r, s);
         let mut rng = Rng::new(r as usize ^ (1 << 40), s as usize ^ (1 << 41));
         let (mut sum, mut free) = (0.0, 0u32);
         for k in 0..count {
-            let ur = (k as f64 + rng.next_f64()) / count as f64;
-            let us = ((count - 1 - k) as f64 + rng.next_f64()) / count as f64;
-            let (x, lx) = self.sample(r, ur, &mut rng);
-            let (y, ly) = self.sample(s, us, &mut rng);
-            let f = self.pair_factor(nr, x, s, y, ly, area_s, leaf_source);
+            let (x, lx, y, ly) = self.pair(&e, k, count, &mut rng);
+            let f = self.pair_factor(&e, x, y, ly);
             if rays {
-                let src = [self.geo[lx as usize].source, self.geo[ly as usize].source];
-                let blocked =
-                    self.bvh
-                        .occluded(Vec3A::from(x.as_vec3()), Vec3A::from(y.as_vec3()), src);
-                if !blocked {
+                if !self.blocked(x, lx, y, ly) {
                     free += 1;
                     sum += f;
                 }
@@ -374,20 +388,14 @@ impl Ctx<'_> {
     /// decision, v·F·(1 − v)^N ≤ F/(e·N), stays below ε/20 (and below 0.3 % of F). A partly visible link's error is
     /// its whole factor: it is refined until the factor is below ε (shadow boundaries).
     fn estimate(&self, r: u32, s: u32, eps: f64) -> (f64, f64, f64) {
-        let t = self.tree;
         let m = self.opts.samples.max(1);
-        let nr = t.planes[t.plane[r as usize] as usize].0;
-        let leaf_source = t.is_leaf(s);
-        let area_s = t.area[s as usize];
+        let e = self.ends(r, s);
         let mut rng = Rng::new(r as usize, s as usize);
         let (mut sum, mut lo, mut hi) = (0.0, f64::INFINITY, f64::NEG_INFINITY);
         let mut pairs = Vec::with_capacity(m as usize);
         for k in 0..m {
-            let ur = (k as f64 + rng.next_f64()) / m as f64;
-            let us = ((m - 1 - k) as f64 + rng.next_f64()) / m as f64;
-            let (x, lx) = self.sample(r, ur, &mut rng);
-            let (y, ly) = self.sample(s, us, &mut rng);
-            let f = self.pair_factor(nr, x, s, y, ly, area_s, leaf_source);
+            let (x, lx, y, ly) = self.pair(&e, k, m, &mut rng);
+            let f = self.pair_factor(&e, x, y, ly);
             pairs.push((x, lx, y, ly));
             sum += f;
             lo = lo.min(f);
@@ -409,11 +417,7 @@ impl Ctx<'_> {
                     (x, lx, y, ly)
                 }
             };
-            let src = [self.geo[lx as usize].source, self.geo[ly as usize].source];
-            let blocked =
-                self.bvh
-                    .occluded(Vec3A::from(x.as_vec3()), Vec3A::from(y.as_vec3()), src);
-            free += u32::from(!blocked);
+            free += u32::from(!self.blocked(x, lx, y, ly));
         }
         let vis = free as f64 / rays as f64;
         let spread = if free == 0 || free == rays {
@@ -423,4 +427,15 @@ impl Ctx<'_> {
         };
         (f * vis, spread, vis)
     }
+}
+
+/// The link r ← s as its point pairs see it.
+struct LinkEnds {
+    r: u32,
+    s: u32,
+    /// The receiver's plane normal.
+    nr: DVec3,
+    area_s: f64,
+    /// The source is a patch (its factor is exact from each receiver point).
+    leaf_source: bool,
 }

@@ -144,7 +144,6 @@ impl Transfer {
     /// hierarchical mode.
     /// `sky`, for a scene with a site, is the direct illuminance of every sky patch at unit
     /// luminance; each gets a response ([`SkyColumns`]) solved with the groups.
-    #[allow(clippy::too_many_arguments)]
     pub fn build(
         scene: &Scene,
         mesh: &Mesh,
@@ -154,37 +153,43 @@ impl Transfer {
         mode: TransferMode,
         progress: &(dyn Fn(f64) + Sync),
     ) -> Transfer {
-        let rho = patch_rho(scene, mesh);
-        let area: Vec<f32> = mesh.patches.iter().map(|p| p.area as f32).collect();
+        let b = Build {
+            scene,
+            n: mesh.len(),
+            emission: group_emission(scene, mesh),
+            direct,
+            rho: patch_rho(scene, mesh),
+            area: mesh.patches.iter().map(|p| p.area as f32).collect(),
+            progress,
+        };
         match coupling {
-            Coupling::Dense(f) => {
-                Self::build_dense(scene, mesh, f, rho, area, direct, sky, mode, progress)
-            }
-            Coupling::Links(h, escape) => {
-                Self::build_links(scene, mesh, *h, escape, rho, area, direct, sky, progress)
-            }
+            Coupling::Dense(f) => b.dense(f, sky, mode),
+            Coupling::Links(h, escape) => b.links(*h, escape, sky),
         }
     }
+}
 
+/// What a build reads in every mode: the scene, the groups' emission and luminaires'
+/// direct light, and per patch (n) the reflectance and area.
+struct Build<'a> {
+    scene: &'a Scene,
+    n: usize,
+    /// Per group, the emission column ([`group_emission`]).
+    emission: Vec<Vec<f32>>,
+    direct: &'a [Option<Vec<f32>>],
+    rho: Vec<Rgb>,
+    area: Vec<f32>,
+    progress: &'a (dyn Fn(f64) + Sync),
+}
+
+impl Build<'_> {
     /// The hierarchical mode: the group columns from sweeps over the links.
-    #[allow(clippy::too_many_arguments)]
-    fn build_links(
-        scene: &Scene,
-        mesh: &Mesh,
-        hier: Hierarchy,
-        escape: Vec<f32>,
-        rho: Vec<Rgb>,
-        area: Vec<f32>,
-        direct: &[Option<Vec<f32>>],
-        sky: Option<SkyDirect>,
-        progress: &(dyn Fn(f64) + Sync),
-    ) -> Transfer {
-        let n = mesh.len();
-        let emission = group_emission(scene, mesh);
-        let g = emission.len();
-        let mut cols = group_sources(&emission, direct, &rho);
+    fn links(self, hier: Hierarchy, escape: Vec<f32>, sky: Option<SkyDirect>) -> Transfer {
+        let n = self.n;
+        let g = self.emission.len();
+        let mut cols = group_sources(&self.emission, self.direct, &self.rho);
         if let Some(d) = &sky {
-            cols.extend(sky_sources(d, &rho));
+            cols.extend(sky_sources(d, &self.rho));
         }
         let c = 3 * cols.len();
         // Sources E + ρD (groups, then sky patches), row-major n × 3(G + K).
@@ -197,7 +202,14 @@ impl Transfer {
         let sol = if c == 0 {
             None
         } else {
-            Some(hier.solve(&rho, &src, c, HIERARCHY_TOL, HIERARCHY_MAX_SWEEPS, progress))
+            Some(hier.solve(
+                &self.rho,
+                &src,
+                c,
+                HIERARCHY_TOL,
+                HIERARCHY_MAX_SWEEPS,
+                self.progress,
+            ))
         };
         let pick = |x: &[f32], gi: usize| -> Vec<f32> {
             (0..n)
@@ -207,8 +219,7 @@ impl Transfer {
         let groups = (0..g)
             .map(|gi| {
                 let sol = sol.as_ref().expect("groups imply columns");
-                let (b, h) = (pick(&sol.b, gi), pick(&sol.h, gi));
-                GroupColumns::new(scene, gi, &emission, b, h, direct, &area)
+                self.group_columns(gi, pick(&sol.b, gi), pick(&sol.h, gi))
             })
             .collect();
         let sky = sky.map(|d| {
@@ -220,13 +231,13 @@ impl Transfer {
             residual: sol.as_ref().map_or(0.0, |s| s.residual),
             sweeps: sol.as_ref().map_or(0, |s| s.sweeps),
         };
-        progress(1.0);
+        (self.progress)(1.0);
         Transfer {
             sky,
             mode: TransferMode::Hierarchical,
             n,
-            rho,
-            area,
+            rho: self.rho,
+            area: self.area,
             escape,
             groups,
             factored: None,
@@ -237,70 +248,55 @@ impl Transfer {
     }
 
     /// The factored and columns modes, from the dense `F`.
-    #[allow(clippy::too_many_arguments)]
-    fn build_dense(
-        scene: &Scene,
-        mesh: &Mesh,
-        f: Vec<f32>,
-        rho: Vec<Rgb>,
-        area: Vec<f32>,
-        direct: &[Option<Vec<f32>>],
-        sky: Option<SkyDirect>,
-        mode: TransferMode,
-        progress: &(dyn Fn(f64) + Sync),
-    ) -> Transfer {
-        let n = mesh.len();
+    fn dense(self, f: Vec<f32>, sky: Option<SkyDirect>, mode: TransferMode) -> Transfer {
+        let n = self.n;
         let escape: Vec<f32> = crate::transport::formfactor::row_sums(&f, n)
             .into_iter()
             .map(|s| (1.0 - s).max(0.0) as f32)
             .collect();
-        let rho_ch: [Vec<f32>; 3] = std::array::from_fn(|c| rho.iter().map(|r| r[c]).collect());
-        let emission = group_emission(scene, mesh);
-        let g = emission.len();
-        let e = source_matrix(&emission, direct, sky.as_ref(), &rho);
+        let rho_ch: [Vec<f32>; 3] =
+            std::array::from_fn(|c| self.rho.iter().map(|r| r[c]).collect());
+        let g = self.emission.len();
+        let e = source_matrix(&self.emission, self.direct, sky.as_ref(), &self.rho);
         let rho_of_col: Vec<&[f32]> = (0..e.ncols()).map(|k| rho_ch[k % 3].as_slice()).collect();
 
         let (b, lus, sweeps) = match mode {
             TransferMode::Factored => {
-                let (lus, channel_lu) = factor_channels(&f, &rho_ch, n, progress);
+                let (lus, channel_lu) = factor_channels(&f, &rho_ch, n, self.progress);
                 let b = solve_refined(&lus, channel_lu, &f, e.as_ref(), &rho_of_col);
                 (b, Some((lus, channel_lu)), 0)
             }
             TransferMode::Columns | TransferMode::Hierarchical => {
-                let (b, sweeps) =
-                    solve::jacobi(&f, n, e.as_ref(), &rho_of_col, COLUMN_TOL, 2000, progress);
+                let (b, sweeps) = solve::jacobi(
+                    &f,
+                    n,
+                    e.as_ref(),
+                    &rho_of_col,
+                    COLUMN_TOL,
+                    2000,
+                    self.progress,
+                );
                 (b, None, sweeps)
             }
         };
         let h = solve::apply_f(&f, n, b.as_ref());
         let residual = max_residual(&e, &b, &h, &rho_of_col);
+        let rgb = |m: &Mat<f32>, col: usize| solve::interleave(m.as_ref(), [col, col + 1, col + 2]);
         let groups = (0..g)
-            .map(|gi| {
-                let cols = [3 * gi, 3 * gi + 1, 3 * gi + 2];
-                let (bg, hg) = (
-                    solve::interleave(b.as_ref(), cols),
-                    solve::interleave(h.as_ref(), cols),
-                );
-                GroupColumns::new(scene, gi, &emission, bg, hg, direct, &area)
-            })
+            .map(|gi| self.group_columns(gi, rgb(&b, 3 * gi), rgb(&h, 3 * gi)))
             .collect();
         let sky = sky.map(|d| {
-            let indirect = (0..d.k)
-                .map(|k| {
-                    let c0 = 3 * (g + k);
-                    solve::interleave(h.as_ref(), [c0, c0 + 1, c0 + 2])
-                })
-                .collect();
+            let indirect = (0..d.k).map(|k| rgb(&h, 3 * (g + k))).collect();
             SkyColumns::new(d, indirect)
         });
         let factored = lus.map(|(lus, channel_lu)| Factored { lus, channel_lu, f });
-        progress(1.0);
+        (self.progress)(1.0);
         Transfer {
             sky,
             mode,
             n,
-            rho,
-            area,
+            rho: self.rho,
+            area: self.area,
             escape,
             groups,
             factored,
@@ -309,30 +305,21 @@ impl Transfer {
             info: SolveInfo { residual, sweeps },
         }
     }
-}
 
-impl GroupColumns {
     /// Group `gi`'s columns from its solved radiosity `b` and reflected illuminance `h`
     /// (n × 3): `h` gets the group's direct light added, and the luminaires' flux is
-    /// summed over the patch `area`s.
-    fn new(
-        scene: &Scene,
-        gi: usize,
-        emission: &[Vec<f32>],
-        b: Vec<f32>,
-        mut h: Vec<f32>,
-        direct: &[Option<Vec<f32>>],
-        area: &[f32],
-    ) -> GroupColumns {
-        let d = direct.get(gi).and_then(|d| d.as_deref());
+    /// summed over the patch areas.
+    fn group_columns(&self, gi: usize, b: Vec<f32>, mut h: Vec<f32>) -> GroupColumns {
+        let d = self.direct.get(gi).and_then(|d| d.as_deref());
         if let Some(d) = d {
             for (hv, dv) in h.iter_mut().zip(d) {
                 *hv += dv;
             }
         }
-        let (flux, landed) = crate::transport::direct::group_flux(&scene.lights[gi], area, d);
+        let (flux, landed) =
+            crate::transport::direct::group_flux(&self.scene.lights[gi], &self.area, d);
         GroupColumns {
-            e: emission[gi].clone(),
+            e: self.emission[gi].clone(),
             b,
             h,
             flux,
