@@ -7,7 +7,7 @@
 //!
 //! Angles are in degrees, intensities in candela (cd), flux in lumens (lm), power in watts.
 
-use super::table::{CandelaTable, PhotometricFormat, PhotometricType};
+use super::table::{scaled_rows, CandelaTable, ParseError, PhotometricFormat, PhotometricType};
 use super::{LuminousOpening, PhotometryError};
 use crate::input_limits::*;
 
@@ -35,9 +35,6 @@ pub(crate) fn parse_ies_file(
         },
     })
 }
-
-/// A rejection: the 1-based line when one applies, and the message.
-type ParseError = (Option<usize>, String);
 
 /// The numbers after the `TILT=` line, in order, each with its 1-based line.
 struct Numbers<I> {
@@ -139,7 +136,9 @@ impl CandelaTable {
                 "candela multiplier × ballast factors must be positive".into(),
             ));
         }
-        let candela = read_candela(&mut nums, h.nv, h.nh, h.scale)?;
+        let candela = scaled_rows(h.nh, h.nv, h.scale, || {
+            nums.field("candela values", 0.0, f64::MAX)
+        })?;
         check_angle_ranges(h.kind, &vertical, &horizontal)?;
         Ok(CandelaTable {
             format: PhotometricFormat::Ies,
@@ -249,36 +248,6 @@ fn read_angles<'a, I: Iterator<Item = (usize, &'a str)>>(
     let vertical: Vec<f64> = vertical.into_iter().map(|x| x.1).collect();
     let horizontal: Vec<f64> = horizontal.into_iter().map(|x| x.1).collect();
     Ok((vertical, horizontal))
-}
-
-/// The candela table, `nh` rows of `nv` values, times `scale`; each at most
-/// [`MAX_CANDELA`] cd.
-fn read_candela<'a, I: Iterator<Item = (usize, &'a str)>>(
-    nums: &mut Numbers<I>,
-    nv: usize,
-    nh: usize,
-    scale: f64,
-) -> Result<Vec<Vec<f64>>, ParseError> {
-    let mut candela = Vec::with_capacity(nh);
-    for _ in 0..nh {
-        let mut row = Vec::with_capacity(nv);
-        for _ in 0..nv {
-            let (line, c) = nums.field("candela values", 0.0, f64::MAX)?;
-            let c = c * scale;
-            if !(c.is_finite() && c <= MAX_CANDELA) {
-                return Err((
-                    Some(line),
-                    format!(
-                        "candela value {} (after the multiplier) exceeds {MAX_CANDELA:e} cd",
-                        num(c)
-                    ),
-                ));
-            }
-            row.push(c);
-        }
-        candela.push(row);
-    }
-    Ok(candela)
 }
 
 /// The angles must lie in the ranges of the photometric type (degrees).

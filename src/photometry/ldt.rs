@@ -22,12 +22,9 @@
 //! Every count is bounded by [`crate::input_limits`] before anything is allocated, and
 //! every rejection names the 1-based line.
 
-use super::table::{CandelaTable, PhotometricFormat, PhotometricType};
+use super::table::{scaled_rows, CandelaTable, ParseError, PhotometricFormat, PhotometricType};
 use super::{LuminousOpening, PhotometryError};
 use crate::input_limits::*;
-
-/// A rejection: the 1-based line when one applies, and the message.
-type ParseError = (Option<usize>, String);
 
 /// Parses the text of an EULUMDAT file, scaled by lamp set `lamp_set` (1-based; the
 /// first when None). `path` is the display name errors use.
@@ -177,7 +174,7 @@ fn parse(text: &str, lamp_set: Option<usize>) -> Result<CandelaTable, ParseError
             "lamp flux × conversion factor must be positive".into(),
         ));
     }
-    let candela = intensities(&mut l, planes, ng, scale)?;
+    let candela = scaled_rows(planes, ng, scale, || l.number("intensities", 0.0, f64::MAX))?;
     let horizontal = horizontal_angles(isym, &c_angles).map_err(|m| (Some(isym_line), m))?;
     Ok(CandelaTable {
         format: PhotometricFormat::Eulumdat,
@@ -243,32 +240,6 @@ fn angles(l: &mut Lines, n: usize, what: &str, hi: f64) -> Result<Vec<f64>, Pars
         out.push(a);
     }
     Ok(out)
-}
-
-/// `planes` rows of `ng` intensities (cd/klm), times `scale`, in candela.
-fn intensities(
-    l: &mut Lines,
-    planes: usize,
-    ng: usize,
-    scale: f64,
-) -> Result<Vec<Vec<f64>>, ParseError> {
-    let mut rows = Vec::with_capacity(planes);
-    for _ in 0..planes {
-        let mut row = Vec::with_capacity(ng);
-        for _ in 0..ng {
-            let (line, v) = l.number("intensities", 0.0, f64::MAX)?;
-            let cd = v * scale;
-            if !(cd.is_finite() && cd <= MAX_CANDELA) {
-                return Err((
-                    Some(line),
-                    format!("intensity {} cd exceeds {MAX_CANDELA:e} cd", num(cd)),
-                ));
-            }
-            row.push(cd);
-        }
-        rows.push(row);
-    }
-    Ok(rows)
 }
 
 /// The C angles of the stored planes, in the form [`CandelaTable`] unfolds: one plane, or

@@ -12,6 +12,40 @@
 //!   `r`. A table with H from 0° only is mirrored.
 
 use super::LuminousOpening;
+use crate::input_limits::{num, MAX_CANDELA};
+
+/// A reader's rejection: the 1-based line when one applies, and the message.
+pub(super) type ParseError = (Option<usize>, String);
+
+/// `rows` rows of `cols` values, each taken from `next` (a value ≥ 0 and its line), times
+/// `scale`: candela, each at most [`MAX_CANDELA`].
+pub(super) fn scaled_rows(
+    rows: usize,
+    cols: usize,
+    scale: f64,
+    mut next: impl FnMut() -> Result<(usize, f64), ParseError>,
+) -> Result<Vec<Vec<f64>>, ParseError> {
+    let mut out = Vec::with_capacity(rows);
+    for _ in 0..rows {
+        let mut row = Vec::with_capacity(cols);
+        for _ in 0..cols {
+            let (line, v) = next()?;
+            let cd = v * scale;
+            if !(cd.is_finite() && cd <= MAX_CANDELA) {
+                return Err((
+                    Some(line),
+                    format!(
+                        "candela value {} (after scaling) exceeds {MAX_CANDELA:e} cd",
+                        num(cd)
+                    ),
+                ));
+            }
+            row.push(cd);
+        }
+        out.push(row);
+    }
+    Ok(out)
+}
 
 /// Photometric type of a candela table (type A is not supported).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

@@ -74,7 +74,7 @@ fn scene_operations_document_their_errors() {
             }
         }
     }
-    assert_eq!(posts, 7);
+    assert_eq!(posts, 8);
 }
 
 #[test]

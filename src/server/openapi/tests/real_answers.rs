@@ -250,8 +250,8 @@ async fn real_answers_match_the_document() {
     assert_every_operation_checked(&c);
 }
 
-/// The queries of the ready scene: details, patches, radiosity, illuminance, batch and
-/// optimize, each checked against the document as it is answered.
+/// The queries of the ready scene: details, patches, radiosity, illuminance, batch,
+/// optimize and glare, each checked against the document as it is answered.
 async fn ask_every_query(c: &mut Client) {
     let (s, v) = c
         .send("get", "/api/scenes/{id}", "/api/scenes/room", None)
@@ -406,6 +406,20 @@ async fn ask_every_query(c: &mut Client) {
         Some(targets),
     )
     .await;
+
+    // The room's luminaires are point sources: both are left out, with the reason.
+    let observers = json!({"observers": [{"position": [3.5, 0, 3.5], "direction": [-1, 0, -1]}]});
+    let (_, v) = c
+        .send(
+            "post",
+            "/api/scenes/{id}/glare",
+            "/api/scenes/room/glare",
+            Some(observers),
+        )
+        .await;
+    let o = &v["observers"][0];
+    assert!(o["ugr"].is_null(), "{v}");
+    assert_eq!(o["left_out"].as_array().unwrap().len(), 2, "{v}");
 }
 
 /// Every operation's JSON answer was checked.
