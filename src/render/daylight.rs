@@ -23,21 +23,33 @@ pub struct SunView {
     pub normal_illuminance: f64,
 }
 
+/// What the daylight tracer reads of a scene: its patches, their BVH, the glazing, the
+/// patches' reflectances, and `reach`, a length beyond the scene (metres).
+pub struct DaylightScene<'a> {
+    pub mesh: &'a Mesh,
+    pub bvh: &'a Bvh,
+    pub glazing: &'a Glazing,
+    pub rho: &'a [Rgb],
+    pub reach: f64,
+}
+
 /// Per pixel (row 0 at the top): the traced daylight's radiance (cd/m², for shaded
 /// images) and illuminance (lux, for false colour). `sky(d)` is the luminance (cd/m²)
-/// towards unit scene direction `d`, the ground's below the horizon; `rho` the patches'
-/// reflectances; `reach` a length beyond the scene.
-#[allow(clippy::too_many_arguments)]
+/// towards unit scene direction `d`, the ground's below the horizon.
 pub fn daylight_pixels(
-    mesh: &Mesh,
-    (bvh, glazing): (&Bvh, &Glazing),
-    rho: &[Rgb],
+    scene: &DaylightScene<'_>,
     view: &ViewBuffer,
     cam: &Camera,
     sun: Option<SunView>,
     sky: &(dyn Fn(DVec3) -> f64 + Sync),
-    reach: f64,
 ) -> (Vec<Rgb>, Vec<Rgb>) {
+    let DaylightScene {
+        mesh,
+        bvh,
+        glazing,
+        rho,
+        reach,
+    } = *scene;
     let (w, h) = (cam.width as usize, cam.height as usize);
     let tracer = PixelTracer {
         mesh,

@@ -495,7 +495,7 @@ fn an_unobstructed_grid_gets_the_weather_files_global_illuminance_every_hour() {
 #[test]
 fn a_sun_patch_is_sharp_in_renders() {
     let _gate = common::shared();
-    use relight::render::daylight::{daylight_pixels, SunView};
+    use relight::render::daylight::{daylight_pixels, DaylightScene, SunView};
     use relight::render::{Camera, Shading, ViewBuffer};
     // The sun straight overhead through the 0.8 m roof opening: a 0.8 m square of
     // E_n on the black floor, seen from straight above through the opening.
@@ -521,16 +521,14 @@ fn a_sun_patch_is_sharp_in_renders() {
         direction: DVec3::Y,
         normal_illuminance: 50_000.0,
     };
-    let (_, lux) = daylight_pixels(
-        &m.baked.mesh,
-        (&m.baked.bvh, &m.baked.glazing),
-        &m.baked.transfer.rho,
-        &view,
-        &cam,
-        Some(sun),
-        &|_| 0.0,
-        m.reach_length(),
-    );
+    let scene = DaylightScene {
+        mesh: &m.baked.mesh,
+        bvh: &m.baked.bvh,
+        glazing: &m.baked.glazing,
+        rho: &m.baked.transfer.rho,
+        reach: m.reach_length(),
+    };
+    let (_, lux) = daylight_pixels(&scene, &view, &cam, Some(sun), &|_| 0.0);
     // Along the middle row, the floor is lit exactly where x is within the opening: the
     // pixel centres' floor x is 2 + 2.9 tan(30°) (2 (i + 0.5) / 200 − 1).
     let tan = 30f64.to_radians().tan();

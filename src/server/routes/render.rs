@@ -13,7 +13,7 @@ use super::{made, put};
 use crate::budget::human_bytes;
 use crate::model::sky_state::SkyState;
 use crate::model::Lighting;
-use crate::render::daylight::{daylight_pixels, SunView};
+use crate::render::daylight::{daylight_pixels, DaylightScene, SunView};
 use crate::render::pipeline::{self, Frame, RenderError, RenderOptions};
 use crate::render::ViewBuffer;
 use crate::server::openapi::{PostErrors, QueryErrors, RenderImage, RenderPng, SceneIdParam};
@@ -55,16 +55,16 @@ fn render_image(
                 direction,
                 normal_illuminance,
             });
-        let (rad, lux) = daylight_pixels(
-            &m.baked.mesh,
-            (&m.baked.bvh, &m.baked.glazing),
-            &m.baked.transfer.rho,
-            &entry.buffer,
-            &o.camera,
-            sun,
-            &|d| sky.luminance(site, d),
-            m.reach_length(),
-        );
+        let scene = DaylightScene {
+            mesh: &m.baked.mesh,
+            bvh: &m.baked.bvh,
+            glazing: &m.baked.glazing,
+            rho: &m.baked.transfer.rho,
+            reach: m.reach_length(),
+        };
+        let (rad, lux) = daylight_pixels(&scene, &entry.buffer, &o.camera, sun, &|d| {
+            sky.luminance(site, d)
+        });
         let frame = Frame {
             view: &entry.buffer,
             groups: None,
