@@ -167,8 +167,9 @@ fn distribution(
             Ok((spot, Some(format!("spot:{beam:?}:{field:?}"))))
         }
         "photometry" | "ies" => {
-            let name = match (&l.photometry, &l.ies) {
-                (Some(n), None) | (None, Some(n)) => n,
+            let (key, name) = match (&l.photometry, &l.ies) {
+                (Some(n), None) => ("photometry", n),
+                (None, Some(n)) => ("ies", n),
                 (Some(_), Some(_)) => return Err(bad("give photometry or ies, not both".into())),
                 (None, None) => {
                     return Err(bad(format!(
@@ -181,7 +182,7 @@ fn distribution(
                 name.get_ref(),
                 toml.path,
                 line,
-                &format!("luminaire '{}': photometry", l.id),
+                &format!("luminaire '{}': {key}", l.id),
             )?;
             let lamp_set = l.lamp_set.unwrap_or(1);
             let data = table(toml.dir, &path, lamp_set, shared)?;
