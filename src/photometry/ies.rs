@@ -23,17 +23,7 @@ pub(crate) fn parse_ies_file(
     path: &std::path::Path,
     text: &str,
 ) -> Result<CandelaTable, PhotometryError> {
-    CandelaTable::parse_ies_lines(text).map_err(|(line, message)| match line {
-        Some(line) => PhotometryError::Syntax {
-            path: path.to_path_buf(),
-            line,
-            message,
-        },
-        None => PhotometryError::Invalid {
-            path: path.to_path_buf(),
-            message,
-        },
-    })
+    CandelaTable::parse_ies_lines(text).map_err(|e| PhotometryError::in_file(path, e))
 }
 
 /// The numbers after the `TILT=` line, in order, each with its 1-based line.

@@ -41,17 +41,7 @@ pub(crate) fn parse_ldt_file(
     text: &str,
     lamp_set: Option<usize>,
 ) -> Result<CandelaTable, PhotometryError> {
-    parse(text, lamp_set).map_err(|(line, message)| match line {
-        Some(line) => PhotometryError::Syntax {
-            path: path.to_path_buf(),
-            line,
-            message,
-        },
-        None => PhotometryError::Invalid {
-            path: path.to_path_buf(),
-            message,
-        },
-    })
+    parse(text, lamp_set).map_err(|e| PhotometryError::in_file(path, e))
 }
 
 /// The lines of the file, each with its 1-based number.

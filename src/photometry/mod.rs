@@ -54,6 +54,25 @@ pub enum PhotometryError {
     },
 }
 
+impl PhotometryError {
+    /// A reader's rejection (the 1-based line when one applies, and the message) in file
+    /// `path`.
+    pub(crate) fn in_file(
+        path: &std::path::Path,
+        (line, message): (Option<usize>, String),
+    ) -> Self {
+        let path = path.to_path_buf();
+        match line {
+            Some(line) => PhotometryError::Syntax {
+                path,
+                line,
+                message,
+            },
+            None => PhotometryError::Invalid { path, message },
+        }
+    }
+}
+
 /// A luminaire: a photometric centre at `position` (metres), its distribution, and the
 /// luminous opening its file gives (a point when none).
 #[derive(Debug, Clone)]
