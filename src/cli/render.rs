@@ -9,7 +9,7 @@ use anyhow::{Context, Result};
 use super::{load_model, outln};
 use relight::bake::BakeOptions;
 use relight::model::{LightState, Lighting};
-use relight::render::pipeline::{render_once, RenderOptions};
+use relight::render::pipeline::{render_once, Quality, RenderOptions};
 use relight::render::{Camera, Format, Shading, ToneMap};
 
 #[derive(clap::Args)]
@@ -37,6 +37,10 @@ pub struct RenderArgs {
     /// Show illuminance (lux) in false colour instead of the shaded image.
     #[arg(long)]
     falsecolor: bool,
+    /// fast (the solved patches, blended) or final (direct light traced per pixel, a
+    /// final gather and the luminaires in view; seconds per image).
+    #[arg(long, default_value = "fast")]
+    quality: String,
     #[arg(long, env = "RELIGHT_CACHE")]
     cache: Option<PathBuf>,
     /// Transfer mode, overriding scene.toml: auto, factored, columns or hierarchical.
@@ -67,8 +71,14 @@ pub fn run(a: RenderArgs) -> Result<()> {
     };
     let camera = Camera::from_def(def, a.width, a.height);
     camera.validate().map_err(anyhow::Error::msg)?;
+    let quality = match a.quality.as_str() {
+        "fast" => Quality::Fast,
+        "final" => Quality::Final,
+        other => anyhow::bail!("quality '{other}': use fast or final"),
+    };
     let o = RenderOptions {
         camera,
+        quality,
         exposure: a.exposure,
         format: format_of(&a.output, a.falsecolor)?,
         falsecolor: a.falsecolor,

@@ -188,6 +188,49 @@ impl Bvh {
         );
         best
     }
+
+    /// As [`Bvh::nearest`], with each triangle ranked by `rank(id)`: triangles of rank 0
+    /// are passed through, and of triangles hit at the same distance (within a relative
+    /// `1e-5`: the two faces of a two-sided surface) the higher rank wins.
+    pub fn nearest_ranked(
+        &self,
+        from: Vec3A,
+        d: Vec3A,
+        tmin: f32,
+        tmax: f32,
+        rank: impl Fn(u32) -> u8,
+    ) -> Option<(f32, u32)> {
+        const TIE: f32 = 1e-5;
+        let inv = d.recip();
+        let mut best: Option<(f32, u32, u8)> = None;
+        let far = std::cell::Cell::new(tmax);
+        self.traverse(
+            |n| slab(n.lo, n.hi, from, inv, tmin, far.get() * (1.0 + TIE)),
+            |k| {
+                let limit = (far.get() * (1.0 + TIE)).min(tmax);
+                let Some(t) = hit_t(&self.tris[k], from, d, tmin, limit) else {
+                    return false;
+                };
+                let id = self.ids[k];
+                let r = rank(id);
+                if r == 0 {
+                    return false;
+                }
+                let take = match best {
+                    None => true,
+                    Some((bt, _, _)) if t < bt * (1.0 - TIE) => true,
+                    // A tie: the higher rank wins, then the nearer.
+                    Some((bt, _, br)) => r > br || (r == br && t < bt),
+                };
+                if take {
+                    best = Some((t, id, r));
+                    far.set(far.get().min(t));
+                }
+                false
+            },
+        );
+        best.map(|(t, id, _)| (t, id))
+    }
 }
 
 #[inline]

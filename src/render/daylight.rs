@@ -87,8 +87,8 @@ pub fn daylight_pixels(
     (rad, lux)
 }
 
-/// The rays through the pixel centres of a camera.
-struct CameraRays {
+/// The rays of a camera through points of its image.
+pub(super) struct CameraRays {
     pos: DVec3,
     fwd: DVec3,
     right: DVec3,
@@ -101,7 +101,7 @@ struct CameraRays {
 }
 
 impl CameraRays {
-    fn new(cam: &Camera) -> CameraRays {
+    pub(super) fn new(cam: &Camera) -> CameraRays {
         let (w, h) = (cam.width as usize, cam.height as usize);
         let fwd = (cam.target - cam.position).normalize().as_dvec3();
         let right = fwd.cross(cam.up.as_dvec3()).normalize();
@@ -121,10 +121,26 @@ impl CameraRays {
     /// Unit direction through the centre of pixel (x, y).
     #[inline]
     fn dir(&self, x: usize, y: usize) -> DVec3 {
-        let sx = ((x as f64 + 0.5) / self.w as f64) * 2.0 - 1.0;
-        let sy = 1.0 - ((y as f64 + 0.5) / self.h as f64) * 2.0;
+        self.dir_at(x as f64 + 0.5, y as f64 + 0.5)
+    }
+
+    /// Unit direction through image point (x, y), in pixels from the top left corner.
+    #[inline]
+    pub(super) fn dir_at(&self, x: f64, y: f64) -> DVec3 {
+        let sx = (x / self.w as f64) * 2.0 - 1.0;
+        let sy = 1.0 - (y / self.h as f64) * 2.0;
         (self.fwd + self.right * (sx * self.tan * self.aspect) + self.up * (sy * self.tan))
             .normalize()
+    }
+
+    /// The camera's position.
+    pub(super) fn origin(&self) -> DVec3 {
+        self.pos
+    }
+
+    /// Image width, pixels.
+    pub(super) fn width(&self) -> usize {
+        self.w
     }
 }
 

@@ -59,6 +59,22 @@ impl GroupImages {
         }
     }
 
+    /// Images from their interleaved data, `[pixel][group][rgb]`.
+    pub(super) fn from_parts(
+        width: u32,
+        height: u32,
+        groups: usize,
+        data: Vec<f32>,
+    ) -> GroupImages {
+        debug_assert_eq!(data.len(), 3 * groups * width as usize * height as usize);
+        GroupImages {
+            width,
+            height,
+            groups,
+            data,
+        }
+    }
+
     #[inline]
     fn pixel(&self, i: usize, weights: &[Rgb]) -> Rgb {
         let px = &self.data[3 * self.groups * i..3 * self.groups * (i + 1)];

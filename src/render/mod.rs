@@ -29,6 +29,7 @@ pub mod daylight;
 mod encode;
 pub mod export;
 mod falsecolor;
+pub mod final_gather;
 mod font;
 mod groups;
 pub mod pipeline;

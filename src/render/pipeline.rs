@@ -6,10 +6,10 @@
 //! tone-mapped for 8-bit formats, linear in EXR/PFM. False colour shows incident
 //! illuminance in lux on a logarithmic scale with a legend.
 
-use super::ViewBuffer;
 use super::{
     encode_8bit, encode_exr, encode_pfm, false_color, Camera, Format, GroupImages, Shading, ToneMap,
 };
+use super::{final_gather, ViewBuffer};
 use crate::color::{luminance, Rgb};
 use crate::model::query::Quantity;
 use crate::model::{Lighting, Model, QueryError};
@@ -22,10 +22,25 @@ pub const MAX_RANGE_LUX: f64 = 1e12;
 pub const MIN_FOV_DEG: f64 = 1.0;
 pub const MAX_FOV_DEG: f64 = 170.0;
 
+/// How an image is made from the solved scene.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Quality {
+    /// The solved patches, Gouraud-blended per pixel: a new camera costs milliseconds.
+    #[default]
+    Fast,
+    /// Direct light traced per pixel, a final gather from the solved radiosity and the
+    /// luminaires in view ([`super::final_gather`]): a new camera costs seconds, a new
+    /// lighting state of light groups as little as with `Fast`.
+    Final,
+}
+
 /// What to draw and how.
 #[derive(Debug, Clone)]
 pub struct RenderOptions {
     pub camera: Camera,
+    /// `Final` needs a light-group state and, when per-group images are given in the
+    /// [`Frame`], uses them; false colour always shows the patches' illuminance.
+    pub quality: Quality,
     /// Stops; None = auto exposure (log-average luminance to middle grey).
     pub exposure: Option<f32>,
     pub format: Format,
@@ -128,8 +143,8 @@ pub fn render_values(
     )
 }
 
-/// Builds the view of `o.camera` and renders once (the command line; the server keeps
-/// views in a cache).
+/// Builds the view of `o.camera` (and its `final` images when asked) and renders once
+/// (the command line; the server keeps views in a cache).
 pub fn render_once(
     model: &Model,
     shading: &Shading,
@@ -137,12 +152,54 @@ pub fn render_once(
     o: &RenderOptions,
 ) -> Result<Rendered, RenderError> {
     let view = ViewBuffer::build(&model.baked.mesh, shading, &o.camera);
+    let finals = if o.quality == Quality::Final && !o.falsecolor {
+        needs_groups(lighting)?;
+        let patches = final_gather::patch_bvh(&model.baked.mesh);
+        let cancel = crate::model::Cancel::default();
+        Some(final_images(model, shading, &patches, &o.camera, &cancel)?)
+    } else {
+        None
+    };
     let frame = Frame {
         view: &view,
-        groups: None,
+        groups: finals.as_ref(),
         shading,
     };
     render(model, frame, lighting, o)
+}
+
+/// `Err` unless `lighting` is a light-group state (what `final` images are made of).
+pub fn needs_groups(lighting: &Lighting) -> Result<(), QueryError> {
+    match lighting {
+        Lighting::Groups(_) => Ok(()),
+        Lighting::Emission(_) => Err(QueryError::Invalid(
+            "quality 'final' renders light-group states (lights); a per-patch emission renders \
+             at quality 'fast'"
+                .into(),
+        )),
+    }
+}
+
+/// The `final` images of every light group of `model` seen by `cam`
+/// ([`final_gather::build`]); `patches` is [`final_gather::patch_bvh`] of its mesh.
+pub fn final_images(
+    model: &Model,
+    shading: &Shading,
+    patches: &crate::geometry::bvh::Bvh,
+    cam: &Camera,
+    cancel: &crate::model::Cancel,
+) -> Result<GroupImages, QueryError> {
+    let b = &model.baked;
+    let scene = final_gather::FinalScene {
+        mesh: &b.mesh,
+        shading,
+        patches,
+        triangles: &b.scene.triangles,
+        rho: &b.transfer.rho,
+        groups: &b.transfer.groups,
+        lights: &b.scene.lights,
+    };
+    final_gather::build(&scene, cam, &final_gather::FinalSettings::default(), cancel)
 }
 
 /// max/100 .. max of an image's luminous values (lux); 0.01 .. 1 for a black image.

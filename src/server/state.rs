@@ -19,6 +19,8 @@ pub struct Ready {
     pub model: Model,
     pub bake_seconds: f64,
     shading: std::sync::OnceLock<crate::render::Shading>,
+    /// A BVH over the patches, for `final` renders, built on first use.
+    patch_bvh: std::sync::OnceLock<crate::geometry::bvh::Bvh>,
     mesh_bytes: std::sync::OnceLock<axum::body::Bytes>,
     preview_bytes: std::sync::OnceLock<axum::body::Bytes>,
     /// This scene's share of the memory budget, held while it is loaded.
@@ -38,6 +40,7 @@ impl Ready {
             model,
             bake_seconds,
             shading: std::sync::OnceLock::new(),
+            patch_bvh: std::sync::OnceLock::new(),
             mesh_bytes: std::sync::OnceLock::new(),
             preview_bytes: std::sync::OnceLock::new(),
         }
@@ -47,6 +50,23 @@ impl Ready {
     pub fn shading(&self) -> &crate::render::Shading {
         self.shading
             .get_or_init(|| crate::render::Shading::new(&self.model.baked.mesh))
+    }
+
+    /// The BVH over the mesh's patches that `final` renders trace, built on first use.
+    pub fn patch_bvh(&self) -> &crate::geometry::bvh::Bvh {
+        self.patch_bvh
+            .get_or_init(|| crate::render::final_gather::patch_bvh(&self.model.baked.mesh))
+    }
+
+    /// Bytes [`Ready::patch_bvh`] will allocate, 0 once built.
+    pub fn patch_bvh_pending_bytes(&self) -> u64 {
+        match self.patch_bvh.get() {
+            Some(_) => 0,
+            None => {
+                crate::render::final_gather::PATCH_BVH_BYTES_PER_PATCH
+                    * self.model.baked.mesh.len() as u64
+            }
+        }
     }
 
     /// The shading mesh as served by `GET /api/scenes/{id}/mesh`, built on first use.

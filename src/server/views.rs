@@ -6,16 +6,20 @@ use std::collections::{HashMap, VecDeque};
 use std::sync::{Arc, Mutex, OnceLock};
 
 use super::{AppState, Ready};
-use crate::render::pipeline::RenderOptions;
+use crate::model::{Cancel, QueryError};
+use crate::render::final_gather;
+use crate::render::pipeline::{Quality, RenderOptions};
 use crate::render::{Camera, GroupImages, ViewBuffer};
 
 type ViewKey = (String, [u32; 12]);
 
 /// One cached view: its buffer and, made on first use when they are smaller than the
-/// buffer, per-light-group images.
+/// buffer, per-light-group images; and, once asked for, its `final` images.
 pub struct View {
     pub buffer: ViewBuffer,
     groups: OnceLock<Option<GroupImages>>,
+    /// The `final` quality's per-group images, once built (one build at a time).
+    finals: Mutex<Option<Arc<GroupImages>>>,
 }
 
 impl View {
@@ -27,6 +31,37 @@ impl View {
                 .get()
                 .and_then(|g| g.as_ref())
                 .map_or(0, GroupImages::bytes)
+            + lock(&self.finals).as_ref().map_or(0, |f| f.bytes())
+    }
+
+    /// Whether the `final` images are built.
+    pub fn has_finals(&self) -> bool {
+        lock(&self.finals).is_some()
+    }
+
+    /// The `final` images for `ready`'s light groups, built now when not cached (holding
+    /// this view's lock, so concurrent requests wait for one build). `Err(Cancelled)`
+    /// when `cancel` is raised during the build; the next request starts again.
+    pub fn final_images(
+        &self,
+        ready: &Ready,
+        cam: &Camera,
+        cancel: &Cancel,
+    ) -> Result<Arc<GroupImages>, QueryError> {
+        let mut slot = lock(&self.finals);
+        if let Some(f) = slot.as_ref() {
+            return Ok(f.clone());
+        }
+        let built = crate::render::pipeline::final_images(
+            &ready.model,
+            ready.shading(),
+            ready.patch_bvh(),
+            cam,
+            cancel,
+        )?;
+        let built = Arc::new(built);
+        *slot = Some(built.clone());
+        Ok(built)
     }
 
     /// Whether group images for `groups` light groups would still have to be made.
@@ -161,6 +196,7 @@ pub fn view_for(state: &AppState, ready: &Ready, cam: &Camera) -> Arc<View> {
         Arc::new(View {
             buffer: ViewBuffer::build(&ready.model.baked.mesh, ready.shading(), cam),
             groups: OnceLock::new(),
+            finals: Mutex::new(None),
         })
     }));
     match built {
@@ -192,7 +228,16 @@ pub fn render_estimate(state: &AppState, ready: &Ready, o: &RenderOptions) -> u6
                 + 2 * (ViewBuffer::estimate_bytes(&o.camera)).min(24 * groups as u64 * px)
         }
     };
-    images + view
+    let finals = match o.quality {
+        Quality::Final if !o.falsecolor => match lock(&state.views)
+            .peek(&view_key(ready, &o.camera))
+        {
+            Some(v) if v.has_finals() => 0,
+            _ => final_gather::estimate_bytes(&o.camera, groups) + ready.patch_bvh_pending_bytes(),
+        },
+        _ => 0,
+    };
+    images + view + finals
 }
 
 fn lock<T>(m: &Mutex<T>) -> std::sync::MutexGuard<'_, T> {

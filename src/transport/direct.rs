@@ -43,7 +43,7 @@ pub(crate) fn sub_centroids(level: u32) -> Vec<(f64, f64)> {
 }
 
 /// Whether the segment from `x` (on a surface with normal `n`) to `p` is free.
-fn visible(bvh: &Bvh, x: DVec3, n: DVec3, p: DVec3, skip: u32) -> bool {
+pub(crate) fn visible(bvh: &Bvh, x: DVec3, n: DVec3, p: DVec3, skip: u32) -> bool {
     let lift = 1e-6 * (1.0 + x.abs().max_element());
     let o = Vec3A::from((x + n * lift).as_vec3());
     !bvh.occluded(o, Vec3A::from(p.as_vec3()), [skip, u32::MAX])
@@ -51,7 +51,13 @@ fn visible(bvh: &Bvh, x: DVec3, n: DVec3, p: DVec3, skip: u32) -> bool {
 
 /// Shadowed illuminance (lux) of luminaire `l` at `x` (normal `n`), and whether any and
 /// whether every lit emitter point was visible. `skip` is a triangle the rays ignore.
-fn shadowed(bvh: &Bvh, l: &Luminaire, x: DVec3, n: DVec3, skip: u32) -> (f64, bool, bool) {
+pub(crate) fn shadowed(
+    bvh: &Bvh,
+    l: &Luminaire,
+    x: DVec3,
+    n: DVec3,
+    skip: u32,
+) -> (f64, bool, bool) {
     let (mut e, mut any, mut all) = (0.0, false, true);
     l.for_each_emitter(x, |p, w| {
         let ek = w * l.illuminance_from(p, x, n);

@@ -65,14 +65,70 @@ function recordTiming(version, r, rtt, shown) {
   $("#t-screen").textContent = since === undefined ? "–" : `${st.changeToScreenMs.toFixed(1)} ms`;
 }
 
+/** The camera and size a body renders: the server builds `final` images per view. */
+const viewKey = (body) => JSON.stringify([state.scene, body.camera, body.width, body.height]);
+
+/** The view whose `final` images the server has built (then sliders relight it). */
+let finalView = null;
+let finalTimer = 0;
+/** How long the camera must rest before the final image is asked for, ms. */
+const FINAL_REST_MS = 400;
+
+/** Whether the current image should be made at final quality. */
+const wantFinal = () => $("#final")?.checked && !state.falsecolor;
+
+function finalStatus(text) {
+  const el = $("#final-status");
+  if (el) el.textContent = text;
+}
+
+/** Builds the final image of the current view, then shows it; progress in #final-status. */
+const finalFlight = singleFlight(async (signal) => {
+  if (!state.details || !wantFinal()) return;
+  const canvas = $("#image");
+  const body = { ...renderBody(canvas), quality: "final" };
+  const key = viewKey(body);
+  if (finalView === key) return;
+  finalStatus("tracing the final image…");
+  const t0 = performance.now();
+  const r = await postJson("/render", body, { signal });
+  if (!r.ok) {
+    finalStatus("");
+    throw new Error(await problem(r));
+  }
+  const bitmap = await createImageBitmap(await r.blob());
+  if (signal.aborted) return;
+  finalView = key;
+  window.relight.stats.finalMs = performance.now() - t0;
+  finalStatus(`final (${((performance.now() - t0) / 1000).toFixed(1)} s)`);
+  if (viewKey(renderBody(canvas)) !== key) return;
+  canvas.width = bitmap.width;
+  canvas.height = bitmap.height;
+  canvas.getContext("2d").drawImage(bitmap, 0, 0);
+  bitmap.close();
+});
+
+$("#final")?.addEventListener("change", () => imageFlight());
+
 export const imageFlight = singleFlight(async (signal) => {
   if (!state.details) return;
   const canvas = $("#image");
   const body = renderBody(canvas);
+  const key = viewKey(body);
+  // Sliders relight whichever quality is built for this view.
+  if (wantFinal() && finalView === key) body.quality = "final";
+  if (finalView !== key) {
+    finalFlight.abort();
+    finalStatus(wantFinal() ? "fast" : "");
+  }
   const version = state.version;
   const t0 = performance.now();
   const r = await postJson("/render", body, { signal });
   if (!r.ok) throw new Error(await problem(r));
+  clearTimeout(finalTimer);
+  if (wantFinal() && body.quality !== "final") {
+    finalTimer = setTimeout(() => finalFlight(), FINAL_REST_MS);
+  }
   const blob = await r.blob();
   const rtt = performance.now() - t0;
   const bitmap = await createImageBitmap(blob);

@@ -10,6 +10,7 @@ mod cli;
 mod configuration_factors;
 mod cornell;
 mod daylight;
+mod final_render;
 mod fuzz;
 mod fuzz_requests;
 mod glare;

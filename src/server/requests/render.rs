@@ -19,8 +19,9 @@ use crate::model::lighting::parse_value;
 use crate::model::sky_state::{SkySpec, SkyState};
 use crate::model::Lighting;
 use crate::model::Model;
+use crate::render::final_gather::MAX_FINAL_PIXELS;
 use crate::render::pipeline::{
-    RenderOptions, MAX_FOV_DEG, MAX_RANGE_LUX, MIN_FOV_DEG, MIN_RANGE_LUX,
+    Quality, RenderOptions, MAX_FOV_DEG, MAX_RANGE_LUX, MIN_FOV_DEG, MIN_RANGE_LUX,
 };
 use crate::render::{Camera, Format, ToneMap, MAX_SIDE};
 use crate::server::json::{numbers, FIELD};
@@ -64,6 +65,9 @@ setting!(FormatName(Format),     ["png" => Format::Png, "jpeg" => Format::Jpeg, 
 setting!(ModeName(bool), ["shaded" => false, "falsecolor" => true],
     "shaded or falsecolor",
     "falsecolor maps illuminance (lux) on a log scale, with a legend bar labelled in lux at the right edge; the range is in the X-Relight-Falsecolor-Lux header. It is an 8-bit image: not with format exr.");
+setting!(QualityName(Quality), ["fast" => Quality::Fast, "final" => Quality::Final],
+    "fast or final",
+    "fast blends the solved patches per pixel (milliseconds for a new camera). final traces the direct light per pixel, gathers the indirect light from the solved radiosity and shows the luminaires: seconds for a new camera, then as fast as fast for new light-group settings. final renders light-group states only (not emission); false colour is the same in both.");
 setting!(TonemapName(ToneMap), ["filmic" => ToneMap::Filmic, "clamp" => ToneMap::Clamp],
     "filmic or clamp", "The tone curve of shaded 8-bit images.");
 
@@ -228,6 +232,9 @@ pub(crate) struct RenderRequest {
     #[serde(default)]
     #[schema(inline)]
     tonemap: TonemapName,
+    #[serde(default)]
+    #[schema(inline)]
+    quality: QualityName,
     #[serde(default, deserialize_with = "some")]
     #[schema(schema_with = range_schema, value_type = Vec<f64>)]
     range: Option<LuxRange>,
@@ -293,8 +300,16 @@ impl RenderRequest {
                 "false colour is an 8-bit image: use png or jpeg".into(),
             ));
         }
+        let px = w as u64 * h as u64;
+        if self.quality.0 == Quality::Final && !falsecolor && px > MAX_FINAL_PIXELS {
+            return Err(AppError::Invalid(format!(
+                "a final-quality image has at most {MAX_FINAL_PIXELS} pixels (1024×1024); \
+                 {w}×{h} is {px}: ask for a smaller image or quality fast"
+            )));
+        }
         Ok(RenderOptions {
             camera,
+            quality: self.quality.0,
             exposure,
             format,
             falsecolor,
@@ -331,10 +346,11 @@ impl RenderRequest {
                 "exposure" => r.exposure = Some(Exposure::Stops(num(v)?)),
                 "mode" => r.mode = query_choice(key, v)?,
                 "tonemap" => r.tonemap = query_choice(key, v)?,
+                "quality" => r.quality = query_choice(key, v)?,
                 _ => {
                     if !query_light(k, v, &mut lights)? {
                         return Err(AppError::BadRequest(format!(
-                            "unknown query parameter '{}' (camera, w, h, exposure, mode, tonemap, light.<group>)", shorten(k)
+                            "unknown query parameter '{}' (camera, w, h, exposure, mode, tonemap, quality, light.<group>)", shorten(k)
                         )));
                     }
                 }
@@ -461,4 +477,6 @@ pub(crate) struct RenderQuery {
     mode: Option<ModeName>,
     #[param(inline)]
     tonemap: Option<TonemapName>,
+    #[param(inline)]
+    quality: Option<QualityName>,
 }

@@ -12,9 +12,9 @@ use axum::response::Response;
 use super::{made, put};
 use crate::budget::human_bytes;
 use crate::model::sky_state::SkyState;
-use crate::model::Lighting;
+use crate::model::{Cancel, Lighting};
 use crate::render::daylight::{daylight_pixels, DaylightScene, SunView};
-use crate::render::pipeline::{self, Frame, RenderError, RenderOptions};
+use crate::render::pipeline::{self, Frame, Quality, RenderError, RenderOptions};
 use crate::render::ViewBuffer;
 use crate::server::openapi::{PostErrors, QueryErrors, RenderImage, RenderPng, SceneIdParam};
 use crate::server::parse::{ReadyScene, StrictJson};
@@ -30,11 +30,21 @@ fn render_image(
     lighting: &Lighting,
     sky: Option<&SkyState>,
     o: &RenderOptions,
+    cancel: &Cancel,
 ) -> Result<pipeline::Rendered, AppError> {
     let entry = view_for(state, ready, &o.camera);
     let encode = |e: RenderError| match e {
         RenderError::Query(q) => q.into(),
         RenderError::Encode(m) => AppError::Internal(m),
+    };
+    let finals = if o.quality == Quality::Final && !o.falsecolor {
+        pipeline::needs_groups(lighting)?;
+        let f = entry.final_images(ready, &o.camera, cancel)?;
+        // The entry grew by its final images: keep the cache within bounds.
+        super::super::views::trim(state);
+        Some(f)
+    } else {
+        None
     };
     if let Some(sky) = sky {
         let m = &ready.model;
@@ -43,8 +53,10 @@ fn render_image(
         if let Lighting::Groups(w) = lighting {
             let t = &m.baked.transfer;
             let mut more = vec![0f32; b.len()];
-            t.relight_into(w, &mut more);
-            b.iter_mut().zip(&more).for_each(|(a, x)| *a += x);
+            if finals.is_none() {
+                t.relight_into(w, &mut more);
+                b.iter_mut().zip(&more).for_each(|(a, x)| *a += x);
+            }
             t.illuminance_into(w, &mut more);
             h.iter_mut().zip(&more).for_each(|(a, x)| *a += x);
         }
@@ -62,15 +74,29 @@ fn render_image(
             rho: &m.baked.transfer.rho,
             reach: m.reach_length(),
         };
-        let (rad, lux) = daylight_pixels(&scene, &entry.buffer, &o.camera, sun, &|d| {
+        let (mut rad, lux) = daylight_pixels(&scene, &entry.buffer, &o.camera, sun, &|d| {
             sky.luminance(site, d)
         });
+        if let (Some(f), Lighting::Groups(w)) = (&finals, lighting) {
+            // The light groups at final quality; the daylight as the patches carry it.
+            for (r, g) in rad.iter_mut().zip(f.linear(w)) {
+                (0..3).for_each(|c| r[c] += g[c]);
+            }
+        }
         let frame = Frame {
             view: &entry.buffer,
             groups: None,
             shading: ready.shading(),
         };
         return pipeline::render_values(frame, &b, &h, (&rad, &lux), o).map_err(encode);
+    }
+    if let Some(f) = &finals {
+        let frame = Frame {
+            view: &entry.buffer,
+            groups: Some(f),
+            shading: ready.shading(),
+        };
+        return pipeline::render(&ready.model, frame, lighting, o).map_err(encode);
     }
     let groups = match lighting {
         Lighting::Groups(_) if !o.falsecolor => {
@@ -112,8 +138,8 @@ async fn respond(
     );
     let st = state.clone();
     let r = state
-        .heavy(bytes, &what, move |_| {
-            render_image(&st, &ready, &lighting, sky.as_ref(), &o)
+        .heavy(bytes, &what, move |cancel| {
+            render_image(&st, &ready, &lighting, sky.as_ref(), &o, cancel)
         })
         .await?;
     let timing = ("x-relight-render-ms", t0);

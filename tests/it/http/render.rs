@@ -72,6 +72,54 @@ async fn render_endpoints_return_images_and_precise_errors() {
     assert_eq!(s, StatusCode::BAD_REQUEST);
 }
 
+/// `quality=final` on both routes: an image from the traced view, relit by light-group
+/// settings without a new build; refused with a per-patch emission, or a bad name.
+#[tokio::test]
+async fn final_quality_renders_light_groups_and_refuses_emission() {
+    let _gate = common::shared();
+    let req = |uri: &str| Request::get(uri).body(Body::empty()).unwrap();
+    let uri = "/api/scenes/cornell-box/render.png?w=40&h=30&exposure=0&quality=final";
+    let (s, h, dim) = send(app(), req(&format!("{uri}&light.ceiling=0.5"))).await;
+    assert_eq!(s, StatusCode::OK);
+    assert_eq!(h[header::CONTENT_TYPE], "image/png");
+    let (_, _, bright) = send(app(), req(&format!("{uri}&light.ceiling=2"))).await;
+    let mean = |png: &[u8]| {
+        let img = image::load_from_memory(png).unwrap().to_rgb8();
+        img.pixels()
+            .map(|p| p.0.iter().map(|&v| v as f64).sum::<f64>())
+            .sum::<f64>()
+    };
+    assert!(mean(&bright) > mean(&dim) * 1.2);
+    let body = json!({"width": 32, "height": 24, "quality": "final", "format": "exr"});
+    let (s, h, _) = send(
+        app(),
+        Request::post("/api/scenes/cornell-box/render")
+            .header(header::CONTENT_TYPE, "application/json")
+            .body(Body::from(body.to_string()))
+            .unwrap(),
+    )
+    .await;
+    assert_eq!(
+        (s, h[header::CONTENT_TYPE].to_str().unwrap()),
+        (StatusCode::OK, "image/x-exr")
+    );
+    for (body, needle) in [
+        (json!({"quality": "best"}), "quality 'best'"),
+        (
+            json!({"quality": "final", "width": 2048, "height": 1024}),
+            "at most 1048576 pixels",
+        ),
+        (
+            json!({"quality": "final", "emission": {"17": [1, 1, 1]}}),
+            "final",
+        ),
+    ] {
+        let (s, _, v) = post(app(), "/api/scenes/cornell-box/render", body.to_string()).await;
+        assert_eq!(s, StatusCode::UNPROCESSABLE_ENTITY, "{v}");
+        assert!(v["detail"].as_str().unwrap().contains(needle), "{v}");
+    }
+}
+
 #[tokio::test]
 async fn mesh_and_per_patch_illuminance_let_a_client_shade_like_the_server() {
     let _gate = common::shared();

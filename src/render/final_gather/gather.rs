@@ -1,0 +1,149 @@
+//! The final gather: the indirect light at a visible point, from cosine-weighted rays that
+//! read the solved radiosity where they land.
+//!
+//! With cosine-weighted directions the irradiance is `E = π · mean(L)`, and a Lambertian
+//! surface's radiance is `L = B/π`, so `E = mean(B)` over the rays. A ray reads, per
+//! group, the radiosity *reflected* where it lands (`B − E` for groups whose emission the
+//! direct part lights, `B` otherwise), Gouraud-interpolated over the hit triangle's
+//! shading vertices, so nothing steps at patch edges. A ray that meets the back of a
+//! surface reads nothing (surfaces reflect on their front), and one that leaves the
+//! scene reads nothing. Directions are stratified on a √n × √n grid with a random offset
+//! per point, so neighbouring pixels' errors are independent and the filter removes them.
+
+use glam::{DVec3, Vec3A};
+use rayon::prelude::*;
+
+use super::lights::GroupLights;
+use super::FinalScene;
+use crate::transport::formfactor::Rng;
+
+/// Reads the reflected radiosity at a point where a gather ray landed close by: `(point,
+/// patch, generator, per group RGB out)`.
+pub(super) type NearHit<'a> = dyn FnMut(DVec3, u32, &mut Rng, &mut [f32]) + 'a;
+
+/// A gather ray that lands closer than this many times the size (√area) of the patch it
+/// meets reads the light at the point it lands, not the patch's.
+pub(super) const NEAR: f64 = 1.0;
+
+/// Per shading vertex and group, the reflected radiosity at unit group weight (lm/m²),
+/// `[vertex][group][rgb]`.
+pub(super) struct Reflected {
+    groups: usize,
+    values: Vec<f32>,
+}
+
+impl Reflected {
+    pub(super) fn new(scene: &FinalScene<'_>, lights: &GroupLights<'_>) -> Reflected {
+        let g = scene.groups.len();
+        let per_group: Vec<Vec<crate::color::Rgb>> = scene
+            .groups
+            .par_iter()
+            .enumerate()
+            .map(|(k, col)| {
+                let mut r = col.b.clone();
+                if lights.explicit(k) {
+                    for (v, e) in r.iter_mut().zip(&col.e) {
+                        *v = (*v - e).max(0.0);
+                    }
+                }
+                scene.shading.vertex_values(&r)
+            })
+            .collect();
+        let nv = scene.shading.len();
+        let mut values = vec![0f32; nv * 3 * g];
+        for (k, vals) in per_group.iter().enumerate() {
+            for (s, v) in vals.iter().enumerate() {
+                values[3 * (s * g + k)..3 * (s * g + k) + 3].copy_from_slice(v);
+            }
+        }
+        Reflected { groups: g, values }
+    }
+
+    /// Adds to `out` (per group RGB) the gathered irradiance (lux) at `x` on patch `p`
+    /// (normal `n`), from `rays` cosine-weighted rays. A ray that lands closer than
+    /// [`NEAR`] × the size of the patch it meets asks `near(point, patch, values)` for the
+    /// reflected radiosity there instead (per group RGB into `values`), when given: near
+    /// a corner the patch's mean is not the light at the point.
+    #[allow(clippy::too_many_arguments)]
+    pub(super) fn gather(
+        &self,
+        scene: &FinalScene<'_>,
+        (x, n, p): (DVec3, DVec3, u32),
+        rays: usize,
+        rng: &mut Rng,
+        mut near: Option<&mut NearHit<'_>>,
+        out: &mut [f32],
+    ) {
+        let g = self.groups;
+        let side = (rays as f64).sqrt().ceil().max(1.0) as usize;
+        let count = side * side;
+        let (t, b) = crate::geometry::frame(n);
+        let lift = 1e-6 * (1.0 + x.abs().max_element());
+        let o = x + n * lift;
+        let o32 = Vec3A::from(o.as_vec3());
+        let (du, dv) = (rng.next_f64(), rng.next_f64());
+        let mesh = scene.mesh;
+        let w = 1.0 / count as f32;
+        for i in 0..count {
+            let u1 = ((i % side) as f64 + du) / side as f64;
+            let u2 = ((i / side) as f64 + dv) / side as f64;
+            let r = u1.sqrt();
+            let phi = std::f64::consts::TAU * u2;
+            let d = t * (r * phi.cos()) + b * (r * phi.sin()) + n * (1.0 - u1).max(0.0).sqrt();
+            let hit = scene.patches.nearest_ranked(
+                o32,
+                Vec3A::from(d.as_vec3()),
+                0.0,
+                f32::INFINITY,
+                |q| {
+                    if q == p {
+                        0
+                    } else if mesh.patches[q as usize].normal.dot(d) < 0.0 {
+                        2
+                    } else {
+                        1
+                    }
+                },
+            );
+            let Some((th, q)) = hit else { continue };
+            let patch = &mesh.patches[q as usize];
+            if patch.normal.dot(d) >= 0.0 {
+                continue;
+            }
+            let at = o + d * th as f64;
+            if let Some(f) = near.as_mut() {
+                if (th as f64) < NEAR * patch.area.sqrt() {
+                    let mut v = vec![0f32; out.len()];
+                    f(at, q, rng, &mut v);
+                    for (o, v) in out.iter_mut().zip(&v) {
+                        *o += w * v;
+                    }
+                    continue;
+                }
+            }
+            let (wa, wb, wc) = barycentric(&mesh.corners(q as usize), at);
+            let sv = scene.shading.corner[q as usize];
+            let rows = sv.map(|s| &self.values[3 * g * s as usize..3 * g * (s as usize + 1)]);
+            for (k, o) in out.iter_mut().enumerate() {
+                *o += w * (wa * rows[0][k] + wb * rows[1][k] + wc * rows[2][k]);
+            }
+        }
+    }
+}
+
+/// Barycentric weights of point `x` (on or near the triangle `c`), clamped to the
+/// triangle.
+fn barycentric(c: &[DVec3; 3], x: DVec3) -> (f32, f32, f32) {
+    let (e1, e2, v) = (c[1] - c[0], c[2] - c[0], x - c[0]);
+    let (d11, d12, d22) = (e1.dot(e1), e1.dot(e2), e2.dot(e2));
+    let (dv1, dv2) = (v.dot(e1), v.dot(e2));
+    let den = d11 * d22 - d12 * d12;
+    if den.abs() < 1e-300 {
+        return (1.0 / 3.0, 1.0 / 3.0, 1.0 / 3.0);
+    }
+    let b = ((d22 * dv1 - d12 * dv2) / den).clamp(0.0, 1.0);
+    let c2 = ((d11 * dv2 - d12 * dv1) / den).clamp(0.0, 1.0);
+    let s = (b + c2).max(1.0);
+    let (b, c2) = (b / s, c2 / s);
+    ((1.0 - b - c2) as f32, b as f32, c2 as f32)
+}

@@ -1,0 +1,264 @@
+//! Direct light at a visible point, per light group, computed exactly.
+//!
+//! - **Point luminaires**: each luminaire's unoccluded illuminance is found first (over
+//!   its luminous opening when the point is near, [`Luminaire::for_each_emitter`]). Every
+//!   luminaire that gives at least [`SIGNIFICANT`] of the point's unoccluded total gets its
+//!   shadow rays. The rest, the tail, is estimated without bias by one luminaire drawn in
+//!   proportion to its share, weighted by the tail's total.
+//! - **Emissive surfaces**: each emitting input triangle that faces the point gives its
+//!   exitance times the exact unoccluded point-to-triangle form factor, times the visible
+//!   fraction of the triangle, from stratified shadow rays (more for brighter triangles).
+//!   A group with more than [`MAX_EMITTER_TRIANGLES`] emitting triangles leaves its
+//!   emission to the gather instead ([`GroupLights::explicit`]).
+
+use std::collections::BTreeMap;
+
+use glam::DVec3;
+
+use super::FinalScene;
+use crate::color::Rgb;
+use crate::geometry::bvh::Bvh;
+use crate::photometry::Luminaire;
+use crate::transport::direct::{shadowed, visible};
+use crate::transport::formfactor::{point_to_polygon, sample_triangle, Rng};
+
+/// A luminaire whose unoccluded illuminance is at least this share of the point's total
+/// gets its own shadow rays; the others are sampled.
+pub(super) const SIGNIFICANT: f64 = 0.01;
+
+/// Draws of a shadow-ray target on an emitter before one above the receiver's horizon
+/// is found (an emitter that straddles the horizon).
+const HORIZON_TRIES: u32 = 8;
+
+/// Emitting triangles per group handled exactly; a group with more is gathered.
+pub(super) const MAX_EMITTER_TRIANGLES: usize = 1024;
+
+/// One emitting input triangle of a group.
+struct Emitter {
+    corners: [DVec3; 3],
+    centroid: DVec3,
+    normal: DVec3,
+    /// Exitance at unit group weight, lm/m².
+    exitance: Rgb,
+    /// Its luminous value.
+    luminous: f64,
+}
+
+/// One light group's sources.
+struct Sources<'a> {
+    luminaires: &'a [Luminaire],
+    emitters: Vec<Emitter>,
+    /// Whether its emitting surfaces are handled here (else by the gather).
+    explicit: bool,
+}
+
+/// Every group's direct-light sources.
+pub(super) struct GroupLights<'a> {
+    bvh: &'a Bvh,
+    groups: Vec<Sources<'a>>,
+    emitter_rays: u32,
+}
+
+/// Reused buffers of one thread.
+#[derive(Default)]
+pub(super) struct Scratch {
+    /// Per group RGB direct illuminance of the current sample, lux.
+    pub(super) lux: Vec<f32>,
+    candidates: Vec<(usize, f64)>,
+}
+
+impl<'a> GroupLights<'a> {
+    pub(super) fn new(scene: &'a FinalScene<'a>, emitter_rays: u32) -> GroupLights<'a> {
+        let groups = scene
+            .lights
+            .iter()
+            .zip(scene.groups)
+            .enumerate()
+            .map(|(k, (light, col))| {
+                let emitters = emitters_of(scene, k, &col.e);
+                let explicit = emitters.len() <= MAX_EMITTER_TRIANGLES;
+                Sources {
+                    luminaires: &light.luminaires,
+                    emitters: if explicit { emitters } else { Vec::new() },
+                    explicit,
+                }
+            })
+            .collect();
+        GroupLights {
+            bvh: scene.patches,
+            groups,
+            emitter_rays: emitter_rays.max(1),
+        }
+    }
+
+    /// Whether group `k`'s emitting surfaces are lit here (so the gather must leave their
+    /// emission out).
+    pub(super) fn explicit(&self, k: usize) -> bool {
+        self.groups[k].explicit
+    }
+
+    /// Adds to `out` (per group RGB, lux) the direct illuminance at `x` on patch `p`
+    /// (normal `n`).
+    pub(super) fn direct(
+        &self,
+        x: DVec3,
+        n: DVec3,
+        p: u32,
+        rng: &mut Rng,
+        scratch: &mut Scratch,
+        out: &mut [f32],
+    ) {
+        for (k, g) in self.groups.iter().enumerate() {
+            let out = &mut out[3 * k..3 * k + 3];
+            if !g.luminaires.is_empty() {
+                self.luminaires(g.luminaires, (x, n, p), rng, scratch, out);
+            }
+            if !g.emitters.is_empty() {
+                self.emitters(&g.emitters, (x, n, p), rng, scratch, out);
+            }
+        }
+    }
+
+    /// Point luminaires: the significant ones exactly, the tail by one drawn sample.
+    fn luminaires(
+        &self,
+        ls: &[Luminaire],
+        (x, n, p): (DVec3, DVec3, u32),
+        rng: &mut Rng,
+        scratch: &mut Scratch,
+        out: &mut [f32],
+    ) {
+        let cand = &mut scratch.candidates;
+        cand.clear();
+        let mut total = 0.0;
+        for (i, l) in ls.iter().enumerate() {
+            let c = l.illuminance(x, n);
+            if c > 0.0 {
+                cand.push((i, c));
+                total += c;
+            }
+        }
+        let cut = SIGNIFICANT * total;
+        let mut tail = 0.0;
+        let add = |out: &mut [f32], l: &Luminaire, e: f64| {
+            for (o, k) in out.iter_mut().zip(l.color) {
+                *o += (e * k as f64) as f32;
+            }
+        };
+        for &(i, c) in cand.iter() {
+            if c >= cut {
+                add(out, &ls[i], shadowed(self.bvh, &ls[i], x, n, p).0);
+            } else {
+                tail += c;
+            }
+        }
+        if tail <= 0.0 {
+            return;
+        }
+        let mut r = rng.next_f64() * tail;
+        let small: Vec<(usize, f64)> = cand.iter().copied().filter(|&(_, c)| c < cut).collect();
+        let last = small.len() - 1;
+        for (k, &(i, c)) in small.iter().enumerate() {
+            if r < c || k == last {
+                let e = shadowed(self.bvh, &ls[i], x, n, p).0;
+                add(out, &ls[i], e * tail / c);
+                return;
+            }
+            r -= c;
+        }
+    }
+
+    /// Emitting triangles: exact form factor × visible fraction.
+    fn emitters(
+        &self,
+        em: &[Emitter],
+        (x, n, p): (DVec3, DVec3, u32),
+        rng: &mut Rng,
+        scratch: &mut Scratch,
+        out: &mut [f32],
+    ) {
+        let cand = &mut scratch.candidates;
+        cand.clear();
+        let mut total = 0.0;
+        for (i, e) in em.iter().enumerate() {
+            if e.normal.dot(x - e.centroid) <= 0.0 {
+                continue;
+            }
+            let ff = point_to_polygon(x, n, &e.corners);
+            if ff > 0.0 {
+                cand.push((i, ff));
+                total += ff * e.luminous;
+            }
+        }
+        if total <= 0.0 {
+            return;
+        }
+        let budget = self.emitter_rays as f64;
+        for &(i, ff) in cand.iter() {
+            let e = &em[i];
+            let share = ff * e.luminous / total;
+            let k = ((share * budget).ceil() as u32).clamp(1, self.emitter_rays);
+            // The visible fraction of the part above x's horizon (the part the form
+            // factor counts): samples below it are drawn again, a few times at most.
+            let (mut free, mut above) = (0u32, 0u32);
+            for r in 0..k {
+                for _ in 0..HORIZON_TRIES {
+                    let u = (r as f64 + rng.next_f64()) / k as f64;
+                    let y = sample_triangle(&e.corners, u, rng.next_f64());
+                    if n.dot(y - x) > 0.0 {
+                        above += 1;
+                        free += u32::from(visible(self.bvh, x, n, y, p));
+                        break;
+                    }
+                }
+            }
+            let seen = if above > 0 {
+                free as f64 / above as f64
+            } else {
+                1.0
+            };
+            let f = (ff * seen) as f32;
+            for (o, m) in out.iter_mut().zip(e.exitance) {
+                *o += f * m;
+            }
+        }
+    }
+}
+
+/// The emitting input triangles of group `k`, with their exitance at unit weight (the
+/// area-weighted mean of their patches' emission `e`, lm/m²).
+fn emitters_of(scene: &FinalScene<'_>, k: usize, e: &[f32]) -> Vec<Emitter> {
+    let mut by_source: BTreeMap<u32, (f64, [f64; 3])> = BTreeMap::new();
+    for (j, patch) in scene.mesh.patches.iter().enumerate() {
+        if patch.group != Some(k as u32) {
+            continue;
+        }
+        let ej = &e[3 * j..3 * j + 3];
+        if ej.iter().all(|&v| v <= 0.0) {
+            continue;
+        }
+        let s = by_source.entry(patch.source).or_insert((0.0, [0.0; 3]));
+        s.0 += patch.area;
+        for (a, &v) in s.1.iter_mut().zip(ej) {
+            *a += patch.area * v as f64;
+        }
+    }
+    by_source
+        .into_iter()
+        .filter_map(|(source, (area, sum))| {
+            let t = scene.triangles.get(source as usize)?;
+            let normal = (t.p[1] - t.p[0]).cross(t.p[2] - t.p[0]).normalize_or_zero();
+            if area <= 0.0 || normal == DVec3::ZERO {
+                return None;
+            }
+            let exitance = sum.map(|v| (v / area) as f32);
+            Some(Emitter {
+                corners: t.p,
+                centroid: (t.p[0] + t.p[1] + t.p[2]) / 3.0,
+                normal,
+                exitance,
+                luminous: crate::color::luminance(exitance).max(1e-12) as f64,
+            })
+        })
+        .collect()
+}
