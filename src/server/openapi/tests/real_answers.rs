@@ -15,59 +15,18 @@ fn small_room(dir: &std::path::Path) {
     }
     // Corners counter-clockwise seen from the front (inside the room).
     let (x, y, z) = (4.0, 3.0, 4.0);
-    let obj = [
-        quad(
-            "floor",
-            "white",
-            [[0., 0., 0.], [0., 0., z], [x, 0., z], [x, 0., 0.]],
-        ),
-        quad(
-            "ceiling",
-            "white",
-            [[0., y, 0.], [x, y, 0.], [x, y, z], [0., y, z]],
-        ),
-        quad(
-            "west",
-            "white",
-            [[0., 0., 0.], [0., y, 0.], [0., y, z], [0., 0., z]],
-        ),
-        quad(
-            "east",
-            "white",
-            [[x, 0., 0.], [x, 0., z], [x, y, z], [x, y, 0.]],
-        ),
-        quad(
-            "north",
-            "white",
-            [[0., 0., 0.], [x, 0., 0.], [x, y, 0.], [0., y, 0.]],
-        ),
-        quad(
-            "south",
-            "white",
-            [[0., 0., z], [0., y, z], [x, y, z], [x, 0., z]],
-        ),
-        quad(
-            "panel",
-            "light",
-            [
-                [1.5, 2.9, 1.5],
-                [2.5, 2.9, 1.5],
-                [2.5, 2.9, 2.5],
-                [1.5, 2.9, 2.5],
-            ],
-        ),
-        quad(
-            "shelf",
-            "white",
-            [
-                [0.5, 1., 0.5],
-                [0.5, 1., 1.5],
-                [1.5, 1., 1.5],
-                [1.5, 1., 0.5],
-            ],
-        ),
-    ]
-    .concat();
+    #[rustfmt::skip]
+    let quads = [
+        ("floor", "white", [[0., 0., 0.], [0., 0., z], [x, 0., z], [x, 0., 0.]]),
+        ("ceiling", "white", [[0., y, 0.], [x, y, 0.], [x, y, z], [0., y, z]]),
+        ("west", "white", [[0., 0., 0.], [0., y, 0.], [0., y, z], [0., 0., z]]),
+        ("east", "white", [[x, 0., 0.], [x, 0., z], [x, y, z], [x, y, 0.]]),
+        ("north", "white", [[0., 0., 0.], [x, 0., 0.], [x, y, 0.], [0., y, 0.]]),
+        ("south", "white", [[0., 0., z], [0., y, z], [x, y, z], [x, 0., z]]),
+        ("panel", "light", [[1.5, 2.9, 1.5], [2.5, 2.9, 1.5], [2.5, 2.9, 2.5], [1.5, 2.9, 2.5]]),
+        ("shelf", "white", [[0.5, 1., 0.5], [0.5, 1., 1.5], [1.5, 1., 1.5], [1.5, 1., 0.5]]),
+    ];
+    let obj: String = quads.map(|(name, mat, p)| quad(name, mat, p)).concat();
     let mtl = "newmtl white\nKd 0.7 0.7 0.7\nnewmtl light\nKd 0 0 0\nKe 10 10 10\n";
     let toml = r#"
 name = "Small room"
