@@ -8,8 +8,8 @@
 //!
 //! A point's illuminance is exact where accuracy needs it: the direct sky is integrated
 //! against the continuous sky luminance over the rays that leave the scene from the point
-//! ([`SkyView`](crate::transport::sky_view::SkyView)), the sun gets one shadow ray, and the interreflected light is gathered
-//! from `B` with the point's cached gather weights.
+//! ([`SkyView`](crate::transport::sky_view::SkyView)), the sun gets one shadow ray, and
+//! the interreflected light is gathered from `B` with the point's cached gather weights.
 //!
 //! The parts: [`gather`] is the point-gather cache every point query shares (a point set's
 //! gather weights, sky views and daylight coefficients), [`patches`] a sky's daylight on
