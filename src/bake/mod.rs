@@ -13,12 +13,14 @@ use serde::Serialize;
 use crate::geometry::bvh::Bvh;
 use crate::geometry::glazing::Glazing;
 pub mod cache;
+mod error;
 mod memory;
 pub mod shard;
+pub use error::BakeError;
 pub use memory::*;
 
 use crate::geometry::mesh::Mesh;
-use crate::scene::{Scene, SceneError, TransferChoice};
+use crate::scene::{Scene, TransferChoice};
 use crate::transport::formfactor::{self, FormFactorOptions};
 use crate::transport::hierarchy::{HierarchyOptions, Plan};
 use crate::transport::transfer::{Coupling, Transfer, TransferMode};
@@ -29,91 +31,7 @@ use cache::CacheError;
 /// the estimated patch count before meshing and from the real one after.
 pub const DEFAULT_MAX_PATCHES: usize = 4_000_000;
 
-#[derive(Debug, thiserror::Error)]
-pub enum BakeError {
-    #[error(transparent)]
-    Scene(#[from] SceneError),
-    #[error(
-        "{scene}: meshing {} {patches} patches, more than the limit of {max}; \
-         raise [mesh] max_edge or lower target_patches in scene.toml",
-        if *estimated { "would give at least" } else { "gives" }
-    )]
-    TooLarge {
-        scene: String,
-        /// The patch count, or a lower bound of it when `estimated`.
-        patches: u64,
-        max: usize,
-        /// True when the count is the pre-meshing estimate ([`crate::geometry::mesh::estimate_patches`]).
-        estimated: bool,
-    },
-    #[error(
-        "{scene}: needs about {} to {action} {} patches in {} mode; the memory budget is {}",
-        human_bytes(*needed),
-        thousands(*patches as u64),
-        mode_name(*mode),
-        human_bytes(*budget)
-    )]
-    OverBudget {
-        scene: String,
-        /// Estimated peak bytes ([`estimate_bake_bytes`] or [`estimate_load_bytes`]).
-        needed: u64,
-        /// [`BakeOptions::memory_budget`].
-        budget: u64,
-        patches: usize,
-        mode: TransferMode,
-        /// "bake" or "load".
-        action: &'static str,
-    },
-    #[error("{scene}: {message}")]
-    BadOption { scene: String, message: String },
-    #[error(
-        "{scene}: no baked transfer in the cache ({}) and the server is read-only: \
-         run `relight bake` first",
-        file_name(path)
-    )]
-    NotCached { scene: String, path: PathBuf },
-    #[error("{scene}: cache entry rejected in read-only mode: {source}")]
-    BadCache {
-        scene: String,
-        #[source]
-        source: CacheError,
-    },
-    /// A sharded bake's shards are missing, foreign, corrupt or do not fit together.
-    #[error("{scene}: {message}")]
-    Shards { scene: String, message: String },
-    /// `path` is the scene id (errors never show absolute paths).
-    #[error("{path}: cannot read scene files for the cache key: {source}")]
-    Io {
-        path: PathBuf,
-        #[source]
-        source: std::io::Error,
-    },
-}
-
-fn file_name(p: &Path) -> String {
-    p.file_name()
-        .map(|s| s.to_string_lossy().into_owned())
-        .unwrap_or_default()
-}
-
-fn mode_name(m: TransferMode) -> &'static str {
-    m.name()
-}
-
 pub use crate::budget::human_bytes;
-
-/// 39000 → "39,000".
-fn thousands(n: u64) -> String {
-    let s = n.to_string();
-    let mut out = String::with_capacity(s.len() + s.len() / 3);
-    for (i, c) in s.chars().enumerate() {
-        if i > 0 && (s.len() - i) % 3 == 0 {
-            out.push(',');
-        }
-        out.push(c);
-    }
-    out
-}
 
 /// Where baked transfers are kept.
 #[derive(Debug, Clone, Copy)]

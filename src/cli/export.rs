@@ -5,8 +5,7 @@ use std::path::PathBuf;
 
 use anyhow::{Context, Result};
 
-use super::{load_model, outln};
-use relight::bake::BakeOptions;
+use super::{outln, ModelArgs};
 use relight::model::LightState;
 use relight::render::{export_glb, ExportOptions, Shading, ToneMap};
 
@@ -30,11 +29,8 @@ pub struct ExportArgs {
     /// relit by a client).
     #[arg(long)]
     no_groups: bool,
-    #[arg(long, env = "RELIGHT_CACHE")]
-    cache: Option<PathBuf>,
-    /// Transfer mode, overriding scene.toml: auto, factored, columns or hierarchical.
-    #[arg(long, value_parser = super::parse_transfer)]
-    transfer: Option<relight::scene::TransferChoice>,
+    #[command(flatten)]
+    model: ModelArgs,
 }
 
 pub fn run(a: ExportArgs) -> Result<()> {
@@ -53,11 +49,7 @@ pub fn run(a: ExportArgs) -> Result<()> {
             "exposure {e}: use −40 … 40 stops"
         );
     }
-    let opts = BakeOptions {
-        choice: a.transfer,
-        ..Default::default()
-    };
-    let model = load_model(&a.scene, a.cache.clone(), &opts)?;
+    let model = a.model.load(&a.scene, None)?;
     let o = ExportOptions {
         exposure: a.exposure,
         tonemap: match a.tonemap.as_str() {

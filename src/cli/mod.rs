@@ -46,6 +46,29 @@ pub fn progress_bar(label: &str) -> ProgressBar {
     pb
 }
 
+/// Where a query command gets its scene ready: the cache folder and the transfer mode.
+#[derive(clap::Args)]
+pub struct ModelArgs {
+    #[arg(long, env = "RELIGHT_CACHE")]
+    cache: Option<PathBuf>,
+    /// Transfer mode, overriding scene.toml: auto, factored, columns or hierarchical.
+    #[arg(long, value_parser = parse_transfer)]
+    transfer: Option<relight::scene::TransferChoice>,
+}
+
+impl ModelArgs {
+    /// Loads `dir` ([`load_model`]) in the transfer mode asked for, meshed with patches of
+    /// at most `max_edge` metres when it is given.
+    pub fn load(&self, dir: &Path, max_edge: Option<f64>) -> Result<Model> {
+        let opts = BakeOptions {
+            max_edge,
+            choice: self.transfer,
+            ..Default::default()
+        };
+        load_model(dir, self.cache.clone(), &opts)
+    }
+}
+
 /// Loads `dir` from the cache (or bakes it into the cache) with a progress bar, as a
 /// [`Model`] ready for queries.
 pub fn load_model(dir: &Path, cache: Option<PathBuf>, opts: &BakeOptions) -> Result<Model> {

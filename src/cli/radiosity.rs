@@ -6,8 +6,7 @@ use std::path::PathBuf;
 
 use anyhow::Result;
 
-use super::{load_model, outln};
-use relight::bake::BakeOptions;
+use super::{outln, ModelArgs};
 use relight::model::query::{GridAnswer, IlluminanceQuery};
 use relight::model::report::Report;
 use relight::model::{Cancel, LightState, Lighting, Model};
@@ -25,23 +24,15 @@ pub struct RadiosityArgs {
     /// Print JSON instead of a table (with --grid: the HTTP /illuminance answer).
     #[arg(long)]
     json: bool,
-    #[arg(long, env = "RELIGHT_CACHE")]
-    cache: Option<PathBuf>,
     /// Override the mesh size (longest patch edge, metres).
     #[arg(long)]
     max_edge: Option<f64>,
-    /// Transfer mode, overriding scene.toml: auto, factored, columns or hierarchical.
-    #[arg(long, value_parser = super::parse_transfer)]
-    transfer: Option<relight::scene::TransferChoice>,
+    #[command(flatten)]
+    model: ModelArgs,
 }
 
 pub fn run(a: RadiosityArgs) -> Result<()> {
-    let opts = BakeOptions {
-        max_edge: a.max_edge,
-        choice: a.transfer,
-        ..Default::default()
-    };
-    let model = load_model(&a.scene, a.cache, &opts)?;
+    let model = a.model.load(&a.scene, a.max_edge)?;
     let state = LightState::parse_args(&model.baked.scene, &a.lights)?;
     let lighting = Lighting::Groups(model.weights(&state)?);
     if !a.grids.is_empty() {

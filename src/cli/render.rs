@@ -6,8 +6,7 @@ use std::path::PathBuf;
 
 use anyhow::{Context, Result};
 
-use super::{load_model, outln};
-use relight::bake::BakeOptions;
+use super::{outln, ModelArgs};
 use relight::model::{LightState, Lighting};
 use relight::render::pipeline::{render_once, Quality, RenderOptions};
 use relight::render::{Camera, Format, Shading, ToneMap};
@@ -41,19 +40,12 @@ pub struct RenderArgs {
     /// final gather and the luminaires in view; seconds per image).
     #[arg(long, default_value = "fast")]
     quality: String,
-    #[arg(long, env = "RELIGHT_CACHE")]
-    cache: Option<PathBuf>,
-    /// Transfer mode, overriding scene.toml: auto, factored, columns or hierarchical.
-    #[arg(long, value_parser = super::parse_transfer)]
-    transfer: Option<relight::scene::TransferChoice>,
+    #[command(flatten)]
+    model: ModelArgs,
 }
 
 pub fn run(a: RenderArgs) -> Result<()> {
-    let opts = BakeOptions {
-        choice: a.transfer,
-        ..Default::default()
-    };
-    let model = load_model(&a.scene, a.cache.clone(), &opts)?;
+    let model = a.model.load(&a.scene, None)?;
     let scene = &model.baked.scene;
     let def = match &a.camera {
         Some(id) => scene

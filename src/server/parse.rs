@@ -1,7 +1,8 @@
 //! Request reading. The extractors of the handlers: the scene id of the path
 //! ([`SceneId`]), its ready scene ([`ReadyScene`]) and the JSON body (size, content type,
 //! strictness, off the runtime when large) as a typed request ([`StrictJson`] of a
-//! [`super::requests`] type). Then the checks that follow deserialization: numbers in the
+//! [`super::requests`] type), or the two together for a POST on a scene
+//! ([`ScenePost`]). Then the checks that follow deserialization: numbers in the
 //! f32 range and limits the engine computes with, directions, and lists of ids (each id at
 //! most once). Every mistake becomes a precise 422 naming the field.
 
@@ -81,6 +82,23 @@ impl<T: DeserializeOwned + Send + 'static> FromRequest<Arc<AppState>> for Strict
         let headers = req.headers().clone();
         let body = Bytes::from_request(req, state).await;
         parse_body(state, &headers, body).await.map(StrictJson)
+    }
+}
+
+/// A POST on a ready scene: the scene ([`ReadyScene`], taken first, so its 404 and 503
+/// come before any answer about the body), the server state and the body parsed strictly
+/// ([`StrictJson`]); the last argument of a handler.
+pub(crate) struct ScenePost<T>(pub Arc<Ready>, pub Arc<AppState>, pub T);
+
+impl<T: DeserializeOwned + Send + 'static> FromRequest<Arc<AppState>> for ScenePost<T> {
+    type Rejection = AppError;
+
+    async fn from_request(req: Request, state: &Arc<AppState>) -> Result<Self, Self::Rejection> {
+        let (mut parts, body) = req.into_parts();
+        let ReadyScene(ready) = ReadyScene::from_request_parts(&mut parts, state).await?;
+        let request = Request::from_parts(parts, body);
+        let StrictJson(body) = StrictJson::from_request(request, state).await?;
+        Ok(ScenePost(ready, state.clone(), body))
     }
 }
 

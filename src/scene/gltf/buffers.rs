@@ -1,7 +1,14 @@
 //! glTF buffers: the GLB binary chunk, base64 data URIs and files in the scene folder,
 //! and bounds-checked views of their bytes.
 
-use super::*;
+use std::path::PathBuf;
+
+use base64::Engine as _;
+
+use super::{Buffers, Reader};
+use crate::input_limits::MAX_GLTF_BYTES;
+use crate::scene::files;
+use crate::scene::SceneError;
 
 impl Reader<'_> {
     /// The bytes of every buffer: the GLB binary chunk, a data URI, or a file in the folder.

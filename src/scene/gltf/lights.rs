@@ -1,6 +1,13 @@
 //! glTF `KHR_lights_punctual` lights as luminaires, grouped per light definition.
 
-use super::*;
+use glam::{DMat4, DVec3};
+
+use super::walk::LightNames;
+use super::{GltfModel, Reader};
+use crate::input_limits::MAX_LIGHT_GROUPS;
+use crate::photometry::{Distribution, Luminaire, LuminaireSpec};
+use crate::scene::lights::LightGroup;
+use crate::scene::SceneError;
 
 impl Reader<'_> {
     /// A `KHR_lights_punctual` light on `node`: a luminaire in the light's group.

@@ -35,30 +35,23 @@
 //! [`MAX_GLTF_NODE_INSTANCES`](crate::input_limits::MAX_GLTF_NODE_INSTANCES). A primitive's
 //! accessors are decoded once, at its mesh's first instance.
 
-use std::collections::hash_map::Entry;
 use std::collections::{HashMap, HashSet};
 use std::path::{Path, PathBuf};
 
-use base64::Engine as _;
-use glam::{DMat4, DVec3};
-
-use super::files::{self, SceneDir};
-use super::lights::LightGroup;
-use super::materials::{Material, MaterialTable};
+use super::files::SceneDir;
+use super::materials::MaterialTable;
 use super::obj::ObjPart;
-use super::{mtl, texture, SceneError, SceneToml};
-use crate::color::Rgb;
-use crate::input_limits::{
-    MAX_COORD_M, MAX_EXITANCE, MAX_GLTF_BYTES, MAX_KD, MAX_LIGHT_GROUPS, MAX_OBJ_TRIANGLES,
-    MAX_OBJ_VERTICES, MAX_TEXTURES, MAX_TEXTURE_BYTES,
-};
-use crate::photometry::{Distribution, Luminaire, LuminaireSpec};
+use super::{SceneError, SceneToml};
+use crate::input_limits::MAX_GLTF_BYTES;
+use crate::photometry::Luminaire;
 
 mod buffers;
 mod lights;
+mod materials;
+mod primitives;
 mod tree;
+mod walk;
 
-use buffers::{accessor_bytes, percent_decode, view_bytes};
 pub(crate) use lights::add_gltf_luminaires;
 
 /// Extensions a file may require. Others (Draco or meshopt compression, quantized
@@ -123,39 +116,6 @@ struct Reader<'a> {
 /// Raw buffer contents, one per glTF buffer, each exactly its declared length.
 type Buffers = Vec<Vec<u8>>;
 
-/// Where material textures come from: the buffers, and the files read (a texture file is
-/// added); `count` textures read so far.
-struct Textures<'b> {
-    buffers: &'b Buffers,
-    count: usize,
-    files: &'b mut Vec<PathBuf>,
-}
-
-/// A primitive's positions (file units, untransformed) and triangles.
-type Triangles = (Vec<[f32; 3]>, Vec<[u32; 3]>);
-
-/// What the walk keeps for the mesh instances: the buffers and the relight material of
-/// each glTF material, unique surface names, the vertex and triangle counts so far, the
-/// primitives skipped, and each primitive's triangles, decoded at its first instance.
-struct Instances<'b> {
-    buffers: &'b Buffers,
-    mats: &'b [u32],
-    surfaces: Unique,
-    counts: (usize, usize),
-    skipped_modes: usize,
-    decoded: HashMap<(usize, usize), Option<Triangles>>,
-}
-
-/// What the walk keeps for the lights: unique luminaire ids, the light group of each
-/// light definition (by index) with unique group names, and the lights skipped.
-#[derive(Default)]
-struct LightNames {
-    ids: Unique,
-    groups: HashMap<usize, String>,
-    group_names: Unique,
-    skipped_directional: usize,
-}
-
 impl<'a> Reader<'a> {
     fn new(
         sd: &'a SceneDir,
@@ -217,13 +177,7 @@ impl<'a> Reader<'a> {
             return Err(self.err(format!("glTF version {version} is not read (glTF 2.x is)")));
         }
         let buffers = self.buffers(&gltf, files)?;
-        let mut table = MaterialTable::default();
-        let mut textures = Textures {
-            buffers: &buffers,
-            count: 0,
-            files,
-        };
-        let mats = self.materials(&gltf.document, &mut textures, &mut table)?;
+        let (table, mats) = self.materials(&gltf.document, &buffers, files)?;
         let mut out = GltfModel {
             table,
             parts: Vec::new(),
@@ -231,432 +185,6 @@ impl<'a> Reader<'a> {
         };
         self.walk(&gltf.document, &buffers, &mats, &mut out)?;
         Ok(out)
-    }
-
-    /// The relight material of every glTF material (by index).
-    fn materials(
-        &mut self,
-        doc: &gltf::Document,
-        textures: &mut Textures<'_>,
-        table: &mut MaterialTable,
-    ) -> Result<Vec<u32>, SceneError> {
-        let mut names = Unique::default();
-        let mut out = Vec::new();
-        for m in doc.materials() {
-            let i = m.index().unwrap_or(0);
-            let name = names.take(m.name(), || format!("material{i}"));
-            let kd = self.reflectance(&m, &name, textures)?;
-            let ke = self.emission(&m, &name, textures)?;
-            let two_sided =
-                m.double_sided() || self.cfg.material.get(&name).is_some_and(|o| o.two_sided);
-            out.push(table.push(
-                Material {
-                    name,
-                    kd,
-                    ke,
-                    two_sided,
-                },
-                self.shown,
-            )?);
-        }
-        Ok(out)
-    }
-
-    /// The diffuse reflectance of material `m` (named `name`): `(1 − metallic) × base
-    /// colour ×` its texture's mean, scaled below 1 (or refused, strict).
-    fn reflectance(
-        &mut self,
-        m: &gltf::Material<'_>,
-        name: &str,
-        textures: &mut Textures<'_>,
-    ) -> Result<Rgb, SceneError> {
-        let pbr = m.pbr_metallic_roughness();
-        let base = pbr.base_color_factor();
-        let metallic = pbr.metallic_factor().clamp(0.0, 1.0);
-        let mut kd: Rgb = std::array::from_fn(|c| (1.0 - metallic) * base[c]);
-        kd = self.tinted(kd, pbr.base_color_texture(), name, textures)?;
-        if kd.iter().any(|x| !x.is_finite() || *x < 0.0) {
-            return Err(self.err(format!(
-                "material '{name}': base colour {kd:?} must be finite and ≥ 0"
-            )));
-        }
-        if metallic >= 1.0 && base[..3].iter().any(|&b| b > 0.0) {
-            self.warnings.push(format!(
-                "{}: material '{name}' is fully metallic (metallicFactor 1, the glTF \
-                 default): it reflects no diffuse light",
-                self.shown.display()
-            ));
-        }
-        if let Some(k) = mtl::clamp_kd(kd) {
-            if self.cfg.strict {
-                return Err(self.err(format!(
-                    "material '{name}': diffuse reflectance {kd:?} must be below 1 per \
-                     channel (strict = true; a lenient load would use {k:?})"
-                )));
-            }
-            self.warnings.push(format!(
-                "{}: material '{name}': diffuse reflectance reaches 1: scaled to {} {} {} \
-                 (at most {MAX_KD})",
-                self.shown.display(),
-                k[0],
-                k[1],
-                k[2]
-            ));
-            kd = k;
-        }
-        Ok(kd)
-    }
-
-    /// The exitance of material `m` (named `name`), lm/m²: `π × emissiveFactor ×
-    /// strength ×` its emissive texture's mean.
-    fn emission(
-        &mut self,
-        m: &gltf::Material<'_>,
-        name: &str,
-        textures: &mut Textures<'_>,
-    ) -> Result<Rgb, SceneError> {
-        let strength = m.emissive_strength().unwrap_or(1.0);
-        let ef = m.emissive_factor();
-        let mut ke: Rgb = std::array::from_fn(|c| std::f32::consts::PI * ef[c] * strength);
-        if ke.iter().any(|&x| x > 0.0) {
-            ke = self.tinted(ke, m.emissive_texture(), name, textures)?;
-        }
-        if ke
-            .iter()
-            .any(|x| !x.is_finite() || *x < 0.0 || *x > MAX_EXITANCE)
-        {
-            return Err(self.err(format!(
-                "material '{name}': emission (π × emissiveFactor × strength) {ke:?} lm/m² \
-                 must be in [0, {MAX_EXITANCE}]"
-            )));
-        }
-        Ok(ke)
-    }
-
-    /// `c` times the mean colour of the texture `info` of material `material`, when it
-    /// has one that can be read.
-    fn tinted(
-        &mut self,
-        c: Rgb,
-        info: Option<gltf::texture::Info<'_>>,
-        material: &str,
-        textures: &mut Textures<'_>,
-    ) -> Result<Rgb, SceneError> {
-        let Some(info) = info else {
-            return Ok(c);
-        };
-        Ok(
-            match self.texture_mean(info.texture(), material, textures)? {
-                Some(mean) => std::array::from_fn(|k| c[k] * mean[k]),
-                None => c,
-            },
-        )
-    }
-
-    /// The mean linear colour of a texture's image, or None (with a warning) when it
-    /// cannot be read and the load is lenient.
-    fn texture_mean(
-        &mut self,
-        tex: gltf::Texture<'_>,
-        material: &str,
-        textures: &mut Textures<'_>,
-    ) -> Result<Option<Rgb>, SceneError> {
-        textures.count += 1;
-        if textures.count > MAX_TEXTURES {
-            return Err(self.err(format!("more than {MAX_TEXTURES} textures")));
-        }
-        let img = tex.source();
-        let what = format!("images[{}]", img.index());
-        let bytes = match img.source() {
-            gltf::image::Source::View { view, .. } if view.length() as u64 > MAX_TEXTURE_BYTES => {
-                Err(self.err(format!(
-                    "{what}: larger than {}",
-                    files::human_bytes(MAX_TEXTURE_BYTES)
-                )))
-            }
-            gltf::image::Source::View { view, .. } => view_bytes(&view, textures.buffers)
-                .map(<[u8]>::to_vec)
-                .ok_or_else(|| self.err(format!("{what}: its bufferView lies outside its buffer"))),
-            gltf::image::Source::Uri { uri, .. } => {
-                let plain = !uri.starts_with("data:");
-                match percent_decode(uri) {
-                    Some(name) if plain && !self.cfg.strict => {
-                        match self.sd.resolve_lenient(&name, self.shown, 0, &what)? {
-                            Some(_) => {
-                                self.uri_bytes(uri, &what, MAX_TEXTURE_BYTES, textures.files)
-                            }
-                            None => {
-                                self.warnings.push(format!(
-                                    "{}: texture '{name}' of material '{material}' is not in \
-                                     the scene folder: its factor is used alone",
-                                    self.shown.display()
-                                ));
-                                return Ok(None);
-                            }
-                        }
-                    }
-                    _ => self.uri_bytes(uri, &what, MAX_TEXTURE_BYTES, textures.files),
-                }
-            }
-        }?;
-        match texture::mean_linear_rgb(&bytes) {
-            Ok(m) => Ok(Some(m)),
-            Err(e) if self.cfg.strict => Err(self.err(format!(
-                "{what} (material '{material}') cannot be read: {e} (strict = true)"
-            ))),
-            Err(e) => {
-                self.warnings.push(format!(
-                    "{}: {what} of material '{material}' cannot be read ({e}): its factor is \
-                     used alone",
-                    self.shown.display()
-                ));
-                Ok(None)
-            }
-        }
-    }
-
-    /// Walks the node tree: meshes become parts, lights luminaires.
-    fn walk(
-        &mut self,
-        doc: &gltf::Document,
-        buffers: &Buffers,
-        mats: &[u32],
-        out: &mut GltfModel,
-    ) -> Result<(), SceneError> {
-        // The hierarchy is a forest of strict trees within the limits (checked in one
-        // pass, before any mesh is decoded), so every node below is visited once.
-        let roots = tree::roots(doc).map_err(|m| self.err(m))?;
-        let all: Vec<gltf::Node<'_>> = doc.nodes().collect();
-        let mut instances = Instances {
-            buffers,
-            mats,
-            surfaces: Unique::default(),
-            counts: (0, 0),
-            skipped_modes: 0,
-            decoded: HashMap::new(),
-        };
-        let mut lights = LightNames::default();
-        let mut stack: Vec<(gltf::Node<'_>, DMat4)> = roots
-            .into_iter()
-            .rev()
-            .map(|i| (all[i].clone(), DMat4::IDENTITY))
-            .collect();
-        while let Some((node, parent)) = stack.pop() {
-            let local = node.transform().matrix().map(|c| c.map(f64::from));
-            let world = parent * DMat4::from_cols_array_2d(&local);
-            if !world.is_finite() {
-                return Err(self.err(format!("nodes[{}]: transform is not finite", node.index())));
-            }
-            if let Some(mesh) = node.mesh() {
-                self.mesh_parts(&node, &mesh, &world, &mut instances, out)?;
-            }
-            if let Some(light) = node.light() {
-                self.light(&node, &light, &world, &mut lights, out)?;
-            }
-            for c in node.children().collect::<Vec<_>>().into_iter().rev() {
-                stack.push((c, world));
-            }
-        }
-        self.warn_skipped(instances.skipped_modes, lights.skipped_directional);
-        Ok(())
-    }
-
-    /// The parts of `mesh` instanced by `node` at `world`.
-    fn mesh_parts(
-        &mut self,
-        node: &gltf::Node<'_>,
-        mesh: &gltf::Mesh<'_>,
-        world: &DMat4,
-        inst: &mut Instances<'_>,
-        out: &mut GltfModel,
-    ) -> Result<(), SceneError> {
-        let name = inst.surfaces.take(node.name().or(mesh.name()), || {
-            format!("node{}", node.index())
-        });
-        for prim in mesh.primitives() {
-            let tris = match inst.decoded.entry((mesh.index(), prim.index())) {
-                Entry::Occupied(e) => e.into_mut(),
-                Entry::Vacant(e) => e.insert(self.primitive(&prim, mesh, inst.buffers)?),
-            };
-            let Some((positions, indices)) = tris else {
-                inst.skipped_modes += 1;
-                continue;
-            };
-            inst.counts.0 += positions.len();
-            inst.counts.1 += indices.len();
-            if inst.counts.0 > MAX_OBJ_VERTICES || inst.counts.1 > MAX_OBJ_TRIANGLES {
-                return Err(self.err(format!(
-                    "more than {MAX_OBJ_VERTICES} vertices or {MAX_OBJ_TRIANGLES} \
-                     triangles over all mesh instances"
-                )));
-            }
-            let part = self.part(&name, world, positions, indices, &prim, inst.mats)?;
-            out.parts.push(part);
-        }
-        Ok(())
-    }
-
-    /// Warns of the primitives (points, lines) and lights (directional) the walk skipped.
-    fn warn_skipped(&mut self, skipped_modes: usize, skipped_directional: usize) {
-        if skipped_modes > 0 {
-            self.warnings.push(format!(
-                "{}: {skipped_modes} primitive(s) of points or lines skipped (only triangles \
-                 take part in radiosity)",
-                self.shown.display()
-            ));
-        }
-        if skipped_directional > 0 {
-            self.warnings.push(format!(
-                "{}: {skipped_directional} directional light(s) skipped (luminaires are points \
-                 and spots)",
-                self.shown.display()
-            ));
-        }
-    }
-
-    /// The positions (file units, untransformed) and triangles of one primitive; None for
-    /// primitives that are not triangles.
-    fn primitive(
-        &self,
-        prim: &gltf::Primitive<'_>,
-        mesh: &gltf::Mesh<'_>,
-        buffers: &Buffers,
-    ) -> Result<Option<Triangles>, SceneError> {
-        use gltf::mesh::Mode;
-        let what = format!("meshes[{}].primitives[{}]", mesh.index(), prim.index());
-        let mode = prim.mode();
-        if !matches!(
-            mode,
-            Mode::Triangles | Mode::TriangleStrip | Mode::TriangleFan
-        ) {
-            return Ok(None);
-        }
-        let positions = self.positions(prim, &what, buffers)?;
-        let n = positions.len();
-        let list: Vec<u32> = match prim.indices() {
-            None => (0..n as u32).collect(),
-            Some(acc) => self.indices(&acc, &what, buffers, n)?,
-        };
-        let tris: Vec<[u32; 3]> = match mode {
-            Mode::Triangles => list.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect(),
-            Mode::TriangleStrip => (2..list.len())
-                .map(|i| {
-                    if i % 2 == 0 {
-                        [list[i - 2], list[i - 1], list[i]]
-                    } else {
-                        [list[i - 1], list[i - 2], list[i]]
-                    }
-                })
-                .collect(),
-            _ => (2..list.len())
-                .map(|i| [list[0], list[i - 1], list[i]])
-                .collect(),
-        };
-        Ok(Some((positions, tris)))
-    }
-
-    /// The POSITION attribute of primitive `prim` (named `what` in errors).
-    fn positions(
-        &self,
-        prim: &gltf::Primitive<'_>,
-        what: &str,
-        buffers: &Buffers,
-    ) -> Result<Vec<[f32; 3]>, SceneError> {
-        let pos = prim
-            .get(&gltf::Semantic::Positions)
-            .ok_or_else(|| self.err(format!("{what}: no POSITION attribute")))?;
-        if pos.data_type() != gltf::accessor::DataType::F32
-            || pos.dimensions() != gltf::accessor::Dimensions::Vec3
-            || pos.normalized()
-        {
-            return Err(self.err(format!(
-                "{what}: POSITION must be float VEC3 (quantized positions are not read)"
-            )));
-        }
-        let raw = accessor_bytes(&pos, buffers, 12, MAX_OBJ_VERTICES)
-            .map_err(|m| self.err(format!("{what}: POSITION {m}")))?;
-        Ok(raw
-            .map(|b| {
-                std::array::from_fn(|k| {
-                    f32::from_le_bytes(b[4 * k..4 * k + 4].try_into().unwrap_or([0; 4]))
-                })
-            })
-            .collect())
-    }
-
-    /// The vertex indices of accessor `acc` (of primitive `what`), each below `n`.
-    fn indices(
-        &self,
-        acc: &gltf::Accessor<'_>,
-        what: &str,
-        buffers: &Buffers,
-        n: usize,
-    ) -> Result<Vec<u32>, SceneError> {
-        use gltf::accessor::DataType;
-        let size = match acc.data_type() {
-            DataType::U8 => 1,
-            DataType::U16 => 2,
-            DataType::U32 => 4,
-            other => {
-                return Err(self.err(format!(
-                    "{what}: indices must be unsigned integers, not {other:?}"
-                )))
-            }
-        };
-        if acc.dimensions() != gltf::accessor::Dimensions::Scalar {
-            return Err(self.err(format!("{what}: indices must be SCALAR")));
-        }
-        let raw = accessor_bytes(acc, buffers, size, 3 * MAX_OBJ_TRIANGLES)
-            .map_err(|m| self.err(format!("{what}: indices {m}")))?;
-        let list: Vec<u32> = raw
-            .map(|b| match size {
-                1 => b[0] as u32,
-                2 => u16::from_le_bytes([b[0], b[1]]) as u32,
-                _ => u32::from_le_bytes([b[0], b[1], b[2], b[3]]),
-            })
-            .collect();
-        if let Some(bad) = list.iter().find(|&&i| i as usize >= n) {
-            return Err(self.err(format!("{what}: index {bad} out of range ({n} vertices)")));
-        }
-        Ok(list)
-    }
-
-    /// One part: the primitive's triangles in file units, transformed by `world`.
-    fn part(
-        &self,
-        name: &str,
-        world: &DMat4,
-        positions: &[[f32; 3]],
-        tris: &[[u32; 3]],
-        prim: &gltf::Primitive<'_>,
-        mats: &[u32],
-    ) -> Result<ObjPart, SceneError> {
-        let flip = world.determinant() < 0.0;
-        let mut flat = Vec::with_capacity(3 * positions.len());
-        for p in positions {
-            let w = world.transform_point3(DVec3::new(p[0] as f64, p[1] as f64, p[2] as f64));
-            if !w.is_finite() || (w * self.scale).abs().max_element() > MAX_COORD_M {
-                return Err(self.err(format!(
-                    "node '{name}': vertex {w} lies beyond {MAX_COORD_M} m"
-                )));
-            }
-            flat.extend([w.x as f32, w.y as f32, w.z as f32]);
-        }
-        let indices = tris
-            .iter()
-            .flat_map(|t| if flip { [t[0], t[2], t[1]] } else { *t })
-            .collect();
-        let material = prim
-            .material()
-            .index()
-            .and_then(|i| mats.get(i))
-            .map(|&m| m as usize);
-        Ok(ObjPart {
-            name: name.to_string(),
-            material,
-            positions: flat,
-            indices,
-        })
     }
 }
 
@@ -688,26 +216,11 @@ impl Unique {
     }
 }
 
-impl MaterialTable {
-    /// Adds a material read from a model file (glTF); its index.
-    pub(crate) fn push(&mut self, m: Material, shown: &Path) -> Result<u32, SceneError> {
-        if self.materials.len() >= crate::input_limits::MAX_MATERIALS {
-            return Err(invalid(
-                shown,
-                format!("more than {} materials", crate::input_limits::MAX_MATERIALS),
-            ));
-        }
-        let i = self.materials.len() as u32;
-        self.index.insert(m.name.clone(), i);
-        self.materials.push(m);
-        Ok(i)
-    }
-}
-
 #[cfg(test)]
 mod tests {
+    use super::buffers::percent_decode;
     use super::lights::sanitize_id;
-    use super::{percent_decode, Unique};
+    use super::Unique;
 
     #[test]
     fn names_are_made_unique_and_ids_safe() {

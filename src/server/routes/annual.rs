@@ -2,17 +2,16 @@
 
 use std::sync::Arc;
 
-use axum::extract::State;
 use axum::Json;
 
 use super::grid_points;
 use crate::model::annual::{AnnualAnswer, AnnualQuery};
 use crate::model::QueryError;
 use crate::server::openapi::{PostErrors, SceneIdParam};
-use crate::server::parse::{ReadyScene, StrictJson};
+use crate::server::parse::ScenePost;
 use crate::server::requests::annual::Weather;
 use crate::server::requests::AnnualRequest;
-use crate::server::{AppError, AppState};
+use crate::server::AppError;
 
 #[utoipa::path(post, path = "/api/scenes/{id}/annual", operation_id = "annual", tag = "scenes",
     summary = "Annual climate-based metrics per grid from an EPW weather file (a file in the scene's folder, or its text): sDA300/50 %, ASE1000,250h, useful daylight illuminance bands, EN 17037's minimum level, and per point the occupied hours with at least 300 lx. Every hour is a Perez sky; the sun's direct light is traced per point and hour.",
@@ -21,9 +20,7 @@ use crate::server::{AppError, AppState};
         example = json!({"weather": "mannheim.epw", "grids": ["workplane"], "occupied": ["08:00", "18:00"]})),
     responses((status = 200, description = "Annual metrics per grid.", body = AnnualAnswer), PostErrors))]
 pub(crate) async fn annual(
-    ReadyScene(ready): ReadyScene,
-    State(state): State<Arc<AppState>>,
-    StrictJson(req): StrictJson<AnnualRequest>,
+    ScenePost(ready, state, req): ScenePost<AnnualRequest>,
 ) -> Result<Json<AnnualAnswer>, AppError> {
     let (grids, occupied, weather) = req.parts(&ready.model)?;
     let points = grid_points(&ready.model, &grids);

@@ -2,12 +2,9 @@
 //! each answered with surface illuminance (lux), the power balance (lm), and optionally
 //! grids and per-patch radiosity (lm/m²).
 
-use std::collections::BTreeMap;
-use std::sync::Arc;
-
-use axum::extract::State;
 use axum::Json;
 use serde::Serialize;
+use std::collections::BTreeMap;
 use utoipa::ToSchema;
 
 use super::grid_points;
@@ -16,9 +13,9 @@ use crate::model::report::{PowerReport, SurfaceIlluminance};
 use crate::model::Lighting;
 use crate::schema::{lm, lm_per_m2, lx};
 use crate::server::openapi::{PostErrors, SceneIdParam};
-use crate::server::parse::{ReadyScene, StrictJson};
+use crate::server::parse::ScenePost;
 use crate::server::requests::BatchRequest;
-use crate::server::{AppError, AppState};
+use crate::server::AppError;
 
 /// The units of the results.
 #[derive(Serialize, ToSchema)]
@@ -64,9 +61,7 @@ pub(crate) struct BatchResponse {
         example = json!({"states": [{"lights": {"ceiling": 0.25}}, {"lights": {"ceiling": 1}}], "surfaces": ["floor"]})),
     responses((status = 200, description = "One result per state, in request order.", body = BatchResponse), PostErrors))]
 pub(crate) async fn batch(
-    ReadyScene(ready): ReadyScene,
-    State(state): State<Arc<AppState>>,
-    StrictJson(req): StrictJson<BatchRequest>,
+    ScenePost(ready, state, req): ScenePost<BatchRequest>,
 ) -> Result<Json<BatchResponse>, AppError> {
     let m = &ready.model;
     let (grids, surfaces) = req.plan(m)?;

@@ -1,17 +1,14 @@
 //! `POST /api/scenes/{id}/daylight`: daylight (and optional electric light) in lux on
 //! surfaces, at points and on grids, with daylight factors under the CIE overcast sky.
 
-use std::sync::Arc;
-
-use axum::extract::State;
 use axum::Json;
 
 use super::at_points;
 use crate::model::daylight::DaylightAnswer;
 use crate::server::openapi::{PostErrors, SceneIdParam};
-use crate::server::parse::{ReadyScene, StrictJson};
+use crate::server::parse::ScenePost;
 use crate::server::requests::DaylightRequest;
-use crate::server::{AppError, AppState};
+use crate::server::AppError;
 
 #[utoipa::path(post, path = "/api/scenes/{id}/daylight", operation_id = "daylight", tag = "scenes",
     summary = "Daylight from a sky (uniform, CIE overcast, CIE clear with the sun, Perez from irradiance; the sun placed by position or local time at the scene's [site]): illuminance per surface, at points (the direct sky integrated over what each point sees, the sun by a shadow ray, interreflections gathered) and on grids, with daylight factors (percent) for the CIE overcast sky. Electric light in `lights` is added.",
@@ -20,9 +17,7 @@ use crate::server::{AppError, AppState};
         example = json!({"sky": {"type": "cie_overcast", "horizontal_illuminance": 10000}, "points": [{"position": [2.0, 0.8, 2.0], "normal": [0, 1, 0]}]})),
     responses((status = 200, description = "Daylight answers in lux.", body = DaylightAnswer), PostErrors))]
 pub(crate) async fn daylight(
-    ReadyScene(ready): ReadyScene,
-    State(state): State<Arc<AppState>>,
-    StrictJson(req): StrictJson<DaylightRequest>,
+    ScenePost(ready, state, req): ScenePost<DaylightRequest>,
 ) -> Result<Json<DaylightAnswer>, AppError> {
     let (sky, weights, q) = req.query(&ready.model)?;
     let bytes = ready.model.daylight_bytes(&q);

@@ -1,16 +1,13 @@
 //! `POST /api/scenes/{id}/glare`: the CIE 117 Unified Glare Rating at observers, with
 //! each luminaire's term and the background luminance.
 
-use std::sync::Arc;
-
-use axum::extract::State;
 use axum::Json;
 
 use crate::model::glare::ObserverGlare;
 use crate::server::openapi::{PostErrors, SceneIdParam};
-use crate::server::parse::{ReadyScene, StrictJson};
+use crate::server::parse::ScenePost;
 use crate::server::requests::GlareRequest;
-use crate::server::{AppError, AppState};
+use crate::server::AppError;
 
 /// The ratings, one per observer in the order asked.
 #[derive(Debug, serde::Serialize, utoipa::ToSchema)]
@@ -26,9 +23,7 @@ pub(crate) struct GlareAnswer {
         example = json!({"observers": [{"position": [2.0, 0.0, 1.5], "direction": [1, 0, 0]}]})),
     responses((status = 200, description = "One rating per observer.", body = GlareAnswer), PostErrors))]
 pub(crate) async fn glare(
-    ReadyScene(ready): ReadyScene,
-    State(state): State<Arc<AppState>>,
-    StrictJson(req): StrictJson<GlareRequest>,
+    ScenePost(ready, state, req): ScenePost<GlareRequest>,
 ) -> Result<Json<GlareAnswer>, AppError> {
     let (w, observers) = req.query(&ready.model)?;
     // An observer's view costs a gather once (its gather weights: a few bytes per patch);

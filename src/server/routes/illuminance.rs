@@ -1,17 +1,14 @@
 //! `POST /api/scenes/{id}/illuminance`: illuminance in lux on surfaces (statistics), at
 //! points and on calculation grids, with the luminaires' flux and power.
 
-use std::sync::Arc;
-
-use axum::extract::State;
 use axum::Json;
 
 use super::at_points;
 use crate::model::query::IlluminanceAnswer;
 use crate::server::openapi::{PostErrors, SceneIdParam};
-use crate::server::parse::{ReadyScene, StrictJson};
+use crate::server::parse::ScenePost;
 use crate::server::requests::IlluminanceRequest;
-use crate::server::{AppError, AppState};
+use crate::server::AppError;
 
 #[utoipa::path(post, path = "/api/scenes/{id}/illuminance", operation_id = "illuminance", tag = "scenes",
     summary = "Illuminance per surface (avg, min, max, uniformity), at points (direct light of the luminaires plus light gathered from the solved patches, with occlusion), and on calculation grids (Eavg, Emin, Emax, U0, Emin/Emax), with the luminaires' lumens and watts.",
@@ -21,9 +18,7 @@ use crate::server::{AppError, AppState};
         example = json!({"lights": {"ceiling": {"intensity": 0.8, "color": [1.0, 0.9, 0.8]}}, "surfaces": ["floor"]})),
     responses((status = 200, description = "Illuminance answers in lux.", body = IlluminanceAnswer), PostErrors))]
 pub(crate) async fn illuminance(
-    ReadyScene(ready): ReadyScene,
-    State(state): State<Arc<AppState>>,
-    StrictJson(req): StrictJson<IlluminanceRequest>,
+    ScenePost(ready, state, req): ScenePost<IlluminanceRequest>,
 ) -> Result<Json<IlluminanceAnswer>, AppError> {
     let (lighting, q) = req.query(&ready.model)?;
     // Group lighting and no points: a weighted sum of precomputed columns, inline.

@@ -1,16 +1,13 @@
 //! `POST /api/scenes/{id}/optimize`: the least-flux dimming levels of the free light
 //! groups that meet illuminance targets (lux, U₀) on calculation grids.
 
-use std::sync::Arc;
-
-use axum::extract::State;
 use axum::Json;
 
 use crate::model::optimize::OptimizeAnswer;
 use crate::server::openapi::{PostErrors, SceneIdParam};
-use crate::server::parse::{ReadyScene, StrictJson};
+use crate::server::parse::ScenePost;
 use crate::server::requests::OptimizeRequest;
-use crate::server::{AppError, AppState};
+use crate::server::AppError;
 
 #[utoipa::path(post, path = "/api/scenes/{id}/optimize", operation_id = "optimize", tag = "scenes",
     summary = "Dimming levels (0..1 per free group, modelled colours) that meet grid targets with the least emitted flux: a linear program over the precomputed grid responses. 422 explains unreachable targets.",
@@ -20,9 +17,7 @@ use crate::server::{AppError, AppState};
         example = json!({"targets": [{"grid": "desk", "eavg_min": 500, "u0_min": 0.6}]})),
     responses((status = 200, description = "The levels, flux, power and achieved statistics.", body = OptimizeAnswer), PostErrors))]
 pub(crate) async fn optimize(
-    ReadyScene(ready): ReadyScene,
-    State(state): State<Arc<AppState>>,
-    StrictJson(req): StrictJson<OptimizeRequest>,
+    ScenePost(ready, state, req): ScenePost<OptimizeRequest>,
 ) -> Result<Json<OptimizeAnswer>, AppError> {
     let (base, free, targets) = req.problem(&ready.model)?;
     let bytes = ready.model.optimize_bytes(free.len(), &targets);

@@ -3,9 +3,7 @@
 //! optional per-surface averages.
 
 use std::collections::BTreeMap;
-use std::sync::Arc;
 
-use axum::extract::State;
 use axum::http::{header, HeaderMap};
 use axum::response::{IntoResponse, Response};
 use serde_json::Value;
@@ -19,9 +17,9 @@ use crate::model::report::{surface_averages, SurfaceAverage};
 use crate::model::Lighting;
 use crate::schema::{words, Rgb};
 use crate::server::openapi::{PostErrors, RadiosityBinary, SceneIdParam};
-use crate::server::parse::{ReadyScene, StrictJson};
+use crate::server::parse::ScenePost;
 use crate::server::requests::RadiosityRequest;
-use crate::server::{AppError, AppState};
+use crate::server::AppError;
 
 fn radiosity_unit() -> RefOr<Schema> {
     words(&["lm/m2", "lx"])
@@ -65,10 +63,8 @@ pub(crate) struct RadiosityResponse {
         PostErrors,
     ))]
 pub(crate) async fn radiosity(
-    ReadyScene(ready): ReadyScene,
-    State(state): State<Arc<AppState>>,
     headers: HeaderMap,
-    StrictJson(req): StrictJson<RadiosityRequest>,
+    ScenePost(ready, state, req): ScenePost<RadiosityRequest>,
 ) -> Result<Response, AppError> {
     let (want_surfaces, quantity) = (req.surfaces, req.quantity.0);
     let (key, unit, layout) = match quantity {

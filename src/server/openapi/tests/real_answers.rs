@@ -15,59 +15,18 @@ fn small_room(dir: &std::path::Path) {
     }
     // Corners counter-clockwise seen from the front (inside the room).
     let (x, y, z) = (4.0, 3.0, 4.0);
-    let obj = [
-        quad(
-            "floor",
-            "white",
-            [[0., 0., 0.], [0., 0., z], [x, 0., z], [x, 0., 0.]],
-        ),
-        quad(
-            "ceiling",
-            "white",
-            [[0., y, 0.], [x, y, 0.], [x, y, z], [0., y, z]],
-        ),
-        quad(
-            "west",
-            "white",
-            [[0., 0., 0.], [0., y, 0.], [0., y, z], [0., 0., z]],
-        ),
-        quad(
-            "east",
-            "white",
-            [[x, 0., 0.], [x, 0., z], [x, y, z], [x, y, 0.]],
-        ),
-        quad(
-            "north",
-            "white",
-            [[0., 0., 0.], [x, 0., 0.], [x, y, 0.], [0., y, 0.]],
-        ),
-        quad(
-            "south",
-            "white",
-            [[0., 0., z], [0., y, z], [x, y, z], [x, 0., z]],
-        ),
-        quad(
-            "panel",
-            "light",
-            [
-                [1.5, 2.9, 1.5],
-                [2.5, 2.9, 1.5],
-                [2.5, 2.9, 2.5],
-                [1.5, 2.9, 2.5],
-            ],
-        ),
-        quad(
-            "shelf",
-            "white",
-            [
-                [0.5, 1., 0.5],
-                [0.5, 1., 1.5],
-                [1.5, 1., 1.5],
-                [1.5, 1., 0.5],
-            ],
-        ),
-    ]
-    .concat();
+    #[rustfmt::skip]
+    let quads = [
+        ("floor", "white", [[0., 0., 0.], [0., 0., z], [x, 0., z], [x, 0., 0.]]),
+        ("ceiling", "white", [[0., y, 0.], [x, y, 0.], [x, y, z], [0., y, z]]),
+        ("west", "white", [[0., 0., 0.], [0., y, 0.], [0., y, z], [0., 0., z]]),
+        ("east", "white", [[x, 0., 0.], [x, 0., z], [x, y, z], [x, y, 0.]]),
+        ("north", "white", [[0., 0., 0.], [x, 0., 0.], [x, y, 0.], [0., y, 0.]]),
+        ("south", "white", [[0., 0., z], [0., y, z], [x, y, z], [x, 0., z]]),
+        ("panel", "light", [[1.5, 2.9, 1.5], [2.5, 2.9, 1.5], [2.5, 2.9, 2.5], [1.5, 2.9, 2.5]]),
+        ("shelf", "white", [[0.5, 1., 0.5], [0.5, 1., 1.5], [1.5, 1., 1.5], [1.5, 1., 0.5]]),
+    ];
+    let obj: String = quads.map(|(name, mat, p)| quad(name, mat, p)).concat();
     let mtl = "newmtl white\nKd 0.7 0.7 0.7\nnewmtl light\nKd 0 0 0\nKe 10 10 10\n";
     let toml = r#"
 name = "Small room"
@@ -141,6 +100,13 @@ struct Client {
 }
 
 impl Client {
+    /// POST `body` to operation `op` of the scene `room` (`/api/scenes/room/<op>`).
+    async fn post(&mut self, op: &str, body: Value) -> (StatusCode, Value) {
+        let path = format!("/api/scenes/{{id}}/{op}");
+        let uri = format!("/api/scenes/room/{op}");
+        self.send("post", &path, &uri, Some(body)).await
+    }
+
     /// `path` is the operation's path in the document; `uri` the request's.
     async fn send(
         &mut self,
@@ -271,43 +237,28 @@ async fn ask_every_query(c: &mut Client) {
     )
     .await;
 
-    let radiosity = "/api/scenes/{id}/radiosity";
-    let uri = "/api/scenes/room/radiosity";
-    c.send("post", radiosity, uri, Some(json!({}))).await;
+    c.post("radiosity", json!({})).await;
     let (_, v) = c
-        .send(
-            "post",
-            radiosity,
-            uri,
-            Some(json!({"quantity": "illuminance", "surfaces": true})),
+        .post(
+            "radiosity",
+            json!({"quantity": "illuminance", "surfaces": true}),
         )
         .await;
     assert!(v["surfaces"].is_object() && v["illuminance"].is_array());
     let emission = json!({"emission": {"0": [1, 1, 1]}, "surfaces": true});
-    c.send("post", radiosity, uri, Some(emission)).await;
-    let (s, _) = c
-        .send("post", radiosity, uri, Some(json!({"lights": {"nope": 1}})))
-        .await;
+    c.post("radiosity", emission).await;
+    let (s, _) = c.post("radiosity", json!({"lights": {"nope": 1}})).await;
     assert_eq!(s, StatusCode::UNPROCESSABLE_ENTITY);
 
-    let illuminance = "/api/scenes/{id}/illuminance";
-    let uri = "/api/scenes/room/illuminance";
     let (_, v) = c
-        .send(
-            "post",
-            illuminance,
-            uri,
-            Some(json!({"grids": ["desk", "probes"]})),
-        )
+        .post("illuminance", json!({"grids": ["desk", "probes"]}))
         .await;
     assert!(v["power"].is_object());
     let points = json!([{"position": [2, 1, 2], "normal": [0, 1, 0]}]);
     let (_, v) = c
-        .send(
-            "post",
-            illuminance,
-            uri,
-            Some(json!({"emission": {"0": [1, 1, 1]}, "points": points})),
+        .post(
+            "illuminance",
+            json!({"emission": {"0": [1, 1, 1]}, "points": points}),
         )
         .await;
     assert!(
@@ -315,29 +266,19 @@ async fn ask_every_query(c: &mut Client) {
         "{v}"
     );
 
-    let daylight = "/api/scenes/{id}/daylight";
-    let uri = "/api/scenes/room/daylight";
     let (_, v) = c
-        .send(
-            "post",
-            daylight,
-            uri,
-            Some(
-                json!({"sky": {"type": "cie_overcast", "horizontal_illuminance": 10000},
+        .post(
+            "daylight",
+            json!({"sky": {"type": "cie_overcast", "horizontal_illuminance": 10000},
                 "grids": ["desk"], "points": points, "lights": {"panel": 1}}),
-            ),
         )
         .await;
     assert!(v["grids"]["desk"]["daylight_factor"].is_object(), "{v}");
     let (_, v) = c
-        .send(
-            "post",
-            daylight,
-            uri,
-            Some(
-                json!({"sky": {"type": "perez", "direct_normal_irradiance": 600,
+        .post(
+            "daylight",
+            json!({"sky": {"type": "perez", "direct_normal_irradiance": 600,
                 "diffuse_horizontal_irradiance": 120, "time": "2026-06-21T14:00"}}),
-            ),
         )
         .await;
     assert!(
@@ -345,53 +286,24 @@ async fn ask_every_query(c: &mut Client) {
         "{v}"
     );
     let (s, _) = c
-        .send(
-            "post",
-            daylight,
-            uri,
-            Some(json!({"sky": {"type": "overcast"}})),
-        )
+        .post("daylight", json!({"sky": {"type": "overcast"}}))
         .await;
     assert_eq!(s, StatusCode::UNPROCESSABLE_ENTITY);
-    let annual = "/api/scenes/{id}/annual";
     let (_, v) = c
-        .send(
-            "post",
-            annual,
-            "/api/scenes/room/annual",
-            Some(json!({"weather": "weather.epw", "grids": ["desk"]})),
+        .post(
+            "annual",
+            json!({"weather": "weather.epw", "grids": ["desk"]}),
         )
         .await;
     assert!(v["grids"]["desk"]["en17037"].is_object(), "{v}");
-    let (s, _) = c
-        .send(
-            "post",
-            annual,
-            "/api/scenes/room/annual",
-            Some(json!({"weather": "/etc/passwd"})),
-        )
-        .await;
+    let (s, _) = c.post("annual", json!({"weather": "/etc/passwd"})).await;
     assert_eq!(s, StatusCode::UNPROCESSABLE_ENTITY);
 
     let batch = json!({"states": [{}, {"lights": {"lamps": 0.5}}], "surfaces": ["floor"], "radiosity": true, "grids": ["desk"]});
-    let (_, v) = c
-        .send(
-            "post",
-            "/api/scenes/{id}/batch",
-            "/api/scenes/room/batch",
-            Some(batch),
-        )
-        .await;
+    let (_, v) = c.post("batch", batch).await;
     assert!(v["results"][1]["radiosity"].is_array() && v["results"][1]["grids"].is_object());
     let batch = json!({"states": [{"emission": {"0": [1, 1, 1]}}]});
-    let (_, v) = c
-        .send(
-            "post",
-            "/api/scenes/{id}/batch",
-            "/api/scenes/room/batch",
-            Some(batch),
-        )
-        .await;
+    let (_, v) = c.post("batch", batch).await;
     let plain = v["results"][0].as_object().unwrap();
     assert!(
         !plain.contains_key("radiosity") && !plain.contains_key("grids"),
@@ -399,24 +311,11 @@ async fn ask_every_query(c: &mut Client) {
     );
 
     let targets = json!({"targets": [{"grid": "desk", "eavg_min": 1.0, "u0_min": 0.1}]});
-    c.send(
-        "post",
-        "/api/scenes/{id}/optimize",
-        "/api/scenes/room/optimize",
-        Some(targets),
-    )
-    .await;
+    c.post("optimize", targets).await;
 
     // The room's luminaires are point sources: both are left out, with the reason.
     let observers = json!({"observers": [{"position": [3.5, 0, 3.5], "direction": [-1, 0, -1]}]});
-    let (_, v) = c
-        .send(
-            "post",
-            "/api/scenes/{id}/glare",
-            "/api/scenes/room/glare",
-            Some(observers),
-        )
-        .await;
+    let (_, v) = c.post("glare", observers).await;
     let o = &v["observers"][0];
     assert!(o["ugr"].is_null(), "{v}");
     assert_eq!(o["left_out"].as_array().unwrap().len(), 2, "{v}");

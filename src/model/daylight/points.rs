@@ -1,0 +1,118 @@
+//! The light at points under one sky: the direct sky through each point's sky view, the
+//! sun by one shadow ray, and the reflected light through the gather weights and daylight
+//! coefficients of the point-gather cache.
+
+use glam::DVec3;
+use rayon::prelude::*;
+
+use super::gather::PointGather;
+use super::patches::SunLight;
+use crate::color::{luminance64, Rgb};
+use crate::daylight::Site;
+use crate::model::sky_state::SkyState;
+use crate::model::{Cancel, Model, QueryError};
+use crate::transport::sky_view::Reach;
+use crate::transport::transfer::SkyColumns;
+
+/// What the light at a point needs under one sky: the sky patch luminances and the sun's
+/// light, the electric light of group weights `w` when asked.
+pub(super) struct PointLight<'a> {
+    model: &'a Model,
+    pub(super) sky: &'a SkyState,
+    site: &'a Site,
+    cols: &'a SkyColumns,
+    /// Sky patch luminances, cd/m² (0 the ground).
+    l: &'a [f64],
+    /// The sun's spread over the sky patches ([`SunLight::spread`]).
+    spread: &'a [(usize, f64)],
+    /// [`Model::sun_reflected`].
+    sun_b: Option<Vec<f32>>,
+    /// The sun's scene direction and normal illuminance.
+    sun: Option<(DVec3, f64)>,
+    reach: Reach,
+    w: Option<&'a [Rgb]>,
+    /// The electric light's radiosity, lm/m² (n × 3; empty without `w`).
+    b_el: Vec<f32>,
+}
+
+impl<'a> PointLight<'a> {
+    pub(super) fn new(
+        model: &'a Model,
+        sky: &'a SkyState,
+        site: &'a Site,
+        l: &'a [f64],
+        sun_light: &'a SunLight,
+        w: Option<&'a [Rgb]>,
+    ) -> PointLight<'a> {
+        let t = &model.baked.transfer;
+        let mut b_el = vec![];
+        if let Some(w) = w {
+            b_el = vec![0f32; 3 * t.n];
+            t.relight_into(w, &mut b_el);
+        }
+        PointLight {
+            model,
+            sky,
+            site,
+            cols: t.sky.as_ref().expect("site() checks the sky responses"),
+            l,
+            spread: &sun_light.spread,
+            sun_b: model.sun_reflected(sun_light),
+            sun: sky.sun_direction(site),
+            reach: model.reach(),
+            w,
+            b_el,
+        }
+    }
+
+    /// The light at point `x` (m) facing `nrm` with gather `g`: (all light, daylight
+    /// alone), RGB lux.
+    fn at(&self, g: &PointGather, x: DVec3, nrm: DVec3) -> ([f64; 3], f64) {
+        let m = self.model;
+        let mut e = g.reflected(self.cols, &m.baked.transfer.rho, self.l, self.spread);
+        if let Some(b) = &self.sun_b {
+            let s = g.gather(b);
+            for c in 0..3 {
+                e[c] += s[c];
+            }
+        }
+        let mut direct = g.direct_sky(self.sky, self.site);
+        if let Some(sun) = self.sun {
+            direct += m.sun_at(x, nrm, sun, self.reach);
+        }
+        for c in &mut e {
+            *c += direct;
+        }
+        let daylight = luminance64(e);
+        if let Some(w) = self.w {
+            let el = g.gather(&self.b_el);
+            m.add_luminaires(w, x, nrm, &mut e);
+            for c in 0..3 {
+                e[c] += el[c];
+            }
+        }
+        (e, daylight)
+    }
+
+    /// The light at `points` (position m, unit normal), gathered in parallel: (all light,
+    /// daylight alone) per point, as [`PointLight::at`].
+    pub(super) fn at_points(
+        &self,
+        points: &[(DVec3, DVec3)],
+        cancel: &Cancel,
+    ) -> Result<Vec<([f64; 3], f64)>, QueryError> {
+        let gathers = self.model.gathers(points, cancel)?;
+        Ok(points
+            .par_iter()
+            .zip(gathers.par_iter())
+            .map(|(&(x, nrm), g)| self.at(g, x, nrm))
+            .collect())
+    }
+
+    /// The daylight factor of `daylight` lux, percent, under the CIE overcast sky.
+    pub(super) fn daylight_factor(&self, daylight: f64) -> Option<f64> {
+        self.sky
+            .df_reference
+            .map(|r| 100.0 * daylight / r.max(1e-9))
+    }
+}

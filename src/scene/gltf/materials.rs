@@ -1,0 +1,227 @@
+//! glTF materials into relight's material table: the diffuse reflectance from the PBR
+//! factors and the mean colour of the base colour texture, the exitance from the emissive
+//! factor, strength and texture.
+
+use std::path::{Path, PathBuf};
+
+use super::buffers::{percent_decode, view_bytes};
+use super::{invalid, Buffers, Reader, Unique};
+use crate::color::Rgb;
+use crate::input_limits::{MAX_EXITANCE, MAX_KD, MAX_MATERIALS, MAX_TEXTURES, MAX_TEXTURE_BYTES};
+use crate::scene::materials::{Material, MaterialTable};
+use crate::scene::{files, mtl, texture, SceneError};
+
+/// Where material textures come from: the buffers, and the files read (a texture file is
+/// added); `count` textures read so far.
+struct Textures<'b> {
+    buffers: &'b Buffers,
+    count: usize,
+    files: &'b mut Vec<PathBuf>,
+}
+
+impl Reader<'_> {
+    /// The material table of the file's materials, and the index in it of every glTF
+    /// material; texture files read are added to `files`.
+    pub(super) fn materials(
+        &mut self,
+        doc: &gltf::Document,
+        buffers: &Buffers,
+        files: &mut Vec<PathBuf>,
+    ) -> Result<(MaterialTable, Vec<u32>), SceneError> {
+        let textures = &mut Textures {
+            buffers,
+            count: 0,
+            files,
+        };
+        let mut table = MaterialTable::default();
+        let mut names = Unique::default();
+        let mut out = Vec::new();
+        for m in doc.materials() {
+            let i = m.index().unwrap_or(0);
+            let name = names.take(m.name(), || format!("material{i}"));
+            let kd = self.reflectance(&m, &name, textures)?;
+            let ke = self.emission(&m, &name, textures)?;
+            let two_sided =
+                m.double_sided() || self.cfg.material.get(&name).is_some_and(|o| o.two_sided);
+            out.push(table.push(
+                Material {
+                    name,
+                    kd,
+                    ke,
+                    two_sided,
+                },
+                self.shown,
+            )?);
+        }
+        Ok((table, out))
+    }
+
+    /// The diffuse reflectance of material `m` (named `name`): `(1 − metallic) × base
+    /// colour ×` its texture's mean, scaled below 1 (or refused, strict).
+    fn reflectance(
+        &mut self,
+        m: &gltf::Material<'_>,
+        name: &str,
+        textures: &mut Textures<'_>,
+    ) -> Result<Rgb, SceneError> {
+        let pbr = m.pbr_metallic_roughness();
+        let base = pbr.base_color_factor();
+        let metallic = pbr.metallic_factor().clamp(0.0, 1.0);
+        let mut kd: Rgb = std::array::from_fn(|c| (1.0 - metallic) * base[c]);
+        kd = self.tinted(kd, pbr.base_color_texture(), name, textures)?;
+        if kd.iter().any(|x| !x.is_finite() || *x < 0.0) {
+            return Err(self.err(format!(
+                "material '{name}': base colour {kd:?} must be finite and ≥ 0"
+            )));
+        }
+        if metallic >= 1.0 && base[..3].iter().any(|&b| b > 0.0) {
+            self.warnings.push(format!(
+                "{}: material '{name}' is fully metallic (metallicFactor 1, the glTF \
+                 default): it reflects no diffuse light",
+                self.shown.display()
+            ));
+        }
+        if let Some(k) = mtl::clamp_kd(kd) {
+            if self.cfg.strict {
+                return Err(self.err(format!(
+                    "material '{name}': diffuse reflectance {kd:?} must be below 1 per \
+                     channel (strict = true; a lenient load would use {k:?})"
+                )));
+            }
+            self.warnings.push(format!(
+                "{}: material '{name}': diffuse reflectance reaches 1: scaled to {} {} {} \
+                 (at most {MAX_KD})",
+                self.shown.display(),
+                k[0],
+                k[1],
+                k[2]
+            ));
+            kd = k;
+        }
+        Ok(kd)
+    }
+
+    /// The exitance of material `m` (named `name`), lm/m²: `π × emissiveFactor ×
+    /// strength ×` its emissive texture's mean.
+    fn emission(
+        &mut self,
+        m: &gltf::Material<'_>,
+        name: &str,
+        textures: &mut Textures<'_>,
+    ) -> Result<Rgb, SceneError> {
+        let strength = m.emissive_strength().unwrap_or(1.0);
+        let ef = m.emissive_factor();
+        let mut ke: Rgb = std::array::from_fn(|c| std::f32::consts::PI * ef[c] * strength);
+        if ke.iter().any(|&x| x > 0.0) {
+            ke = self.tinted(ke, m.emissive_texture(), name, textures)?;
+        }
+        if ke
+            .iter()
+            .any(|x| !x.is_finite() || *x < 0.0 || *x > MAX_EXITANCE)
+        {
+            return Err(self.err(format!(
+                "material '{name}': emission (π × emissiveFactor × strength) {ke:?} lm/m² \
+                 must be in [0, {MAX_EXITANCE}]"
+            )));
+        }
+        Ok(ke)
+    }
+
+    /// `c` times the mean colour of the texture `info` of material `material`, when it
+    /// has one that can be read.
+    fn tinted(
+        &mut self,
+        c: Rgb,
+        info: Option<gltf::texture::Info<'_>>,
+        material: &str,
+        textures: &mut Textures<'_>,
+    ) -> Result<Rgb, SceneError> {
+        let Some(info) = info else {
+            return Ok(c);
+        };
+        Ok(
+            match self.texture_mean(info.texture(), material, textures)? {
+                Some(mean) => std::array::from_fn(|k| c[k] * mean[k]),
+                None => c,
+            },
+        )
+    }
+
+    /// The mean linear colour of a texture's image, or None (with a warning) when it
+    /// cannot be read and the load is lenient.
+    fn texture_mean(
+        &mut self,
+        tex: gltf::Texture<'_>,
+        material: &str,
+        textures: &mut Textures<'_>,
+    ) -> Result<Option<Rgb>, SceneError> {
+        textures.count += 1;
+        if textures.count > MAX_TEXTURES {
+            return Err(self.err(format!("more than {MAX_TEXTURES} textures")));
+        }
+        let img = tex.source();
+        let what = format!("images[{}]", img.index());
+        let bytes = match img.source() {
+            gltf::image::Source::View { view, .. } if view.length() as u64 > MAX_TEXTURE_BYTES => {
+                Err(self.err(format!(
+                    "{what}: larger than {}",
+                    files::human_bytes(MAX_TEXTURE_BYTES)
+                )))
+            }
+            gltf::image::Source::View { view, .. } => view_bytes(&view, textures.buffers)
+                .map(<[u8]>::to_vec)
+                .ok_or_else(|| self.err(format!("{what}: its bufferView lies outside its buffer"))),
+            gltf::image::Source::Uri { uri, .. } => {
+                let plain = !uri.starts_with("data:");
+                match percent_decode(uri) {
+                    Some(name) if plain && !self.cfg.strict => {
+                        match self.sd.resolve_lenient(&name, self.shown, 0, &what)? {
+                            Some(_) => {
+                                self.uri_bytes(uri, &what, MAX_TEXTURE_BYTES, textures.files)
+                            }
+                            None => {
+                                self.warnings.push(format!(
+                                    "{}: texture '{name}' of material '{material}' is not in \
+                                     the scene folder: its factor is used alone",
+                                    self.shown.display()
+                                ));
+                                return Ok(None);
+                            }
+                        }
+                    }
+                    _ => self.uri_bytes(uri, &what, MAX_TEXTURE_BYTES, textures.files),
+                }
+            }
+        }?;
+        match texture::mean_linear_rgb(&bytes) {
+            Ok(m) => Ok(Some(m)),
+            Err(e) if self.cfg.strict => Err(self.err(format!(
+                "{what} (material '{material}') cannot be read: {e} (strict = true)"
+            ))),
+            Err(e) => {
+                self.warnings.push(format!(
+                    "{}: {what} of material '{material}' cannot be read ({e}): its factor is \
+                     used alone",
+                    self.shown.display()
+                ));
+                Ok(None)
+            }
+        }
+    }
+}
+
+impl MaterialTable {
+    /// Adds a material read from a model file (glTF); its index.
+    pub(crate) fn push(&mut self, m: Material, shown: &Path) -> Result<u32, SceneError> {
+        if self.materials.len() >= MAX_MATERIALS {
+            return Err(invalid(
+                shown,
+                format!("more than {} materials", MAX_MATERIALS),
+            ));
+        }
+        let i = self.materials.len() as u32;
+        self.index.insert(m.name.clone(), i);
+        self.materials.push(m);
+        Ok(i)
+    }
+}
