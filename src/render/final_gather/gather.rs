@@ -84,6 +84,8 @@ impl Reflected {
         let (du, dv) = (rng.next_f64(), rng.next_f64());
         let mesh = scene.mesh;
         let w = 1.0 / count as f32;
+        // The reflected radiosity at close hits, reused from ray to ray.
+        let mut near_values: Vec<f32> = Vec::new();
         for i in 0..count {
             let u1 = ((i % side) as f64 + du) / side as f64;
             let u2 = ((i / side) as f64 + dv) / side as f64;
@@ -113,9 +115,10 @@ impl Reflected {
             let at = o + d * th as f64;
             if let Some(f) = near.as_mut() {
                 if (th as f64) < NEAR * patch.area.sqrt() {
-                    let mut v = vec![0f32; out.len()];
-                    f(at, q, rng, &mut v);
-                    for (o, v) in out.iter_mut().zip(&v) {
+                    near_values.clear();
+                    near_values.resize(out.len(), 0.0);
+                    f(at, q, rng, &mut near_values);
+                    for (o, v) in out.iter_mut().zip(&near_values) {
                         *o += w * v;
                     }
                     continue;
