@@ -249,3 +249,18 @@ pub fn free_port() -> u16 {
         .unwrap()
         .port()
 }
+
+/// The bundled Cornell box at its default meshing, baked once for the tests that compare
+/// it with the path-traced reference.
+pub fn cornell_baked() -> &'static relight::bake::Baked {
+    static BAKED: std::sync::OnceLock<relight::bake::Baked> = std::sync::OnceLock::new();
+    BAKED.get_or_init(|| {
+        relight::bake::load_or_bake(
+            &scenes_dir().join("cornell-box"),
+            relight::bake::CachePolicy::Off,
+            &relight::bake::BakeOptions::default(),
+            &|_, _| {},
+        )
+        .expect("the Cornell box bakes")
+    })
+}

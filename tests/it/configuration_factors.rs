@@ -145,7 +145,7 @@ fn coaxial_parallel_disks() {
     let _gate = common::shared();
     let m = 96;
     let obj = disk("lower", 0.5, 0.0, true, m) + &disk("upper", 0.8, 0.6, false, m);
-    let s = write_scene(&obj, GREY_MTL, None);
+    let s = write_scene(&obj, GREY_MTL, Some("[mesh]\ntarget_patches = 1500\n"));
     let sol = form_factors(s.path());
     // Compare with the disks of equal area (the polygons are 96-gons).
     let r_eff = |name: &str| (sol.surface_area(name) / PI).sqrt();

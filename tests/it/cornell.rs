@@ -1,7 +1,6 @@
 //! The bundled Cornell box against the independent path-traced reference
 //! (`tests/data/cornell_reference.json`, a copy of shared/reference/cornell-box/reference.json).
 
-use relight::bake::{load_or_bake, BakeOptions, CachePolicy};
 use relight::model::report::surface_averages;
 
 use crate::common;
@@ -9,8 +8,7 @@ use crate::common;
 #[test]
 fn cornell_box_matches_the_path_traced_reference() {
     let _gate = common::shared();
-    let dir = common::scenes_dir().join("cornell-box");
-    let b = load_or_bake(&dir, CachePolicy::Off, &BakeOptions::default(), &|_, _| {}).unwrap();
+    let b = common::cornell_baked();
     assert!(
         b.mesh.len() >= 3000,
         "default meshing has {} patches",

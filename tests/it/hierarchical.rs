@@ -18,6 +18,11 @@ fn bake(dir: &std::path::Path, mode: TransferMode) -> Baked {
 /// A closed 2 × 1.5 × 1 m room with a block on the floor and a lamp panel under the
 /// ceiling facing down.
 pub(crate) fn closed_room() -> TempScene {
+    closed_room_of(1500)
+}
+
+/// The closed room meshed to about `patches` patches.
+pub(crate) fn closed_room_of(patches: usize) -> TempScene {
     let mut obj = box_faces("room", "white", [0., 0., 0.], [2., 1.5, 1.], true);
     obj += &box_faces("block", "grey", [0.3, 0., 0.3], [0.7, 0.5, 0.6], false);
     obj += &quad(
@@ -36,7 +41,9 @@ pub(crate) fn closed_room() -> TempScene {
     write_scene(
         &obj,
         mtl,
-        Some("[mesh]\ntarget_patches = 1500\n[[lights]]\nid = \"lamp\"\nmaterials = [\"lamp\"]\n"),
+        Some(&format!(
+            "[mesh]\ntarget_patches = {patches}\n[[lights]]\nid = \"lamp\"\nmaterials = [\"lamp\"]\n"
+        )),
     )
 }
 
@@ -294,7 +301,7 @@ fn office_floor_is_a_real_size_scene() {
 fn parts_of_a_hierarchical_bake_assemble_to_the_same_bits() {
     use relight::transport::hierarchy::{HierarchyOptions, Plan};
     let _gate = common::shared();
-    let s = closed_room();
+    let s = closed_room_of(600);
     let scene = relight::scene::Scene::load(s.path()).unwrap();
     let mesh = relight::geometry::mesh::Mesh::build(&scene);
     let bvh = relight::bake::scene_bvh(&scene);

@@ -1,7 +1,6 @@
 //! The renderer: known pixel values, no cracks, depth order, false colour, and the Cornell
 //! box against the path-traced reference image.
 
-use relight::bake::{load_or_bake, BakeOptions, CachePolicy};
 use relight::render::{self, Camera, GroupImages, Shading, ToneMap, ViewBuffer};
 
 use crate::common::{self, *};
@@ -121,8 +120,7 @@ fn false_colour_maps_known_values_to_known_colours() {
 #[test]
 fn cornell_box_image_matches_the_path_traced_reference() {
     let _gate = common::shared();
-    let dir = scenes_dir().join("cornell-box");
-    let b = load_or_bake(&dir, CachePolicy::Off, &BakeOptions::default(), &|_, _| {}).unwrap();
+    let b = common::cornell_baked();
     let shading = Shading::new(&b.mesh);
     // The reference camera; render at 2× and box-filter to 256² like the reference pixels.
     let c = Camera::from_def(&b.scene.cameras[0], 512, 512);

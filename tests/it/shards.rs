@@ -12,7 +12,7 @@ use crate::common::{self, TempScene};
 
 /// The closed room with a block and a lamp panel of the hierarchical tests.
 fn room() -> TempScene {
-    crate::hierarchical::closed_room()
+    crate::hierarchical::closed_room_of(600)
 }
 
 fn opts() -> BakeOptions {

@@ -30,7 +30,11 @@ fn furnace_closed_room_with_uniform_emission() {
     let _gate = common::shared();
     // Every surface emits E = 10 and reflects ρ = 0.5: B = E / (1 − ρ) = 20 everywhere.
     let obj = box_faces("room", "glow", [0., 0., 0.], [3., 2.5, 2.], true);
-    let s = write_scene(&obj, "newmtl glow\nKd 0.5 0.5 0.5\nKe 10 10 10\n", None);
+    let s = write_scene(
+        &obj,
+        "newmtl glow\nKd 0.5 0.5 0.5\nKe 10 10 10\n",
+        Some("[mesh]\ntarget_patches = 1500\n"),
+    );
     let b = bake(s.path(), BakeOptions::default());
     let sol = b.transfer.relight(&[[1.0; 3]]);
     let worst = sol
@@ -160,7 +164,7 @@ fn energy_balance_closed_and_open() {
             [0., -1., 0.],
         );
     let mtl = "newmtl wall\nKd 0.7 0.5 0.3\nnewmtl lamp\nKd 0 0 0\nKe 100 100 100\n";
-    let s = write_scene(&obj, mtl, None);
+    let s = write_scene(&obj, mtl, Some("[mesh]\ntarget_patches = 1200\n"));
     let b = bake(s.path(), BakeOptions::default());
     let sol = b.transfer.relight(&[[1.0; 3]]);
     let p = b.transfer.power(&sol);
@@ -195,7 +199,7 @@ fn energy_balance_closed_and_open() {
             ],
             [0., -1., 0.],
         );
-    let s = write_scene(&obj, mtl, None);
+    let s = write_scene(&obj, mtl, Some("[mesh]\ntarget_patches = 1200\n"));
     let b = bake(s.path(), BakeOptions::default());
     let sol = b.transfer.relight(&[[1.0; 3]]);
     let p = b.transfer.power(&sol);
@@ -210,7 +214,7 @@ fn desk_room(mode: TransferMode) -> Baked {
     bake(
         &scenes_dir().join("desk-room"),
         BakeOptions {
-            max_edge: Some(0.35),
+            max_edge: Some(0.5),
             mode: Some(mode),
             ..Default::default()
         },

@@ -16,7 +16,7 @@ root=$PWD
 here=$root/tests/schemathesis
 
 st_version=4.32.5
-examples=${ST_EXAMPLES:-200}
+examples=${ST_EXAMPLES:-120}
 seed=${ST_SEED:-1729}
 ready_wait=180
 
