@@ -286,7 +286,7 @@ fn daylight() {
     let q = IlluminanceQuery {
         surfaces: vec![],
         points,
-        grids: vec![],
+        ..Default::default()
     };
     let t = Instant::now();
     m.daylight(&sky(0, "cie_overcast"), None, &q, &cancel)
@@ -313,8 +313,8 @@ fn daylight() {
         .unwrap();
     let qg = IlluminanceQuery {
         surfaces: vec![],
-        points: vec![],
         grids: vec![wp],
+        ..Default::default()
     };
     let t = Instant::now();
     m.daylight(&sky(0, "cie_overcast"), None, &qg, &cancel)

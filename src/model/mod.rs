@@ -16,6 +16,8 @@
 //!   [`batch::BatchPlan`] checks the count and the hierarchical mode's cost first).
 //! - [`optimize`]: least-flux dimming levels under grid targets.
 //! - [`report`]: per-surface averages and the power balance.
+//! - [`compliance`]: maintained values (the maintenance factor) and EN 12464-1
+//!   requirements per grid (Ēm, U₀, UGR_L, Ra), pass or fail.
 //! - [`glare`]: the CIE Unified Glare Rating at observers, linear in the light groups.
 //! - [`sky_state`]: the grammar of a sky ([`sky_state::SkySpec`]) and a sky resolved for the site.
 //! - [`daylight`]: daylight on surfaces, points and grids, and the point-gather cache.
@@ -38,6 +40,7 @@ use crate::color::luminance64;
 
 pub mod annual;
 pub mod batch;
+pub mod compliance;
 pub mod daylight;
 pub mod error;
 pub mod glare;

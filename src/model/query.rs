@@ -11,11 +11,13 @@ use glam::DVec3;
 use rayon::prelude::*;
 use serde::Serialize;
 
+use super::compliance::{self, Achieved, Compliance, ObserverUgr};
 use super::grid::{self, GridStats};
 use super::lighting::{LightState, Lighting, MAX_EMISSION};
 use super::report::{surface_illuminance, Lux, SurfaceIlluminance};
 use super::{Cancel, Model, QueryError};
 use crate::color::{luminance64, Rgb};
+use crate::scene::Requirements;
 use crate::transport::transfer::{Solution, TransferMode};
 
 /// Which per-patch quantity.
@@ -85,6 +87,31 @@ pub struct IlluminanceQuery {
     pub points: Vec<(DVec3, DVec3)>,
     /// Grid indices.
     pub grids: Vec<usize>,
+    /// Maintenance factors; None: the scene's.
+    pub maintenance: Option<Factors>,
+    /// Requirements per grid index, replacing the scene's for that grid.
+    pub requirements: BTreeMap<usize, Requirements>,
+}
+
+/// The maintenance factors of a query, each in (0, 1].
+#[derive(Debug, Clone, PartialEq)]
+pub struct Factors {
+    /// Per light group, in the order of `scene.lights`.
+    pub groups: Vec<f64>,
+    /// For a per-patch emission (no groups).
+    pub emission: f64,
+}
+
+/// The answers again under the maintenance factors: maintained = MF × initial, lux.
+#[derive(Debug, Clone, Serialize)]
+#[cfg_attr(feature = "server", derive(utoipa::ToSchema))]
+pub struct Maintained {
+    /// In request order.
+    pub points: Vec<Lux>,
+    /// By surface id.
+    pub surfaces: BTreeMap<String, SurfaceIlluminance>,
+    /// By grid id; its `avg` is Ēm.
+    pub grids: BTreeMap<String, GridAnswer>,
 }
 
 /// Illuminance answers, lux: at points, per surface and per grid.
@@ -103,6 +130,14 @@ pub struct IlluminanceAnswer {
     /// The luminaires' flux and power in this state; null for a per-patch emission.
     #[cfg_attr(feature = "server", schema(required = true))]
     pub power: Option<LuminairePower>,
+    /// The maintenance factor MF of each light group, 0..1 (for a per-patch emission, the
+    /// scene's under the key `emission`).
+    pub maintenance_factors: BTreeMap<String, f64>,
+    /// The same answers maintained: each group's light × its MF.
+    pub maintained: Maintained,
+    /// By grid id, the grids asked for that carry requirements: pass or fail, and by how
+    /// much.
+    pub compliance: BTreeMap<String, Compliance>,
 }
 
 impl Model {
@@ -302,7 +337,7 @@ impl Model {
 
     /// Whether a query is a pure weighted sum (no points, group lighting): microseconds.
     pub fn is_cheap(&self, l: &Lighting, q: &IlluminanceQuery) -> bool {
-        matches!(l, Lighting::Groups(_)) && q.points.is_empty()
+        matches!(l, Lighting::Groups(_)) && q.points.is_empty() && !self.rates_glare(q)
     }
 
     /// Illuminance on surfaces, at points and on grids for a lighting state. Points (and
@@ -321,38 +356,163 @@ impl Model {
     }
 
     /// [`Model::illuminance`] for group weights `w`: weighted sums, and the points'
-    /// gathers from the cache.
+    /// gathers from the cache; the same again under the maintenance factors.
     fn group_illuminance(
         &self,
         w: &[Rgb],
         q: &IlluminanceQuery,
         cancel: &Cancel,
     ) -> Result<IlluminanceAnswer, QueryError> {
-        let mut h = vec![0f32; 3 * self.patches()];
-        self.per_patch_groups(w, Quantity::Illuminance, &mut h);
-        let points = if q.points.is_empty() {
-            vec![]
-        } else {
-            let mut b = vec![0f32; 3 * self.patches()];
-            self.per_patch_groups(w, Quantity::Radiosity, &mut b);
-            let gathers = self.gathers(&q.points, cancel)?;
-            q.points
-                .iter()
-                .zip(gathers.iter())
-                .map(|(&(x, n), g)| {
-                    let mut e = g.gather(&b);
-                    self.add_luminaires(w, x, n, &mut e);
-                    Lux::new(e)
-                })
-                .collect()
+        let factors = self.factors(q);
+        let wm = compliance::maintained_weights(w, &factors.groups);
+        let (points, maintained_points) = self.group_points(w, &wm, &q.points, cancel)?;
+        let surfaces = |w: &[Rgb]| {
+            let mut h = vec![0f32; 3 * self.patches()];
+            self.per_patch_groups(w, Quantity::Illuminance, &mut h);
+            self.surface_stats(&q.surfaces, &h)
         };
+        let maintained = Maintained {
+            points: maintained_points,
+            surfaces: surfaces(&wm),
+            grids: self.grid_answers(&q.grids, &wm),
+        };
+        let compliance = self.compliance(q, Some(w), &maintained.grids, cancel)?;
+        let groups = self.baked.scene.lights.iter().map(|g| g.id.clone());
         Ok(IlluminanceAnswer {
             unit: "lx",
             points,
-            surfaces: self.surface_stats(&q.surfaces, &h),
+            surfaces: surfaces(w),
             grids: self.grid_answers(&q.grids, w),
             power: Some(self.luminaire_power(w)),
+            maintenance_factors: groups.zip(factors.groups).collect(),
+            maintained,
+            compliance,
         })
+    }
+
+    /// Illuminance at `points` under weights `w` and maintained weights `wm`: one gather
+    /// each, and the luminaires' direct light traced once for both.
+    fn group_points(
+        &self,
+        w: &[Rgb],
+        wm: &[Rgb],
+        points: &[(DVec3, DVec3)],
+        cancel: &Cancel,
+    ) -> Result<(Vec<Lux>, Vec<Lux>), QueryError> {
+        if points.is_empty() {
+            return Ok((vec![], vec![]));
+        }
+        let radiosity = |w: &[Rgb]| {
+            let mut b = vec![0f32; 3 * self.patches()];
+            self.per_patch_groups(w, Quantity::Radiosity, &mut b);
+            b
+        };
+        let (b, bm) = (radiosity(w), radiosity(wm));
+        let gathers = self.gathers(points, cancel)?;
+        let k = &self.baked;
+        Ok(points
+            .iter()
+            .zip(gathers.iter())
+            .map(|(&(x, n), g)| {
+                let (mut e, mut em) = (g.gather(&b), g.gather(&bm));
+                for ((group, wg), wmg) in k.scene.lights.iter().zip(w).zip(wm) {
+                    if group.luminaires.is_empty() || wg.iter().all(|&c| c == 0.0) {
+                        continue;
+                    }
+                    let d = crate::transport::direct::point_illuminance(
+                        &k.bvh,
+                        &group.luminaires,
+                        x,
+                        n,
+                    );
+                    for c in 0..3 {
+                        e[c] += wg[c] as f64 * d[c];
+                        em[c] += wmg[c] as f64 * d[c];
+                    }
+                }
+                (Lux::new(e), Lux::new(em))
+            })
+            .unzip())
+    }
+
+    /// The maintenance factors of query `q`: its own, else the scene's.
+    pub fn factors(&self, q: &IlluminanceQuery) -> Factors {
+        q.maintenance.clone().unwrap_or_else(|| Factors {
+            groups: compliance::scene_factors(&self.baked.scene),
+            emission: self.baked.scene.maintenance_factor,
+        })
+    }
+
+    /// The requirements of grid `gi` in query `q` (the request's, else the scene's).
+    pub fn requirements(&self, q: &IlluminanceQuery, gi: usize) -> Requirements {
+        q.requirements
+            .get(&gi)
+            .copied()
+            .unwrap_or(self.grids[gi].grid.requirements)
+    }
+
+    /// The compliance of the query's grids that carry requirements, from their
+    /// `maintained` answers; UGR at the task observers under weights `w` (None: a
+    /// per-patch emission, which UGR cannot rate).
+    fn compliance(
+        &self,
+        q: &IlluminanceQuery,
+        w: Option<&[Rgb]>,
+        maintained: &BTreeMap<String, GridAnswer>,
+        cancel: &Cancel,
+    ) -> Result<BTreeMap<String, Compliance>, QueryError> {
+        let mut out = BTreeMap::new();
+        for &gi in &q.grids {
+            let r = self.requirements(q, gi);
+            if r.is_empty() {
+                continue;
+            }
+            let grid = &self.grids[gi].grid;
+            let m = maintained.get(&grid.id);
+            let measured = m.is_some_and(|m| m.count > m.excluded);
+            let observers = match (w, r.ugr_l) {
+                (Some(w), Some(_)) => Some(self.task_ugr(grid, w, cancel)?),
+                (Some(_), None) => Some(vec![]),
+                (None, _) => None,
+            };
+            let achieved = Achieved {
+                em: m.filter(|_| measured).map(|m| m.avg),
+                u0: m.filter(|_| measured).map(|m| m.u0),
+                observers,
+                ra: match w {
+                    Some(w) => compliance::lit_ra(&self.baked.scene, w),
+                    None => Ok(None),
+                },
+            };
+            out.insert(grid.id.clone(), compliance::check(&r, &achieved));
+        }
+        Ok(out)
+    }
+
+    /// UGR at a task area's observers ([`compliance::task_observers`]) under weights `w`.
+    fn task_ugr(
+        &self,
+        grid: &crate::scene::Grid,
+        w: &[Rgb],
+        cancel: &Cancel,
+    ) -> Result<Vec<ObserverUgr>, QueryError> {
+        let observers = compliance::task_observers(grid);
+        Ok(self
+            .glare(&observers, w, cancel)?
+            .into_iter()
+            .map(|o| ObserverUgr {
+                eye: o.eye,
+                direction: o.direction,
+                ugr: o.ugr,
+            })
+            .collect())
+    }
+
+    /// Whether a query needs observers' views (a UGR requirement on a grid it asks for).
+    pub fn rates_glare(&self, q: &IlluminanceQuery) -> bool {
+        q.grids
+            .iter()
+            .any(|&gi| self.requirements(q, gi).ugr_l.is_some())
     }
 
     /// [`Model::illuminance`] for a per-patch emission: one solve, and every point (grid
@@ -377,7 +537,7 @@ impl Model {
             .map(|(x, n)| Lux::new(at(*x, *n)))
             .collect();
         cancel.check()?;
-        let grids = q
+        let grids: BTreeMap<String, GridAnswer> = q
             .grids
             .iter()
             .map(|&gi| {
@@ -393,12 +553,30 @@ impl Model {
             })
             .collect();
         cancel.check()?;
+        // No groups: one maintenance factor scales everything.
+        let mf = self.factors(q).emission;
+        let surfaces = self.surface_stats(&q.surfaces, &sol.h);
+        let maintained = Maintained {
+            points: points.iter().map(|p| p.scaled(mf)).collect(),
+            surfaces: surfaces
+                .iter()
+                .map(|(k, s)| (k.clone(), s.scaled(mf)))
+                .collect(),
+            grids: grids
+                .iter()
+                .map(|(k, g)| (k.clone(), g.scaled(mf)))
+                .collect(),
+        };
+        let compliance = self.compliance(q, None, &maintained.grids, cancel)?;
         Ok(IlluminanceAnswer {
             unit: "lx",
             points,
-            surfaces: self.surface_stats(&q.surfaces, &sol.h),
+            surfaces,
             grids,
             power: None,
+            maintenance_factors: [("emission".to_string(), mf)].into(),
+            maintained,
+            compliance,
         })
     }
 }
@@ -406,6 +584,23 @@ impl Model {
 /// Bytes a per-patch answer may hold per patch: the solution (b, h, e: 36), the values
 /// copied out (12) and JSON text (3 numbers of up to 16 characters, 50).
 pub const BYTES_PER_PATCH_ANSWER: u64 = 100;
+
+impl GridAnswer {
+    /// Every value × `k` (k ≥ 0): the ratios stay.
+    pub fn scaled(&self, k: f64) -> GridAnswer {
+        GridAnswer {
+            avg: self.avg * k,
+            min: self.min * k,
+            max: self.max * k,
+            values: self
+                .values
+                .iter()
+                .map(|v| v.map(|x| (x as f64 * k) as f32))
+                .collect(),
+            ..self.clone()
+        }
+    }
+}
 
 pub(crate) fn grid_answer(g: &crate::scene::Grid, s: GridStats) -> GridAnswer {
     GridAnswer {

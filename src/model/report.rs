@@ -145,6 +145,14 @@ impl Lux {
             rgb,
         }
     }
+
+    /// The value × `k`.
+    pub fn scaled(&self, k: f64) -> Lux {
+        Lux {
+            lux: self.lux * k,
+            rgb: self.rgb.map(|c| c * k),
+        }
+    }
 }
 
 /// Illuminance statistics of one surface: area-weighted mean, the darkest and brightest
@@ -159,6 +167,19 @@ pub struct SurfaceIlluminance {
     pub max: Lux,
     /// Emin / Eavg (luminous); 0 when the surface is unlit.
     pub uniformity: f64,
+}
+
+impl SurfaceIlluminance {
+    /// Every value × `k` (k ≥ 0): the uniformity stays.
+    pub fn scaled(&self, k: f64) -> SurfaceIlluminance {
+        SurfaceIlluminance {
+            area: self.area,
+            avg: self.avg.scaled(k),
+            min: self.min.scaled(k),
+            max: self.max.scaled(k),
+            uniformity: self.uniformity,
+        }
+    }
 }
 
 /// Statistics of per-patch illuminance `h` (n × 3, lux) over surface `s`.

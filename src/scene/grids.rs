@@ -37,6 +37,70 @@ pub enum GridKind {
 /// that background areas leave out, m (EN 12464-1).
 pub const EN12464_BAND_M: f64 = 0.5;
 
+/// What an area must achieve, as EN 12464-1 Table 5 lists it per task. Each is optional.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "server", derive(utoipa::ToSchema))]
+#[serde(deny_unknown_fields)]
+pub struct Requirements {
+    /// Ēm: the least maintained average illuminance, lx.
+    #[serde(default, deserialize_with = "present")]
+    #[cfg_attr(
+        feature = "server",
+        schema(minimum = 0, maximum = 1e6, nullable = false)
+    )]
+    pub em: Option<f64>,
+    /// U₀: the least uniformity Emin / Eavg, 0..1.
+    #[serde(default, deserialize_with = "present")]
+    #[cfg_attr(feature = "server", schema(minimum = 0, maximum = 1, nullable = false))]
+    pub u0: Option<f64>,
+    /// UGR_L: the highest UGR allowed at the area's observers, 5..40.
+    #[serde(default, deserialize_with = "present")]
+    #[cfg_attr(
+        feature = "server",
+        schema(minimum = 5, maximum = 40, nullable = false)
+    )]
+    pub ugr_l: Option<f64>,
+    /// Ra: the least colour rendering index of the lamps that light it, 0..100.
+    #[serde(default, deserialize_with = "present")]
+    #[cfg_attr(
+        feature = "server",
+        schema(minimum = 0, maximum = 100, nullable = false)
+    )]
+    pub ra: Option<f64>,
+}
+
+/// A number that is there: `null` is not taken for absent.
+fn present<'de, D: serde::Deserializer<'de>>(d: D) -> Result<Option<f64>, D::Error> {
+    f64::deserialize(d).map(Some)
+}
+
+/// The largest Ēm a requirement may ask for, lx.
+pub const MAX_REQUIRED_LUX: f64 = 1e6;
+
+impl Requirements {
+    /// Checks every given number against its range; the message names the field.
+    pub fn check(&self) -> Result<(), String> {
+        for (what, v, lo, hi) in [
+            ("em", self.em, 0.0, MAX_REQUIRED_LUX),
+            ("u0", self.u0, 0.0, 1.0),
+            ("ugr_l", self.ugr_l, 5.0, 40.0),
+            ("ra", self.ra, 0.0, 100.0),
+        ] {
+            if let Some(v) = v {
+                if !(v.is_finite() && (lo..=hi).contains(&v)) {
+                    return Err(format!("{what} = {v}: must be in {lo}..={hi}"));
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// True when nothing is required.
+    pub fn is_empty(&self) -> bool {
+        self.em.is_none() && self.u0.is_none() && self.ugr_l.is_none() && self.ra.is_none()
+    }
+}
+
 /// A calculation grid: points (metres) with one receiver normal.
 #[derive(Debug, Clone, Serialize)]
 pub struct Grid {
@@ -53,6 +117,10 @@ pub struct Grid {
     /// Points inside objects are kept in the statistics
     /// ([`crate::geometry::obstructed`]).
     pub keep_obstructed: bool,
+    /// What the area must achieve (empty when `scene.toml` sets nothing).
+    pub requirements: Requirements,
+    /// The scene's floor height (its lowest point), m: observers' eyes stand above it.
+    pub floor: f64,
 }
 
 /// The largest spacing of calculation points, m, for an area whose relevant dimension is
@@ -96,6 +164,7 @@ pub(crate) fn build_grids(
         let n = DVec3::from_array(g.normal)
             .try_normalize()
             .ok_or_else(|| bad("normal must be a non-zero vector".into()))?;
+        let main_id = g.id.clone();
         for (id, name, kind, placed) in grid_points(g, scale, floor).map_err(bad)? {
             if id.is_empty() || out.iter().any(|o| o.id == id) {
                 return Err(bad(format!("id '{id}' is empty or used twice")));
@@ -106,6 +175,11 @@ pub(crate) fn build_grids(
                     placed.points.len()
                 )));
             }
+            // The requirements are the area's own, not its surrounding band's.
+            let requirements = match &g.requirements {
+                Some(r) if id == main_id => *r,
+                _ => Requirements::default(),
+            };
             out.push(Grid {
                 id,
                 name,
@@ -115,6 +189,8 @@ pub(crate) fn build_grids(
                 kind,
                 spacing: placed.spacing,
                 keep_obstructed: g.keep_obstructed,
+                requirements,
+                floor,
             });
         }
     }

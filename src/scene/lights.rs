@@ -30,6 +30,10 @@ pub struct LightGroup {
     /// Point luminaires of the group (empty for emissive-surface groups).
     #[serde(skip)]
     pub luminaires: Vec<crate::photometry::Luminaire>,
+    /// Maintenance factor MF in (0, 1]: the group's own, else the scene's (default 1).
+    pub maintenance_factor: f64,
+    /// Colour rendering index Ra of the group's lamps (the lowest given), when known.
+    pub ra: Option<f64>,
 }
 
 impl LightGroup {
@@ -42,6 +46,8 @@ impl LightGroup {
             intensity: 1.0,
             color: [1.0; 3],
             luminaires: vec![],
+            maintenance_factor: 1.0,
+            ra: None,
         }
     }
 }
@@ -52,6 +58,7 @@ pub(crate) fn add_luminaire(
     lights: &mut Vec<LightGroup>,
     gid: &str,
     lum: crate::photometry::Luminaire,
+    ra: Option<f64>,
 ) {
     let g = match lights.iter().position(|g| g.id == gid) {
         Some(g) => g,
@@ -61,6 +68,19 @@ pub(crate) fn add_luminaire(
         }
     };
     lights[g].luminaires.push(lum);
+    if let Some(ra) = ra {
+        let r = lights[g].ra.get_or_insert(ra);
+        *r = r.min(ra);
+    }
+}
+
+/// Gives every group its maintenance factor: its `[[lights]]` entry's, else the scene's.
+pub(crate) fn apply_maintenance_factors(cfg: &SceneToml, lights: &mut [LightGroup]) {
+    let scene = cfg.maintenance_factor.unwrap_or(1.0);
+    for g in lights {
+        let own = cfg.lights.iter().find(|l| l.id == g.id);
+        g.maintenance_factor = own.and_then(|l| l.maintenance_factor).unwrap_or(scene);
+    }
 }
 
 /// The members a group claims: material and surface indices.
@@ -178,6 +198,9 @@ fn configured_group(
         intensity,
         color: l.color.unwrap_or([1.0; 3]),
         luminaires: vec![],
+        // The scene's default is applied by `apply_maintenance_factors`.
+        maintenance_factor: l.maintenance_factor.unwrap_or(1.0),
+        ra: l.ra,
     };
     Ok((group, (mats, surfs)))
 }

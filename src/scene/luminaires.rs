@@ -81,7 +81,7 @@ pub(crate) fn add_luminaires(
         }
         let lum = build_luminaire(l, toml, scale, files, &mut shared)?;
         let gid = l.group.clone().unwrap_or_else(|| l.id.clone());
-        super::lights::add_luminaire(lights, &gid, lum);
+        super::lights::add_luminaire(lights, &gid, lum, l.ra);
     }
     Ok(())
 }

@@ -39,7 +39,7 @@ use serde::Serialize;
 pub use self::toml::{parse_scene_toml, SceneToml, TransferChoice};
 pub use cameras::CameraDef;
 pub(crate) use files::read_regular_file;
-pub use grids::Grid;
+pub use grids::{Grid, Requirements};
 pub use lights::LightGroup;
 pub use materials::Material;
 pub use mtl::{parse_mtl_str, MtlLibrary, MtlMaterial};
@@ -163,6 +163,8 @@ pub struct Scene {
     pub site: Option<crate::daylight::Site>,
     /// Non-fatal problems (skipped degenerate triangles, defaulted materials).
     pub warnings: Vec<String>,
+    /// The maintenance factor of groups that give none (`maintenance_factor`, default 1).
+    pub maintenance_factor: f64,
 }
 
 /// Default patch budget when `scene.toml` gives neither `max_edge` nor `target_patches`.
@@ -222,6 +224,7 @@ impl Scene {
         luminaires::add_luminaires(cfg, &toml_ref, scale, &mut lights, &mut files)?;
         gltf::add_gltf_luminaires(&mut lights, model_luminaires);
         lights::check_group_count(&lights, &toml.path)?;
+        lights::apply_maintenance_factors(cfg, &mut lights);
         let grids = grids::build_grids(cfg, &toml.path, scale, &triangles)?;
         let mesh = mesh_settings(cfg, scale, &triangles, &materials, &surfaces);
 
@@ -243,6 +246,7 @@ impl Scene {
             transfer: cfg.transfer.unwrap_or_default(),
             site: cfg.site.as_ref().and_then(|s| s.site().ok()),
             warnings,
+            maintenance_factor: cfg.maintenance_factor.unwrap_or(1.0),
         })
     }
 

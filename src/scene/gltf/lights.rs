@@ -110,6 +110,6 @@ pub(crate) fn add_gltf_luminaires(
     luminaires: Vec<(String, Luminaire)>,
 ) {
     for (gid, lum) in luminaires {
-        crate::scene::lights::add_luminaire(lights, &gid, lum);
+        crate::scene::lights::add_luminaire(lights, &gid, lum, None);
     }
 }

@@ -17,6 +17,18 @@ fn in_range(what: &str, v: f64, lo: f64, hi: f64) -> Result<(), String> {
     }
 }
 
+/// A maintenance factor: in (0, 1].
+fn maintenance_factor(mf: f64) -> Result<(), String> {
+    if mf.is_finite() && mf > 0.0 && mf <= 1.0 {
+        Ok(())
+    } else {
+        Err(format!(
+            "maintenance_factor = {}: must be in (0, 1]",
+            num(mf)
+        ))
+    }
+}
+
 /// A position in scene units: finite, within ±MAX_COORD_M metres after scaling.
 fn position(what: &str, v: &[f64], scale: f64) -> Result<(), String> {
     for &x in v {
@@ -62,6 +74,9 @@ pub(super) fn validate_toml(cfg: &SceneToml, path: &Path) -> Result<(), SceneErr
     };
     let (_, scale) = resolve_units(cfg, path)?;
     check_counts(cfg).map_err(inv)?;
+    if let Some(mf) = cfg.maintenance_factor {
+        maintenance_factor(mf).map_err(inv)?;
+    }
     check_mesh(&cfg.mesh, scale).map_err(inv)?;
     for l in &cfg.lights {
         check_light(l).map_err(|m| inv(format!("light '{}': {m}", l.id)))?;
@@ -125,6 +140,12 @@ fn check_light(l: &LightToml) -> Result<(), String> {
     if let Some(lm) = l.lumens {
         in_range("lumens", lm, 0.0, MAX_LUMENS)?;
     }
+    if let Some(mf) = l.maintenance_factor {
+        maintenance_factor(mf)?;
+    }
+    if let Some(ra) = l.ra {
+        in_range("ra", ra, 0.0, 100.0)?;
+    }
     if let Some(i) = l.intensity {
         in_range("intensity", i as f64, 0.0, MAX_INTENSITY)?;
     }
@@ -137,6 +158,9 @@ fn check_light(l: &LightToml) -> Result<(), String> {
 /// One `[[luminaires]]` entry: placement, flux, spot angles (degrees), colour, power.
 fn check_luminaire(l: &LuminaireToml, scale: f64) -> Result<(), String> {
     position("position", &l.position, scale)?;
+    if let Some(ra) = l.ra {
+        in_range("ra", ra, 0.0, 100.0)?;
+    }
     direction("aim", &l.aim)?;
     if let Some(c) = &l.c0 {
         direction("c0", c)?;
@@ -188,6 +212,9 @@ fn check_camera(c: &CameraToml, scale: f64) -> Result<(), String> {
 /// grids, which must stay within [`MAX_GRID_POINTS_TOTAL`].
 fn check_grid(g: &GridToml, scale: f64, grid_points: &mut f64) -> Result<(), String> {
     direction("normal", &g.normal)?;
+    if let Some(r) = &g.requirements {
+        r.check().map_err(|m| format!("requirements.{m}"))?;
+    }
     if let Some(p) = &g.points {
         if p.len() > MAX_GRID_POINTS {
             return Err(format!(

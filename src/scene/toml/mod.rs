@@ -55,6 +55,9 @@ pub struct SceneToml {
     pub(crate) material: BTreeMap<String, FaceOptions>,
     /// Where the scene stands on Earth; a scene without it has no daylight.
     pub(crate) site: Option<SiteToml>,
+    /// Maintenance factor MF (CIE 97, EN 12464-1) of every light group that does not give
+    /// its own, in (0, 1]: maintained illuminance = MF × initial. Default 1.
+    pub(crate) maintenance_factor: Option<f64>,
 }
 
 /// `[site]`: latitude (°N), longitude (°E), timezone (hours east of UTC, standard time),
@@ -131,6 +134,10 @@ pub(crate) struct LightToml {
     pub(crate) intensity: Option<f32>,
     /// Default colour filter (linear RGB multipliers).
     pub(crate) color: Option<Rgb>,
+    /// The group's maintenance factor, in (0, 1]; default the scene's.
+    pub(crate) maintenance_factor: Option<f64>,
+    /// Colour rendering index Ra of the group's lamps, 0..100.
+    pub(crate) ra: Option<f64>,
 }
 
 #[derive(Debug, Clone, Deserialize)]
@@ -166,6 +173,8 @@ pub(crate) struct LuminaireToml {
     /// Electrical power (W), or luminous efficacy (lm/W) to derive it.
     pub(crate) watts: Option<f64>,
     pub(crate) efficacy: Option<f64>,
+    /// Colour rendering index Ra of the lamps, 0..100 (its group takes the lowest).
+    pub(crate) ra: Option<f64>,
 }
 
 fn default_aim() -> [f64; 3] {
@@ -204,6 +213,9 @@ pub(crate) struct GridToml {
     /// Receiver normal; default up.
     #[serde(default = "default_up")]
     pub(crate) normal: [f64; 3],
+    /// What the area must achieve (EN 12464-1): maintained illuminance, uniformity, glare
+    /// limit, colour rendering.
+    pub(crate) requirements: Option<crate::scene::Requirements>,
 }
 
 #[derive(Debug, Clone, Deserialize)]

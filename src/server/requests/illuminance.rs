@@ -1,7 +1,11 @@
 //! The body of `POST …/illuminance`, and the receivers (surfaces, points, grids) that it
 //! and the daylight request report on.
 
+use std::collections::BTreeMap;
+use std::fmt;
+
 use glam::DVec3;
+use serde::de::{Deserializer, MapAccess, Visitor};
 use serde::Deserialize;
 use serde_json::json;
 use utoipa::openapi::schema::Schema;
@@ -10,7 +14,7 @@ use utoipa::ToSchema;
 
 use super::lighting::{lighting, Direction, Emission, Lights, Position};
 use super::{grid_ids, names, object_only, raw, schema_ref, some};
-use crate::model::query::IlluminanceQuery;
+use crate::model::query::{Factors, IlluminanceQuery};
 use crate::model::{Lighting, Model};
 use crate::server::parse::{
     bounded_triple, direction, grid_list, surface_list, MAX_COORDINATE, MAX_POINTS,
@@ -57,6 +61,13 @@ pub(crate) struct IlluminanceRequest {
     #[serde(default)]
     #[schema(schema_with = grid_ids)]
     grids: Vec<String>,
+    #[serde(default, deserialize_with = "some")]
+    #[schema(schema_with = maintenance_schema)]
+    maintenance_factor: Option<MaintenanceFactor>,
+    /// Requirements per grid id (EN 12464-1), replacing the scene's; a grid named here is
+    /// reported.
+    #[serde(default)]
+    requirements: BTreeMap<String, crate::scene::Requirements>,
 }
 
 object_only!(IlluminanceRequest, "a JSON object");
@@ -65,8 +76,103 @@ impl IlluminanceRequest {
     /// The lighting state and the query; nothing asked for means every surface.
     pub(crate) fn query(&self, model: &Model) -> Result<(Lighting, IlluminanceQuery), AppError> {
         let lighting = lighting(self.lights.as_ref(), self.emission.as_ref(), model)?;
-        let q = report_query(self.surfaces.as_deref(), &self.grids, &self.points, model)?;
+        let mut q = report_query(self.surfaces.as_deref(), &self.grids, &self.points, model)?;
+        q.maintenance = self
+            .maintenance_factor
+            .as_ref()
+            .map(|m| m.factors(model))
+            .transpose()?;
+        for (id, r) in &self.requirements {
+            let gi = model.grid_index(id)?;
+            r.check()
+                .map_err(|m| AppError::Invalid(format!("requirements['{id}'].{m}")))?;
+            if !q.grids.contains(&gi) {
+                q.grids.push(gi);
+            }
+            q.requirements.insert(gi, *r);
+        }
         Ok((lighting, q))
+    }
+}
+
+/// `maintenance_factor`: one factor for every group, or factors by group id (the others
+/// keep the scene's).
+#[derive(Debug, Clone)]
+pub(crate) enum MaintenanceFactor {
+    All(f64),
+    ByGroup(BTreeMap<String, f64>),
+}
+
+impl<'de> Deserialize<'de> for MaintenanceFactor {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        struct V;
+        impl<'de> Visitor<'de> for V {
+            type Value = MaintenanceFactor;
+            fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
+                f.write_str("a number in (0, 1] or an object {group id: number}")
+            }
+            fn visit_f64<E: serde::de::Error>(self, v: f64) -> Result<Self::Value, E> {
+                Ok(MaintenanceFactor::All(v))
+            }
+            fn visit_u64<E: serde::de::Error>(self, v: u64) -> Result<Self::Value, E> {
+                Ok(MaintenanceFactor::All(v as f64))
+            }
+            fn visit_i64<E: serde::de::Error>(self, v: i64) -> Result<Self::Value, E> {
+                Ok(MaintenanceFactor::All(v as f64))
+            }
+            fn visit_map<A: MapAccess<'de>>(self, mut map: A) -> Result<Self::Value, A::Error> {
+                let mut out = BTreeMap::new();
+                while let Some((k, v)) = map.next_entry::<String, f64>()? {
+                    out.insert(k, v);
+                }
+                Ok(MaintenanceFactor::ByGroup(out))
+            }
+        }
+        d.deserialize_any(V)
+    }
+}
+
+fn maintenance_schema() -> RefOr<Schema> {
+    let factor = json!({"type": "number", "exclusiveMinimum": 0, "maximum": 1});
+    raw(
+        json!({"oneOf": [factor, {"type": "object", "additionalProperties": factor}],
+        "description": "Maintenance factor MF in (0, 1] for every light group, or by group id (the others keep the scene's). Maintained values are MF × initial; default: the scene's factors (scene.toml `maintenance_factor`, 1 when not given)."}),
+    )
+}
+
+impl MaintenanceFactor {
+    /// The query's factors: this one for all, or these over the scene's.
+    fn factors(&self, model: &Model) -> Result<Factors, AppError> {
+        let check = |what: String, v: f64| {
+            if v.is_finite() && v > 0.0 && v <= 1.0 {
+                Ok(v)
+            } else {
+                Err(AppError::Invalid(format!(
+                    "{what} = {v}: must be in (0, 1]"
+                )))
+            }
+        };
+        let scene = &model.baked.scene;
+        match self {
+            MaintenanceFactor::All(v) => {
+                let v = check("maintenance_factor".into(), *v)?;
+                Ok(Factors {
+                    groups: vec![v; scene.lights.len()],
+                    emission: v,
+                })
+            }
+            MaintenanceFactor::ByGroup(map) => {
+                let mut f = model.factors(&IlluminanceQuery::default());
+                let ids: Vec<String> = map.keys().cloned().collect();
+                for (g, id) in crate::server::parse::group_list(&ids, model)?
+                    .into_iter()
+                    .zip(&ids)
+                {
+                    f.groups[g] = check(format!("maintenance_factor['{id}']"), map[id])?;
+                }
+                Ok(f)
+            }
+        }
     }
 }
 
@@ -82,6 +188,7 @@ pub(super) fn report_query(
         surfaces: surface_list(surfaces.unwrap_or_default(), model)?,
         grids: grid_list(grids, model)?,
         points: points(list)?,
+        ..Default::default()
     };
     if q.surfaces.is_empty() && q.points.is_empty() && q.grids.is_empty() && surfaces.is_none() {
         q.surfaces = (0..model.baked.scene.surfaces.len()).collect();

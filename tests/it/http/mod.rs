@@ -2,6 +2,7 @@
 
 mod annual;
 mod batch;
+mod compliance;
 mod daylight;
 mod export;
 mod glare;

@@ -1,4 +1,4 @@
-use std::collections::BTreeSet;
+use std::collections::{BTreeMap, BTreeSet};
 
 use axum::body::Body;
 use axum::http::{header, Request, StatusCode};
@@ -319,6 +319,13 @@ fn answer_schemas_describe_the_model_types() {
         .into(),
         grids: [("desk".to_string(), grid.clone())].into(),
         power: Some(power),
+        maintenance_factors: [("ceiling".to_string(), 0.8)].into(),
+        maintained: crate::model::query::Maintained {
+            points: vec![lux.scaled(0.8)],
+            surfaces: BTreeMap::new(),
+            grids: [("desk".to_string(), grid.scaled(0.8))].into(),
+        },
+        compliance: [("desk".to_string(), compliance())].into(),
     };
     check("IlluminanceResponse", &answer);
     check(
@@ -365,4 +372,35 @@ fn answer_schemas_describe_the_model_types() {
         solve_ms: 1.0,
     };
     check("OptimizeResponse", optimized);
+}
+
+/// A compliance answer with every kind of check: passed, failed and unknown.
+fn compliance() -> crate::model::compliance::Compliance {
+    use crate::model::compliance::{check, Achieved, ObserverUgr};
+    let r = crate::scene::Requirements {
+        em: Some(500.0),
+        u0: Some(0.6),
+        ugr_l: Some(19.0),
+        ra: Some(80.0),
+    };
+    let observer = ObserverUgr {
+        eye: [1.0, 1.2, 1.0],
+        direction: [1.0, 0.0, 0.0],
+        ugr: Some(20.0),
+    };
+    check(
+        &r,
+        &Achieved {
+            em: Some(520.0),
+            u0: None,
+            observers: Some(vec![
+                observer,
+                ObserverUgr {
+                    ugr: None,
+                    ..observer
+                },
+            ]),
+            ra: Err(vec!["ceiling".into()]),
+        },
+    )
 }
