@@ -8,7 +8,7 @@ use clap::{Parser, Subcommand};
 
 mod cli;
 
-use cli::{bake_cmd, bench, export, info, radiosity, render, serve};
+use cli::{bake_cmd, bench, export, info, radiosity, render, serve, ugr_table};
 
 #[derive(Parser)]
 #[command(
@@ -46,6 +46,9 @@ enum Cmd {
     /// Export the relit scene as glTF binary (.glb): vertex colours, and one attribute per
     /// light group so that viewers can remix the lights.
     Export(export::ExportArgs),
+    /// Print a luminaire's CIE 190 standard UGR table (rooms in H, five reflectance
+    /// combinations, crosswise and endwise) from its .ies or .ldt file.
+    UgrTable(ugr_table::UgrTableArgs),
     /// List the scenes under a folder with their patch counts and light groups.
     Info {
         #[arg(long, env = "RELIGHT_SCENES", default_value = "scenes")]
@@ -81,5 +84,6 @@ fn run(cli: Cli) -> Result<()> {
         Some(Cmd::Render(a)) => render::run(a),
         Some(Cmd::Export(a)) => export::run(a),
         Some(Cmd::Info { scenes }) => info::run(&scenes),
+        Some(Cmd::UgrTable(a)) => ugr_table::run(a),
     }
 }

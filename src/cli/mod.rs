@@ -17,6 +17,7 @@ pub mod info;
 pub mod radiosity;
 pub mod render;
 pub mod serve;
+pub mod ugr_table;
 
 /// `println!` that ends the program quietly when stdout is a closed pipe
 /// (`relight radiosity … --json | head`), as command-line tools do.

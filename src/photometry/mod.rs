@@ -12,6 +12,7 @@
 //! - `ies.rs`: the IES LM-63 reader; `ldt.rs`: the EULUMDAT reader.
 //! - `opening.rs`: [`LuminousOpening`], the emitting shape the files give (metres).
 //! - [`glare`]: the CIE Unified Glare Rating and its Guth position index.
+//! - [`ugr_table`]: the CIE 190 standard UGR table of a luminaire, as catalogues print it.
 //! - `distribution.rs`: the shapes of the distributions and their integrals,
 //!   [`Distribution`].
 //! - `cct.rs`: blackbody colours from a colour temperature (K).
@@ -23,6 +24,7 @@ mod ies;
 mod ldt;
 mod opening;
 mod table;
+pub mod ugr_table;
 
 use glam::DVec3;
 

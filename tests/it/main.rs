@@ -26,3 +26,4 @@ mod saturation;
 mod scene_errors;
 mod shards;
 mod solver;
+mod ugr_table;
