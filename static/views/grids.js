@@ -23,8 +23,15 @@ export const gridFlight = singleFlight(async (signal) => {
     v.grids = Object.fromEntries(Object.entries(v.grids).map(([k, g]) => [k, g.illuminance]));
   }
   state.gridStats = v.grids;
-  const rows = state.details.grids.map((g) => gridRow(g, v.grids[g.id]));
+  // Maintained values (each group's light × its maintenance factor) when the answer has
+  // them; a daylight answer has initial values only.
+  const shown = (v.maintained && v.maintained.grids) || v.grids;
+  const compliance = v.compliance || {};
+  const rows = state.details.grids.map((g) => gridRow(g, shown[g.id], v.grids[g.id], compliance[g.id]));
   $("#grid-stats tbody").replaceChildren(...rows);
+  $("#grid-values").textContent = v.maintained
+    ? `Maintained values (MF ${mfText(v.maintenance_factors)}); the initial ones on hover.`
+    : "Initial values (daylight has no maintenance factor).";
   const p = v.power || {};
   $("#luminaire-power").textContent = p.luminaire_lumens
     ? `Luminaires: ${Math.round(p.luminaire_lumens).toLocaleString()} lm` +
@@ -34,20 +41,47 @@ export const gridFlight = singleFlight(async (signal) => {
   drawOverlay();
 });
 
-/** One row of the statistics table: grid `g` with its statistics `s`. */
-function gridRow(g, s) {
+/** The maintenance factors as text: one number when the groups agree. */
+function mfText(f) {
+  const values = [...new Set(Object.values(f || {}))];
+  if (values.length === 1) return values[0].toFixed(2);
+  return Object.entries(f).map(([k, x]) => `${k} ${x.toFixed(2)}`).join(", ");
+}
+
+/** One row of the statistics table: grid `g` with its statistics `s` (maintained where
+ *  known), the initial ones `initial`, and its compliance `c` (absent without
+ *  requirements). */
+function gridRow(g, s, initial, c) {
   const tr = document.createElement("tr");
   for (const t of [g.name, fmtLux(s.avg), fmtLux(s.min), fmtLux(s.max), s.u0.toFixed(2)]) {
     const td = document.createElement("td");
     td.textContent = t;
     tr.append(td);
   }
+  const verdict = document.createElement("td");
+  verdict.className = "verdict";
+  if (c) {
+    verdict.textContent = c.pass ? "✓" : "✗";
+    verdict.classList.add(c.pass ? "pass" : "fail");
+    verdict.title = c.checks.map(checkText).join("\n");
+  }
+  tr.append(verdict);
   const left = s.excluded
     ? `; ${s.excluded} inside objects left out (drawn hollow)`
     : "";
   const zone = s.kind ? `EN 12464-1 ${s.kind} area, ` : "";
-  tr.title = `${zone}${g.count} points${left}; Emin/Emax ${s.min_max.toFixed(2)} (lux)`;
+  const init = initial && initial !== s ? `; initial Eavg ${fmtLux(initial.avg)} lx` : "";
+  tr.title = `${zone}${g.count} points${left}; Emin/Emax ${s.min_max.toFixed(2)} (lux)${init}`;
   return tr;
+}
+
+/** One requirement as text: "Ēm 552 lx ≥ 500 ✓". */
+function checkText(k) {
+  const name = { em: "Ēm", u0: "U₀", ugr_l: "UGR", ra: "Ra" }[k.requirement] || k.requirement;
+  const op = k.requirement === "ugr_l" ? "≤" : "≥";
+  const got = k.achieved == null ? "?" : k.unit === "lx" ? `${fmtLux(k.achieved)} lx` : k.achieved.toFixed(2);
+  const note = k.note ? ` (${k.note})` : "";
+  return `${name} ${got} ${op} ${k.required} ${k.pass ? "✓" : "✗"}${note}`;
 }
 
 /** Grid points in the 3D view: coloured by lux (the false-colour scale), with values

@@ -389,6 +389,25 @@ async fn the_page_relights_live_in_headless_chromium() {
         .js("return document.querySelectorAll('#grid-stats tbody tr').length;")
         .await;
     assert_eq!(rows, 2, "grid rows");
+    // The desk carries EN 12464-1 requirements: its row says pass or fail, and the values
+    // shown are maintained (the office's MF is 0.8).
+    let verdicts = s
+        .js("return [...document.querySelectorAll('#grid-stats td.verdict')].map(e => e.textContent);")
+        .await;
+    let verdicts: Vec<&str> = verdicts
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|v| v.as_str().unwrap())
+        .collect();
+    assert!(
+        verdicts.iter().filter(|v| ["✓", "✗"].contains(v)).count() == 1 && verdicts.contains(&""),
+        "{verdicts:?}"
+    );
+    let note = s
+        .js("return document.querySelector('#grid-values').textContent;")
+        .await;
+    assert!(note.as_str().unwrap().contains("MF 0.80"), "{note}");
     let shown = s.js("return window.relight.stats.overlayPoints;").await;
     assert!(shown.as_u64().unwrap() > 100, "overlay points: {shown}");
     s.click("#optimizer summary").await;
