@@ -96,6 +96,7 @@ fn main() {
         eavg_min: Some(0.6 * full_avg),
         emin_min: None,
         u0_min: Some(0.5),
+        ugr_max: None,
     };
     let base = vec![[1.0f32; 3]; groups];
     let free: Vec<usize> = (0..groups).collect();
@@ -215,6 +216,7 @@ fn office_floor(cache: &std::path::Path) {
             eavg_min: Some(0.6 * avg),
             emin_min: None,
             u0_min: Some(0.4),
+            ugr_max: None,
         })
         .collect();
     let base = vec![[1.0f32; 3]; groups];

@@ -11,6 +11,15 @@
 //!
 //! The objective, the emitted flux Σ_g Φ_g x_g, is linear too: a small LP (a few groups,
 //! a few thousand rows), solved exactly by the simplex method (microlp).
+//!
+//! A UGR ceiling (`UGR ≤ U` at a grid's task observers, CIE 117) is not linear but convex.
+//! Each luminaire belongs to one group, so at an observer `Σ L² ω / p² = A_F + Σ_g A_g x_g²`
+//! and the background `L_b = B_F + Σ_g B_g x_g`, and `UGR ≤ U` is
+//! `f(x) = A_F + Σ_g A_g x_g² − c (B_F + Σ_g B_g x_g) ≤ 0` with `c = 4 · 10^(U/8)`: a convex
+//! quadratic (A_g ≥ 0). Kelley's cutting planes honour it exactly: solve the LP, and while
+//! an observer's `f` is positive at the solution, add its tangent plane there
+//! (`f(x*) + ∇f(x*)·(x − x*) ≤ 0`, which every feasible point satisfies) and solve again.
+//! An infeasible LP then proves that no levels meet the targets and the ceiling together.
 
 use std::collections::BTreeMap;
 
@@ -29,7 +38,55 @@ pub struct Target {
     pub eavg_min: Option<f64>,
     pub emin_min: Option<f64>,
     pub u0_min: Option<f64>,
+    /// The highest UGR allowed at the grid's task observers.
+    pub ugr_max: Option<f64>,
 }
+
+/// One observer's glare as a function of the free levels x (see the module docs):
+/// `Σ L² ω / p² = a_fixed + Σ_g a_g x_g²` and `L_b = b_fixed + Σ_g b_g x_g` (cd/m²).
+#[derive(Debug, Clone)]
+pub struct GlareModel {
+    pub a: Vec<f64>,
+    pub a_fixed: f64,
+    pub b: Vec<f64>,
+    pub b_fixed: f64,
+    /// The ceiling U.
+    pub ugr_max: f64,
+}
+
+impl GlareModel {
+    /// `c = 4 · 10^(U/8)`: UGR ≤ U ⇔ Σ ≤ c L_b.
+    fn c(&self) -> f64 {
+        4.0 * 10f64.powf(self.ugr_max / 8.0)
+    }
+
+    /// f(x) relative to c L_b(x) (how far over the ceiling, as a fraction) and its
+    /// gradient, both divided by c·(b_fixed + Σ b_g) to keep the LP's rows near unit scale.
+    fn excess(&self, x: &[f64]) -> (f64, Vec<f64>) {
+        let c = self.c();
+        let scale = c * (self.b_fixed + self.b.iter().sum::<f64>()).max(1e-12);
+        let mut f = self.a_fixed - c * self.b_fixed;
+        let mut grad = Vec::with_capacity(x.len());
+        for ((&a, &b), &xg) in self.a.iter().zip(&self.b).zip(x) {
+            f += a * xg * xg - c * b * xg;
+            grad.push((2.0 * a * xg - c * b) / scale);
+        }
+        (f / scale, grad)
+    }
+
+    /// The UGR at levels x; None when no luminaire is in view or the background is black.
+    pub fn ugr(&self, x: &[f64]) -> Option<f64> {
+        let sum = self.a_fixed + self.a.iter().zip(x).map(|(a, x)| a * x * x).sum::<f64>();
+        let lb = self.b_fixed + self.b.iter().zip(x).map(|(b, x)| b * x).sum::<f64>();
+        (sum > 0.0 && lb > 0.0).then(|| 8.0 * (0.25 / lb * sum).log10())
+    }
+}
+
+/// Most rounds of cutting planes before the optimizer gives up.
+const MAX_CUT_ROUNDS: usize = 200;
+/// The relative excess over the ceiling that counts as met: 10^(ΔUGR/8) − 1 ≤ 1e-5, so
+/// ΔUGR ≤ 4e-5.
+const CUT_TOLERANCE: f64 = 1e-5;
 
 /// One grid's point values, lx: per free group at level 1, and the fixed part.
 pub struct GridTerms {
@@ -51,11 +108,65 @@ fn mean(v: &[f64]) -> f64 {
 }
 
 /// Levels (one per free group, in [0, 1]) minimising Σ flux_g·x_g subject to `targets`
-/// over `terms` (one per target, same order).
+/// over `terms` (one per target, same order) and every UGR ceiling in `glare`.
 pub fn optimize(
     flux: &[f64],
     targets: &[Target],
     terms: &[GridTerms],
+    glare: &[(String, GlareModel)],
+) -> Result<Vec<f64>, OptimizeError> {
+    // Tangent planes of the glare constraints: (gradient, right-hand side).
+    let mut cuts: Vec<(Vec<f64>, f64)> = Vec::new();
+    for _ in 0..MAX_CUT_ROUNDS {
+        let x = match solve_lp(flux, targets, terms, &cuts) {
+            Ok(x) => x,
+            Err(OptimizeError::Unreachable(_)) if !cuts.is_empty() => {
+                return Err(OptimizeError::Unreachable(glare_unreachable(glare)))
+            }
+            Err(e) => return Err(e),
+        };
+        let mut cut = false;
+        for (_, m) in glare {
+            let (f, grad) = m.excess(&x);
+            if f > CUT_TOLERANCE {
+                // f(x*) + ∇f·(x − x*) ≤ 0  ⇔  ∇f·x ≤ ∇f·x* − f(x*).
+                let rhs = grad.iter().zip(&x).map(|(g, x)| g * x).sum::<f64>() - f;
+                cuts.push((grad, rhs));
+                cut = true;
+            }
+        }
+        if !cut {
+            return Ok(x);
+        }
+    }
+    Err(OptimizeError::Solver(format!(
+        "the UGR ceiling did not converge in {MAX_CUT_ROUNDS} rounds"
+    )))
+}
+
+/// Why a UGR ceiling cannot be honoured with the illuminance targets.
+fn glare_unreachable(glare: &[(String, GlareModel)]) -> String {
+    let ceilings: Vec<String> = glare
+        .iter()
+        .map(|(label, m)| format!("UGR ≤ {} at {label}", m.ugr_max))
+        .collect();
+    let mut unique = ceilings.clone();
+    unique.dedup();
+    format!(
+        "the targets can be met, but not together with {}: every level that reaches the \
+         illuminance makes the luminaires in view too bright against their background \
+         (dimming all groups by k lowers UGR only by 8·log₁₀(1/k)); use luminaires with \
+         a lower luminance or add indirect light",
+        unique.join(", ")
+    )
+}
+
+/// The LP of the illuminance targets plus the glare `cuts` (rows `g·x ≤ rhs`).
+fn solve_lp(
+    flux: &[f64],
+    targets: &[Target],
+    terms: &[GridTerms],
+    cuts: &[(Vec<f64>, f64)],
 ) -> Result<Vec<f64>, OptimizeError> {
     let g = flux.len();
     let mut lp = Problem::new(OptimizationDirection::Minimize);
@@ -83,6 +194,10 @@ pub fn optimize(
                 lp.add_constraint(expr, ComparisonOp::Ge, u * avg_f - m.fixed[i]);
             }
         }
+    }
+    for (grad, rhs) in cuts {
+        let expr: Vec<_> = (0..g).map(|k| (vars[k], grad[k])).collect();
+        lp.add_constraint(expr, ComparisonOp::Le, *rhs);
     }
     match lp.solve() {
         Ok(microlp::SolveOutcome::Solution(s)) => {
@@ -143,6 +258,9 @@ pub struct GridTarget {
     pub eavg_min: Option<f64>,
     pub emin_min: Option<f64>,
     pub u0_min: Option<f64>,
+    /// The highest UGR at the grid's task observers
+    /// ([`super::compliance::task_observers`]).
+    pub ugr_max: Option<f64>,
 }
 
 /// Largest illuminance bound accepted, lx.
@@ -161,9 +279,21 @@ impl GridTarget {
                 return bad(format!("{at}.{key} = {x}: must be in 0..{max}"));
             }
         }
-        if self.eavg_min.is_none() && self.emin_min.is_none() && self.u0_min.is_none() {
+        if self.eavg_min.is_none()
+            && self.emin_min.is_none()
+            && self.u0_min.is_none()
+            && self.ugr_max.is_none()
+        {
             return bad(format!(
                 "{at} sets no bound: give eavg_min, emin_min or u0_min"
+            ));
+        }
+        if let Some(u) = self.ugr_max.filter(|u| !(5.0..=40.0).contains(u)) {
+            return bad(format!("{at}.ugr_max = {u}: must be in 5..40"));
+        }
+        if self.ugr_max.is_some() && !(self.eavg_min > Some(0.0) || self.emin_min > Some(0.0)) {
+            return bad(format!(
+                "{at}: ugr_max needs a positive eavg_min or emin_min as well: with no light level asked, all lights off would use the least flux"
             ));
         }
         if self.u0_min.is_some() && !(self.eavg_min > Some(0.0) || self.emin_min > Some(0.0)) {
@@ -198,6 +328,10 @@ pub struct Achieved {
     pub min: f64,
     /// U₀ = Emin / Eavg.
     pub u0: f64,
+    /// The highest UGR of the grid's task observers, when a ceiling was asked; null
+    /// otherwise or when no luminaire is in view.
+    #[cfg_attr(feature = "server", schema(required = true))]
+    pub ugr: Option<f64>,
 }
 
 /// One target with what the levels achieve.
@@ -215,6 +349,9 @@ pub struct TargetAnswer {
     /// Least U₀ asked; null when not asked.
     #[cfg_attr(feature = "server", schema(required = true))]
     pub u0_min: Option<f64>,
+    /// Highest UGR asked; null when not asked.
+    #[cfg_attr(feature = "server", schema(required = true))]
+    pub ugr_max: Option<f64>,
     #[cfg_attr(feature = "server", schema(inline))]
     pub achieved: Achieved,
     /// Whether `achieved` meets every bound.
@@ -293,13 +430,15 @@ impl Model {
                 eavg_min: t.eavg_min,
                 emin_min: t.emin_min,
                 u0_min: t.u0_min,
+                ugr_max: t.ugr_max,
             })
             .collect();
         let flux: Vec<f64> = free
             .iter()
             .map(|&g| self.groups[g].lumens * luminance(scene.lights[g].color) as f64)
             .collect();
-        let levels = optimize(&flux, &labelled, &terms)?;
+        let glare = self.glare_models(&fixed_w, free, targets)?;
+        let levels = optimize(&flux, &labelled, &terms, &glare)?;
         let mut w = fixed_w;
         for (&g, &x) in free.iter().zip(&levels) {
             w[g] = scene.lights[g].color.map(|c| c * x as f32);
@@ -307,14 +446,81 @@ impl Model {
         let solve_ms = t0.elapsed().as_secs_f64() * 1e3;
         let grid_ix: Vec<usize> = targets.iter().map(|t| t.grid).collect();
         let grids = self.grid_answers(&grid_ix, &w);
+        let mut answers = Vec::with_capacity(targets.len());
+        for (t, gt) in labelled.iter().zip(targets) {
+            // The achieved UGR, rated anew at the optimized state.
+            let ugr = match t.ugr_max {
+                Some(_) => self.worst_ugr(gt.grid, &w)?,
+                None => None,
+            };
+            answers.push(target_answer(t, &grids, ugr));
+        }
         Ok(OptimizeAnswer {
             lights: self.levels(&w, free, &levels),
             lumens: self.lumens(&w),
             power: self.luminaire_power(&w),
-            targets: labelled.iter().map(|t| target_answer(t, &grids)).collect(),
+            targets: answers,
             grids,
             solve_ms,
         })
+    }
+
+    /// The glare models of the targets' UGR ceilings, one per task observer: the fixed
+    /// groups at `fixed_w`, each free group at level 1 in its colour.
+    fn glare_models(
+        &self,
+        fixed_w: &[Rgb],
+        free: &[usize],
+        targets: &[GridTarget],
+    ) -> Result<Vec<(String, GlareModel)>, QueryError> {
+        let scene = &self.baked.scene;
+        let cancel = super::Cancel::default();
+        let mut out = Vec::new();
+        for t in targets {
+            let Some(ugr_max) = t.ugr_max else { continue };
+            let grid = &self.grids[t.grid].grid;
+            let observers = super::compliance::task_observers(grid);
+            let parts = |w: &[Rgb]| -> Result<Vec<(f64, f64)>, QueryError> {
+                Ok(self
+                    .glare(&observers, w, &cancel)?
+                    .iter()
+                    .map(|o| {
+                        let sum = o.luminaires.iter().map(|l| l.term).sum::<f64>();
+                        (sum, o.background_luminance)
+                    })
+                    .collect())
+            };
+            let fixed = parts(fixed_w)?;
+            let mut per_group = Vec::with_capacity(free.len());
+            for &g in free {
+                let mut w = vec![[0.0; 3]; scene.lights.len()];
+                w[g] = scene.lights[g].color;
+                per_group.push(parts(&w)?);
+            }
+            for (k, &(a_fixed, b_fixed)) in fixed.iter().enumerate() {
+                out.push((
+                    grid.id.clone(),
+                    GlareModel {
+                        a: per_group.iter().map(|p| p[k].0).collect(),
+                        a_fixed,
+                        b: per_group.iter().map(|p| p[k].1).collect(),
+                        b_fixed,
+                        ugr_max,
+                    },
+                ));
+            }
+        }
+        Ok(out)
+    }
+
+    /// The highest UGR of grid `gi`'s task observers under weights `w`.
+    fn worst_ugr(&self, gi: usize, w: &[Rgb]) -> Result<Option<f64>, QueryError> {
+        let observers = super::compliance::task_observers(&self.grids[gi].grid);
+        let rated = self.glare(&observers, w, &super::Cancel::default())?;
+        Ok(rated
+            .iter()
+            .filter_map(|o| o.ugr)
+            .fold(None, |m: Option<f64>, u| Some(m.map_or(u, |m| m.max(u)))))
     }
 
     /// Every group's level for weights `w`: free groups report their optimized level,
@@ -357,20 +563,26 @@ impl Model {
     }
 }
 
-fn target_answer(t: &Target, grids: &BTreeMap<String, GridAnswer>) -> TargetAnswer {
+fn target_answer(
+    t: &Target,
+    grids: &BTreeMap<String, GridAnswer>,
+    ugr: Option<f64>,
+) -> TargetAnswer {
     let (avg, min, u0) = grids
         .get(&t.grid)
         .map_or((0.0, 0.0, 0.0), |s| (s.avg, s.min, s.u0));
     let tol = 1e-6;
     let met = t.eavg_min.is_none_or(|e| avg >= e * (1.0 - tol))
         && t.emin_min.is_none_or(|e| min >= e * (1.0 - tol))
-        && t.u0_min.is_none_or(|u| u0 >= u - tol);
+        && t.u0_min.is_none_or(|u| u0 >= u - tol)
+        && t.ugr_max.is_none_or(|u| ugr.is_none_or(|g| g <= u + 1e-3));
     TargetAnswer {
         grid: t.grid.clone(),
         eavg_min: t.eavg_min,
         emin_min: t.emin_min,
         u0_min: t.u0_min,
-        achieved: Achieved { avg, min, u0 },
+        ugr_max: t.ugr_max,
+        achieved: Achieved { avg, min, u0, ugr },
         met,
     }
 }

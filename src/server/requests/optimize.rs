@@ -33,9 +33,22 @@ pub(crate) struct Target {
     #[serde(default, deserialize_with = "some")]
     #[schema(nullable = false, schema_with = ratio_bound)]
     u0_min: Option<f64>,
+    /// The highest UGR at the grid's four seated task observers (CIE 117)
+    #[serde(default, deserialize_with = "some")]
+    #[schema(nullable = false, schema_with = ugr_bound)]
+    ugr_max: Option<f64>,
 }
 
-object_only!(Target, "an object {grid, eavg_min, emin_min, u0_min}");
+object_only!(
+    Target,
+    "an object {grid, eavg_min, emin_min, u0_min, ugr_max}"
+);
+
+fn ugr_bound() -> RefOr<Schema> {
+    raw(
+        json!({"type": "number", "minimum": 5, "maximum": 40, "description": "The highest UGR at the grid's task observers (seated eyes at the middle of its edges, looking across it). Needs eavg_min or emin_min."}),
+    )
+}
 
 fn lux_bound() -> RefOr<Schema> {
     raw(json!({"type": "number", "minimum": 0, "maximum": MAX_TARGET_LUX, "description": "lx"}))
@@ -126,6 +139,10 @@ impl OptimizeRequest {
                 eavg_min: bound(t.eavg_min, "eavg_min", MAX_TARGET_LUX)?,
                 emin_min: bound(t.emin_min, "emin_min", MAX_TARGET_LUX)?,
                 u0_min: bound(t.u0_min, "u0_min", 1.0)?,
+                ugr_max: t
+                    .ugr_max
+                    .map(|x| number(x, &format!("targets[{k}].ugr_max")))
+                    .transpose()?,
             };
             g.check(&format!("targets[{k}]"))?;
             parsed.push(g);

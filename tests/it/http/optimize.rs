@@ -69,3 +69,84 @@ async fn optimize_finds_the_least_flux_levels_that_meet_the_targets() {
         );
     }
 }
+
+#[tokio::test]
+async fn a_ugr_ceiling_is_honoured_at_the_least_flux_or_refused_with_the_reason() {
+    let _gate = common::shared();
+    let r = ready("office");
+    let m = &r.model;
+    let gi = m.grids.iter().position(|g| g.grid.id == "desk").unwrap();
+    let desk = &m.grids[gi];
+    let observers = relight::model::compliance::task_observers(&desk.grid);
+    let cancel = relight::model::Cancel::default();
+    let worst_ugr = |x: f64, y: f64| {
+        m.glare(&observers, &[[x as f32; 3], [y as f32; 3]], &cancel)
+            .unwrap()
+            .iter()
+            .filter_map(|o| o.ugr)
+            .fold(f64::NEG_INFINITY, f64::max)
+    };
+    let ask = |ceiling: f64| {
+        format!(r#"{{"targets": [{{"grid": "desk", "eavg_min": 300, "ugr_max": {ceiling}}}]}}"#)
+    };
+    // Without a ceiling the cheapest levels for 300 lx glare at some UGR; ask for 0.5 less.
+    let (s, _, free) = post(
+        app(),
+        "/api/scenes/office/optimize",
+        r#"{"targets": [{"grid": "desk", "eavg_min": 300}]}"#,
+    )
+    .await;
+    assert_eq!(s, StatusCode::OK, "{free}");
+    let lv = |v: &serde_json::Value, id: &str| v["lights"][id]["intensity"].as_f64().unwrap();
+    let u_free = worst_ugr(lv(&free, "window_row"), lv(&free, "corridor_row"));
+    let ceiling = ((u_free - 0.5) * 100.0).round() / 100.0;
+    let (s, _, v) = post(app(), "/api/scenes/office/optimize", ask(ceiling)).await;
+    assert_eq!(s, StatusCode::OK, "{v}");
+    let (a, b) = (lv(&v, "window_row"), lv(&v, "corridor_row"));
+    let t = &v["targets"][0];
+    assert_eq!(t["met"], true, "{v}");
+    assert_eq!(t["ugr_max"].as_f64(), Some(ceiling));
+    // The answer's UGR is the rating at its levels, within the ceiling.
+    let u = worst_ugr(a, b);
+    assert!((t["achieved"]["ugr"].as_f64().unwrap() - u).abs() < 1e-9);
+    assert!(u <= ceiling + 1e-3, "UGR {u} over {ceiling}");
+    assert!(desk.stats(&[[a as f32; 3], [b as f32; 3]]).avg >= 300.0 * (1.0 - 1e-4));
+    // Brute force over a 1 % grid of levels: nothing that meets both uses less flux (the
+    // rows have the same lumens, so flux ∝ a + b); the ceiling costs flux.
+    let meets = |x: f64, y: f64| {
+        desk.stats(&[[x as f32; 3], [y as f32; 3]]).avg >= 300.0 && worst_ugr(x, y) <= ceiling
+    };
+    let best = (0..=100)
+        .flat_map(|i| (0..=100).map(move |j| (i as f64 / 100.0, j as f64 / 100.0)))
+        .filter(|&(x, y)| meets(x, y))
+        .map(|(x, y)| x + y)
+        .fold(f64::INFINITY, f64::min);
+    assert!(best.is_finite(), "the brute force found no feasible levels");
+    assert!(a + b <= best + 1e-4, "{a} + {b} vs brute force {best}");
+    let free_flux = lv(&free, "window_row") + lv(&free, "corridor_row");
+    assert!(
+        a + b >= free_flux - 1e-6,
+        "{a} + {b} vs {free_flux} without the ceiling"
+    );
+
+    // A ceiling no level can honour with 300 lx: refused, saying which.
+    let (s, _, v) = post(app(), "/api/scenes/office/optimize", ask(8.0)).await;
+    assert_eq!(s, StatusCode::UNPROCESSABLE_ENTITY, "{v}");
+    let d = v["detail"].as_str().unwrap();
+    assert!(d.contains("not together with UGR ≤ 8 at desk"), "{d}");
+    // A ceiling alone, or out of range: 422 naming the field.
+    for (body, says) in [
+        (
+            r#"{"targets": [{"grid": "desk", "ugr_max": 19}]}"#,
+            "ugr_max needs a positive eavg_min",
+        ),
+        (
+            r#"{"targets": [{"grid": "desk", "eavg_min": 300, "ugr_max": 50}]}"#,
+            "targets[0].ugr_max = 50",
+        ),
+    ] {
+        let (s, _, v) = post(app(), "/api/scenes/office/optimize", body).await;
+        assert_eq!(s, StatusCode::UNPROCESSABLE_ENTITY, "{v}");
+        assert!(v["detail"].as_str().unwrap().contains(says), "{v}");
+    }
+}

@@ -361,10 +361,12 @@ fn answer_schemas_describe_the_model_types() {
             eavg_min: Some(500.0),
             emin_min: None,
             u0_min: None,
+            ugr_max: Some(19.0),
             achieved: Achieved {
                 avg: 500.0,
                 min: 300.0,
                 u0: 0.6,
+                ugr: Some(18.5),
             },
             met: true,
         }],
