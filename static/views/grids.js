@@ -24,14 +24,15 @@ export const gridFlight = singleFlight(async (signal) => {
   }
   state.gridStats = v.grids;
   // Maintained values (each group's light × its maintenance factor) when the answer has
-  // them; a daylight answer has initial values only.
+  // them; a daylight answer without electric light has none.
   const shown = (v.maintained && v.maintained.grids) || v.grids;
   const compliance = v.compliance || {};
   const rows = state.details.grids.map((g) => gridRow(g, shown[g.id], v.grids[g.id], compliance[g.id]));
   $("#grid-stats tbody").replaceChildren(...rows);
+  const daylight = sky ? ", daylight as is" : "";
   $("#grid-values").textContent = v.maintained
-    ? `Maintained values (MF ${mfText(v.maintenance_factors)}); the initial ones on hover.`
-    : "Initial values (daylight has no maintenance factor).";
+    ? `Maintained values (MF ${mfText(v.maintenance_factors)}${daylight}); the initial ones on hover.`
+    : "Daylight only: no maintenance factor applies.";
   const p = v.power || {};
   $("#luminaire-power").textContent = p.luminaire_lumens
     ? `Luminaires: ${Math.round(p.luminaire_lumens).toLocaleString()} lm` +

@@ -104,6 +104,12 @@ pub struct DaylightAnswer {
     pub surfaces: BTreeMap<String, SurfaceIlluminance>,
     /// By grid id.
     pub grids: BTreeMap<String, DaylightGrid>,
+    /// The maintenance factor MF of each light group; empty without electric light.
+    pub maintenance_factors: BTreeMap<String, f64>,
+    /// With electric light in the state, the same answers with each group's light × its
+    /// MF (daylight unchanged); null without.
+    #[cfg_attr(feature = "server", schema(required = true))]
+    pub maintained: Option<super::query::Maintained>,
 }
 impl Model {
     /// The scene's site, or why daylight cannot be asked of it.
@@ -160,6 +166,40 @@ impl Model {
         q: &IlluminanceQuery,
         cancel: &Cancel,
     ) -> Result<DaylightAnswer, QueryError> {
+        let mut answer = self.daylight_once(sky, w, q, cancel)?;
+        if let Some(w) = w {
+            // Light is linear in the groups: the maintained answer is the same query under
+            // the maintained weights (the gathers are cached by the first).
+            let factors = self.factors(q).groups;
+            let wm = super::compliance::maintained_weights(w, &factors);
+            let m = self.daylight_once(sky, Some(&wm), q, cancel)?;
+            let groups = self.baked.scene.lights.iter().map(|g| g.id.clone());
+            answer.maintenance_factors = groups.zip(factors).collect();
+            answer.maintained = Some(super::query::Maintained {
+                points: m
+                    .points
+                    .iter()
+                    .map(|p| super::report::Lux::new(p.rgb))
+                    .collect(),
+                surfaces: m.surfaces,
+                grids: m
+                    .grids
+                    .into_iter()
+                    .map(|(k, g)| (k, g.illuminance))
+                    .collect(),
+            });
+        }
+        Ok(answer)
+    }
+
+    /// [`Model::daylight`] without the maintained answers.
+    fn daylight_once(
+        &self,
+        sky: &SkyState,
+        w: Option<&[Rgb]>,
+        q: &IlluminanceQuery,
+        cancel: &Cancel,
+    ) -> Result<DaylightAnswer, QueryError> {
         let (site, l, sun_light) = self.sky_light(sky)?;
         let light = PointLight::new(self, sky, site, &l, &sun_light, w);
         let points = light
@@ -184,6 +224,8 @@ impl Model {
             points,
             surfaces: self.daylight_surfaces(&q.surfaces, &l, &sun_light, w),
             grids,
+            maintenance_factors: BTreeMap::new(),
+            maintained: None,
         })
     }
 

@@ -60,6 +60,12 @@ async fn the_office_window_lets_daylight_in() {
         lit["points"][0]["lux"].as_f64().unwrap(),
     );
     assert!(l > d + 100.0, "{l} vs {d}");
+    // Maintained: the daylight as is plus 0.8 (the office's MF) × the electric light.
+    assert!(dark["maintained"].is_null());
+    let m = lit["maintained"]["points"][0]["lux"].as_f64().unwrap();
+    let want = d + 0.8 * (l - d);
+    assert!((m - want).abs() < 1e-4 * want, "{m} vs {want}");
+    assert_eq!(lit["maintenance_factors"]["window_row"], 0.8);
 }
 
 #[tokio::test]
