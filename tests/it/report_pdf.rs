@@ -90,6 +90,17 @@ async fn the_report_prints_to_a_pdf_of_several_pages() {
         count(&bytes, b"/S /TH") >= 10,
         "header cells in the structure"
     );
+    // The outline holds the headings as text (the page text itself is compressed).
+    for heading in [
+        "(Luminaire schedule)",
+        "(Power)",
+        "(Desk \\(task area\\))",
+        "(Work plane at 0.75 m)",
+        "(Reflectances of the main surfaces)",
+        "(Relit views)",
+    ] {
+        assert!(count(&bytes, heading.as_bytes()) >= 1, "no heading {heading}");
+    }
     s.cmd(reqwest::Method::DELETE, "", serde_json::Value::Null)
         .await;
     server.abort();
