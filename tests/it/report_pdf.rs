@@ -99,7 +99,10 @@ async fn the_report_prints_to_a_pdf_of_several_pages() {
         "(Reflectances of the main surfaces)",
         "(Relit views)",
     ] {
-        assert!(count(&bytes, heading.as_bytes()) >= 1, "no heading {heading}");
+        assert!(
+            count(&bytes, heading.as_bytes()) >= 1,
+            "no heading {heading}"
+        );
     }
     s.cmd(reqwest::Method::DELETE, "", serde_json::Value::Null)
         .await;

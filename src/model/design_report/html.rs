@@ -178,11 +178,11 @@ impl DesignReport {
             schedule_row(h, r);
         }
         let count: usize = self.schedule.iter().map(|r| r.count).sum();
-        let _ = write!(
+        let _ = writeln!(
             h,
             "</tbody><tfoot><tr><th colspan=\"3\">Total</th><td class=\"num\" id=\"luminaire-count\">\
              {count}</td><td></td><td class=\"num\" id=\"total-lumens\">{}</td><td></td>\
-             <td class=\"num\">{}</td><td></td></tr></tfoot></table></section>\n",
+             <td class=\"num\">{}</td><td></td></tr></tfoot></table></section>",
             fmt_lux(self.power.installed_lumens),
             self.power
                 .installed_watts

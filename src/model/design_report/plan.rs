@@ -38,95 +38,121 @@ fn band(v: f64, top: f64) -> usize {
     ((v / top * BANDS.len() as f64).floor().max(0.0) as usize).min(BANDS.len() - 1)
 }
 
+/// Where a plan's cells go: the points' extent (x, z), the cell side `s` (m), the scale `k`
+/// (user units per m), the drawing's size, and which values to print at what size.
+struct Frame {
+    lo: [f64; 2],
+    hi: [f64; 2],
+    s: f64,
+    k: f64,
+    w: f64,
+    h: f64,
+    cell: f64,
+    step: i64,
+    font: f64,
+}
+
+impl Frame {
+    fn of(g: &GridReport) -> Frame {
+        let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
+        for p in &g.points {
+            for (k, v) in [p[0], p[2]].into_iter().enumerate() {
+                lo[k] = lo[k].min(v);
+                hi[k] = hi[k].max(v);
+            }
+        }
+        // The cell: the spacing, else a square of the points' mean share of the extent.
+        let extent = ((hi[0] - lo[0]).max(1e-3) * (hi[1] - lo[1]).max(1e-3)).sqrt();
+        let s = g
+            .spacing
+            .filter(|s| *s > 0.0)
+            .unwrap_or(extent / (g.points.len() as f64).sqrt())
+            .max(1e-3);
+        let (wm, hm) = (hi[0] - lo[0] + s, hi[1] - lo[1] + s);
+        let k = (WIDTH / wm).min(MAX_HEIGHT / hm);
+        let cell = s * k;
+        let step = (LABEL_PITCH / cell).ceil().max(1.0) as i64;
+        Frame {
+            lo,
+            hi,
+            s,
+            k,
+            w: wm * k,
+            h: hm * k,
+            cell,
+            step,
+            font: (cell * step as f64 * 0.32).min(11.0),
+        }
+    }
+
+    /// The cells (into `out`) and the printed values (into `labels`).
+    fn cells(&self, g: &GridReport, top: f64, out: &mut String, labels: &mut String) {
+        let (lo, k, cell) = (self.lo, self.k, self.cell);
+        for (p, v) in g.points.iter().zip(&g.maintained.values) {
+            let (x, y) = ((p[0] - lo[0]) * k, (p[2] - lo[1]) * k);
+            let rect = |fill: &str| {
+                format!(
+                    "<rect x=\"{x:.1}\" y=\"{y:.1}\" width=\"{cell:.2}\" height=\"{cell:.2}\" \
+                     fill=\"{fill}\"/>"
+                )
+            };
+            let Some(v) = v.map(f64::from) else {
+                out.push_str(&rect("#ccc"));
+                continue;
+            };
+            let b = band(v, top);
+            out.push_str(&rect(BANDS[b]));
+            let col = ((p[0] - lo[0]) / self.s).round() as i64;
+            let row = ((p[2] - lo[1]) / self.s).round() as i64;
+            if col % self.step == 0 && row % self.step == 0 && self.font >= 4.0 {
+                let ink = if (1..=6).contains(&b) { "#000" } else { "#fff" };
+                let _ = write!(
+                    labels,
+                    "<text x=\"{:.1}\" y=\"{:.1}\" fill=\"{ink}\">{}</text>",
+                    x + cell / 2.0,
+                    y + cell / 2.0,
+                    fmt_lux(v)
+                );
+            }
+        }
+    }
+}
+
 /// The plan of grid `g` (or a note where it has too many points or none).
 pub(super) fn svg(g: &GridReport) -> String {
-    let values = &g.maintained.values;
     if g.points.is_empty() || g.points.len() > MAX_PLAN_POINTS {
         return format!(
             "<p class=\"muted\">No plan: {} points (a plan draws 1 to {MAX_PLAN_POINTS}).</p>",
             g.points.len()
         );
     }
-    let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
-    for p in &g.points {
-        for (k, v) in [p[0], p[2]].into_iter().enumerate() {
-            lo[k] = lo[k].min(v);
-            hi[k] = hi[k].max(v);
-        }
-    }
-    // The cell: the spacing, else a square of the points' mean share of the extent.
-    let extent = ((hi[0] - lo[0]).max(1e-3) * (hi[1] - lo[1]).max(1e-3)).sqrt();
-    let s = g
-        .spacing
-        .filter(|s| *s > 0.0)
-        .unwrap_or(extent / (g.points.len() as f64).sqrt())
-        .max(1e-3);
-    let (wm, hm) = (hi[0] - lo[0] + s, hi[1] - lo[1] + s);
-    let k = (WIDTH / wm).min(MAX_HEIGHT / hm);
-    let (w, h) = (wm * k, hm * k);
+    let f = Frame::of(g);
     let top = scale_top(g.maintained.max);
-    let cell = s * k;
-    let step = (LABEL_PITCH / cell).ceil().max(1.0) as i64;
-    let font = (cell * step as f64 * 0.32).min(11.0);
     let mut out = String::with_capacity(g.points.len() * 120 + 2048);
     let _ = write!(
         out,
-        "<figure class=\"plan\"><svg class=\"plan\" \
-         viewBox=\"0 0 {:.1} {:.1}\" role=\"img\" aria-label=\"maintained illuminance plan\">\
-         <g font-family=\"sans-serif\" font-size=\"{font:.1}\" text-anchor=\"middle\" \
-         dominant-baseline=\"central\">",
-        w,
-        h + 62.0
+        "<figure class=\"plan\"><svg class=\"plan\" viewBox=\"0 0 {:.1} {:.1}\" role=\"img\" \
+         aria-label=\"maintained illuminance plan\"><g font-family=\"sans-serif\" \
+         font-size=\"{:.1}\" text-anchor=\"middle\" dominant-baseline=\"central\">",
+        f.w,
+        f.h + 62.0,
+        f.font
     );
     let mut labels = String::new();
-    for (p, v) in g.points.iter().zip(values) {
-        let (x, y) = ((p[0] - lo[0]) * k, (p[2] - lo[1]) * k);
-        let Some(v) = v.map(f64::from) else {
-            let _ = write!(
-                out,
-                "<rect x=\"{x:.1}\" y=\"{y:.1}\" width=\"{cell:.2}\" height=\"{cell:.2}\" \
-                 fill=\"#ccc\"/>"
-            );
-            continue;
-        };
-        let b = band(v, top);
-        let _ = write!(
-            out,
-            "<rect x=\"{x:.1}\" y=\"{y:.1}\" width=\"{cell:.2}\" height=\"{cell:.2}\" \
-             fill=\"{}\"/>",
-            BANDS[b]
-        );
-        let (col, row) = (
-            ((p[0] - lo[0]) / s).round() as i64,
-            ((p[2] - lo[1]) / s).round() as i64,
-        );
-        if col % step == 0 && row % step == 0 && font >= 4.0 {
-            let ink = if (1..=6).contains(&b) { "#000" } else { "#fff" };
-            let _ = write!(
-                labels,
-                "<text x=\"{:.1}\" y=\"{:.1}\" fill=\"{ink}\">{}</text>",
-                x + cell / 2.0,
-                y + cell / 2.0,
-                fmt_lux(v)
-            );
-        }
-    }
+    f.cells(g, top, &mut out, &mut labels);
     out.push_str(&labels);
     out.push_str("</g>");
-    legend(&mut out, w, h + 10.0, top);
+    legend(&mut out, f.w, f.h + 10.0, top);
+    let every = if f.step > 1 {
+        format!(", values printed on every {}th", f.step)
+    } else {
+        String::new()
+    };
     let _ = write!(
         out,
         "</svg><figcaption>Maintained illuminance, lx. Top view: x → {:.2}–{:.2} m, \
-         z ↓ {:.2}–{:.2} m; one cell per point{}.</figcaption></figure>",
-        lo[0],
-        hi[0],
-        lo[1],
-        hi[1],
-        if step > 1 {
-            format!(", values printed on every {step}th")
-        } else {
-            String::new()
-        }
+         z ↓ {:.2}–{:.2} m; one cell per point{every}.</figcaption></figure>",
+        f.lo[0], f.hi[0], f.lo[1], f.hi[1],
     );
     out
 }

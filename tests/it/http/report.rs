@@ -230,5 +230,7 @@ async fn the_office_report_time_is_reported() {
         let ms = t.elapsed().as_secs_f64() * 1e3;
         assert_eq!(s, StatusCode::OK);
         eprintln!("office report ({what}): {ms:.0} ms, {} bytes", html.len());
+        let out = std::path::Path::new(env!("CARGO_TARGET_TMPDIR")).join("office-report.html");
+        std::fs::write(out, &html).unwrap();
     }
 }
