@@ -321,8 +321,10 @@ fn grid_section(h: &mut String, g: &GridReport, i: usize) {
         esc(&g.name),
         esc(&g.id),
         g.maintained.count,
-        g.spacing
-            .map_or(String::new(), |s| format!(" · spacing {s} m"))
+        g.spacing.map_or(String::new(), |s| format!(
+            " · spacing {} m",
+            (s * 1e4).round() / 1e4
+        ))
     );
     h.push_str(&plan::svg(g));
     let (m, init) = (&g.maintained, &g.initial);
