@@ -9,6 +9,7 @@
 //   viewer.js    the WebGL viewer itself
 //   models.js    the "Open model" upload dialog and the glTF export link
 //   sky.js       the daylight panel (sky, sun time, daylight factor, annual metrics)
+//   report.js    the "Report" button (the printable design report in a new tab)
 //
 // Data flow: every control change bumps `state.version` (changed() in state.js) and asks
 // both views to update (onChange below). Each view has at most one request in flight;
@@ -26,6 +27,7 @@ import { gridFlight, drawOverlay } from "./views/grids.js";
 import { attachHover, resetSurfaceCache } from "./views/hover.js";
 import { wireModels } from "./models.js";
 import { wireSky, setupSky } from "./sky.js";
+import { wireReport } from "./report.js";
 
 /** After every change: labels, URL hash, and a request for each view. */
 function onChange() {
@@ -97,6 +99,7 @@ async function main() {
   attachHover();
   wireModels(openUploaded);
   wireSky();
+  wireReport();
   window.addEventListener("resize", () => imageFlight());
   await openFirstScene();
 }

@@ -16,6 +16,7 @@
 //!   [`batch::BatchPlan`] checks the count and the hierarchical mode's cost first).
 //! - [`optimize`]: least-flux dimming levels under grid targets.
 //! - [`report`]: per-surface averages and the power balance.
+//! - [`design_report`]: the printable design report (schedule, grids, plans, power).
 //! - [`compliance`]: maintained values (the maintenance factor) and EN 12464-1
 //!   requirements per grid (Ēm, U₀, UGR_L, Ra), pass or fail.
 //! - [`glare`]: the CIE Unified Glare Rating at observers, linear in the light groups.
@@ -42,6 +43,7 @@ pub mod annual;
 pub mod batch;
 pub mod compliance;
 pub mod daylight;
+pub mod design_report;
 pub mod error;
 pub mod glare;
 pub mod grid;

@@ -123,6 +123,7 @@ pub fn router(state: Arc<AppState>) -> Router {
             "/api/scenes/{id}/export.glb",
             get(routes::export::export_glb),
         )
+        .route("/api/scenes/{id}/report", get(routes::report::report))
         .route(
             "/api/{*rest}",
             axum::routing::any(routes::service::not_found),

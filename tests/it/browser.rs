@@ -16,7 +16,7 @@ use serde_json::{json, Value};
 use crate::common;
 
 /// A chromedriver child process, killed on drop.
-struct Driver(Child);
+pub(crate) struct Driver(Child);
 
 impl Drop for Driver {
     fn drop(&mut self) {
@@ -29,13 +29,13 @@ impl Drop for Driver {
 const BROWSER_TOKEN: &str = "browser-test-token-0123456789";
 
 /// A WebDriver session.
-struct Session {
+pub(crate) struct Session {
     http: reqwest::Client,
     base: String,
 }
 
 impl Session {
-    async fn cmd(&self, method: reqwest::Method, path: &str, body: Value) -> Value {
+    pub(crate) async fn cmd(&self, method: reqwest::Method, path: &str, body: Value) -> Value {
         let url = format!("{}{path}", self.base);
         let req = self.http.request(method, &url);
         let req = if body.is_null() { req } else { req.json(&body) };
@@ -47,12 +47,12 @@ impl Session {
         v["value"].clone()
     }
 
-    async fn post(&self, path: &str, body: Value) -> Value {
+    pub(crate) async fn post(&self, path: &str, body: Value) -> Value {
         self.cmd(reqwest::Method::POST, path, body).await
     }
 
     /// Runs `script` (a function body) in the page and returns its value.
-    async fn js(&self, script: &str) -> Value {
+    pub(crate) async fn js(&self, script: &str) -> Value {
         self.post("/execute/sync", json!({"script": script, "args": []}))
             .await
     }
@@ -64,7 +64,7 @@ impl Session {
     }
 
     /// Polls `cond` (a JS expression) until it is true.
-    async fn wait_for(&self, cond: &str, what: &str) {
+    pub(crate) async fn wait_for(&self, cond: &str, what: &str) {
         let t = Instant::now();
         while t.elapsed() < Duration::from_secs(60) {
             if self.js(&format!("return !!({cond});")).await == json!(true) {
@@ -174,7 +174,7 @@ async fn switch_scene(s: &Session, scene: &str, also: &str) {
     .await;
 }
 
-fn find_driver() -> Option<(PathBuf, PathBuf)> {
+pub(crate) fn find_driver() -> Option<(PathBuf, PathBuf)> {
     let driver = std::env::var_os("RELIGHT_CHROMEDRIVER")
         .map(PathBuf::from)
         .unwrap_or_else(|| "/usr/bin/chromedriver".into());
@@ -590,7 +590,7 @@ async fn the_page_relights_live_in_headless_chromium() {
 
 /// Serves `scenes` (baked first, every one ready) on a loopback port; returns the site's
 /// address and the server task.
-async fn serve(
+pub(crate) async fn serve(
     scenes: PathBuf,
     cache: PathBuf,
 ) -> (String, tokio::task::JoinHandle<std::io::Result<()>>) {
@@ -618,7 +618,7 @@ async fn serve(
 }
 
 /// chromedriver and a headless Chromium session (software WebGL), with its profile folder.
-async fn open_session(
+pub(crate) async fn open_session(
     driver_bin: &Path,
     browser_bin: &Path,
 ) -> (Session, Driver, tempfile::TempDir) {
@@ -763,7 +763,7 @@ async fn office_floor_page_frame_rate() {
 }
 
 /// Standard base64 (the screenshot), without a dependency.
-fn base64_decode(s: &str) -> Vec<u8> {
+pub(crate) fn base64_decode(s: &str) -> Vec<u8> {
     let val = |c: u8| -> u32 {
         match c {
             b'A'..=b'Z' => (c - b'A') as u32,

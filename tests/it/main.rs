@@ -22,6 +22,7 @@ mod http;
 mod lenient;
 mod luminaires;
 mod render;
+mod report_pdf;
 mod saturation;
 mod scene_errors;
 mod shards;

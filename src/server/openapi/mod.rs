@@ -129,6 +129,7 @@ impl Modify for Constraints {
         routes::scenes::mesh_preview,
         routes::render::render_get,
         routes::export::export_glb,
+        routes::report::report,
         routes::radiosity::radiosity,
         routes::illuminance::illuminance,
         routes::daylight::daylight,
@@ -146,7 +147,7 @@ impl Modify for Constraints {
             Target, Exposure, RadiosityRequest, IlluminanceRequest, BatchRequest,
             OptimizeRequest, RenderRequest, ProblemDetails, Rgb, Millis, DaylightRequest, AnnualRequest,
             GlareRequest, Observer,
-            PngImage, JpegImage, ExrImage, GlbModel, MeshBinary,
+            PngImage, JpegImage, ExrImage, GlbModel, MeshBinary, ReportDocument,
             crate::model::sky_state::SkySpec, crate::model::sky_state::SunPosition,
         ),
         responses(BadRequest, BadQuery, NotFound, Unauthorized, Forbidden, Conflict, TooLarge, UnsupportedMediaType, Invalid, Unavailable),
@@ -173,6 +174,13 @@ const REQUIRED_HEADERS: &[(&str, &str, &str, &str)] = &[
         "X-Relight-Render-Ms",
     ),
     ("/api/scenes/{id}/render.png", "get", "200", "Cache-Control"),
+    (
+        "/api/scenes/{id}/report",
+        "get",
+        "200",
+        "X-Relight-Report-Ms",
+    ),
+    ("/api/scenes/{id}/report", "get", "200", "Cache-Control"),
 ];
 
 /// The document.

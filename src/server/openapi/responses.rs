@@ -108,6 +108,10 @@ raw_schema!(HealthText, json!({"type": "string", "enum": ["ok"]}));
 raw_schema!(MetricsText, json!({"type": "string"}));
 raw_schema!(Document, json!({"type": "object"}));
 raw_schema!(
+    ReportDocument,
+    json!({"type": "string", "description": "A self-contained HTML document (inline CSS, images as data URLs, plans as inline SVG): it loads nothing from elsewhere."})
+);
+raw_schema!(
     PatchesBinary,
     binary("32 bytes per patch, little-endian: u32 surface index, f32 area, f32×3 centroid, f32×3 unit normal.")
 );
@@ -281,6 +285,16 @@ answer!(
     RenderPng,
     image("The PNG image.", vec![("image/png", of::<PngImage>())])
 );
+// GET …/report.
+answer!(ReportHtml, {
+    let mut headers = made("X-Relight-Report-Ms", "Not sent.");
+    headers.retain(|(name, _)| *name != "X-Relight-Exposure");
+    ok(
+        "The printable design report.",
+        headers,
+        vec![("text/html", of::<ReportDocument>())],
+    )
+});
 // GET …/export.glb.
 answer!(GlbFile, {
     let mut headers = made("X-Relight-Export-Ms", "The exposure used, stops.");

@@ -22,6 +22,7 @@ pub(crate) mod illuminance;
 pub(crate) mod optimize;
 pub(crate) mod radiosity;
 pub(crate) mod render;
+pub(crate) mod report;
 pub(crate) mod scenes;
 pub(crate) mod service;
 pub(crate) mod upload;

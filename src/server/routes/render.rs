@@ -24,7 +24,7 @@ use crate::server::views::{render_estimate, view_for};
 use crate::server::{AppError, AppState, Ready};
 
 /// Renders and encodes through the view cache.
-fn render_image(
+pub(super) fn render_image(
     state: &AppState,
     ready: &Ready,
     lighting: &Lighting,

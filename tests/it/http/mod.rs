@@ -10,6 +10,7 @@ mod illuminance;
 mod optimize;
 mod radiosity;
 mod render;
+mod report;
 mod scenes;
 mod server;
 mod upload;
