@@ -131,5 +131,8 @@ pub(crate) fn default_max_concurrent() -> usize {
         .max(2)
 }
 
-/// Default time a heavy request may wait for a slot.
-pub(crate) const DEFAULT_QUEUE_WAIT: Duration = Duration::from_secs(2);
+/// Default time a heavy request may wait for a slot: longer than one legitimate heavy
+/// request takes on two cores (a scene's first daylight grid gathers for about 3 s), so a
+/// page's small requests queued behind it are served, not shed; the queue's length
+/// (four per slot) still bounds the waiting.
+pub(crate) const DEFAULT_QUEUE_WAIT: Duration = Duration::from_secs(10);
