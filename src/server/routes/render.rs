@@ -47,48 +47,7 @@ pub(super) fn render_image(
         None
     };
     if let Some(sky) = sky {
-        let m = &ready.model;
-        let day = m.patch_daylight_without_sun(sky)?;
-        let (mut b, mut h) = (day.b, day.h);
-        if let Lighting::Groups(w) = lighting {
-            let t = &m.baked.transfer;
-            let mut more = vec![0f32; b.len()];
-            if finals.is_none() {
-                t.relight_into(w, &mut more);
-                b.iter_mut().zip(&more).for_each(|(a, x)| *a += x);
-            }
-            t.illuminance_into(w, &mut more);
-            h.iter_mut().zip(&more).for_each(|(a, x)| *a += x);
-        }
-        let site = m.site()?;
-        let sun = sky
-            .sun_direction(site)
-            .map(|(direction, normal_illuminance)| SunView {
-                direction,
-                normal_illuminance,
-            });
-        let scene = DaylightScene {
-            mesh: &m.baked.mesh,
-            bvh: &m.baked.bvh,
-            glazing: &m.baked.glazing,
-            rho: &m.baked.transfer.rho,
-            reach: m.reach_length(),
-        };
-        let (mut rad, lux) = daylight_pixels(&scene, &entry.buffer, &o.camera, sun, &|d| {
-            sky.luminance(site, d)
-        });
-        if let (Some(f), Lighting::Groups(w)) = (&finals, lighting) {
-            // The light groups at final quality; the daylight as the patches carry it.
-            for (r, g) in rad.iter_mut().zip(f.linear(w)) {
-                (0..3).for_each(|c| r[c] += g[c]);
-            }
-        }
-        let frame = Frame {
-            view: &entry.buffer,
-            groups: None,
-            shading: ready.shading(),
-        };
-        return pipeline::render_values(frame, &b, &h, (&rad, &lux), o).map_err(encode);
+        return render_under_sky(ready, &entry, lighting, sky, finals.as_deref(), o);
     }
     if let Some(f) = &finals {
         let frame = Frame {
@@ -113,6 +72,64 @@ pub(super) fn render_image(
         shading: ready.shading(),
     };
     pipeline::render(&ready.model, frame, lighting, o).map_err(encode)
+}
+
+/// [`render_image`] under a sky: the daylight traced per pixel (the sun with shadows), the
+/// light groups from the patches or, at final quality, from `finals`.
+fn render_under_sky(
+    ready: &Ready,
+    entry: &crate::server::views::View,
+    lighting: &Lighting,
+    sky: &SkyState,
+    finals: Option<&crate::render::GroupImages>,
+    o: &RenderOptions,
+) -> Result<pipeline::Rendered, AppError> {
+    let encode = |e: RenderError| match e {
+        RenderError::Query(q) => q.into(),
+        RenderError::Encode(m) => AppError::Internal(m),
+    };
+    let m = &ready.model;
+    let day = m.patch_daylight_without_sun(sky)?;
+    let (mut b, mut h) = (day.b, day.h);
+    if let Lighting::Groups(w) = lighting {
+        let t = &m.baked.transfer;
+        let mut more = vec![0f32; b.len()];
+        if finals.is_none() {
+            t.relight_into(w, &mut more);
+            b.iter_mut().zip(&more).for_each(|(a, x)| *a += x);
+        }
+        t.illuminance_into(w, &mut more);
+        h.iter_mut().zip(&more).for_each(|(a, x)| *a += x);
+    }
+    let site = m.site()?;
+    let sun = sky
+        .sun_direction(site)
+        .map(|(direction, normal_illuminance)| SunView {
+            direction,
+            normal_illuminance,
+        });
+    let scene = DaylightScene {
+        mesh: &m.baked.mesh,
+        bvh: &m.baked.bvh,
+        glazing: &m.baked.glazing,
+        rho: &m.baked.transfer.rho,
+        reach: m.reach_length(),
+    };
+    let (mut rad, lux) = daylight_pixels(&scene, &entry.buffer, &o.camera, sun, &|d| {
+        sky.luminance(site, d)
+    });
+    if let (Some(f), Lighting::Groups(w)) = (finals, lighting) {
+        // The light groups at final quality; the daylight as the patches carry it.
+        for (r, g) in rad.iter_mut().zip(f.linear(w)) {
+            (0..3).for_each(|c| r[c] += g[c]);
+        }
+    }
+    let frame = Frame {
+        view: &entry.buffer,
+        groups: None,
+        shading: ready.shading(),
+    };
+    pipeline::render_values(frame, &b, &h, (&rad, &lux), o).map_err(encode)
 }
 
 async fn respond(
