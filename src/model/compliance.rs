@@ -152,10 +152,7 @@ fn ugr_check(limit: f64, observers: Option<&[ObserverUgr]>) -> Check {
             note: Some("UGR needs a lighting state of light groups".into()),
         };
     };
-    let worst = obs
-        .iter()
-        .filter_map(|o| o.ugr)
-        .fold(None, |m: Option<f64>, u| Some(m.map_or(u, |m| m.max(u))));
+    let worst = highest(obs);
     match worst {
         Some(u) => Check {
             requirement: "ugr_l",
@@ -177,6 +174,14 @@ fn ugr_check(limit: f64, observers: Option<&[ObserverUgr]>) -> Check {
             note: Some("no lit luminaire in view of any observer".into()),
         },
     }
+}
+
+/// The highest UGR of `observers`; None when none has a luminaire in view.
+pub fn highest(observers: &[ObserverUgr]) -> Option<f64> {
+    observers
+        .iter()
+        .filter_map(|o| o.ugr)
+        .fold(None, |m: Option<f64>, u| Some(m.map_or(u, |m| m.max(u))))
 }
 
 /// The observers that rate a task area's glare: seated eyes (1.2 m above the floor) at the

@@ -515,12 +515,8 @@ impl Model {
 
     /// The highest UGR of grid `gi`'s task observers under weights `w`.
     fn worst_ugr(&self, gi: usize, w: &[Rgb]) -> Result<Option<f64>, QueryError> {
-        let observers = super::compliance::task_observers(&self.grids[gi].grid);
-        let rated = self.glare(&observers, w, &super::Cancel::default())?;
-        Ok(rated
-            .iter()
-            .filter_map(|o| o.ugr)
-            .fold(None, |m: Option<f64>, u| Some(m.map_or(u, |m| m.max(u)))))
+        let rated = self.task_ugr(&self.grids[gi].grid, w, &super::Cancel::default())?;
+        Ok(super::compliance::highest(&rated))
     }
 
     /// Every group's level for weights `w`: free groups report their optimized level,

@@ -490,7 +490,7 @@ impl Model {
     }
 
     /// UGR at a task area's observers ([`compliance::task_observers`]) under weights `w`.
-    fn task_ugr(
+    pub(crate) fn task_ugr(
         &self,
         grid: &crate::scene::Grid,
         w: &[Rgb],
