@@ -376,7 +376,7 @@ fn slot_room() -> TempScene {
     write_scene(
         &obj,
         mtl,
-        Some("[mesh]\nmax_edge = 0.3\n[[lights]]\nid = \"lamp\"\nmaterials = [\"lamp\"]\n"),
+        Some("[mesh]\nmax_edge = 0.4\n[[lights]]\nid = \"lamp\"\nmaterials = [\"lamp\"]\n"),
     )
 }
 
@@ -403,12 +403,11 @@ fn partly_visible_links_at_clusters_were_pushed_down_with_the_mean_visibility() 
         "{n} patches, {} links; sigma {lo:.4}..{hi:.4}; {far} off by more than 10 %; closure mean {:.2e}",
         hier.stats.links, hier.stats.closure_mean
     );
-    // Measured: sigma 0.92..1.07 and none off by 10 % (before: 0.83..1.41, 146 patches,
-    // 3.7 %, the floor beside the plates and the plates' faces in the slot).
-    assert!(
-        far == 0,
-        "{far} of {n} patches have sigma off by more than 10 %"
-    );
-    assert!(lo > 0.88 && hi < 1.12, "sigma {lo}..{hi}");
-    assert!(hier.stats.closure_mean < 0.025, "{:?}", hier.stats);
+    // Measured (the same room from the release CLI, 2,572 patches): sigma 0.952..1.078,
+    // closure mean 1.38e-2; before: 0.891..1.185, 1.81e-2. At max_edge 0.3 (3,968
+    // patches): 0.92..1.07 against 0.83..1.41, with 146 patches (3.7 %) off by more than
+    // 10 %, the floor beside the plates and the plates' faces in the slot.
+    assert!(far == 0, "{far} of {n} patches have sigma off by more than 10 %");
+    assert!(lo > 0.92 && hi < 1.12, "sigma {lo}..{hi}");
+    assert!(hier.stats.closure_mean < 0.016, "{:?}", hier.stats);
 }
