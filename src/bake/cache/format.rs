@@ -12,7 +12,7 @@ pub(super) const MAGIC: &[u8; 8] = b"RLTRANS\0";
 /// Bump when the file layout changes.
 pub(super) const FORMAT_VERSION: u32 = 5;
 /// Bump when the numbers a bake produces change (meshing, form factors, solver).
-pub(super) const ALGORITHM_VERSION: u32 = 1;
+pub(super) const ALGORITHM_VERSION: u32 = 2;
 /// Largest JSON header accepted, bytes.
 pub(super) const MAX_HEADER_BYTES: usize = 16 << 20;
 /// Bytes before the JSON header: magic, format version, header length.
