@@ -1,7 +1,8 @@
 //! The `final` render quality on the Cornell box: build time of a new view, and the image
 //! against the path-traced reference in tests/data (512² box-filtered to 256², relative
 //! RMSE with the light left out, and with the light and its one-pixel rim left out), and
-//! linearity. `cargo run --release --example final_quality [SIDE]`.
+//! linearity. `cargo run --release --example final_quality [SIDE [OUT.pfm]]` (OUT: the
+//! 256² box-filtered image, for shared/tools/compare_cornell.py).
 use std::time::Instant;
 
 use relight::bake::{load_or_bake, BakeOptions, CachePolicy};
@@ -47,6 +48,9 @@ fn main() {
             }
         }
     }
+    if let Some(out) = std::env::args().nth(2) {
+        write_pfm(std::path::Path::new(&out), &small, 256);
+    }
     let reference = read_pfm(
         &std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/cornell_ref_white.pfm"),
     );
@@ -82,6 +86,20 @@ fn main() {
         rmse(&rim),
         gi.bytes()
     );
+}
+
+/// Writes a little-endian PFM (bottom row first, as PFM prescribes) of a top-row-first
+/// `side`² image.
+fn write_pfm(path: &std::path::Path, img: &[[f64; 3]], side: usize) {
+    let mut bytes = format!("PF\n{side} {side}\n-1.0\n").into_bytes();
+    for y in (0..side).rev() {
+        for p in &img[y * side..(y + 1) * side] {
+            for v in p {
+                bytes.extend_from_slice(&(*v as f32).to_le_bytes());
+            }
+        }
+    }
+    std::fs::write(path, bytes).unwrap();
 }
 
 /// A PFM image, top row first.

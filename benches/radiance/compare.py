@@ -7,6 +7,10 @@ Cases (see README.md in this folder):
   office-clear-180       CIE clear sky + sun at altitude 40°, azimuth 180° (south)
   office-clear-250       the same with the sun at azimuth 250°
   rooflight-overcast     CIE overcast on the rooflight hall's reference plane
+  rooflight-clear        CIE clear sky + sun at altitude 55°, azimuth 200°, on the same points
+  rooflight-black-clear  the same hall black (the sky's and the sun's direct light only)
+  obstructed             a side-lit room behind a 30 × 10 m facade, three skies (obstructed.py;
+                         needs --relight)
   office-transfer        relight's factored / columns / hierarchical transfers (no Radiance run)
 
 The relight scenes are copied into a private folder (--work), with variants (black room,
@@ -341,7 +345,7 @@ class Relight:
 
 
 def prepare_scenes(src_root, dst):
-    """Copies of office and rooflight, a black office and transfer-mode variants."""
+    """Copies of office and rooflight, black variants of both and transfer-mode variants."""
     os.makedirs(dst, exist_ok=True)
     made = {}
     for name in ("office", "rooflight"):
@@ -349,14 +353,16 @@ def prepare_scenes(src_root, dst):
         if not os.path.isdir(d):
             shutil.copytree(os.path.join(src_root, name), d)
         made[name] = d
-    # the black office: every Kd = 0
-    d = os.path.join(dst, "office-black")
-    if not os.path.isdir(d):
-        shutil.copytree(os.path.join(src_root, "office"), d)
-        mtl = os.path.join(d, "office.mtl")
-        txt = re.sub(r"^Kd .*$", "Kd 0 0 0", open(mtl).read(), flags=re.M)
-        open(mtl, "w").write(txt)
-    made["office-black"] = d
+    # the black office and hall: every Kd = 0
+    for name in ("office", "rooflight"):
+        d = os.path.join(dst, f"{name}-black")
+        if not os.path.isdir(d):
+            shutil.copytree(os.path.join(src_root, name), d)
+            for mtl in [f for f in os.listdir(d) if f.endswith(".mtl")]:
+                mtl = os.path.join(d, mtl)
+                txt = re.sub(r"^Kd .*$", "Kd 0 0 0", open(mtl).read(), flags=re.M)
+                open(mtl, "w").write(txt)
+        made[f"{name}-black"] = d
     for mode in ("factored", "hierarchical"):
         d = os.path.join(dst, f"office-{mode}")
         if not os.path.isdir(d):
@@ -438,7 +444,8 @@ def main():
     ap.add_argument("--work", default="/tmp/radcmp")
     ap.add_argument("--radiance-bin", help="folder of Radiance binaries (default: pyradiance's)")
     ap.add_argument("--cases", default="office-overcast,office-black-overcast,office-clear-180,"
-                    "office-clear-250,rooflight-overcast,office-transfer")
+                    "office-clear-250,rooflight-overcast,rooflight-clear,rooflight-black-clear,"
+                    "office-transfer")
     ap.add_argument("--quality", default="ref", choices=list(AMB))
     ap.add_argument("--check", action="store_true",
                     help="also run the 'fine' settings on the overcast cases (stability)")
@@ -474,6 +481,8 @@ def main():
         need = ["office", "rooflight"]
         if "office-black-overcast" in cases:
             need.append("office-black")
+        if "rooflight-black-clear" in cases:
+            need.append("rooflight-black")
         if "office-transfer" in cases:
             need += ["office-factored", "office-hierarchical"]
         rl.wait_ready(need)
@@ -489,9 +498,9 @@ def main():
 
         overcast = {"type": "cie_overcast", "horizontal_illuminance": 10000}
 
-        def clear(az):
+        def clear(az, alt=40):
             return {"type": "cie_clear", "horizontal_illuminance": 15000,
-                    "direct_normal_illuminance": 70000, "sun": {"altitude": 40, "azimuth": az}}
+                    "direct_normal_illuminance": 70000, "sun": {"altitude": alt, "azimuth": az}}
 
         specs = {
             "office-overcast": ("office", "office", False, overcast, office_pts, off_lights),
@@ -500,10 +509,20 @@ def main():
             "office-clear-180": ("office", "office", False, clear(180), office_pts, off_lights),
             "office-clear-250": ("office", "office", False, clear(250), office_pts, off_lights),
             "rooflight-overcast": ("rooflight", "rooflight", False, overcast, roof_pts, {}),
+            "rooflight-clear": ("rooflight", "rooflight", False, clear(200, 55), roof_pts, {}),
+            "rooflight-black-clear": ("rooflight-black", "rooflight", True, clear(200, 55),
+                                      roof_pts, {}),
         }
         octs = {}
         for case in cases:
             if case == "office-transfer":
+                continue
+            if case == "obstructed":
+                if not args.relight:
+                    sys.exit("the obstructed case starts its own server: give --relight")
+                import obstructed  # its own scenes, server and table
+                obstructed.main(["--relight", args.relight, "--quality", args.quality,
+                                 "--work", os.path.join(work, "obstructed")])
                 continue
             scene, geo, black, sky, pts, lights = specs[case]
             df = sky["type"] == "cie_overcast"

@@ -71,7 +71,7 @@ def write_scene(d, mode, facade=True):
         "ground_reflectance = 0.2\n[mesh]\nmax_edge = 0.35\n")
 
 
-def main():
+def main(argv=None):
     ap = argparse.ArgumentParser()
     ap.add_argument("--relight", required=True)
     ap.add_argument("--work", default="/tmp/relight-obstructed")
@@ -79,7 +79,7 @@ def main():
     ap.add_argument("--modes", default="factored,columns,hierarchical")
     ap.add_argument("--port", type=int, default=18131)
     ap.add_argument("--no-facade", action="store_true")
-    a = ap.parse_args()
+    a = ap.parse_args(argv)
     env = C.radiance_env(None)
     modes = a.modes.split(",")
     tag = "open" if a.no_facade else "obstructed"

@@ -6,12 +6,15 @@
 #   tests/gltf/validate.sh                                  # uses target/release/relight
 #   RELIGHT_BIN=target/debug/relight tests/gltf/validate.sh # any built binary (.ci/run uses
 #                                                           # the one `cargo test` built)
+#
+# RELIGHT_CACHE names the bake cache folder (CI passes the one the test suite filled).
 set -euo pipefail
 cd "$(dirname "$0")/../.."
 bin=${RELIGHT_BIN:-target/release/relight}
 version=2.0.0-dev.3.10
 tool=target/gltf-validator
 out=target/gltf-exports
+cache=${RELIGHT_CACHE:-$out/cache}
 
 if ! command -v npm >/dev/null; then
   SUDO=""
@@ -29,10 +32,10 @@ cp tests/gltf/validate.mjs "$tool/validate.mjs"
 mkdir -p "$out"
 # Relightable exports of the small bundled scenes (the office-floor takes minutes to bake),
 # with both tone maps, and one without the per-group attributes.
-"$bin" export scenes/cornell-box -o "$out/cornell-box.glb" --cache "$out/cache" --tonemap clamp
-"$bin" export scenes/desk-room -o "$out/desk-room.glb" --cache "$out/cache" --light lamp=0.4 --light ceiling=1,0.8,0.6
-"$bin" export scenes/office -o "$out/office.glb" --cache "$out/cache"
-"$bin" export scenes/office -o "$out/office-lean.glb" --cache "$out/cache" --no-groups --exposure -3
-"$bin" export scenes/gallery -o "$out/gallery.glb" --cache "$out/cache" --light spots=0.5
+"$bin" export scenes/cornell-box -o "$out/cornell-box.glb" --cache "$cache" --tonemap clamp
+"$bin" export scenes/desk-room -o "$out/desk-room.glb" --cache "$cache" --light lamp=0.4 --light ceiling=1,0.8,0.6
+"$bin" export scenes/office -o "$out/office.glb" --cache "$cache"
+"$bin" export scenes/office -o "$out/office-lean.glb" --cache "$cache" --no-groups --exposure -3
+"$bin" export scenes/gallery -o "$out/gallery.glb" --cache "$cache" --light spots=0.5
 # The exports, and the bundled glTF scene itself.
 node "$tool/validate.mjs" "$out"/*.glb scenes/gallery/gallery.gltf

@@ -264,3 +264,27 @@ pub fn cornell_baked() -> &'static relight::bake::Baked {
         .expect("the Cornell box bakes")
     })
 }
+
+/// The configuration factor of an a × b rectangle parallel to a receiving point at
+/// distance c, the point below one corner (Howell's catalogue, C-11).
+fn corner_factor(a: f64, b: f64, c: f64) -> f64 {
+    let (x, y) = (a / c, b / c);
+    let (sx, sy) = ((1.0 + x * x).sqrt(), (1.0 + y * y).sqrt());
+    (x / sx * (y / sx).atan() + y / sy * (x / sy).atan()) / (2.0 * std::f64::consts::PI)
+}
+
+/// The factor of the rectangle x0..x1 × z0..z1 at height c above (px, pz), the point
+/// below the rectangle or beside it: four corner rectangles (the corner factor is odd in
+/// each side, so the ones beyond the point subtract).
+pub fn rect_factor(p: (f64, f64), (x0, x1): (f64, f64), (z0, z1): (f64, f64), c: f64) -> f64 {
+    let (px, pz) = p;
+    [
+        (x1 - px, z1 - pz),
+        (px - x0, z1 - pz),
+        (x1 - px, pz - z0),
+        (px - x0, pz - z0),
+    ]
+    .iter()
+    .map(|&(a, b)| corner_factor(a, b, c))
+    .sum()
+}

@@ -118,3 +118,115 @@ fn a_point_downlights_shadow_edge_lies_on_the_geometric_umbra() {
     let got = row[x][1] as f64;
     assert!((got / want - 1.0).abs() < 0.01, "{got} vs {want}");
 }
+
+/// A square area light over a square occluder: along the floor, the penumbra follows the
+/// visible part of the light's configuration factor (the light minus the occluder's
+/// shadow volume, both rectangles in the light's plane), within 2 % of the unoccluded
+/// light.
+#[test]
+fn an_area_lights_penumbra_follows_the_visible_configuration_factor() {
+    let _gate = common::shared();
+    // Light: 1 m square, 2 m up, facing down. Occluder: 0.6 m square, 1 m up, black.
+    let (light_y, light_half, occ_y, occ_half) = (2.0, 0.5, 1.0, 0.3);
+    let square = |name: &str, mat: &str, y: f64, h: f64, up: f64| {
+        quad(
+            name,
+            mat,
+            [[-h, y, -h], [h, y, -h], [h, y, h], [-h, y, h]],
+            [0., up, 0.],
+        )
+    };
+    let obj = square("floor", "white", 0.0, 3.0, 1.0)
+        + &square("plate", "black", occ_y, occ_half, 1.0)
+        + &square("lamp", "lamp", light_y, light_half, -1.0);
+    let exitance = 1000.0;
+    let mtl = format!(
+        "newmtl white\nKd 0.5 0.5 0.5\nnewmtl black\nKd 0 0 0\n\
+         newmtl lamp\nKd 0 0 0\nKe {exitance} {exitance} {exitance}\n"
+    );
+    let toml = "transfer = \"columns\"\n[mesh]\nmax_edge = 0.5\n[[lights]]\nid = \"lamp\"\n\
+                materials = [\"lamp\"]\n";
+    let s = write_scene(&obj, &mtl, Some(toml));
+    let m = model(s.path());
+    let (w, h, fov, cam_y) = (160u32, 160u32, 36.0f32, 5.0);
+    let cam = Camera {
+        position: Vec3::new(0.0, cam_y as f32, 0.0),
+        target: Vec3::ZERO,
+        up: Vec3::new(0.0, 0.0, -1.0),
+        fov_deg: fov,
+        width: w,
+        height: h,
+    };
+    let img = finals(&m, &cam).linear(&[[1.0; 3]]);
+    let tan = (fov as f64 / 2.0).to_radians().tan();
+    let to_floor = |px: f64| (px / (w as f64 / 2.0) - 1.0) * tan * cam_y;
+    // The radiance of a floor point (x, z): ρ/π × M × the visible factor. Seen from
+    // (x, z), the occluder covers the light's plane in the square scaled by
+    // light_y / occ_y about the point (coordinates relative to the point's foot).
+    let s = light_y / occ_y;
+    let visible = |x: f64, z: f64| {
+        let light = [
+            -light_half - x,
+            light_half - x,
+            -light_half - z,
+            light_half - z,
+        ];
+        let shade = [
+            s * (-occ_half - x),
+            s * (occ_half - x),
+            s * (-occ_half - z),
+            s * (occ_half - z),
+        ];
+        let cut = [
+            light[0].max(shade[0]),
+            light[1].min(shade[1]),
+            light[2].max(shade[2]),
+            light[3].min(shade[3]),
+        ];
+        let full = rect_factor(
+            (x, z),
+            (-light_half, light_half),
+            (-light_half, light_half),
+            light_y,
+        );
+        let hidden = if cut[0] < cut[1] && cut[2] < cut[3] {
+            rect_factor((0.0, 0.0), (cut[0], cut[1]), (cut[2], cut[3]), light_y)
+        } else {
+            0.0
+        };
+        (full - hidden, full)
+    };
+    let k = 0.5 / std::f64::consts::PI * exitance;
+    // The 32 rows around the middle, summed per column (each pixel against its own
+    // analytic value: the sum only averages the shadow rays' noise); columns from just
+    // past the plate's silhouette to the fully lit floor.
+    let rows = (h / 2 - 16)..(h / 2 + 16);
+    let first = ((occ_half * cam_y / (cam_y - occ_y) / cam_y / tan + 1.0) * w as f64 / 2.0).ceil()
+        as u32
+        + 1;
+    let mut worst: f64 = 0.0;
+    let mut penumbra = 0;
+    for x in first..w {
+        let (mut got, mut want, mut full) = (0.0, 0.0, 0.0);
+        for y in rows.clone() {
+            let (fx, fz) = (to_floor(x as f64 + 0.5), to_floor(y as f64 + 0.5));
+            let (v, f) = visible(fx, fz);
+            got += img[(y * w + x) as usize][1] as f64;
+            want += k * v;
+            full += k * f;
+        }
+        if want < 0.98 * full {
+            penumbra += 1;
+        }
+        worst = worst.max((got - want).abs() / full);
+    }
+    eprintln!(
+        "penumbra: {penumbra} columns, worst off by {:.2} % of the unoccluded light",
+        100.0 * worst
+    );
+    assert!(
+        penumbra > 20,
+        "the test must cross the penumbra ({penumbra} columns)"
+    );
+    assert!(worst < 0.02, "worst column off by {:.2} %", 100.0 * worst);
+}

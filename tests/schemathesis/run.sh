@@ -9,7 +9,9 @@
 #                                                              # uses the one `cargo test` built)
 #
 # ST_EXAMPLES (generated cases per operation in the fuzzing phase) and ST_SEED change the
-# run; the defaults are what CI runs. Exits non-zero on any failure.
+# run; the defaults are what CI runs. RELIGHT_CACHE names a bake cache folder to use (CI
+# passes the one the test suite filled, so the bundled scenes load instead of baking);
+# by default a fresh one. Exits non-zero on any failure.
 set -euo pipefail
 cd "$(dirname "$0")/../.."
 root=$PWD
@@ -48,7 +50,7 @@ done
 # Writes are on, with a token schemathesis sends (and leaves out to check the 401s).
 token=$(python3 -c 'import secrets; print(secrets.token_hex(16))')
 RELIGHT_ADMIN_TOKEN=$token RELIGHT_LOG=warn "$bin" serve --addr "127.0.0.1:$port" --scenes "$work/scenes" --static-dir static \
-  --cache "$work/cache" --memory-budget 2G >"$work/server.log" 2>&1 &
+  --cache "${RELIGHT_CACHE:-$work/cache}" --memory-budget 2G >"$work/server.log" 2>&1 &
 pid=$!
 cleanup() {
   kill "$pid" 2>/dev/null || true

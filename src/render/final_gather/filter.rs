@@ -54,16 +54,7 @@ pub(super) fn denoise(
             0.0
         }
     };
-    indirect
-        .par_chunks_mut(stride)
-        .zip(albedo)
-        .for_each(|(px, a)| {
-            for k in 0..g {
-                for c in 0..3 {
-                    px[3 * k + c] *= inv(a[c]);
-                }
-            }
-        });
+    scale_by(indirect, albedo, g, inv);
     let mut next = vec![0f32; indirect.len()];
     for pass in 0..passes {
         let step = 1usize << pass;
@@ -78,19 +69,30 @@ pub(super) fn denoise(
             });
         indirect.copy_from_slice(&next);
     }
-    indirect
-        .par_chunks_mut(stride)
+    scale_by(indirect, albedo, g, |a| a * std::f32::consts::FRAC_1_PI);
+}
+
+/// Multiplies every group's RGB of each pixel by `f` of the pixel's reflectance.
+fn scale_by(values: &mut [f32], albedo: &[Rgb], g: usize, f: impl Fn(f32) -> f32 + Sync) {
+    values
+        .par_chunks_mut(3 * g)
         .zip(albedo)
         .for_each(|(px, a)| {
-            for k in 0..g {
-                for c in 0..3 {
-                    px[3 * k + c] *= a[c] * std::f32::consts::FRAC_1_PI;
+            let m = a.map(&f);
+            for rgb in px.chunks_mut(3) {
+                for (v, m) in rgb.iter_mut().zip(m) {
+                    *v *= m;
                 }
             }
         });
 }
 
-/// One output pixel of one pass: the weighted mean of its 25 taps.
+/// One output pixel of one pass: the value at the centre of a plane fitted by weighted
+/// least squares to its 25 taps (in image coordinates). A plain weighted mean would be
+/// biased wherever the light has a gradient and the taps lie on one side: along every
+/// edge between surfaces, where only the taps of the centre's surface count. The fit is
+/// exact for linear gradients, and its effective weights depend on the guides alone, so
+/// the filter stays one linear map.
 fn tap_sum(
     src: &[f32],
     guides: &[Guide],
@@ -106,9 +108,10 @@ fn tap_sum(
         out.copy_from_slice(&src[stride * i..stride * (i + 1)]);
         return;
     }
-    out.iter_mut().for_each(|v| *v = 0.0);
     let scale = 1.0 / (PLANE_FOOTPRINTS * footprint * c.depth * step as f32).max(1e-9);
-    let mut total = 0.0;
+    // The taps: pixel index, weight and offset in steps.
+    let mut taps = [(0usize, 0f32, 0f32, 0f32); 25];
+    let mut n = 0;
     for (ky, wy) in KERNEL.iter().enumerate() {
         let yy = y as isize + (ky as isize - 2) * step as isize;
         if yy < 0 || yy >= h as isize {
@@ -120,29 +123,78 @@ fn tap_sum(
                 continue;
             }
             let j = yy as usize * w + xx as usize;
-            let q = &guides[j];
-            if q.depth <= 0.0 || q.surface != c.surface {
-                continue;
-            }
-            let dot: f32 = (0..3).map(|k| c.normal[k] * q.normal[k]).sum();
-            if dot <= 0.0 {
-                continue;
-            }
-            let plane: f32 = (0..3)
-                .map(|k| c.normal[k] * (q.position[k] - c.position[k]))
-                .sum();
-            let wp = (-(plane.abs() * scale)).exp();
-            let wt = wx * wy * dot.powi(NORMAL_POWER) * wp;
-            if wt <= 0.0 {
-                continue;
-            }
-            total += wt;
-            for (o, v) in out.iter_mut().zip(&src[stride * j..stride * (j + 1)]) {
-                *o += wt * v;
+            let wt = wx * wy * likeness(c, &guides[j], scale);
+            if wt > 0.0 {
+                taps[n] = (j, wt, kx as f32 - 2.0, ky as f32 - 2.0);
+                n += 1;
             }
         }
     }
-    if total > 0.0 {
-        out.iter_mut().for_each(|v| *v /= total);
+    let taps = &mut taps[..n];
+    fit_weights(taps);
+    out.iter_mut().for_each(|v| *v = 0.0);
+    for &(j, wt, _, _) in taps.iter() {
+        for (o, v) in out.iter_mut().zip(&src[stride * j..stride * (j + 1)]) {
+            *o += wt * v;
+        }
+    }
+}
+
+/// How alike tap `q`'s geometry is to the centre `c`'s, 0..1: the same surface, normals
+/// alike, and `q` near `c`'s tangent plane (`scale`: 1 / the plane distance that
+/// weighs e⁻¹).
+fn likeness(c: &Guide, q: &Guide, scale: f32) -> f32 {
+    if q.depth <= 0.0 || q.surface != c.surface {
+        return 0.0;
+    }
+    let dot: f32 = (0..3).map(|k| c.normal[k] * q.normal[k]).sum();
+    if dot <= 0.0 {
+        return 0.0;
+    }
+    let plane: f32 = (0..3)
+        .map(|k| c.normal[k] * (q.position[k] - c.position[k]))
+        .sum();
+    dot.powi(NORMAL_POWER) * (-(plane.abs() * scale)).exp()
+}
+
+/// Replaces the taps' weights `w` (with offsets `(u, v)`) by the effective weights of a
+/// weighted least-squares plane evaluated at the centre: `w · (1, u, v) M⁻¹ e₀`, with
+/// `M = Σ w (1, u, v)ᵀ (1, u, v)`. They sum to 1 and reproduce linear data exactly. Where
+/// the taps do not span a plane (a line of taps, one tap), the fit falls back along the
+/// missing direction to the weighted mean.
+fn fit_weights(taps: &mut [(usize, f32, f32, f32)]) {
+    let (mut s, mut su, mut sv, mut suu, mut suv, mut svv) = (0f64, 0f64, 0f64, 0f64, 0f64, 0f64);
+    for &(_, w, u, v) in taps.iter() {
+        let (w, u, v) = (w as f64, u as f64, v as f64);
+        s += w;
+        su += w * u;
+        sv += w * v;
+        suu += w * u * u;
+        suv += w * u * v;
+        svv += w * v * v;
+    }
+    if s <= 0.0 {
+        return;
+    }
+    // Centred moments: the plane's slopes from the covariance of the offsets.
+    let (mu, mv) = (su / s, sv / s);
+    let (cuu, cuv, cvv) = (suu / s - mu * mu, suv / s - mu * mv, svv / s - mv * mv);
+    let det = cuu * cvv - cuv * cuv;
+    let tiny = 1e-6;
+    // Value at the centre = mean − slope · (mean offset); slope = C⁻¹ cov(offset, value).
+    // Effective weight of tap k: w_k / s · (1 − (d_k − m)ᵀ C⁻¹ m), with d_k its offset.
+    let (iuu, iuv, ivv) = if det > tiny * (cuu + cvv).max(tiny) {
+        (cvv / det, -cuv / det, cuu / det)
+    } else if cuu > tiny {
+        (1.0 / cuu, 0.0, 0.0)
+    } else if cvv > tiny {
+        (0.0, 0.0, 1.0 / cvv)
+    } else {
+        (0.0, 0.0, 0.0)
+    };
+    let (gu, gv) = (iuu * mu + iuv * mv, iuv * mu + ivv * mv);
+    for t in taps.iter_mut() {
+        let (du, dv) = (t.2 as f64 - mu, t.3 as f64 - mv);
+        t.1 = (t.1 as f64 / s * (1.0 - (du * gu + dv * gv))) as f32;
     }
 }

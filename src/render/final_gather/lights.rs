@@ -7,7 +7,8 @@
 //!   proportion to its share, weighted by the tail's total.
 //! - **Emissive surfaces**: each emitting input triangle that faces the point gives its
 //!   exitance times the exact unoccluded point-to-triangle form factor, times the visible
-//!   fraction of the triangle, from stratified shadow rays (more for brighter triangles).
+//!   share of that factor, from stratified shadow rays weighted by the factor's kernel
+//!   (more rays for brighter triangles).
 //!   A group with more than [`MAX_EMITTER_TRIANGLES`] emitting triangles leaves its
 //!   emission to the gather instead ([`GroupLights::explicit`]).
 
@@ -25,10 +26,6 @@ use crate::transport::formfactor::{point_to_polygon, sample_triangle, Rng};
 /// A luminaire whose unoccluded illuminance is at least this share of the point's total
 /// gets its own shadow rays; the others are sampled.
 pub(super) const SIGNIFICANT: f64 = 0.01;
-
-/// Draws of a shadow-ray target on an emitter before one above the receiver's horizon
-/// is found (an emitter that straddles the horizon).
-const HORIZON_TRIES: u32 = 8;
 
 /// Emitting triangles per group handled exactly; a group with more is gathered.
 pub(super) const MAX_EMITTER_TRIANGLES: usize = 1024;
@@ -168,28 +165,27 @@ impl<'a> GroupLights<'a> {
         }
     }
 
-    /// Emitting triangles: exact form factor × visible fraction.
+    /// Emitting triangles: exact form factor × visible share.
     fn emitters(
         &self,
         em: &[Emitter],
-        (x, n, p): (DVec3, DVec3, u32),
+        at: (DVec3, DVec3, u32),
         rng: &mut Rng,
         scratch: &mut Scratch,
         out: &mut [f32],
     ) {
+        let (x, n, _) = at;
+        // The triangles whose front x sees, with their unoccluded form factors.
         let cand = &mut scratch.candidates;
         cand.clear();
-        let mut total = 0.0;
-        for (i, e) in em.iter().enumerate() {
-            if e.normal.dot(x - e.centroid) <= 0.0 {
-                continue;
-            }
-            let ff = point_to_polygon(x, n, &e.corners);
-            if ff > 0.0 {
-                cand.push((i, ff));
-                total += ff * e.luminous;
-            }
-        }
+        cand.extend(
+            em.iter()
+                .enumerate()
+                .filter(|(_, e)| e.normal.dot(x - e.centroid) > 0.0)
+                .map(|(i, e)| (i, point_to_polygon(x, n, &e.corners)))
+                .filter(|&(_, ff)| ff > 0.0),
+        );
+        let total: f64 = cand.iter().map(|&(i, ff)| ff * em[i].luminous).sum();
         if total <= 0.0 {
             return;
         }
@@ -198,31 +194,68 @@ impl<'a> GroupLights<'a> {
             let e = &em[i];
             let share = ff * e.luminous / total;
             let k = ((share * budget).ceil() as u32).clamp(1, self.emitter_rays);
-            // The visible fraction of the part above x's horizon (the part the form
-            // factor counts): samples below it are drawn again, a few times at most.
-            let (mut free, mut above) = (0u32, 0u32);
-            for r in 0..k {
-                for _ in 0..HORIZON_TRIES {
-                    let u = (r as f64 + rng.next_f64()) / k as f64;
-                    let y = sample_triangle(&e.corners, u, rng.next_f64());
-                    if n.dot(y - x) > 0.0 {
-                        above += 1;
-                        free += u32::from(visible(self.bvh, x, n, y, p));
-                        break;
-                    }
-                }
-            }
-            let seen = if above > 0 {
-                free as f64 / above as f64
-            } else {
-                1.0
-            };
-            let f = (ff * seen) as f32;
+            let f = (ff * self.seen(e, at, k, rng)) as f32;
             for (o, m) in out.iter_mut().zip(e.exitance) {
                 *o += f * m;
             }
         }
     }
+
+    /// The visible share of emitter `e`'s form factor at `x`: about `k` stratified points
+    /// on the triangle (a `⌈√k⌉²` grid, jittered), each weighted by the form factor's
+    /// kernel `cos θ cos θ' / r²`, so a hidden near corner of a large emitter counts for
+    /// more than a hidden far one. The count never depends on what the rays find: an
+    /// estimate refined only where its first rays disagree is biased (a small hidden part
+    /// that the first rays miss reads as wholly visible).
+    fn seen(&self, e: &Emitter, at: (DVec3, DVec3, u32), k: u32, rng: &mut Rng) -> f64 {
+        let side = (k as f64).sqrt().ceil() as u32;
+        let mut sums = Seen::default();
+        self.sample_emitter(e, at, side, rng, &mut sums);
+        let all = sums.free + sums.hidden;
+        if all > 0.0 {
+            sums.free / all
+        } else {
+            // Every point fell below x's horizon: a sliver the form factor barely counts.
+            1.0
+        }
+    }
+
+    /// Adds `side`² jittered points of emitter `e` to `sums`, by their kernel weight.
+    fn sample_emitter(
+        &self,
+        e: &Emitter,
+        (x, n, p): (DVec3, DVec3, u32),
+        side: u32,
+        rng: &mut Rng,
+        sums: &mut Seen,
+    ) {
+        let m = side as f64;
+        for a in 0..side {
+            for b in 0..side {
+                let u = (a as f64 + rng.next_f64()) / m;
+                let v = (b as f64 + rng.next_f64()) / m;
+                let y = sample_triangle(&e.corners, u, v);
+                let d = y - x;
+                let r2 = d.length_squared();
+                let w = n.dot(d) * -e.normal.dot(d) / (r2 * r2);
+                if w.is_nan() || w <= 0.0 {
+                    continue;
+                }
+                if visible(self.bvh, x, n, y, p) {
+                    sums.free += w;
+                } else {
+                    sums.hidden += w;
+                }
+            }
+        }
+    }
+}
+
+/// Kernel-weighted sums of an emitter's sample points.
+#[derive(Default)]
+struct Seen {
+    free: f64,
+    hidden: f64,
 }
 
 /// The emitting input triangles of group `k`, with their exitance at unit weight (the

@@ -70,7 +70,7 @@ impl Default for FinalSettings {
         FinalSettings {
             samples_per_side: env("RELIGHT_FINAL_SPS", 2),
             gather_rays: env("RELIGHT_FINAL_GATHER", 64),
-            emitter_rays: env("RELIGHT_FINAL_EMITTER", 8),
+            emitter_rays: env("RELIGHT_FINAL_EMITTER", 16),
             filter_passes: env("RELIGHT_FINAL_FILTER", 2),
         }
     }
@@ -160,13 +160,15 @@ pub fn build(
     let mut indirect = vec![0f32; w * h * 3 * g];
     let mut albedo = vec![[0f32; 3]; w * h];
     let mut guides = vec![Guide::default(); w * h];
+    let mut saw_emitter = vec![false; w * h];
     let row = 3 * g * w;
     direct
         .par_chunks_mut(row.max(1))
         .zip(indirect.par_chunks_mut(row.max(1)))
         .zip(albedo.par_chunks_mut(w).zip(guides.par_chunks_mut(w)))
+        .zip(saw_emitter.par_chunks_mut(w))
         .enumerate()
-        .for_each(|(y, ((dr, ir), (al, gd)))| {
+        .for_each(|(y, (((dr, ir), (al, gd)), saw))| {
             if cancel.is_cancelled() {
                 return;
             }
@@ -176,10 +178,11 @@ pub fn build(
                     indirect: &mut ir[3 * g * x..3 * g * (x + 1)],
                     albedo: &mut al[x],
                 };
-                gd[x] = tracer.pixel(x, y, sums);
+                (gd[x], saw[x]) = tracer.pixel(x, y, sums);
             }
         });
     cancel.check()?;
+    tracer.emitter_rims(&saw_emitter, (w, h), &mut direct);
     let footprint = 2.0 * ((cam.fov_deg as f64).to_radians() * 0.5).tan() / h as f64;
     filter::denoise(
         &mut indirect,
@@ -195,13 +198,16 @@ pub fn build(
     Ok(GroupImages::from_parts(cam.width, cam.height, g, direct))
 }
 
-/// Primary rays per side of the grid that measures what a pixel sees of emitters, when
-/// one of its samples met an emitter (so emitter edges are antialiased finely).
-const EMITTER_GRID: usize = 8;
+/// Primary rays per side of the grid that measures what a pixel sees of emitters where an
+/// emitter's edge crosses it: some of its samples met an emitter and some did not, or none
+/// did and a neighbour's did. The edge is antialiased to 1/1024 of the pixel, since a
+/// sliver of a bright emitter still shows.
+const EMITTER_GRID: usize = 32;
 
 impl Tracer<'_> {
-    /// Traces pixel (x, y) into `sums`; the guide of its first sample.
-    fn pixel(&self, x: usize, y: usize, sums: PixelSums<'_>) -> Guide {
+    /// Traces pixel (x, y) into `sums`; the guide of its first sample, and whether a
+    /// sample met an emitter.
+    fn pixel(&self, x: usize, y: usize, sums: PixelSums<'_>) -> (Guide, bool) {
         let k = self.settings.samples_per_side.max(1) as usize;
         let samples = (k * k) as f32;
         let mut rng = Rng::new(y * self.rays.width() + x, 0x5eed);
@@ -212,7 +218,7 @@ impl Tracer<'_> {
         let mut dir_s = vec![0f32; 3 * g];
         let mut ind_s = vec![0f32; 3 * g];
         let mut emitted = vec![0f32; 3 * g];
-        let mut saw_emitter = false;
+        let mut emitter_samples = 0;
         for s in 0..k * k {
             let (sx, sy) = (
                 ((s % k) as f64 + rng.next_f64()) / k as f64,
@@ -222,7 +228,7 @@ impl Tracer<'_> {
             dir_s.iter_mut().for_each(|v| *v = 0.0);
             ind_s.iter_mut().for_each(|v| *v = 0.0);
             let hit = self.primary(d);
-            saw_emitter |= self.emitted_along(d, hit, &mut emitted);
+            emitter_samples += usize::from(self.emitted_along(d, hit, &mut emitted));
             let seen = self.sample(
                 d,
                 hit,
@@ -244,28 +250,55 @@ impl Tracer<'_> {
                 *a += v / samples;
             }
         }
-        if saw_emitter {
-            // An emitter in the pixel: measure its coverage on a fine grid instead.
-            emitted.iter_mut().for_each(|v| *v = 0.0);
-            let n = EMITTER_GRID;
-            for i in 0..n * n {
-                let (sx, sy) = (
-                    ((i % n) as f64 + 0.5) / n as f64,
-                    ((i / n) as f64 + 0.5) / n as f64,
-                );
-                let d = self.rays.dir_at(x as f64 + sx, y as f64 + sy);
-                self.emitted_along(d, self.primary(d), &mut emitted);
-            }
-            let m = (n * n) as f32;
-            for (a, v) in sums.direct.iter_mut().zip(&emitted) {
-                *a += v / m;
-            }
+        if emitter_samples > 0 && emitter_samples < k * k {
+            // An emitter's edge in the pixel: measure its coverage on a fine grid instead.
+            self.emitted_in_pixel(x, y, sums.direct);
         } else {
             for (a, v) in sums.direct.iter_mut().zip(&emitted) {
                 *a += v / samples;
             }
         }
-        guide
+        (guide, emitter_samples > 0)
+    }
+
+    /// Adds what pixel (x, y) sees emitted, measured on an [`EMITTER_GRID`]² grid of
+    /// primary rays (per group radiance, cd/m²).
+    fn emitted_in_pixel(&self, x: usize, y: usize, out: &mut [f32]) {
+        let mut emitted = vec![0f32; out.len()];
+        let n = EMITTER_GRID;
+        for i in 0..n * n {
+            let (sx, sy) = (
+                ((i % n) as f64 + 0.5) / n as f64,
+                ((i / n) as f64 + 0.5) / n as f64,
+            );
+            let d = self.rays.dir_at(x as f64 + sx, y as f64 + sy);
+            self.emitted_along(d, self.primary(d), &mut emitted);
+        }
+        let m = (n * n) as f32;
+        for (a, v) in out.iter_mut().zip(&emitted) {
+            *a += v / m;
+        }
+    }
+
+    /// The pixels beside one whose samples met an emitter, that none of their own samples
+    /// met: an emitter's edge may cover a sliver of them that their few samples missed,
+    /// so their coverage is measured on the fine grid too ([`Self::emitted_in_pixel`]).
+    fn emitter_rims(&self, saw: &[bool], (w, h): (usize, usize), direct: &mut [f32]) {
+        let near = |x: usize, y: usize| {
+            (y.saturating_sub(1)..=(y + 1).min(h - 1))
+                .any(|yy| (x.saturating_sub(1)..=(x + 1).min(w - 1)).any(|xx| saw[yy * w + xx]))
+        };
+        let stride = 3 * self.groups;
+        direct
+            .par_chunks_mut((stride * w).max(1))
+            .enumerate()
+            .for_each(|(y, row)| {
+                for x in 0..w {
+                    if !saw[y * w + x] && near(x, y) {
+                        self.emitted_in_pixel(x, y, &mut row[stride * x..stride * (x + 1)]);
+                    }
+                }
+            });
     }
 
     /// The nearest patch whose front the camera ray along `d` meets.

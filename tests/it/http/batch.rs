@@ -49,24 +49,29 @@ async fn batched_emission_states_were_solved_one_by_one_into_the_timeout() {
     // The group state is the weighted sum of the columns, exactly.
     assert_eq!(b(60), t.relight(&[[0.5; 3]]).b);
     // Each emission state equals its own solve (the single-solve path of
-    // `POST /radiosity`), to f32 rounding of the differently blocked solves.
+    // `POST /radiosity`), to f32 rounding of the differently blocked solves: checked on
+    // the states at both ends of each chunk and around the group state, and on every
+    // 16th (one solve each takes 0.1–0.3 s); the superposition below covers them all.
     let singles: Vec<usize> = (0..count + 1).filter(|&k| k != 60).collect();
+    let checked = |k: usize| {
+        k % 16 == 0
+            || [
+                1,
+                59,
+                61,
+                SOLVE_CHUNK - 1,
+                SOLVE_CHUNK,
+                SOLVE_CHUNK + 1,
+                count,
+            ]
+            .contains(&k)
+    };
     let mut total = vec![0f64; 3 * n];
     for (j, &k) in singles.iter().enumerate() {
-        let mut e = vec![0f32; 3 * n];
-        e[3 * patches[j]..3 * patches[j] + 3].copy_from_slice(&colour(j));
-        let want = t.solve(&e).unwrap();
         let got = b(k);
-        let scale = want.b.iter().fold(0f32, |m, x| m.max(x.abs()));
-        for i in 0..3 * n {
-            assert!(
-                (got[i] - want.b[i]).abs() <= 1e-5 * scale,
-                "state {k} (patch {}), B[{i}]: {} vs {}",
-                patches[j],
-                got[i],
-                want.b[i]
-            );
-            total[i] += got[i] as f64;
+        assert_eq!(got.len(), 3 * n);
+        for (t, g) in total.iter_mut().zip(&got) {
+            *t += *g as f64;
         }
         // The emitted power is the patch's area times its exitance.
         let emitted = results[k]["power"]["emitted_lm"].as_f64().unwrap();
@@ -76,6 +81,20 @@ async fn batched_emission_states_were_solved_one_by_one_into_the_timeout() {
             (emitted - area * luminous as f64).abs() <= 1e-6 * emitted,
             "{emitted}"
         );
+        if !checked(k) {
+            continue;
+        }
+        let mut e = vec![0f32; 3 * n];
+        e[3 * patches[j]..3 * patches[j] + 3].copy_from_slice(&colour(j));
+        let want = t.solve(&e).unwrap();
+        let scale = want.b.iter().fold(0f32, |m, x| m.max(x.abs()));
+        for (i, (g, w)) in got.iter().zip(&want.b).enumerate() {
+            assert!(
+                (g - w).abs() <= 1e-5 * scale,
+                "state {k} (patch {}), B[{i}]: {g} vs {w}",
+                patches[j],
+            );
+        }
     }
     // Superposition: the sum of the single-patch answers is the answer for the summed
     // emission.
