@@ -64,7 +64,6 @@ impl Reflected {
     /// [`NEAR`] × the size of the patch it meets asks `near(point, patch, values)` for the
     /// reflected radiosity there instead (per group RGB into `values`), when given: near
     /// a corner the patch's mean is not the light at the point.
-    #[allow(clippy::too_many_arguments)]
     pub(super) fn gather(
         &self,
         scene: &FinalScene<'_>,
