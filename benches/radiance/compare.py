@@ -493,8 +493,8 @@ def main():
         office_pts = pick(wp, nx, nz)
         nx, nz = (int(v) for v in args.rooflight_grid.split("x"))
         fl, fl_df = grid_positions(rl, "rooflight", "floor", {}, dirs["rooflight"])
-        # leave out points inside solids (the counter): relight answers 0 there
-        roof_pts = [p for p in pick(fl, nx, nz) if fl_df[fl.index(p)] > 0]
+        # leave out points inside solids (the counter): relight answers null there
+        roof_pts = [p for p in pick(fl, nx, nz) if (fl_df[fl.index(p)] or 0) > 0]
 
         overcast = {"type": "cie_overcast", "horizontal_illuminance": 10000}
 
