@@ -23,6 +23,19 @@ fn finals(m: &Model, cam: &Camera) -> GroupImages {
     final_images(m, &shading, &patches, cam, &Cancel::default()).unwrap()
 }
 
+/// A square `side`² camera `height` above the origin looking straight down, image x along
+/// +x and image y along +z.
+fn looking_down(height: f32, fov_deg: f32, side: u32) -> Camera {
+    Camera {
+        position: Vec3::new(0.0, height, 0.0),
+        target: Vec3::ZERO,
+        up: Vec3::new(0.0, 0.0, -1.0),
+        fov_deg,
+        width: side,
+        height: side,
+    }
+}
+
 /// Furnace: a closed room whose every surface emits E and reflects ρ has radiosity
 /// E/(1 − ρ) everywhere, so every pixel shows E/(π(1 − ρ)): emission, exact direct
 /// light, the gather and the filter together must add up to it.
@@ -82,14 +95,7 @@ fn a_point_downlights_shadow_edge_lies_on_the_geometric_umbra() {
     let s = write_scene(&obj, mtl, Some(&toml));
     let m = model(s.path());
     let (w, h, fov) = (128u32, 128u32, 40.0f32);
-    let cam = Camera {
-        position: Vec3::new(0.0, 5.0, 0.0),
-        target: Vec3::ZERO,
-        up: Vec3::new(0.0, 0.0, -1.0),
-        fov_deg: fov,
-        width: w,
-        height: h,
-    };
+    let cam = looking_down(5.0, fov, w);
     let img = finals(&m, &cam).linear(&[[1.0; 3]]);
     // Along the middle row (z = 0), image x runs along +x.
     let row = &img[(h as usize / 2) * w as usize..][..w as usize];
@@ -149,14 +155,7 @@ fn an_area_lights_penumbra_follows_the_visible_configuration_factor() {
     let s = write_scene(&obj, &mtl, Some(toml));
     let m = model(s.path());
     let (w, h, fov, cam_y) = (160u32, 160u32, 36.0f32, 5.0);
-    let cam = Camera {
-        position: Vec3::new(0.0, cam_y as f32, 0.0),
-        target: Vec3::ZERO,
-        up: Vec3::new(0.0, 0.0, -1.0),
-        fov_deg: fov,
-        width: w,
-        height: h,
-    };
+    let cam = looking_down(cam_y as f32, fov, w);
     let img = finals(&m, &cam).linear(&[[1.0; 3]]);
     let tan = (fov as f64 / 2.0).to_radians().tan();
     let to_floor = |px: f64| (px / (w as f64 / 2.0) - 1.0) * tan * cam_y;
