@@ -9,10 +9,13 @@
 //!   (lux per cd/m²), from stratified cosine-weighted rays over stratified points of the
 //!   patch. The transfer carries `ρ D_k` through every bounce, one response per sky patch.
 //! - [`SkyView`]: what one point sees of the sky, for integrating the continuous sky
-//!   luminance rather than patch averages. The hemisphere is a 32 × 32 grid of equal
-//!   cosine-weighted cells (the concentric disk mapping); a cell whose centre ray differs
-//!   from a neighbour's (blocked, sky or ground) is refined into 8 × 8 rays, so the edges
-//!   of openings are resolved to 1/256 of the disk's width.
+//!   luminance rather than patch averages. The hemisphere is a 64 × 64 grid of cells of
+//!   equal solid angle (the concentric disk mapping lifted by Lambert's equal-area map), so
+//!   cells are about 2.5° wide everywhere, the receiver's horizon included; each ray
+//!   carries its cell's cosine-weighted share. A cell whose centre ray differs from a
+//!   neighbour's (blocked, sky or ground) is refined into 4 × 4 rays, so the edges of
+//!   openings are resolved to about 0.6°. An opening must span about a cell (2.5°) to be
+//!   found.
 //! - [`patch_sun_direct`] and [`point_sun_direct`]: the sun's direct illuminance with
 //!   shadow rays (per patch 4 points, 64 where they disagree; per point one ray).
 
@@ -32,8 +35,8 @@ const PATCH_RAY_BUDGET: usize = 4 << 20;
 const PATCH_RAYS_MIN: usize = 256;
 const PATCH_RAYS_MAX: usize = 1024;
 /// The coarse grid of a [`SkyView`] and the refinement of a boundary cell.
-const VIEW_GRID: usize = 32;
-const VIEW_REFINE: usize = 8;
+const VIEW_GRID: usize = 64;
+const VIEW_REFINE: usize = 4;
 
 /// Sky patches of the daylight transfer: Tregenza's 145 and the ground.
 pub fn subdivision() -> Subdivision {
@@ -61,9 +64,9 @@ impl Reach {
     }
 }
 
-/// The concentric (Shirley–Chiu) map of the unit square onto the unit disk, lifted to the
-/// hemisphere: equal areas of the square are equal cosine-weighted solid angles.
-fn cosine_dir(u: f64, v: f64, t: DVec3, b: DVec3, n: DVec3) -> DVec3 {
+/// The concentric (Shirley–Chiu) map of the unit square onto the unit disk; equal areas
+/// go to equal areas.
+fn concentric(u: f64, v: f64) -> (f64, f64) {
     let (a, c) = (2.0 * u - 1.0, 2.0 * v - 1.0);
     let (r, phi) = if a == 0.0 && c == 0.0 {
         (0.0, 0.0)
@@ -75,9 +78,58 @@ fn cosine_dir(u: f64, v: f64, t: DVec3, b: DVec3, n: DVec3) -> DVec3 {
             std::f64::consts::FRAC_PI_2 - std::f64::consts::FRAC_PI_4 * (a / c),
         )
     };
-    let (x, y) = (r * phi.cos(), r * phi.sin());
+    (r * phi.cos(), r * phi.sin())
+}
+
+/// The concentric map lifted to the hemisphere about `n` (frame `t`, `b`, `n`) by
+/// projection: equal areas of the square are equal cosine-weighted solid angles.
+fn cosine_dir(u: f64, v: f64, t: DVec3, b: DVec3, n: DVec3) -> DVec3 {
+    let (x, y) = concentric(u, v);
     let z = (1.0 - x * x - y * y).max(0.0).sqrt();
     (t * x + b * y + n * z).normalize()
+}
+
+/// The concentric map lifted to the hemisphere by Lambert's azimuthal equal-area map, in
+/// the receiver's frame (z along the normal): equal areas of the square are equal solid
+/// angles, and a disk radius ρ is at cos θ = 1 − ρ².
+fn equal_area_local(u: f64, v: f64) -> DVec3 {
+    let (x, y) = concentric(u, v);
+    let r2 = (x * x + y * y).min(1.0);
+    let s = (2.0 - r2).sqrt();
+    DVec3::new(x * s, y * s, 1.0 - r2)
+}
+
+/// The cosine-weighted share of the fine cell of the [`SkyView`] grid centred at (u, v)
+/// of the unit square, unnormalised: ∫ cos θ dω / π over the cell is 2 (1 − ρ²) × its
+/// area in the square (dω = 2π dA over the unit disk's area π), by the midpoint rule.
+fn fine_share_raw(u: f64, v: f64) -> f64 {
+    let side = (VIEW_GRID * VIEW_REFINE) as f64;
+    2.0 * equal_area_local(u, v).z / (side * side)
+}
+
+/// The cosine-weighted shares of the [`SkyView`] grid: per coarse cell (row-major) the sum
+/// of its fine cells', and the factor that makes the whole hemisphere's shares sum to 1.
+struct ViewShares {
+    coarse: Vec<f64>,
+    norm: f64,
+}
+
+fn view_shares() -> &'static ViewShares {
+    static SHARES: std::sync::OnceLock<ViewShares> = std::sync::OnceLock::new();
+    SHARES.get_or_init(|| {
+        let (g, r) = (VIEW_GRID, VIEW_REFINE);
+        let side = (g * r) as f64;
+        let mut coarse = vec![0.0; g * g];
+        for fj in 0..g * r {
+            for fi in 0..g * r {
+                let w = fine_share_raw((fi as f64 + 0.5) / side, (fj as f64 + 0.5) / side);
+                coarse[(fj / r) * g + fi / r] += w;
+            }
+        }
+        let norm = 1.0 / coarse.iter().sum::<f64>();
+        coarse.iter_mut().for_each(|w| *w *= norm);
+        ViewShares { coarse, norm }
+    })
 }
 
 /// The share of light that reaches `o` from outside along unit `d`: 0 when the ray hits
@@ -214,7 +266,8 @@ impl Viewer<'_> {
     #[inline]
     fn dir(&self, u: f64, v: f64) -> DVec3 {
         let g = VIEW_GRID as f64;
-        cosine_dir(u / g, v / g, self.t, self.b, self.n)
+        let l = equal_area_local(u / g, v / g);
+        (self.t * l.x + self.b * l.y + self.n * l.z).normalize()
     }
 
     /// What the ray along unit `d` sees.
@@ -237,11 +290,10 @@ impl Viewer<'_> {
         corners.iter().any(|c| (*c >= 0.0) != (d.y >= 0.0))
     }
 
-    /// The escaped rays of cell (i, j), of solid-angle share `cell`, refined into
-    /// [`VIEW_REFINE`]² rays.
-    fn refine(&self, i: usize, j: usize, cell: f64, rays: &mut Vec<([f32; 3], f32)>) {
-        let r = VIEW_REFINE;
-        let sub = cell / (r * r) as f64;
+    /// The escaped rays of cell (i, j), refined into [`VIEW_REFINE`]² rays.
+    fn refine(&self, i: usize, j: usize, rays: &mut Vec<([f32; 3], f32)>) {
+        let (r, g) = (VIEW_REFINE, VIEW_GRID as f64);
+        let norm = view_shares().norm;
         for sj in 0..r {
             for si in 0..r {
                 let u = i as f64 + (si as f64 + 0.5) / r as f64;
@@ -249,6 +301,7 @@ impl Viewer<'_> {
                 let d = self.dir(u, v);
                 let k = self.class(d);
                 if k.0 != 0 {
+                    let sub = norm * fine_share_raw(u / g, v / g);
                     rays.push((d.as_vec3().to_array(), sub as f32 * share(k)));
                 }
             }
@@ -290,28 +343,20 @@ impl Coarse {
         Coarse { centres, corners }
     }
 
-    /// Whether cell (i, j), of class `k`, has a neighbour (or a rim corner) that sees
-    /// otherwise.
+    /// Whether cell (i, j), of class `k`, has a neighbour (of eight) or a rim corner that
+    /// sees otherwise.
     fn differs(&self, i: usize, j: usize, k: Class) -> bool {
         let g = VIEW_GRID;
         let corner = |i: usize, j: usize| self.corners[j * (g + 1) + i];
         let at = |i: usize, j: usize| self.centres[j * g + i].1;
-        let mut differs = [(0, 0), (1, 0), (0, 1), (1, 1)]
+        let rim_differs = [(0, 0), (1, 0), (0, 1), (1, 1)]
             .iter()
             .any(|&(a, c)| rim(i + a, j + c) && corner(i + a, j + c) != k);
-        if i > 0 {
-            differs |= at(i - 1, j) != k;
-        }
-        if i + 1 < g {
-            differs |= at(i + 1, j) != k;
-        }
-        if j > 0 {
-            differs |= at(i, j - 1) != k;
-        }
-        if j + 1 < g {
-            differs |= at(i, j + 1) != k;
-        }
-        differs
+        // All eight neighbours: an edge that runs diagonally across the grid crosses a
+        // cell whose four side neighbours all see as its centre does.
+        let (i0, i1) = (i.saturating_sub(1), (i + 1).min(g - 1));
+        let (j0, j1) = (j.saturating_sub(1), (j + 1).min(g - 1));
+        rim_differs || (j0..=j1).any(|jj| (i0..=i1).any(|ii| at(ii, jj) != k))
     }
 }
 
@@ -340,7 +385,7 @@ impl SkyView {
         };
         let coarse = Coarse::trace(&view);
         let g = VIEW_GRID;
-        let cell = 1.0 / (g * g) as f64;
+        let shares = &view_shares().coarse;
         let mut rays = Vec::new();
         for j in 0..g {
             for i in 0..g {
@@ -350,11 +395,12 @@ impl SkyView {
                     coarse.differs(i, j, k) || (k.0 != 0 && view.crosses_horizon(i, j, d));
                 if !differs {
                     if k.0 != 0 {
-                        rays.push((d.as_vec3().to_array(), cell as f32 * share(k)));
+                        let cell = shares[j * g + i] as f32;
+                        rays.push((d.as_vec3().to_array(), cell * share(k)));
                     }
                     continue;
                 }
-                view.refine(i, j, cell, &mut rays);
+                view.refine(i, j, &mut rays);
             }
         }
         SkyView::merged(rays)
@@ -529,6 +575,43 @@ mod tests {
         }
         let mean = sum / (m * m) as f64;
         assert!((mean - 2.0 / 3.0).abs() < 1e-3, "{mean}");
+    }
+
+    #[test]
+    fn the_equal_area_map_gives_equal_solid_angles() {
+        // The mean of cos θ over cells of equal solid angle is ∫cos dω / 2π = 1/2, and a
+        // cap θ < 60° holds 1 − cos 60° of the hemisphere's solid angle.
+        let m = 400;
+        let (mut sum, mut cap) = (0.0, 0usize);
+        for j in 0..m {
+            for i in 0..m {
+                let d = equal_area_local((i as f64 + 0.5) / m as f64, (j as f64 + 0.5) / m as f64);
+                assert!((d.length() - 1.0).abs() < 1e-12 && d.z >= 0.0);
+                sum += d.z;
+                cap += usize::from(d.z > 0.5);
+            }
+        }
+        let n = (m * m) as f64;
+        assert!((sum / n - 0.5).abs() < 1e-4, "{}", sum / n);
+        // (The cap is a square of the unit square, 282 of 400 cells a side: 0.497.)
+        assert!((cap as f64 / n - 0.5).abs() < 5e-3, "{}", cap as f64 / n);
+        // The shares: the whole hemisphere sums to 1, and the cap θ < 60° to sin² 60°.
+        let s = view_shares();
+        assert!((s.coarse.iter().sum::<f64>() - 1.0).abs() < 1e-12);
+        let g = VIEW_GRID;
+        let in_cap: f64 = (0..g * g)
+            .filter(|c| {
+                let (i, j) = ((c % g) as f64 + 0.5, (c / g) as f64 + 0.5);
+                equal_area_local(i / g as f64, j / g as f64).z > 0.5
+            })
+            .map(|c| s.coarse[c])
+            .sum();
+        // The cells whose centres lie in the cap fill a square of the unit square, of
+        // half-side h (in units of the disk's radius); their share is ∫₀ʰ 2(1 − ρ²) 2ρ dρ.
+        let half = g as f64 / 2.0;
+        let h = ((0.5f64.sqrt() * half - 0.5).floor() + 1.0) / half;
+        let want = 2.0 * h * h - h.powi(4);
+        assert!((in_cap - want).abs() < 1e-4, "{in_cap} vs {want}");
     }
 
     #[test]

@@ -359,10 +359,114 @@ fn a_clear_sky_through_a_roof_opening_matches_quadrature() {
         );
         worst = worst.max(err);
     }
-    // Measured: 0.04 to 1.14 % low. The error grows as the opening's patch of sky shrinks:
-    // 0.06 % 0.2 m under it, 0.04 % 1.5 m under it, 1.14 % on the floor 3 m under it
-    // (±11° around the zenith). The overcast sky through such openings agrees within 0.5 %.
-    assert!(worst < 0.015, "worst point off by {:.3} %", 100.0 * worst);
+    // Measured: 0.03 to 0.40 %. The overcast sky through such openings agrees within 0.3 %.
+    assert!(worst < 0.01, "worst point off by {:.3} %", 100.0 * worst);
+}
+
+/// An 8 × 8 × 4 m black hall (x, z in 0 … 8) whose only opening is a 6 × 1 m clerestory
+/// strip high in its south wall (z = 8, x 1 … 7, y 2.8 … 3.8), as in the bundled rooflight
+/// hall.
+fn clerestory_hall() -> TempScene {
+    let (w, h) = (8.0, 4.0);
+    let mut obj = String::new();
+    let mut face = |name: &str, p: [[f64; 3]; 4], n: [f64; 3]| obj += &quad(name, "black", p, n);
+    face(
+        "floor",
+        [[0., 0., 0.], [w, 0., 0.], [w, 0., w], [0., 0., w]],
+        [0., 1., 0.],
+    );
+    face(
+        "roof",
+        [[0., h, 0.], [w, h, 0.], [w, h, w], [0., h, w]],
+        [0., -1., 0.],
+    );
+    face(
+        "west",
+        [[0., 0., 0.], [0., h, 0.], [0., h, w], [0., 0., w]],
+        [1., 0., 0.],
+    );
+    face(
+        "east",
+        [[w, 0., 0.], [w, h, 0.], [w, h, w], [w, 0., w]],
+        [-1., 0., 0.],
+    );
+    face(
+        "north",
+        [[0., 0., 0.], [w, 0., 0.], [w, h, 0.], [0., h, 0.]],
+        [0., 0., 1.],
+    );
+    for (name, (x0, x1), (y0, y1)) in [
+        ("south1", (0.0, w), (0.0, 2.8)),
+        ("south2", (0.0, w), (3.8, h)),
+        ("south3", (0.0, 1.0), (2.8, 3.8)),
+        ("south4", (7.0, w), (2.8, 3.8)),
+    ] {
+        face(
+            name,
+            [[x0, y0, w], [x1, y0, w], [x1, y1, w], [x0, y1, w]],
+            [0., 0., -1.],
+        );
+    }
+    let toml = format!("{SITE}[mesh]\ntarget_patches = 300\n");
+    write_scene(&obj, "newmtl black\nKd 0 0 0\n", Some(&toml))
+}
+
+/// The points' sky views were sampled on a grid of equal cosine-weighted cells, which near
+/// the receiver's plane span 11° of altitude: a 1 m clerestory seen 15–22° above the work
+/// plane from the far side of a hall slipped between the cells' rays, and the points read
+/// 5–20 % low (found against Radiance in the black rooflight hall under a clear sky).
+#[test]
+fn a_clerestory_seen_low_over_the_work_plane_is_not_missed() {
+    let _gate = common::shared();
+    let s = clerestory_hall();
+    let m = model(&s, TransferMode::Factored);
+    let (alt, az) = (55f64.to_radians(), 200f64.to_radians());
+    let sun = DVec3::new(az.sin() * alt.cos(), alt.sin(), -az.cos() * alt.cos());
+    let clear = |d: DVec3| cie_clear(d, sun);
+    let overcast = |d: DVec3| (1.0 + 2.0 * d.y) / 3.0;
+    let h = 15000.0;
+    let pts = [
+        [0.75, 0.85, 0.75],
+        [2.25, 0.85, 0.75],
+        [3.75, 0.85, 0.75],
+        [7.25, 0.85, 0.75],
+        [0.75, 0.85, 2.25],
+        [5.75, 0.85, 2.25],
+        [4.0, 0.85, 4.0],
+        [2.0, 0.0, 6.5],
+    ];
+    let strip = |u: f64, v: f64| DVec3::new(1.0 + 6.0 * u, 2.8 + v, 8.0);
+    let mut worst: f64 = 0.0;
+    for (name, sky, lum) in [
+        (
+            "clear",
+            json!({"type": "cie_clear", "horizontal_illuminance": h,
+                   "direct_normal_illuminance": 0, "sun": {"altitude": 55, "azimuth": 200}}),
+            &clear as &dyn Fn(DVec3) -> f64,
+        ),
+        (
+            "overcast",
+            json!({"type": "cie_overcast", "horizontal_illuminance": h}),
+            &overcast as &dyn Fn(DVec3) -> f64,
+        ),
+    ] {
+        let eh = horizontal(lum);
+        let a = ask(&m, sky, &pts);
+        for (p, got) in pts.iter().zip(&a.points) {
+            let e = sky_through(DVec3::from_array(*p), strip, 6.0, DVec3::NEG_Z, lum);
+            let want = h * e / eh;
+            let err = (got.lux - want).abs() / want;
+            println!(
+                "{name} sky through the clerestory at {p:?}: {:.2} lx, quadrature {want:.2} lx, {:.3} %",
+                got.lux,
+                100.0 * (got.lux / want - 1.0)
+            );
+            worst = worst.max(err);
+        }
+    }
+    // Measured: 0.04 to 0.68 % (the worst in the hall's middle, under both skies alike:
+    // the sub-cell steps along the strip's outline).
+    assert!(worst < 0.01, "worst point off by {:.3} %", 100.0 * worst);
 }
 
 #[test]
