@@ -12,10 +12,11 @@
 //!   luminance rather than patch averages. The hemisphere is a 64 × 64 grid of cells of
 //!   equal solid angle (the concentric disk mapping lifted by Lambert's equal-area map), so
 //!   cells are about 2.5° wide everywhere, the receiver's horizon included; each ray
-//!   carries its cell's cosine-weighted share. A cell whose centre ray differs from a
-//!   neighbour's (blocked, sky or ground) is refined into 4 × 4 rays, so the edges of
-//!   openings are resolved to about 0.6°. An opening must span about a cell (2.5°) to be
-//!   found.
+//!   carries its cell's cosine-weighted share. A cell whose centre ray differs from one of
+//!   its eight neighbours' (blocked, sky or ground) is refined into 8 × 8 jittered rays,
+//!   and a refined cell whose rays disagree passes the refinement on to its neighbours, so
+//!   an edge, once found, is followed to its end. Edges are resolved to about 0.3°; an
+//!   opening must span about a cell (2.5°) for a centre ray to find it.
 //! - [`patch_sun_direct`] and [`point_sun_direct`]: the sun's direct illuminance with
 //!   shadow rays (per patch 4 points, 64 where they disagree; per point one ray).
 
@@ -36,7 +37,7 @@ const PATCH_RAYS_MIN: usize = 256;
 const PATCH_RAYS_MAX: usize = 1024;
 /// The coarse grid of a [`SkyView`] and the refinement of a boundary cell.
 const VIEW_GRID: usize = 64;
-const VIEW_REFINE: usize = 4;
+const VIEW_REFINE: usize = 8;
 
 /// Sky patches of the daylight transfer: Tregenza's 145 and the ground.
 pub fn subdivision() -> Subdivision {
@@ -105,6 +106,19 @@ fn equal_area_local(u: f64, v: f64) -> DVec3 {
 fn fine_share_raw(u: f64, v: f64) -> f64 {
     let side = (VIEW_GRID * VIEW_REFINE) as f64;
     2.0 * equal_area_local(u, v).z / (side * side)
+}
+
+/// A fixed pseudo-random point in 0 … 1 × 0 … 1 for sub-cell (si, sj) of coarse cell
+/// (i, j) of the [`SkyView`] grid.
+fn jitter(i: usize, j: usize, si: usize, sj: usize) -> (f64, f64) {
+    let mut h = (((j * VIEW_GRID + i) * VIEW_REFINE + sj) * VIEW_REFINE + si) as u64;
+    // splitmix64
+    h = h.wrapping_add(0x9E37_79B9_7F4A_7C15);
+    h = (h ^ (h >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+    h = (h ^ (h >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+    h ^= h >> 31;
+    let unit = |x: u64| (x >> 11) as f64 / (1u64 << 53) as f64;
+    (unit(h), unit(h.rotate_left(32)))
 }
 
 /// The cosine-weighted shares of the [`SkyView`] grid: per coarse cell (row-major) the sum
@@ -290,22 +304,34 @@ impl Viewer<'_> {
         corners.iter().any(|c| (*c >= 0.0) != (d.y >= 0.0))
     }
 
-    /// The escaped rays of cell (i, j), refined into [`VIEW_REFINE`]² rays.
-    fn refine(&self, i: usize, j: usize, rays: &mut Vec<([f32; 3], f32)>) {
+    /// The escaped rays of cell (i, j), refined into [`VIEW_REFINE`]² rays; whether they
+    /// see otherwise than the cell's centre ray `centre` or than each other.
+    fn refine(&self, i: usize, j: usize, centre: Class, rays: &mut Vec<([f32; 3], f32)>) -> bool {
         let (r, g) = (VIEW_REFINE, VIEW_GRID as f64);
         let norm = view_shares().norm;
+        let mut mixed = false;
         for sj in 0..r {
             for si in 0..r {
-                let u = i as f64 + (si as f64 + 0.5) / r as f64;
-                let v = j as f64 + (sj as f64 + 0.5) / r as f64;
+                // The ray at a fixed random point of its sub-cell (the same for every
+                // view): regular rows of rays alias with straight edges, such as a strip
+                // two or three rows high.
+                let (ju, jv) = jitter(i, j, si, sj);
+                let u = i as f64 + (si as f64 + ju) / r as f64;
+                let v = j as f64 + (sj as f64 + jv) / r as f64;
                 let d = self.dir(u, v);
                 let k = self.class(d);
+                mixed |= k != centre;
                 if k.0 != 0 {
-                    let sub = norm * fine_share_raw(u / g, v / g);
+                    let (cu, cv) = (
+                        i as f64 + (si as f64 + 0.5) / r as f64,
+                        j as f64 + (sj as f64 + 0.5) / r as f64,
+                    );
+                    let sub = norm * fine_share_raw(cu / g, cv / g);
                     rays.push((d.as_vec3().to_array(), sub as f32 * share(k)));
                 }
             }
         }
+        mixed
     }
 }
 
@@ -387,20 +413,37 @@ impl SkyView {
         let g = VIEW_GRID;
         let shares = &view_shares().coarse;
         let mut rays = Vec::new();
-        for j in 0..g {
-            for i in 0..g {
-                let (d, k) = coarse.centres[j * g + i];
-                // A cell the horizon crosses is refined too: the horizon is sharp.
-                let differs =
-                    coarse.differs(i, j, k) || (k.0 != 0 && view.crosses_horizon(i, j, d));
-                if !differs {
-                    if k.0 != 0 {
-                        let cell = shares[j * g + i] as f32;
-                        rays.push((d.as_vec3().to_array(), cell * share(k)));
+        // Cells to refine: those whose centre ray sees otherwise than a neighbour's, and
+        // those the horizon crosses (it is sharp). A refined cell whose rays disagree
+        // holds an edge, which goes on into its neighbours: they are refined too, so an
+        // opening narrower than a cell, found by one centre ray, is followed along its
+        // whole length. At most every cell is refined once.
+        let mut todo: Vec<usize> = (0..g * g)
+            .filter(|&c| {
+                let (i, j) = (c % g, c / g);
+                let (d, k) = coarse.centres[c];
+                coarse.differs(i, j, k) || (k.0 != 0 && view.crosses_horizon(i, j, d))
+            })
+            .collect();
+        let mut refined = vec![false; g * g];
+        while let Some(c) = todo.pop() {
+            if std::mem::replace(&mut refined[c], true) {
+                continue;
+            }
+            let (i, j) = (c % g, c / g);
+            if view.refine(i, j, coarse.centres[c].1, &mut rays) {
+                for jj in j.saturating_sub(1)..=(j + 1).min(g - 1) {
+                    for ii in i.saturating_sub(1)..=(i + 1).min(g - 1) {
+                        if !refined[jj * g + ii] {
+                            todo.push(jj * g + ii);
+                        }
                     }
-                    continue;
                 }
-                view.refine(i, j, &mut rays);
+            }
+        }
+        for (c, &(d, k)) in coarse.centres.iter().enumerate() {
+            if !refined[c] && k.0 != 0 {
+                rays.push((d.as_vec3().to_array(), shares[c] as f32 * share(k)));
             }
         }
         SkyView::merged(rays)

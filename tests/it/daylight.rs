@@ -359,14 +359,13 @@ fn a_clear_sky_through_a_roof_opening_matches_quadrature() {
         );
         worst = worst.max(err);
     }
-    // Measured: 0.03 to 0.40 %. The overcast sky through such openings agrees within 0.3 %.
+    // Measured: 0.03 to 0.30 %. The overcast sky through such openings agrees within 0.3 %.
     assert!(worst < 0.01, "worst point off by {:.3} %", 100.0 * worst);
 }
 
-/// An 8 × 8 × 4 m black hall (x, z in 0 … 8) whose only opening is a 6 × 1 m clerestory
-/// strip high in its south wall (z = 8, x 1 … 7, y 2.8 … 3.8), as in the bundled rooflight
-/// hall.
-fn clerestory_hall() -> TempScene {
+/// An 8 × 8 × 4 m black hall (x, z in 0 … 8) whose only opening is a 6 m clerestory strip
+/// high in its south wall (z = 8, x 1 … 7, y `y0` … `y1`).
+fn clerestory_hall((y0, y1): (f64, f64)) -> TempScene {
     let (w, h) = (8.0, 4.0);
     let mut obj = String::new();
     let mut face = |name: &str, p: [[f64; 3]; 4], n: [f64; 3]| obj += &quad(name, "black", p, n);
@@ -396,10 +395,10 @@ fn clerestory_hall() -> TempScene {
         [0., 0., 1.],
     );
     for (name, (x0, x1), (y0, y1)) in [
-        ("south1", (0.0, w), (0.0, 2.8)),
-        ("south2", (0.0, w), (3.8, h)),
-        ("south3", (0.0, 1.0), (2.8, 3.8)),
-        ("south4", (7.0, w), (2.8, 3.8)),
+        ("south1", (0.0, w), (0.0, y0)),
+        ("south2", (0.0, w), (y1, h)),
+        ("south3", (0.0, 1.0), (y0, y1)),
+        ("south4", (7.0, w), (y0, y1)),
     ] {
         face(
             name,
@@ -414,12 +413,11 @@ fn clerestory_hall() -> TempScene {
 /// The points' sky views were sampled on a grid of equal cosine-weighted cells, which near
 /// the receiver's plane span 11° of altitude: a 1 m clerestory seen 15–22° above the work
 /// plane from the far side of a hall slipped between the cells' rays, and the points read
-/// 5–20 % low (found against Radiance in the black rooflight hall under a clear sky).
+/// 12–20 % low (found against Radiance in the black rooflight hall under a clear sky; the
+/// strip alone, up to 72 % low).
 #[test]
 fn a_clerestory_seen_low_over_the_work_plane_is_not_missed() {
     let _gate = common::shared();
-    let s = clerestory_hall();
-    let m = model(&s, TransferMode::Factored);
     let (alt, az) = (55f64.to_radians(), 200f64.to_radians());
     let sun = DVec3::new(az.sin() * alt.cos(), alt.sin(), -az.cos() * alt.cos());
     let clear = |d: DVec3| cie_clear(d, sun);
@@ -435,38 +433,58 @@ fn a_clerestory_seen_low_over_the_work_plane_is_not_missed() {
         [4.0, 0.85, 4.0],
         [2.0, 0.0, 6.5],
     ];
-    let strip = |u: f64, v: f64| DVec3::new(1.0 + 6.0 * u, 2.8 + v, 8.0);
-    let mut worst: f64 = 0.0;
-    for (name, sky, lum) in [
-        (
-            "clear",
-            json!({"type": "cie_clear", "horizontal_illuminance": h,
-                   "direct_normal_illuminance": 0, "sun": {"altitude": 55, "azimuth": 200}}),
-            &clear as &dyn Fn(DVec3) -> f64,
-        ),
-        (
-            "overcast",
-            json!({"type": "cie_overcast", "horizontal_illuminance": h}),
-            &overcast as &dyn Fn(DVec3) -> f64,
-        ),
-    ] {
-        let eh = horizontal(lum);
-        let a = ask(&m, sky, &pts);
-        for (p, got) in pts.iter().zip(&a.points) {
-            let e = sky_through(DVec3::from_array(*p), strip, 6.0, DVec3::NEG_Z, lum);
-            let want = h * e / eh;
-            let err = (got.lux - want).abs() / want;
-            println!(
-                "{name} sky through the clerestory at {p:?}: {:.2} lx, quadrature {want:.2} lx, {:.3} %",
-                got.lux,
-                100.0 * (got.lux / want - 1.0)
-            );
-            worst = worst.max(err);
+    // The bundled hall's 1 m strip, and a 0.3 m one: 2.2° high seen from the far corners,
+    // 3.6° from the middle, so hardly wider than a cell of the sky view.
+    let mut worst = [0f64; 2];
+    for (strip_i, (y0, y1)) in [(2.8, 3.8), (3.0, 3.3)].into_iter().enumerate() {
+        let m = model(&clerestory_hall((y0, y1)), TransferMode::Factored);
+        let strip = |u: f64, v: f64| DVec3::new(1.0 + 6.0 * u, y0 + (y1 - y0) * v, 8.0);
+        for (name, sky, lum) in [
+            (
+                "clear",
+                json!({"type": "cie_clear", "horizontal_illuminance": h,
+                       "direct_normal_illuminance": 0, "sun": {"altitude": 55, "azimuth": 200}}),
+                &clear as &dyn Fn(DVec3) -> f64,
+            ),
+            (
+                "overcast",
+                json!({"type": "cie_overcast", "horizontal_illuminance": h}),
+                &overcast as &dyn Fn(DVec3) -> f64,
+            ),
+        ] {
+            let eh = horizontal(lum);
+            let a = ask(&m, sky, &pts);
+            for (p, got) in pts.iter().zip(&a.points) {
+                let area = 6.0 * (y1 - y0);
+                let e = sky_through(DVec3::from_array(*p), strip, area, DVec3::NEG_Z, lum);
+                let want = h * e / eh;
+                println!(
+                    "{name} sky through the clerestory {y0}..{y1} m at {p:?}: {:.2} lx, \
+                     quadrature {want:.2} lx, {:+.3} %",
+                    got.lux,
+                    100.0 * (got.lux / want - 1.0)
+                );
+                worst[strip_i] = worst[strip_i].max((got.lux - want).abs() / want);
+            }
         }
     }
-    // Measured: 0.04 to 0.68 % (the worst in the hall's middle, under both skies alike:
-    // the sub-cell steps along the strip's outline).
-    assert!(worst < 0.01, "worst point off by {:.3} %", 100.0 * worst);
+    println!(
+        "worst: {:.3} % (1 m), {:.3} % (0.3 m)",
+        100.0 * worst[0],
+        100.0 * worst[1]
+    );
+    // Measured: within 0.31 % through the 1 m strip, and within 1.9 % through the 0.3 m
+    // one, whose outline is long for its area (the edges are resolved to about 0.3°).
+    assert!(
+        worst[0] < 0.01,
+        "1 m strip: worst point off by {:.3} %",
+        100.0 * worst[0]
+    );
+    assert!(
+        worst[1] < 0.025,
+        "0.3 m strip: worst point off by {:.3} %",
+        100.0 * worst[1]
+    );
 }
 
 #[test]
