@@ -93,7 +93,18 @@ fn ask(m: &Model, sky: serde_json::Value, points: &[[f64; 3]]) -> DaylightAnswer
 /// sky seen through the opening `corners(u, v)` (u, v in 0 … 1) of area `area` with unit
 /// normal `nw` facing the point: a 600 × 600 midpoint quadrature.
 fn overcast_through(p: DVec3, corners: impl Fn(f64, f64) -> DVec3, area: f64, nw: DVec3) -> f64 {
-    sky_through(p, corners, area, nw, |d| (1.0 + 2.0 * d.y) / 3.0)
+    sky_through(p, corners, area, nw, cie_overcast)
+}
+
+/// The CIE overcast sky's relative luminance towards the unit direction `d` (+y up).
+fn cie_overcast(d: DVec3) -> f64 {
+    (1.0 + 2.0 * d.y) / 3.0
+}
+
+/// The unit direction of altitude `alt` and azimuth `az` (radians, from north clockwise):
+/// north is -z and east +x, the default frame.
+fn towards(alt: f64, az: f64) -> DVec3 {
+    DVec3::new(az.sin() * alt.cos(), alt.sin(), -az.cos() * alt.cos())
 }
 
 /// Illuminance at `p` facing up from the sky of luminance `lum(direction)` seen through
@@ -140,7 +151,7 @@ fn horizontal(lum: impl Fn(DVec3) -> f64) -> f64 {
         let alt = (i as f64 + 0.5) * da;
         for j in 0..nz {
             let az = (j as f64 + 0.5) * dz;
-            let d = DVec3::new(az.sin() * alt.cos(), alt.sin(), -az.cos() * alt.cos());
+            let d = towards(alt, az);
             // dω = cos(alt) dalt daz, and the receiver's cosine is sin(alt).
             e += lum(d) * alt.sin() * alt.cos() * da * dz;
         }
@@ -321,9 +332,7 @@ fn a_clear_sky_through_a_roof_opening_matches_quadrature() {
         &format!("{SITE}[mesh]\ntarget_patches = 300\n"),
     );
     let m = model(&s, TransferMode::Factored);
-    let (alt, az) = (50f64.to_radians(), 225f64.to_radians());
-    // North is -z and east +x (the default frame); azimuth from north, clockwise.
-    let sun = DVec3::new(az.sin() * alt.cos(), alt.sin(), -az.cos() * alt.cos());
+    let sun = towards(50f64.to_radians(), 225f64.to_radians());
     let lum = |d: DVec3| cie_clear(d, sun);
     let eh = horizontal(lum);
     let h = 15000.0;
@@ -418,10 +427,8 @@ fn clerestory_hall((y0, y1): (f64, f64)) -> TempScene {
 #[test]
 fn a_clerestory_seen_low_over_the_work_plane_is_not_missed() {
     let _gate = common::shared();
-    let (alt, az) = (55f64.to_radians(), 200f64.to_radians());
-    let sun = DVec3::new(az.sin() * alt.cos(), alt.sin(), -az.cos() * alt.cos());
+    let sun = towards(55f64.to_radians(), 200f64.to_radians());
     let clear = |d: DVec3| cie_clear(d, sun);
-    let overcast = |d: DVec3| (1.0 + 2.0 * d.y) / 3.0;
     let h = 15000.0;
     let pts = [
         [0.75, 0.85, 0.75],
@@ -449,7 +456,7 @@ fn a_clerestory_seen_low_over_the_work_plane_is_not_missed() {
             (
                 "overcast",
                 json!({"type": "cie_overcast", "horizontal_illuminance": h}),
-                &overcast as &dyn Fn(DVec3) -> f64,
+                &cie_overcast as &dyn Fn(DVec3) -> f64,
             ),
         ] {
             let eh = horizontal(lum);
