@@ -3,6 +3,8 @@
 //! c90 = aim × c0), and their integral over the sphere (lm per cd of the shape; for
 //! absolute IES tables, lumens).
 
+use std::f64::consts::PI;
+
 use super::table::{CandelaTable, PhotometricType};
 
 /// The shape of a luminous intensity distribution.
@@ -85,26 +87,35 @@ impl Distribution {
             }
             _ => {
                 // Midpoint rule: 0.25° in θ, 1° in φ, exact enough for tables at 1–5°.
-                let (nt, np) = (720, 360);
-                let (dt, dp) = (
-                    std::f64::consts::PI / nt as f64,
-                    2.0 * std::f64::consts::PI / np as f64,
-                );
-                let mut sum = 0.0;
-                for i in 0..nt {
-                    let t = (i as f64 + 0.5) * dt;
-                    let (st, ct) = t.sin_cos();
-                    let mut ring = 0.0;
-                    for j in 0..np {
-                        let p = (j as f64 + 0.5) * dp;
-                        ring += self.shape(ct, st * p.cos(), st * p.sin());
-                    }
-                    sum += ring * st * dt * dp;
-                }
-                sum
+                let rings =
+                    sphere_rings(720, 360, |ct, st, cp, sp| self.shape(ct, st * cp, st * sp));
+                rings.iter().sum()
             }
         }
     }
+}
+
+/// The integral of `f` over each of `nt` rings of the unit sphere, in order of θ from the
+/// pole: the midpoint rule on `nt` steps of θ and `np` of φ. `f` takes (cos θ, sin θ,
+/// cos φ, sin φ).
+pub(crate) fn sphere_rings(
+    nt: usize,
+    np: usize,
+    f: impl Fn(f64, f64, f64, f64) -> f64,
+) -> Vec<f64> {
+    let (dt, dp) = (PI / nt as f64, 2.0 * PI / np as f64);
+    (0..nt)
+        .map(|i| {
+            let (st, ct) = ((i as f64 + 0.5) * dt).sin_cos();
+            let ring: f64 = (0..np)
+                .map(|j| {
+                    let (sp, cp) = ((j as f64 + 0.5) * dp).sin_cos();
+                    f(ct, st, cp, sp)
+                })
+                .sum();
+            ring * st * dt * dp
+        })
+        .collect()
 }
 
 #[cfg(test)]

@@ -98,10 +98,11 @@ impl LuminousOpening {
         }
     }
 
-    /// The largest dimension, metres (0 for a point).
-    pub fn largest_dimension(&self) -> f64 {
+    /// The extents along c0, c90 and the aim (for a flat opening, the height of its
+    /// luminous sides), metres; zeros for a point.
+    fn extents(&self) -> [f64; 3] {
         match *self {
-            LuminousOpening::Point => 0.0,
+            LuminousOpening::Point => [0.0; 3],
             LuminousOpening::Rectangle {
                 along_c0,
                 along_c90,
@@ -111,13 +112,18 @@ impl LuminousOpening {
                 along_c0,
                 along_c90,
                 sides,
-            } => along_c0.max(along_c90).max(sides),
+            } => [along_c0, along_c90, sides],
             LuminousOpening::Sphere {
                 along_c0,
                 along_c90,
                 along_aim,
-            } => along_c0.max(along_c90).max(along_aim),
+            } => [along_c0, along_c90, along_aim],
         }
+    }
+
+    /// The largest dimension, metres (0 for a point).
+    pub fn largest_dimension(&self) -> f64 {
+        self.extents().into_iter().fold(0.0, f64::max)
     }
 
     /// The luminous area seen from a direction given in the luminaire frame by its
@@ -126,34 +132,21 @@ impl LuminousOpening {
     /// and spheres from everywhere.
     pub fn projected_area(&self, a: f64, c0: f64, c90: f64) -> f64 {
         use std::f64::consts::FRAC_PI_4;
-        match *self {
+        // x along c0, y along c90, z along the aim (the sides' height when flat).
+        let [x, y, z] = self.extents();
+        match self {
             LuminousOpening::Point => 0.0,
-            LuminousOpening::Rectangle {
-                along_c0,
-                along_c90,
-                sides,
-            } => {
-                along_c0 * along_c90 * a.max(0.0)
-                    + sides * (along_c90 * c0.abs() + along_c0 * c90.abs())
+            LuminousOpening::Rectangle { .. } => {
+                x * y * a.max(0.0) + z * (y * c0.abs() + x * c90.abs())
             }
-            LuminousOpening::Disk {
-                along_c0,
-                along_c90,
-                sides,
-            } => {
+            LuminousOpening::Disk { .. } => {
                 // The mantle of an elliptic cylinder seen from the side: its width across
                 // the view times its height.
-                let across = (c0 * along_c90).hypot(c90 * along_c0) / c0.hypot(c90).max(1e-12);
-                FRAC_PI_4 * along_c0 * along_c90 * a.max(0.0)
-                    + sides * across * (1.0 - a * a).max(0.0).sqrt()
+                let across = (c0 * y).hypot(c90 * x) / c0.hypot(c90).max(1e-12);
+                FRAC_PI_4 * x * y * a.max(0.0) + z * across * (1.0 - a * a).max(0.0).sqrt()
             }
-            LuminousOpening::Sphere {
-                along_c0,
-                along_c90,
-                along_aim,
-            } => {
-                // An ellipsoid's silhouette: π/4 · √((bc·x)² + (ac·y)² + (ab·z)²).
-                let (x, y, z) = (along_c0, along_c90, along_aim);
+            LuminousOpening::Sphere { .. } => {
+                // An ellipsoid's silhouette: π/4 · √((yz·c0)² + (xz·c90)² + (xy·a)²).
                 FRAC_PI_4
                     * ((y * z * c0).powi(2) + (x * z * c90).powi(2) + (x * y * a).powi(2)).sqrt()
             }

@@ -50,6 +50,7 @@
 
 use glam::DVec3;
 
+use super::distribution::sphere_rings;
 use super::glare::{guth_position_index, ugr, GlareSource};
 use super::{CandelaTable, Distribution, Luminaire, LuminaireSpec, LuminousOpening};
 
@@ -267,25 +268,18 @@ pub struct UgrTable {
 /// of `lum` aimed down: rings of 0.05° in γ, 2° in C, midpoint rule, the cumulative flux
 /// interpolated linearly inside the ring a cone's edge falls in.
 fn cone_fluxes(lum: &Luminaire) -> ([f64; 4], f64) {
-    let (nt, np) = (3600usize, 180usize);
-    let (dt, dp) = (
-        std::f64::consts::PI / nt as f64,
-        2.0 * std::f64::consts::PI / np as f64,
-    );
+    let nt = 3600;
+    let dt = std::f64::consts::PI / nt as f64;
     let (c0, c90, aim) = (lum.c0, lum.c90(), lum.aim);
+    let rings = sphere_rings(nt, 180, |cg, sg, cc, sc| {
+        lum.intensity(aim * cg + c0 * (sg * cc) + c90 * (sg * sc))
+    });
     // cumulative[i]: flux from γ = 0 to γ = i·dt.
     let mut cumulative = Vec::with_capacity(nt + 1);
     cumulative.push(0.0);
     let mut sum = 0.0;
-    for i in 0..nt {
-        let g = (i as f64 + 0.5) * dt;
-        let (sg, cg) = g.sin_cos();
-        let mut ring = 0.0;
-        for j in 0..np {
-            let (sc, cc) = ((j as f64 + 0.5) * dp).sin_cos();
-            ring += lum.intensity(aim * cg + c0 * (sg * cc) + c90 * (sg * sc));
-        }
-        sum += ring * sg * dt * dp;
+    for r in rings {
+        sum += r;
         cumulative.push(sum);
     }
     let at = |deg: f64| {

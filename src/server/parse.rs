@@ -54,10 +54,10 @@ impl<S: Send + Sync> FromRequestParts<S> for SceneId {
     }
 }
 
-/// The ready scene of a `{id}` route: 404 for an unknown scene, 503 while it is queued
-/// or baking or when it failed. A POST handler takes it before its body, so these answers
-/// come before any about the body.
-pub(crate) struct ReadyScene(pub Arc<Ready>);
+/// The ready scene of a `{id}` route, and the server state: 404 for an unknown scene,
+/// 503 while it is queued or baking or when it failed. A POST handler takes it before its
+/// body, so these answers come before any about the body.
+pub(crate) struct ReadyScene(pub Arc<Ready>, pub Arc<AppState>);
 
 impl FromRequestParts<Arc<AppState>> for ReadyScene {
     type Rejection = AppError;
@@ -67,7 +67,7 @@ impl FromRequestParts<Arc<AppState>> for ReadyScene {
         state: &Arc<AppState>,
     ) -> Result<Self, Self::Rejection> {
         let SceneId(id) = SceneId::from_request_parts(parts, state).await?;
-        Ok(ReadyScene(state.slot(&id)?.ready()?))
+        Ok(ReadyScene(state.slot(&id)?.ready()?, state.clone()))
     }
 }
 
@@ -95,7 +95,7 @@ impl<T: DeserializeOwned + Send + 'static> FromRequest<Arc<AppState>> for SceneP
 
     async fn from_request(req: Request, state: &Arc<AppState>) -> Result<Self, Self::Rejection> {
         let (mut parts, body) = req.into_parts();
-        let ReadyScene(ready) = ReadyScene::from_request_parts(&mut parts, state).await?;
+        let ReadyScene(ready, _) = ReadyScene::from_request_parts(&mut parts, state).await?;
         let request = Request::from_parts(parts, body);
         let StrictJson(body) = StrictJson::from_request(request, state).await?;
         Ok(ScenePost(ready, state.clone(), body))

@@ -147,7 +147,9 @@ impl Modify for Constraints {
             Target, Exposure, RadiosityRequest, IlluminanceRequest, BatchRequest,
             OptimizeRequest, RenderRequest, ProblemDetails, Rgb, Millis, DaylightRequest, AnnualRequest,
             GlareRequest, Observer,
-            PngImage, JpegImage, ExrImage, GlbModel, MeshBinary, ReportDocument,
+            PngImage, JpegImage, ExrImage, GlbModel, MeshBinary, ReportDocument, PatchesBinary,
+            RadiosityBinary, crate::server::routes::radiosity::RadiosityResponse,
+            crate::server::routes::scenes::Patches,
             crate::model::sky_state::SkySpec, crate::model::sky_state::SunPosition,
         ),
         responses(BadRequest, BadQuery, NotFound, Unauthorized, Forbidden, Conflict, TooLarge, UnsupportedMediaType, Invalid, Unavailable),
@@ -156,44 +158,36 @@ impl Modify for Constraints {
 )]
 struct ApiDoc;
 
-/// Response headers that every such answer carries (utoipa's headers have no
-/// `required`): path, method, status, header.
-const REQUIRED_HEADERS: &[(&str, &str, &str, &str)] = &[
-    ("/api/scenes/{id}/mesh", "get", "200", "X-Relight-Layout"),
+/// Response headers that every 200 answer of a scene's path (under `/api/scenes/{id}/`)
+/// and method carries (utoipa's headers have no `required`).
+const REQUIRED_HEADERS: &[(&str, &str, &[&str])] = &[
+    ("mesh", "get", &["X-Relight-Layout"]),
+    ("render", "post", &["X-Relight-Render-Ms", "Cache-Control"]),
     (
-        "/api/scenes/{id}/render",
-        "post",
-        "200",
-        "X-Relight-Render-Ms",
-    ),
-    ("/api/scenes/{id}/render", "post", "200", "Cache-Control"),
-    (
-        "/api/scenes/{id}/render.png",
+        "render.png",
         "get",
-        "200",
-        "X-Relight-Render-Ms",
+        &["X-Relight-Render-Ms", "Cache-Control"],
     ),
-    ("/api/scenes/{id}/render.png", "get", "200", "Cache-Control"),
-    (
-        "/api/scenes/{id}/report",
-        "get",
-        "200",
-        "X-Relight-Report-Ms",
-    ),
-    ("/api/scenes/{id}/report", "get", "200", "Cache-Control"),
+    ("report", "get", &["X-Relight-Report-Ms", "Cache-Control"]),
 ];
 
 /// The document.
 pub(crate) fn spec() -> Value {
     let mut doc = serde_json::to_value(ApiDoc::openapi()).expect("the document serializes");
-    for (path, method, status, name) in REQUIRED_HEADERS {
-        let header = doc
-            .get_mut("paths")
-            .and_then(|p| p.get_mut(*path)?.get_mut(*method)?.get_mut("responses"))
-            .and_then(|r| r.get_mut(*status)?.get_mut("headers")?.get_mut(*name))
-            .and_then(Value::as_object_mut);
-        if let Some(h) = header {
-            h.insert("required".into(), json!(true));
+    for (path, method, names) in REQUIRED_HEADERS {
+        for name in *names {
+            let header = doc
+                .get_mut("paths")
+                .and_then(|p| {
+                    p.get_mut(format!("/api/scenes/{{id}}/{path}"))?
+                        .get_mut(*method)
+                })
+                .and_then(|m| m.get_mut("responses"))
+                .and_then(|r| r.get_mut("200")?.get_mut("headers")?.get_mut(*name))
+                .and_then(Value::as_object_mut);
+            if let Some(h) = header {
+                h.insert("required".into(), json!(true));
+            }
         }
     }
     if let Some(h) = doc

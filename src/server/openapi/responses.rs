@@ -306,6 +306,47 @@ answer!(GlbFile, {
         vec![("model/gltf-binary", of::<GlbModel>())],
     )
 });
+/// JSON, or the same numbers as binary with `Accept: application/octet-stream`; `count`
+/// describes the binary answer's `X-Relight-Patches`.
+fn json_or_binary(
+    description: &str,
+    count: &str,
+    json: &str,
+    binary: Ref,
+) -> BTreeMap<String, RefOr<Response>> {
+    let layout = "Binary answer: the layout of the bytes.";
+    ok(
+        description,
+        vec![
+            ("X-Relight-Patches", header(u64::schema(), count)),
+            ("X-Relight-Layout", header(String::schema(), layout)),
+        ],
+        vec![
+            ("application/json", Ref::from_schema_name(json)),
+            ("application/octet-stream", binary),
+        ],
+    )
+}
+// POST …/radiosity.
+answer!(
+    RadiosityAnswer,
+    json_or_binary(
+        "Per-patch radiosity in lm/m² (or, with quantity = illuminance, incident illuminance in lux), in patch order.",
+        "Binary answer: the number of patches n.",
+        "RadiosityResponse",
+        of::<RadiosityBinary>(),
+    )
+);
+// GET …/patches.
+answer!(
+    PatchesAnswer,
+    json_or_binary(
+        "Patches in patch order.",
+        "Binary answer: the number of patches.",
+        "Patches",
+        of::<PatchesBinary>(),
+    )
+);
 // GET …/mesh and …/mesh/preview.
 answer!(
     MeshBuffer,

@@ -6,31 +6,17 @@ use utoipa::openapi::schema::Schema;
 use utoipa::openapi::RefOr;
 use utoipa::ToSchema;
 
-use super::lighting::{lighting, Emission, Lights};
-use super::{names, object_only, raw, schema_ref, some};
-use crate::model::{Lighting, Model};
+use super::{lit_request, names, object_only, raw, schema_ref, some};
+use crate::model::Model;
 use crate::server::parse::{grid_list, surface_list, MAX_BATCH};
 use crate::server::AppError;
 
-/// Group settings (`lights`) or, in factored mode, a per-patch `emission`; not both.
-#[derive(Debug, Deserialize, ToSchema)]
-#[serde(remote = "Self", deny_unknown_fields)]
-pub(crate) struct LightingState {
-    #[serde(default, deserialize_with = "some")]
-    #[schema(nullable = false)]
-    lights: Option<Lights>,
-    #[serde(default, deserialize_with = "some")]
-    #[schema(nullable = false)]
-    emission: Option<Emission>,
+lit_request! {
+    /// Group settings (`lights`) or, in factored mode, a per-patch `emission`; not both.
+    LightingState, "an object {lights} or {emission}" {}
 }
 
-object_only!(LightingState, "an object {lights} or {emission}");
-
 impl LightingState {
-    pub(crate) fn lighting(&self, model: &Model) -> Result<Lighting, AppError> {
-        lighting(self.lights.as_ref(), self.emission.as_ref(), model)
-    }
-
     pub(crate) fn is_emission(&self) -> bool {
         self.emission.is_some()
     }

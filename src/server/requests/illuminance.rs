@@ -2,18 +2,19 @@
 //! and the daylight request report on.
 
 use std::collections::BTreeMap;
-use std::fmt;
 
 use glam::DVec3;
-use serde::de::{Deserializer, MapAccess, Visitor};
+use serde::de::MapAccess;
 use serde::Deserialize;
 use serde_json::json;
 use utoipa::openapi::schema::Schema;
 use utoipa::openapi::RefOr;
 use utoipa::ToSchema;
 
-use super::lighting::{lighting, Direction, Emission, Lights, Position};
-use super::{grid_ids, names, object_only, raw, schema_ref, some};
+use super::lighting::{Direction, Position};
+use super::{
+    deserialize_by, grid_ids, lit_request, names, object_only, raw, schema_ref, some, visit_numbers,
+};
 use crate::model::query::{Factors, IlluminanceQuery};
 use crate::model::{Lighting, Model};
 use crate::server::parse::{
@@ -42,40 +43,32 @@ pub(super) fn report_surfaces() -> RefOr<Schema> {
     names("Surfaces to report (default: all when no points or grids are asked for).")
 }
 
-/// A lighting state and where to report illuminance.
-#[derive(Debug, Deserialize, ToSchema)]
-#[serde(remote = "Self", deny_unknown_fields)]
-pub(crate) struct IlluminanceRequest {
-    #[serde(default, deserialize_with = "some")]
-    #[schema(nullable = false)]
-    lights: Option<Lights>,
-    #[serde(default, deserialize_with = "some")]
-    #[schema(nullable = false)]
-    emission: Option<Emission>,
-    #[serde(default, deserialize_with = "some")]
-    #[schema(schema_with = report_surfaces)]
-    surfaces: Option<Vec<String>>,
-    #[serde(default)]
-    #[schema(schema_with = points_schema)]
-    points: Vec<Point>,
-    #[serde(default)]
-    #[schema(schema_with = grid_ids)]
-    grids: Vec<String>,
-    #[serde(default, deserialize_with = "some")]
-    #[schema(schema_with = maintenance_schema)]
-    maintenance_factor: Option<MaintenanceFactor>,
-    /// Requirements per grid id (EN 12464-1), replacing the scene's; a grid named here is
-    /// reported.
-    #[serde(default)]
-    requirements: BTreeMap<String, crate::scene::Requirements>,
+lit_request! {
+    /// A lighting state and where to report illuminance.
+    IlluminanceRequest, "a JSON object" {
+        #[serde(default, deserialize_with = "some")]
+        #[schema(schema_with = report_surfaces)]
+        surfaces: Option<Vec<String>>,
+        #[serde(default)]
+        #[schema(schema_with = points_schema)]
+        points: Vec<Point>,
+        #[serde(default)]
+        #[schema(schema_with = grid_ids)]
+        grids: Vec<String>,
+        #[serde(default, deserialize_with = "some")]
+        #[schema(schema_with = maintenance_schema)]
+        maintenance_factor: Option<MaintenanceFactor>,
+        /// Requirements per grid id (EN 12464-1), replacing the scene's; a grid named here is
+        /// reported.
+        #[serde(default)]
+        requirements: BTreeMap<String, crate::scene::Requirements>,
+    }
 }
-
-object_only!(IlluminanceRequest, "a JSON object");
 
 impl IlluminanceRequest {
     /// The lighting state and the query; nothing asked for means every surface.
     pub(crate) fn query(&self, model: &Model) -> Result<(Lighting, IlluminanceQuery), AppError> {
-        let lighting = lighting(self.lights.as_ref(), self.emission.as_ref(), model)?;
+        let lighting = self.lighting(model)?;
         let mut q = report_query(self.surfaces.as_deref(), &self.grids, &self.points, model)?;
         q.maintenance = self
             .maintenance_factor
@@ -103,32 +96,17 @@ pub(crate) enum MaintenanceFactor {
     ByGroup(BTreeMap<String, f64>),
 }
 
-impl<'de> Deserialize<'de> for MaintenanceFactor {
-    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
-        struct V;
-        impl<'de> Visitor<'de> for V {
-            type Value = MaintenanceFactor;
-            fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
-                f.write_str("a number in (0, 1] or an object {group id: number}")
-            }
-            fn visit_f64<E: serde::de::Error>(self, v: f64) -> Result<Self::Value, E> {
-                Ok(MaintenanceFactor::All(v))
-            }
-            fn visit_u64<E: serde::de::Error>(self, v: u64) -> Result<Self::Value, E> {
-                Ok(MaintenanceFactor::All(v as f64))
-            }
-            fn visit_i64<E: serde::de::Error>(self, v: i64) -> Result<Self::Value, E> {
-                Ok(MaintenanceFactor::All(v as f64))
-            }
-            fn visit_map<A: MapAccess<'de>>(self, mut map: A) -> Result<Self::Value, A::Error> {
-                let mut out = BTreeMap::new();
-                while let Some((k, v)) = map.next_entry::<String, f64>()? {
-                    out.insert(k, v);
-                }
-                Ok(MaintenanceFactor::ByGroup(out))
-            }
+deserialize_by! {
+    MaintenanceFactor,
+    "a number in (0, 1] or an object {group id: number}",
+    deserialize_any,
+    visit_numbers!(MaintenanceFactor::All);
+    fn visit_map<A: MapAccess<'de>>(self, mut map: A) -> Result<Self::Value, A::Error> {
+        let mut out = BTreeMap::new();
+        while let Some((k, v)) = map.next_entry::<String, f64>()? {
+            out.insert(k, v);
         }
-        d.deserialize_any(V)
+        Ok(MaintenanceFactor::ByGroup(out))
     }
 }
 

@@ -3,16 +3,15 @@
 //! `{"<index>": [r, g, b]}`, lm/m²); and the triples requests are made of.
 
 use std::collections::BTreeMap;
-use std::fmt;
 
-use serde::de::{Deserializer, MapAccess, SeqAccess, Visitor};
+use serde::de::{MapAccess, SeqAccess};
 use serde::Deserialize;
 use serde_json::json;
 use utoipa::openapi::schema::Schema;
 use utoipa::openapi::RefOr;
 use utoipa::{PartialSchema, ToSchema};
 
-use super::{raw, schema_ref, some};
+use super::{deserialize_by, raw, schema_ref, some, visit_numbers};
 use crate::color::Rgb;
 use crate::model::lighting::{LightState, MAX_EMISSION, MAX_INTENSITY};
 use crate::model::sky_state::{SkySpec, SkyState};
@@ -26,19 +25,12 @@ use crate::server::AppError;
 #[derive(Debug, Clone, Copy)]
 pub(crate) struct Triple(pub [f64; 3]);
 
-impl<'de> Deserialize<'de> for Triple {
-    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
-        struct V;
-        impl<'de> Visitor<'de> for V {
-            type Value = Triple;
-            fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
-                f.write_str("an array of three numbers")
-            }
-            fn visit_seq<A: SeqAccess<'de>>(self, seq: A) -> Result<Triple, A::Error> {
-                numbers(seq, &self).map(Triple)
-            }
-        }
-        d.deserialize_seq(V)
+deserialize_by! {
+    Triple,
+    "an array of three numbers",
+    deserialize_seq,
+    fn visit_seq<A: SeqAccess<'de>>(self, seq: A) -> Result<Triple, A::Error> {
+        numbers(seq, &self).map(Triple)
     }
 }
 
@@ -143,29 +135,14 @@ impl LightSetting {
     }
 }
 
-impl<'de> Deserialize<'de> for LightSetting {
-    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
-        struct V;
-        impl<'de> Visitor<'de> for V {
-            type Value = LightSetting;
-            fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
-                f.write_str("a number (the intensity) or an object {intensity, color}")
-            }
-            fn visit_f64<E>(self, x: f64) -> Result<LightSetting, E> {
-                Ok(LightSetting::Intensity(x))
-            }
-            fn visit_i64<E>(self, x: i64) -> Result<LightSetting, E> {
-                Ok(LightSetting::Intensity(x as f64))
-            }
-            fn visit_u64<E>(self, x: u64) -> Result<LightSetting, E> {
-                Ok(LightSetting::Intensity(x as f64))
-            }
-            fn visit_map<A: MapAccess<'de>>(self, map: A) -> Result<LightSetting, A::Error> {
-                let de = serde::de::value::MapAccessDeserializer::new(map);
-                SettingFields::deserialize(de).map(LightSetting::Fields)
-            }
-        }
-        d.deserialize_any(V)
+deserialize_by! {
+    LightSetting,
+    "a number (the intensity) or an object {intensity, color}",
+    deserialize_any,
+    visit_numbers!(LightSetting::Intensity);
+    fn visit_map<A: MapAccess<'de>>(self, map: A) -> Result<LightSetting, A::Error> {
+        let de = serde::de::value::MapAccessDeserializer::new(map);
+        SettingFields::deserialize(de).map(LightSetting::Fields)
     }
 }
 
@@ -190,30 +167,23 @@ pub(crate) enum Emission {
     Sparse(BTreeMap<String, Triple>),
 }
 
-impl<'de> Deserialize<'de> for Emission {
-    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
-        struct V;
-        impl<'de> Visitor<'de> for V {
-            type Value = Emission;
-            fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
-                f.write_str("an array of [r,g,b] per patch or an object of patch index → [r,g,b]")
-            }
-            fn visit_seq<A: SeqAccess<'de>>(self, mut seq: A) -> Result<Emission, A::Error> {
-                let mut out = Vec::with_capacity(seq.size_hint().unwrap_or(0).min(4096));
-                while let Some(t) = seq.next_element()? {
-                    out.push(t);
-                }
-                Ok(Emission::Dense(out))
-            }
-            fn visit_map<A: MapAccess<'de>>(self, mut map: A) -> Result<Emission, A::Error> {
-                let mut out = BTreeMap::new();
-                while let Some((k, t)) = map.next_entry()? {
-                    out.insert(k, t);
-                }
-                Ok(Emission::Sparse(out))
-            }
+deserialize_by! {
+    Emission,
+    "an array of [r,g,b] per patch or an object of patch index → [r,g,b]",
+    deserialize_any,
+    fn visit_seq<A: SeqAccess<'de>>(self, mut seq: A) -> Result<Emission, A::Error> {
+        let mut out = Vec::with_capacity(seq.size_hint().unwrap_or(0).min(4096));
+        while let Some(t) = seq.next_element()? {
+            out.push(t);
         }
-        d.deserialize_any(V)
+        Ok(Emission::Dense(out))
+    }
+    fn visit_map<A: MapAccess<'de>>(self, mut map: A) -> Result<Emission, A::Error> {
+        let mut out = BTreeMap::new();
+        while let Some((k, t)) = map.next_entry()? {
+            out.insert(k, t);
+        }
+        Ok(Emission::Sparse(out))
     }
 }
 

@@ -56,27 +56,93 @@ pub(crate) fn some<'de, D: Deserializer<'de>, T: Deserialize<'de>>(
 /// array of the fields in order, which the API does not.
 macro_rules! object_only {
     ($t:ty, $expecting:literal) => {
-        impl<'de> serde::Deserialize<'de> for $t {
-            fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
-                struct ObjectVisitor;
-                impl<'de> serde::de::Visitor<'de> for ObjectVisitor {
-                    type Value = $t;
-                    fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
-                        f.write_str($expecting)
-                    }
-                    fn visit_map<A: serde::de::MapAccess<'de>>(
-                        self,
-                        map: A,
-                    ) -> Result<$t, A::Error> {
-                        <$t>::deserialize(serde::de::value::MapAccessDeserializer::new(map))
-                    }
-                }
-                d.deserialize_map(ObjectVisitor)
+        $crate::server::requests::deserialize_by!(
+            $t,
+            $expecting,
+            deserialize_map,
+            fn visit_map<A: serde::de::MapAccess<'de>>(self, map: A) -> Result<$t, A::Error> {
+                <$t>::deserialize(serde::de::value::MapAccessDeserializer::new(map))
+            }
+        );
+    };
+}
+pub(crate) use object_only;
+
+/// Declares a request body that carries a lighting state: the struct, with the optional
+/// `lights` (group settings) and `emission` (per-patch exitance) before its own fields,
+/// both never `null`; its object-only `Deserialize`; and `fn lighting`, which resolves the
+/// state (at most one of the two).
+macro_rules! lit_request {
+    ($(#[$m:meta])* $name:ident, $expecting:literal { $($fields:tt)* }) => {
+        $(#[$m])*
+        #[derive(Debug, serde::Deserialize, utoipa::ToSchema)]
+        #[serde(remote = "Self", deny_unknown_fields)]
+        pub(crate) struct $name {
+            #[serde(default, deserialize_with = "crate::server::requests::some")]
+            #[schema(nullable = false)]
+            lights: Option<$crate::server::requests::lighting::Lights>,
+            #[serde(default, deserialize_with = "crate::server::requests::some")]
+            #[schema(nullable = false)]
+            emission: Option<$crate::server::requests::lighting::Emission>,
+            $($fields)*
+        }
+
+        $crate::server::requests::object_only!($name, $expecting);
+
+        impl $name {
+            /// The lighting state: group weights, or a per-patch emission.
+            pub(crate) fn lighting(
+                &self,
+                model: &$crate::model::Model,
+            ) -> Result<$crate::model::Lighting, $crate::server::AppError> {
+                $crate::server::requests::lighting::lighting(
+                    self.lights.as_ref(),
+                    self.emission.as_ref(),
+                    model,
+                )
             }
         }
     };
 }
-pub(crate) use object_only;
+pub(crate) use lit_request;
+
+/// Implements `Deserialize` for a type whose JSON takes more than one shape, through a
+/// visitor: the type, what it expects (the message for any other shape), the
+/// deserializer method to call, and the visitor's `visit_*` methods.
+macro_rules! deserialize_by {
+    ($t:ty, $expecting:expr, $method:ident, $($methods:tt)*) => {
+        impl<'de> serde::Deserialize<'de> for $t {
+            fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+                struct V;
+                impl<'de> serde::de::Visitor<'de> for V {
+                    type Value = $t;
+                    fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+                        f.write_str($expecting)
+                    }
+                    $($methods)*
+                }
+                d.$method(V)
+            }
+        }
+    };
+}
+pub(crate) use deserialize_by;
+
+/// A visitor's arms for a JSON number (float or integer), each as `f64` through `$make`.
+macro_rules! visit_numbers {
+    ($make:expr) => {
+        fn visit_f64<E>(self, x: f64) -> Result<Self::Value, E> {
+            Ok($make(x))
+        }
+        fn visit_i64<E>(self, x: i64) -> Result<Self::Value, E> {
+            Ok($make(x as f64))
+        }
+        fn visit_u64<E>(self, x: u64) -> Result<Self::Value, E> {
+            Ok($make(x as f64))
+        }
+    };
+}
+pub(crate) use visit_numbers;
 
 /// A `$ref` to a component schema.
 pub(crate) fn schema_ref(name: &str) -> Value {

@@ -1,14 +1,11 @@
 //! The body of `POST …/radiosity`: a lighting state, an optional sky, and what to answer
 //! per patch.
 
-use serde::Deserialize;
-use utoipa::ToSchema;
-
-use super::lighting::{lighting, sky_state, Emission, Lights};
-use super::{choice_impls, object_only, some, Choice};
+use super::lighting::sky_state;
+use super::{choice_impls, lit_request, some, Choice};
 use crate::model::query::Quantity;
 use crate::model::sky_state::{SkySpec, SkyState};
-use crate::model::{Lighting, Model};
+use crate::model::Model;
 use crate::server::json::FIELD;
 use crate::server::AppError;
 
@@ -41,36 +38,24 @@ choice_impls!(
     "radiosity: B, lm/m² leaving each patch; illuminance: H, lux arriving at each patch."
 );
 
-/// A lighting state and what to return.
-#[derive(Debug, Deserialize, ToSchema)]
-#[serde(remote = "Self", deny_unknown_fields)]
-pub(crate) struct RadiosityRequest {
-    #[serde(default, deserialize_with = "some")]
-    #[schema(nullable = false)]
-    lights: Option<Lights>,
-    #[serde(default, deserialize_with = "some")]
-    #[schema(nullable = false)]
-    emission: Option<Emission>,
-    /// Also return per-surface area-weighted averages.
-    #[serde(default)]
-    #[schema(default = false)]
-    pub surfaces: bool,
-    #[serde(default)]
-    #[schema(inline)]
-    pub quantity: QuantityName,
-    /// Daylight from this sky (a scene with a [site]) added to the light groups' light.
-    #[serde(default, deserialize_with = "some")]
-    #[schema(nullable = false)]
-    sky: Option<SkySpec>,
+lit_request! {
+    /// A lighting state and what to return.
+    RadiosityRequest, "a JSON object" {
+        /// Also return per-surface area-weighted averages.
+        #[serde(default)]
+        #[schema(default = false)]
+        pub surfaces: bool,
+        #[serde(default)]
+        #[schema(inline)]
+        pub quantity: QuantityName,
+        /// Daylight from this sky (a scene with a [site]) added to the light groups' light.
+        #[serde(default, deserialize_with = "some")]
+        #[schema(nullable = false)]
+        sky: Option<SkySpec>,
+    }
 }
 
-object_only!(RadiosityRequest, "a JSON object");
-
 impl RadiosityRequest {
-    pub(crate) fn lighting(&self, model: &Model) -> Result<Lighting, AppError> {
-        lighting(self.lights.as_ref(), self.emission.as_ref(), model)
-    }
-
     /// The sky, resolved for the scene's site.
     pub(crate) fn sky(&self, model: &Model) -> Result<Option<SkyState>, AppError> {
         sky_state(self.sky.as_ref(), model)

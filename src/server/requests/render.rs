@@ -2,22 +2,21 @@
 //! conversion to [`RenderOptions`].
 
 use std::collections::BTreeMap;
-use std::fmt;
 
-use serde::de::{Deserializer, MapAccess, SeqAccess, Visitor};
+use serde::de::{MapAccess, SeqAccess};
 use serde::Deserialize;
 use serde_json::json;
 use utoipa::openapi::schema::Schema;
 use utoipa::openapi::RefOr;
 use utoipa::{PartialSchema, ToSchema};
 
-use super::lighting::{
-    lighting, sky_state, Direction, Emission, LightSetting, Lights, Position, Triple,
+use super::lighting::{sky_state, Direction, LightSetting, Lights, Position, Triple};
+use super::{
+    choice_impls, deserialize_by, lit_request, object_only, raw, schema_ref, some, visit_numbers,
+    Choice,
 };
-use super::{choice_impls, object_only, raw, schema_ref, some, Choice};
 use crate::model::lighting::parse_value;
 use crate::model::sky_state::{SkySpec, SkyState};
-use crate::model::Lighting;
 use crate::model::Model;
 use crate::render::final_gather::MAX_FINAL_PIXELS;
 use crate::render::pipeline::{
@@ -92,23 +91,16 @@ pub(crate) struct CameraFields {
 
 object_only!(CameraFields, "an object {position, target, up, fov_deg}");
 
-impl<'de> Deserialize<'de> for CameraSpec {
-    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
-        struct V;
-        impl<'de> Visitor<'de> for V {
-            type Value = CameraSpec;
-            fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
-                f.write_str("a preset id or an object {position, target, up, fov_deg}")
-            }
-            fn visit_str<E>(self, s: &str) -> Result<CameraSpec, E> {
-                Ok(CameraSpec::Preset(s.to_string()))
-            }
-            fn visit_map<A: MapAccess<'de>>(self, map: A) -> Result<CameraSpec, A::Error> {
-                let de = serde::de::value::MapAccessDeserializer::new(map);
-                CameraFields::deserialize(de).map(CameraSpec::Full)
-            }
-        }
-        d.deserialize_any(V)
+deserialize_by! {
+    CameraSpec,
+    "a preset id or an object {position, target, up, fov_deg}",
+    deserialize_any,
+    fn visit_str<E>(self, s: &str) -> Result<CameraSpec, E> {
+        Ok(CameraSpec::Preset(s.to_string()))
+    }
+    fn visit_map<A: MapAccess<'de>>(self, map: A) -> Result<CameraSpec, A::Error> {
+        let de = serde::de::value::MapAccessDeserializer::new(map);
+        CameraFields::deserialize(de).map(CameraSpec::Full)
     }
 }
 
@@ -133,31 +125,16 @@ pub(crate) enum Exposure {
     Stops(f64),
 }
 
-impl<'de> Deserialize<'de> for Exposure {
-    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
-        struct V;
-        impl Visitor<'_> for V {
-            type Value = Exposure;
-            fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
-                f.write_str("a number of stops or \"auto\"")
-            }
-            fn visit_f64<E>(self, x: f64) -> Result<Exposure, E> {
-                Ok(Exposure::Stops(x))
-            }
-            fn visit_i64<E>(self, x: i64) -> Result<Exposure, E> {
-                Ok(Exposure::Stops(x as f64))
-            }
-            fn visit_u64<E>(self, x: u64) -> Result<Exposure, E> {
-                Ok(Exposure::Stops(x as f64))
-            }
-            fn visit_str<E: serde::de::Error>(self, s: &str) -> Result<Exposure, E> {
-                match s {
-                    "auto" => Ok(Exposure::Auto),
-                    _ => Err(E::invalid_value(serde::de::Unexpected::Str(s), &self)),
-                }
-            }
+deserialize_by! {
+    Exposure,
+    "a number of stops or \"auto\"",
+    deserialize_any,
+    visit_numbers!(Exposure::Stops);
+    fn visit_str<E: serde::de::Error>(self, s: &str) -> Result<Exposure, E> {
+        match s {
+            "auto" => Ok(Exposure::Auto),
+            _ => Err(E::invalid_value(serde::de::Unexpected::Str(s), &self)),
         }
-        d.deserialize_any(V)
     }
 }
 
@@ -175,19 +152,12 @@ impl ToSchema for Exposure {}
 #[derive(Debug, Clone, Copy)]
 pub(crate) struct LuxRange(f64, f64);
 
-impl<'de> Deserialize<'de> for LuxRange {
-    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
-        struct V;
-        impl<'de> Visitor<'de> for V {
-            type Value = LuxRange;
-            fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
-                f.write_str("[low, high] in lux")
-            }
-            fn visit_seq<A: SeqAccess<'de>>(self, seq: A) -> Result<LuxRange, A::Error> {
-                numbers(seq, &self).map(|[lo, hi]| LuxRange(lo, hi))
-            }
-        }
-        d.deserialize_seq(V)
+deserialize_by! {
+    LuxRange,
+    "[low, high] in lux",
+    deserialize_seq,
+    fn visit_seq<A: SeqAccess<'de>>(self, seq: A) -> Result<LuxRange, A::Error> {
+        numbers(seq, &self).map(|[lo, hi]| LuxRange(lo, hi))
     }
 }
 
@@ -201,57 +171,46 @@ fn range_schema() -> RefOr<Schema> {
         "description": "False-colour range [low, high] in lux, high ≥ 1.01 × low (default: max/100 to max)."}))
 }
 
-/// A lighting state, a camera and the image to make.
-#[derive(Debug, Default, Deserialize, ToSchema)]
-#[serde(remote = "Self", deny_unknown_fields)]
-pub(crate) struct RenderRequest {
-    #[serde(default, deserialize_with = "some")]
-    #[schema(nullable = false)]
-    lights: Option<Lights>,
-    #[serde(default, deserialize_with = "some")]
-    #[schema(nullable = false)]
-    emission: Option<Emission>,
-    #[serde(default, deserialize_with = "some")]
-    #[schema(nullable = false, inline)]
-    camera: Option<CameraSpec>,
-    #[serde(default, deserialize_with = "some")]
-    #[schema(schema_with = side)]
-    width: Option<f64>,
-    #[serde(default, deserialize_with = "some")]
-    #[schema(schema_with = side)]
-    height: Option<f64>,
-    #[serde(default, deserialize_with = "some")]
-    #[schema(nullable = false)]
-    exposure: Option<Exposure>,
-    #[serde(default)]
-    #[schema(inline)]
-    format: FormatName,
-    #[serde(default)]
-    #[schema(inline)]
-    mode: ModeName,
-    #[serde(default)]
-    #[schema(inline)]
-    tonemap: TonemapName,
-    #[serde(default)]
-    #[schema(inline)]
-    quality: QualityName,
-    #[serde(default, deserialize_with = "some")]
-    #[schema(schema_with = range_schema, value_type = Vec<f64>)]
-    range: Option<LuxRange>,
-    /// Daylight from this sky (a scene with a [site]), added to the light groups' light;
-    /// the sun's direct light is traced per pixel.
-    #[serde(default, deserialize_with = "some")]
-    #[schema(nullable = false)]
-    sky: Option<SkySpec>,
+lit_request! {
+    /// A lighting state, a camera and the image to make.
+    #[derive(Default)]
+    RenderRequest, "a JSON object" {
+        #[serde(default, deserialize_with = "some")]
+        #[schema(nullable = false, inline)]
+        camera: Option<CameraSpec>,
+        #[serde(default, deserialize_with = "some")]
+        #[schema(schema_with = side)]
+        width: Option<f64>,
+        #[serde(default, deserialize_with = "some")]
+        #[schema(schema_with = side)]
+        height: Option<f64>,
+        #[serde(default, deserialize_with = "some")]
+        #[schema(nullable = false)]
+        exposure: Option<Exposure>,
+        #[serde(default)]
+        #[schema(inline)]
+        format: FormatName,
+        #[serde(default)]
+        #[schema(inline)]
+        mode: ModeName,
+        #[serde(default)]
+        #[schema(inline)]
+        tonemap: TonemapName,
+        #[serde(default)]
+        #[schema(inline)]
+        quality: QualityName,
+        #[serde(default, deserialize_with = "some")]
+        #[schema(schema_with = range_schema, value_type = Vec<f64>)]
+        range: Option<LuxRange>,
+        /// Daylight from this sky (a scene with a [site]), added to the light groups' light;
+        /// the sun's direct light is traced per pixel.
+        #[serde(default, deserialize_with = "some")]
+        #[schema(nullable = false)]
+        sky: Option<SkySpec>,
+    }
 }
 
-object_only!(RenderRequest, "a JSON object");
-
 impl RenderRequest {
-    pub(crate) fn lighting(&self, model: &Model) -> Result<Lighting, AppError> {
-        lighting(self.lights.as_ref(), self.emission.as_ref(), model)
-    }
-
     /// The sky, resolved for the scene's site; a sky goes with light groups only.
     pub(crate) fn sky(&self, model: &Model) -> Result<Option<SkyState>, AppError> {
         if self.sky.is_some() && self.emission.is_some() {

@@ -1,10 +1,9 @@
 //! `GET /api/scenes/{id}/export.glb`: the relit scene as a glTF binary
 //! ([`crate::render::export`]), on the blocking pool.
 
-use std::sync::Arc;
 use std::time::Instant;
 
-use axum::extract::{Query, State};
+use axum::extract::Query;
 use axum::http::header;
 use axum::response::Response;
 
@@ -14,7 +13,7 @@ use crate::render::{self, export_bytes, MAX_EXPORT_BYTES};
 use crate::server::openapi::{GlbFile, QueryErrors, SceneIdParam};
 use crate::server::parse::{ReadyScene, SceneId};
 use crate::server::requests::export::{ExportQuery, ExportRequest};
-use crate::server::{AppError, AppState};
+use crate::server::AppError;
 
 #[utoipa::path(
     get,
@@ -27,8 +26,7 @@ use crate::server::{AppError, AppState};
 )]
 pub(crate) async fn export_glb(
     SceneId(id): SceneId,
-    ReadyScene(ready): ReadyScene,
-    State(state): State<Arc<AppState>>,
+    ReadyScene(ready, state): ReadyScene,
     Query(q): Query<Vec<(String, String)>>,
 ) -> Result<Response, AppError> {
     let t0 = Instant::now();

@@ -16,7 +16,7 @@ use crate::model::query::{Quantity, BYTES_PER_PATCH_ANSWER};
 use crate::model::report::{surface_averages, SurfaceAverage};
 use crate::model::Lighting;
 use crate::schema::{words, Rgb};
-use crate::server::openapi::{PostErrors, RadiosityBinary, SceneIdParam};
+use crate::server::openapi::{PostErrors, RadiosityAnswer, SceneIdParam};
 use crate::server::parse::ScenePost;
 use crate::server::requests::RadiosityRequest;
 use crate::server::AppError;
@@ -53,15 +53,7 @@ pub(crate) struct RadiosityResponse {
     request_body(content = RadiosityRequest, content_type = "application/json",
         description = "An empty body is the default lighting state.",
         example = json!({"lights": {"ceiling": 0.5}, "surfaces": true})),
-    responses(
-        (status = 200, description = "Per-patch radiosity in lm/m² (or, with quantity = illuminance, incident illuminance in lux), in patch order.",
-            headers(
-                ("X-Relight-Patches" = u64, description = "Binary answer: the number of patches n."),
-                ("X-Relight-Layout" = String, description = "Binary answer: the layout of the bytes."),
-            ),
-            content((RadiosityResponse = "application/json"), (RadiosityBinary = "application/octet-stream"))),
-        PostErrors,
-    ))]
+    responses(RadiosityAnswer, PostErrors))]
 pub(crate) async fn radiosity(
     headers: HeaderMap,
     ScenePost(ready, state, req): ScenePost<RadiosityRequest>,

@@ -5,7 +5,7 @@
 use std::sync::Arc;
 use std::time::Instant;
 
-use axum::extract::{Query, State};
+use axum::extract::Query;
 use axum::http::HeaderName;
 use axum::response::Response;
 
@@ -17,7 +17,7 @@ use crate::render::daylight::{daylight_pixels, DaylightScene, SunView};
 use crate::render::pipeline::{self, Frame, Quality, RenderError, RenderOptions};
 use crate::render::ViewBuffer;
 use crate::server::openapi::{PostErrors, QueryErrors, RenderImage, RenderPng, SceneIdParam};
-use crate::server::parse::{ReadyScene, StrictJson};
+use crate::server::parse::{ReadyScene, ScenePost};
 use crate::server::requests::render::RenderQuery;
 use crate::server::requests::RenderRequest;
 use crate::server::views::{render_estimate, view_for};
@@ -176,9 +176,7 @@ async fn respond(
         example = json!({"camera": "front", "width": 256, "height": 256, "lights": {"ceiling": 0.5}, "format": "png"})),
     responses(RenderImage, PostErrors))]
 pub(crate) async fn render_post(
-    ReadyScene(ready): ReadyScene,
-    State(state): State<Arc<AppState>>,
-    StrictJson(req): StrictJson<RenderRequest>,
+    ScenePost(ready, state, req): ScenePost<RenderRequest>,
 ) -> Result<Response, AppError> {
     let lighting = req.lighting(&ready.model)?;
     let sky = req.sky(&ready.model)?;
@@ -197,8 +195,7 @@ pub(crate) async fn render_post(
     responses(RenderPng, QueryErrors)
 )]
 pub(crate) async fn render_get(
-    ReadyScene(ready): ReadyScene,
-    State(state): State<Arc<AppState>>,
+    ReadyScene(ready, state): ReadyScene,
     Query(q): Query<Vec<(String, String)>>,
 ) -> Result<Response, AppError> {
     let req = RenderRequest::from_query(&q)?;

@@ -2,10 +2,9 @@
 //! ([`crate::model::design_report`]) of a lighting state given as `render.png` takes it,
 //! with a relit image per camera. All of it runs on the blocking pool.
 
-use std::sync::Arc;
 use std::time::Instant;
 
-use axum::extract::{Query, State};
+use axum::extract::Query;
 use axum::response::Response;
 
 use super::made;
@@ -19,7 +18,7 @@ use crate::server::parse::{shorten, ReadyScene};
 use crate::server::requests::render::RenderQuery;
 use crate::server::requests::RenderRequest;
 use crate::server::views::render_estimate;
-use crate::server::{AppError, AppState, Ready};
+use crate::server::{AppError, Ready};
 
 /// The images' size unless the query gives `w`/`h`, pixels.
 const IMAGE_SIZE: (u32, u32) = (640, 400);
@@ -119,8 +118,7 @@ fn image_options(
     responses(ReportHtml, QueryErrors)
 )]
 pub(crate) async fn report(
-    ReadyScene(ready): ReadyScene,
-    State(state): State<Arc<AppState>>,
+    ReadyScene(ready, state): ReadyScene,
     Query(q): Query<Vec<(String, String)>>,
 ) -> Result<Response, AppError> {
     let t0 = Instant::now();

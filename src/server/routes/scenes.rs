@@ -23,7 +23,7 @@ use crate::model::Model;
 use crate::scene::CameraDef;
 use crate::schema::words;
 use crate::server::openapi::{
-    MeshBuffer, PatchesBinary, SceneErrors, SceneIdParam, SizedGetErrors,
+    MeshBuffer, PatchesAnswer, SceneErrors, SceneIdParam, SizedGetErrors,
 };
 use crate::server::parse::ReadyScene;
 use crate::server::{AppError, AppState, Ready, SceneSlot};
@@ -184,7 +184,7 @@ impl SceneDetails {
     summary = "Light groups, cameras, luminaires, calculation grids, surfaces (with patch ranges), bounds, units and transfer mode of a scene.",
     params(SceneIdParam),
     responses((status = 200, description = "Scene details.", body = SceneDetails), SceneErrors))]
-pub(crate) async fn scene_details(ReadyScene(ready): ReadyScene) -> Json<SceneDetails> {
+pub(crate) async fn scene_details(ReadyScene(ready, _): ReadyScene) -> Json<SceneDetails> {
     Json(SceneDetails::of(&ready))
 }
 
@@ -195,21 +195,17 @@ pub(crate) struct Patches<'a> {
     patches: Vec<PatchInfo<'a>>,
 }
 
-#[utoipa::path(get, path = "/api/scenes/{id}/patches", operation_id = "patches", tag = "scenes",
+#[utoipa::path(
+    get,
+    path = "/api/scenes/{id}/patches",
+    operation_id = "patches",
+    tag = "scenes",
     summary = "Per patch: surface, area (m²), centroid and normal (m). JSON, or binary with `Accept: application/octet-stream`.",
     params(SceneIdParam),
-    responses(
-        (status = 200, description = "Patches in patch order.",
-            headers(
-                ("X-Relight-Patches" = u64, description = "Binary answer: the number of patches."),
-                ("X-Relight-Layout" = String, description = "Binary answer: the layout of the bytes."),
-            ),
-            content((Patches = "application/json"), (PatchesBinary = "application/octet-stream"))),
-        SizedGetErrors,
-    ))]
+    responses(PatchesAnswer, SizedGetErrors)
+)]
 pub(crate) async fn patches(
-    ReadyScene(ready): ReadyScene,
-    State(state): State<Arc<AppState>>,
+    ReadyScene(ready, state): ReadyScene,
     headers: HeaderMap,
 ) -> Result<Response, AppError> {
     let binary_out = wants_binary(&headers);
@@ -255,10 +251,7 @@ fn patch_list(model: &Model, binary_out: bool) -> Response {
     params(SceneIdParam),
     responses(MeshBuffer, SizedGetErrors)
 )]
-pub(crate) async fn mesh(
-    ReadyScene(ready): ReadyScene,
-    State(state): State<Arc<AppState>>,
-) -> Result<Response, AppError> {
+pub(crate) async fn mesh(ReadyScene(ready, state): ReadyScene) -> Result<Response, AppError> {
     mesh_answer(&state, ready, 200, "the shading mesh", Ready::mesh_bytes).await
 }
 
@@ -273,8 +266,7 @@ pub(crate) async fn mesh(
     responses(MeshBuffer, SizedGetErrors)
 )]
 pub(crate) async fn mesh_preview(
-    ReadyScene(ready): ReadyScene,
-    State(state): State<Arc<AppState>>,
+    ReadyScene(ready, state): ReadyScene,
 ) -> Result<Response, AppError> {
     // Meshing again and locating every preview vertex.
     mesh_answer(&state, ready, 400, "the preview mesh", Ready::preview_bytes).await
