@@ -51,29 +51,24 @@ pub struct MemoryBudget {
     pinned: AtomicU64,
 }
 
-/// Bytes pinned against a [`MemoryBudget`] (a loaded scene); released on drop.
-#[derive(Debug)]
-pub struct Pin {
-    budget: Arc<MemoryBudget>,
-    bytes: u64,
-}
-
-impl Drop for Pin {
-    fn drop(&mut self) {
-        self.budget.pinned.fetch_sub(self.bytes, Ordering::AcqRel);
-    }
-}
-
-/// Bytes held against a [`MemoryBudget`]; released on drop.
+/// Bytes held against a [`MemoryBudget`]: reserved by a request
+/// ([`MemoryBudget::reserve`]) or pinned by loaded data ([`MemoryBudget::pin`]); given
+/// back when dropped.
 #[derive(Debug)]
 pub struct Reservation {
     budget: Arc<MemoryBudget>,
     bytes: u64,
+    pinned: bool,
 }
 
 impl Drop for Reservation {
     fn drop(&mut self) {
-        self.budget.used.fetch_sub(self.bytes, Ordering::AcqRel);
+        let held = if self.pinned {
+            &self.budget.pinned
+        } else {
+            &self.budget.used
+        };
+        held.fetch_sub(self.bytes, Ordering::AcqRel);
     }
 }
 
@@ -93,11 +88,12 @@ impl MemoryBudget {
     }
 
     /// Pins `bytes` for as long as the returned guard lives (data that stays loaded).
-    pub fn pin(self: &Arc<Self>, bytes: u64) -> Pin {
+    pub fn pin(self: &Arc<Self>, bytes: u64) -> Reservation {
         self.pinned.fetch_add(bytes, Ordering::AcqRel);
-        Pin {
+        Reservation {
             budget: self.clone(),
             bytes,
+            pinned: true,
         }
     }
 
@@ -166,6 +162,7 @@ impl MemoryBudget {
                     return Ok(Reservation {
                         budget: self.clone(),
                         bytes,
+                        pinned: false,
                     })
                 }
                 Err(now) => cur = now,

@@ -24,7 +24,7 @@ pub struct Ready {
     mesh_bytes: std::sync::OnceLock<axum::body::Bytes>,
     preview_bytes: std::sync::OnceLock<axum::body::Bytes>,
     /// This scene's share of the memory budget, held while it is loaded.
-    _pin: Option<crate::budget::Pin>,
+    _pin: Option<crate::budget::Reservation>,
 }
 
 impl Ready {

@@ -15,7 +15,8 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::Arc;
 
 use axum::body::Body;
-use axum::extract::State;
+use axum::extract::FromRequestParts;
+use axum::http::request::Parts;
 use axum::http::{header, HeaderMap, StatusCode};
 use axum::response::{IntoResponse, Response};
 use axum::Json;
@@ -60,6 +61,22 @@ fn queued() -> utoipa::openapi::RefOr<utoipa::openapi::schema::Schema> {
 /// Equal strings, compared in time independent of where they differ.
 fn same(a: &[u8], b: &[u8]) -> bool {
     a.len() == b.len() && a.iter().zip(b).fold(0u8, |acc, (x, y)| acc | (x ^ y)) == 0
+}
+
+/// The server state, for a request that carries the admin token: 403 when writes are
+/// disabled, 401 without the right bearer token.
+pub(crate) struct Admin(Arc<AppState>);
+
+impl FromRequestParts<Arc<AppState>> for Admin {
+    type Rejection = AppError;
+
+    async fn from_request_parts(
+        parts: &mut Parts,
+        state: &Arc<AppState>,
+    ) -> Result<Self, Self::Rejection> {
+        authorize(state, &parts.headers)?;
+        Ok(Admin(state.clone()))
+    }
 }
 
 /// 403 when writes are disabled, 401 without the right bearer token.
@@ -299,12 +316,11 @@ fn forget(state: &AppState, id: &str) {
     ),
     security(("admin_token" = [])))]
 pub(crate) async fn put_scene(
-    State(state): State<Arc<AppState>>,
+    Admin(state): Admin,
     SceneId(id): SceneId,
     headers: HeaderMap,
     body: Body,
 ) -> Result<Response, AppError> {
-    authorize(&state, &headers)?;
     check_id(&id)?;
     let kind = kind(&headers)?;
     let limit = state.config.upload_limit;
@@ -371,11 +387,9 @@ pub(crate) async fn put_scene(
     ),
     security(("admin_token" = [])))]
 pub(crate) async fn delete_scene(
-    State(state): State<Arc<AppState>>,
+    Admin(state): Admin,
     SceneId(id): SceneId,
-    headers: HeaderMap,
 ) -> Result<Response, AppError> {
-    authorize(&state, &headers)?;
     let _one = state.write_lock.lock().await;
     let slot = state.slot(&id)?;
     check_replaceable(&state, &id)?;
