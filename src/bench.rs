@@ -72,6 +72,45 @@ pub fn ray_throughput(
     rays as f64 / t.elapsed().as_secs_f64() / 1e6
 }
 
+/// Nearest-hit queries per second on one thread, millions: cosine-weighted rays from
+/// uniformly random points of uniformly random patches (as the final gather traces them)
+/// on `bvh`, a BVH over the patches ([`crate::render::final_gather::patch_bvh`]).
+pub fn nearest_throughput(
+    mesh: &crate::geometry::mesh::Mesh,
+    bvh: &crate::geometry::bvh::Bvh,
+    rays: usize,
+) -> f64 {
+    use crate::transport::formfactor::{sample_triangle, Rng};
+    let n = mesh.len();
+    if n == 0 {
+        return 0.0;
+    }
+    let mut rng = Rng::new(3, 4);
+    let queries: Vec<(glam::Vec3A, glam::Vec3A)> = (0..rays)
+        .map(|_| {
+            let i = ((rng.next_f64() * n as f64) as usize).min(n - 1);
+            let x = sample_triangle(&mesh.corners(i), rng.next_f64(), rng.next_f64());
+            let nrm = mesh.patches[i].normal;
+            let (t, b) = crate::geometry::frame(nrm);
+            let (u1, u2): (f64, f64) = (rng.next_f64(), rng.next_f64());
+            let (r, phi) = (u1.sqrt(), std::f64::consts::TAU * u2);
+            let d = t * (r * phi.cos()) + b * (r * phi.sin()) + nrm * (1.0 - u1).sqrt();
+            let o = x + nrm * 1e-6 * (1.0 + x.abs().max_element());
+            (
+                glam::Vec3A::from(o.as_vec3()),
+                glam::Vec3A::from(d.as_vec3()),
+            )
+        })
+        .collect();
+    let t = Instant::now();
+    let mut hits = 0usize;
+    for (o, d) in &queries {
+        hits += usize::from(bvh.nearest(*o, *d, 0.0, f32::INFINITY).is_some());
+    }
+    std::hint::black_box(hits);
+    rays as f64 / t.elapsed().as_secs_f64() / 1e6
+}
+
 /// Peak resident set size of this process, MB (Linux; 0 elsewhere).
 pub fn peak_rss_mb() -> f64 {
     std::fs::read_to_string("/proc/self/status")
