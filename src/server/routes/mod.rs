@@ -1,6 +1,6 @@
-//! The routes, one file per resource. Handlers take the ready scene and the typed request
-//! ([`super::parse::ReadyScene`], [`super::parse::StrictJson`], or both at once for a
-//! POST on a scene, [`super::parse::ScenePost`]), ask the scene's
+//! The routes, one file per resource. Handlers take the ready scene (with the server
+//! state) and the typed request ([`super::parse::ReadyScene`], [`super::parse::StrictJson`],
+//! or both at once for a POST on a scene, [`super::parse::ScenePost`]), ask the scene's
 //! [`crate::model::Model`], and shape the answer; they compute nothing themselves. Work
 //! that scales with the input runs through [`super::AppState::heavy`].
 
