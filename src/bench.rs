@@ -6,9 +6,13 @@
 use std::path::Path;
 use std::time::Instant;
 
+use glam::Vec3A;
 use serde::Serialize;
 
 use crate::bake::{load_or_bake, BakeOptions, CachePolicy};
+use crate::geometry::bvh::Bvh;
+use crate::geometry::mesh::Mesh;
+use crate::transport::formfactor::{sample_triangle, Rng};
 use crate::transport::transfer::TransferMode;
 
 /// Figures of one bench case.
@@ -43,72 +47,59 @@ pub struct BenchResult {
 
 /// Occlusion tests per second on one thread, millions: segments between uniformly
 /// random points of uniformly random patches, each test skipping its two triangles.
-pub fn ray_throughput(
-    mesh: &crate::geometry::mesh::Mesh,
-    bvh: &crate::geometry::bvh::Bvh,
-    rays: usize,
-) -> f64 {
-    use crate::transport::formfactor::{sample_triangle, Rng};
-    let n = mesh.len();
-    if n < 2 {
+pub fn ray_throughput(mesh: &Mesh, bvh: &Bvh, rays: usize) -> f64 {
+    if mesh.len() < 2 {
         return 0.0;
     }
     let mut rng = Rng::new(1, 2);
-    let pick = |rng: &mut Rng| -> (glam::Vec3A, u32) {
-        let i = ((rng.next_f64() * n as f64) as usize).min(n - 1);
-        let c = mesh.corners(i);
-        let x = sample_triangle(&c, rng.next_f64(), rng.next_f64());
-        (glam::Vec3A::from(x.as_vec3()), mesh.patches[i].source)
+    let mut pick = || {
+        let (x, i) = random_patch_point(mesh, &mut rng);
+        (Vec3A::from(x.as_vec3()), mesh.patches[i].source)
     };
-    let pairs: Vec<_> = (0..rays)
-        .map(|_| (pick(&mut rng), pick(&mut rng)))
-        .collect();
-    let t = Instant::now();
-    let mut blocked = 0usize;
-    for ((a, sa), (b, sb)) in &pairs {
-        blocked += usize::from(bvh.occluded(*a, *b, [*sa, *sb]));
-    }
-    std::hint::black_box(blocked);
-    rays as f64 / t.elapsed().as_secs_f64() / 1e6
+    let pairs: Vec<_> = (0..rays).map(|_| (pick(), pick())).collect();
+    per_second(&pairs, |((a, sa), (b, sb))| {
+        bvh.occluded(*a, *b, [*sa, *sb])
+    })
 }
 
 /// Nearest-hit queries per second on one thread, millions: cosine-weighted rays from
 /// uniformly random points of uniformly random patches (as the final gather traces them)
 /// on `bvh`, a BVH over the patches ([`crate::render::final_gather::patch_bvh`]).
-pub fn nearest_throughput(
-    mesh: &crate::geometry::mesh::Mesh,
-    bvh: &crate::geometry::bvh::Bvh,
-    rays: usize,
-) -> f64 {
-    use crate::transport::formfactor::{sample_triangle, Rng};
-    let n = mesh.len();
-    if n == 0 {
+pub fn nearest_throughput(mesh: &Mesh, bvh: &Bvh, rays: usize) -> f64 {
+    if mesh.is_empty() {
         return 0.0;
     }
     let mut rng = Rng::new(3, 4);
-    let queries: Vec<(glam::Vec3A, glam::Vec3A)> = (0..rays)
+    let queries: Vec<(Vec3A, Vec3A)> = (0..rays)
         .map(|_| {
-            let i = ((rng.next_f64() * n as f64) as usize).min(n - 1);
-            let x = sample_triangle(&mesh.corners(i), rng.next_f64(), rng.next_f64());
+            let (x, i) = random_patch_point(mesh, &mut rng);
             let nrm = mesh.patches[i].normal;
             let (t, b) = crate::geometry::frame(nrm);
             let (u1, u2): (f64, f64) = (rng.next_f64(), rng.next_f64());
             let (r, phi) = (u1.sqrt(), std::f64::consts::TAU * u2);
             let d = t * (r * phi.cos()) + b * (r * phi.sin()) + nrm * (1.0 - u1).sqrt();
             let o = x + nrm * 1e-6 * (1.0 + x.abs().max_element());
-            (
-                glam::Vec3A::from(o.as_vec3()),
-                glam::Vec3A::from(d.as_vec3()),
-            )
+            (Vec3A::from(o.as_vec3()), Vec3A::from(d.as_vec3()))
         })
         .collect();
+    per_second(&queries, |(o, d)| {
+        bvh.nearest(*o, *d, 0.0, f32::INFINITY).is_some()
+    })
+}
+
+/// A uniformly random point of a uniformly random patch (m), and the patch's index.
+fn random_patch_point(mesh: &Mesh, rng: &mut Rng) -> (glam::DVec3, usize) {
+    let i = ((rng.next_f64() * mesh.len() as f64) as usize).min(mesh.len() - 1);
+    let x = sample_triangle(&mesh.corners(i), rng.next_f64(), rng.next_f64());
+    (x, i)
+}
+
+/// Millions of `query` calls per second over `queries`, on this thread.
+fn per_second<Q>(queries: &[Q], query: impl Fn(&Q) -> bool) -> f64 {
     let t = Instant::now();
-    let mut hits = 0usize;
-    for (o, d) in &queries {
-        hits += usize::from(bvh.nearest(*o, *d, 0.0, f32::INFINITY).is_some());
-    }
-    std::hint::black_box(hits);
-    rays as f64 / t.elapsed().as_secs_f64() / 1e6
+    let yes = queries.iter().filter(|q| query(q)).count();
+    std::hint::black_box(yes);
+    queries.len() as f64 / t.elapsed().as_secs_f64() / 1e6
 }
 
 /// Peak resident set size of this process, MB (Linux; 0 elsewhere).
