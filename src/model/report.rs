@@ -42,6 +42,7 @@ pub fn surface_averages(
     s: &Solution,
 ) -> BTreeMap<String, SurfaceAverage> {
     let mut out = BTreeMap::new();
+    let (sb, sh) = (Rgb::column(&s.b), Rgb::column(&s.h));
     for (k, range) in mesh.surface_patches.iter().enumerate() {
         let mut a = 0f64;
         let mut b = Rgb64::ZERO;
@@ -50,8 +51,8 @@ pub fn surface_averages(
             let i = i as usize;
             let ai = mesh.patches[i].area;
             a += ai;
-            b += ai * Rgb::column(&s.b)[i].to_f64();
-            h += ai * Rgb::column(&s.h)[i].to_f64();
+            b += ai * sb[i].to_f64();
+            h += ai * sh[i].to_f64();
         }
         if a > 0.0 {
             out.insert(
