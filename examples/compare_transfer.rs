@@ -44,7 +44,7 @@ fn main() {
         .get(4)
         .map(|s| s.parse::<f64>().expect("max_edge in metres"));
     let (a, b) = (bake(&dir, ma, max_edge), bake(&dir, mb, max_edge));
-    let on = vec![[1.0f32; 3]; a.transfer.group_count()];
+    let on = vec![relight::color::Rgb::ONE; a.transfer.group_count()];
     let (sa, sb) = (a.transfer.relight(&on), b.transfer.relight(&on));
     let (ra, rb) = (
         surface_averages(&a.scene, &a.mesh, &sa),

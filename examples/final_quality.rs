@@ -6,6 +6,7 @@
 use std::time::Instant;
 
 use relight::bake::{load_or_bake, BakeOptions, CachePolicy};
+use relight::color::Rgb;
 use relight::model::{Cancel, Model};
 use relight::render::final_gather::patch_bvh;
 use relight::render::pipeline::final_images;
@@ -29,10 +30,13 @@ fn main() {
     let gi = final_images(&m, &shading, &patches, &cam, &Cancel::default()).unwrap();
     let build_s = t0.elapsed().as_secs_f64();
     let t0 = Instant::now();
-    let img = gi.linear(&[[1.0; 3]]);
+    let img = gi.linear(&[Rgb::ONE]);
     let relight_ms = t0.elapsed().as_secs_f64() * 1e3;
     // Linearity: two weights add up to their sum.
-    let (a, c) = (gi.linear(&[[0.3, 0.2, 0.1]]), gi.linear(&[[0.7, 0.8, 0.9]]));
+    let (a, c) = (
+        gi.linear(&[Rgb::new(0.3, 0.2, 0.1)]),
+        gi.linear(&[Rgb::new(0.7, 0.8, 0.9)]),
+    );
     let lin = a
         .iter()
         .zip(&c)

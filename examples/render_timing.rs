@@ -60,7 +60,7 @@ fn main() {
         let t = Instant::now();
         let view = ViewBuffer::build(&b.mesh, &shading, &cam);
         let t_view = t.elapsed().as_secs_f64() * 1e3;
-        let weights = vec![[0.7f32, 0.6, 0.5]; b.scene.lights.len()];
+        let weights = vec![relight::color::Rgb::new(0.7, 0.6, 0.5); b.scene.lights.len()];
         let mut out = vec![0f32; 3 * b.transfer.n];
         // Any lighting (also per-patch emission): relight, vertex values, gather.
         let m = medians(|| {

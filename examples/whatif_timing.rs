@@ -20,6 +20,7 @@ use std::time::Instant;
 use glam::DVec3;
 
 use relight::bake::{load_or_bake, BakeOptions, CachePolicy};
+use relight::color::Rgb;
 use relight::model::optimize::GridTarget;
 use relight::model::Model;
 
@@ -77,8 +78,8 @@ fn main() {
     let groups = room.baked.scene.lights.len();
     let times: Vec<f64> = (0..200)
         .map(|k| {
-            let w: Vec<[f32; 3]> = (0..groups)
-                .map(|i| [((k + i) % 10) as f32 / 10.0; 3])
+            let w: Vec<Rgb> = (0..groups)
+                .map(|i| Rgb::splat(((k + i) % 10) as f32 / 10.0))
                 .collect();
             let t = Instant::now();
             std::hint::black_box(room.grid_answer(0, &w));
@@ -90,7 +91,7 @@ fn main() {
         g.len(),
         median(times)
     );
-    let full_avg = room.grid_answer(0, &vec![[1.0; 3]; groups]).avg;
+    let full_avg = room.grid_answer(0, &vec![Rgb::ONE; groups]).avg;
     let target = GridTarget {
         grid: 0,
         eavg_min: Some(0.6 * full_avg),
@@ -98,7 +99,7 @@ fn main() {
         u0_min: Some(0.5),
         ugr_max: None,
     };
-    let base = vec![[1.0f32; 3]; groups];
+    let base = vec![Rgb::ONE; groups];
     let free: Vec<usize> = (0..groups).collect();
     let times: Vec<f64> = (0..20)
         .map(|_| {
@@ -147,9 +148,9 @@ fn office_floor(cache: &std::path::Path) {
     );
     let m = Model::new(baked);
     let groups = m.baked.scene.lights.len();
-    let state = |k: usize| -> Vec<[f32; 3]> {
+    let state = |k: usize| -> Vec<Rgb> {
         (0..groups)
-            .map(|i| [((k + i) % 10) as f32 / 10.0 + 0.1; 3])
+            .map(|i| Rgb::splat(((k + i) % 10) as f32 / 10.0 + 0.1))
             .collect()
     };
     let all: Vec<usize> = (0..m.grids.len()).collect();
@@ -206,7 +207,7 @@ fn office_floor(cache: &std::path::Path) {
         "illuminance at one point (gather over every patch, with occlusion): median {ms:.1} ms"
     );
     let full: Vec<f64> = (0..m.grids.len())
-        .map(|gi| m.grid_answer(gi, &vec![[1.0; 3]; groups]).avg)
+        .map(|gi| m.grid_answer(gi, &vec![Rgb::ONE; groups]).avg)
         .collect();
     let targets: Vec<GridTarget> = full
         .iter()
@@ -219,7 +220,7 @@ fn office_floor(cache: &std::path::Path) {
             ugr_max: None,
         })
         .collect();
-    let base = vec![[1.0f32; 3]; groups];
+    let base = vec![Rgb::ONE; groups];
     let free: Vec<usize> = (0..groups).collect();
     let ms = time_ms(10, |_| {
         std::hint::black_box(m.optimize(&base, &free, &targets).unwrap());

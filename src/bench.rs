@@ -10,6 +10,7 @@ use glam::Vec3A;
 use serde::Serialize;
 
 use crate::bake::{load_or_bake, BakeOptions, CachePolicy};
+use crate::color::Rgb;
 use crate::geometry::bvh::Bvh;
 use crate::geometry::mesh::Mesh;
 use crate::transport::formfactor::{sample_triangle, Rng};
@@ -140,8 +141,8 @@ pub fn run_case(case: &str, dir: &Path, opts: &BakeOptions) -> anyhow::Result<Be
     let mut samples = Vec::new();
     for k in 0..2000 {
         // A different state every call, so nothing is hoisted out of the loop.
-        let w: Vec<[f32; 3]> = (0..g)
-            .map(|i| [0.5 + ((k + i) % 7) as f32 * 0.1, 0.8, 0.3])
+        let w: Vec<Rgb> = (0..g)
+            .map(|i| Rgb::new(0.5 + ((k + i) % 7) as f32 * 0.1, 0.8, 0.3))
             .collect();
         let s = Instant::now();
         t.relight_into(&w, &mut out);

@@ -25,8 +25,9 @@ pub(crate) fn raw(v: Value) -> RefOr<Schema> {
     Schema::Object(o).into()
 }
 
-/// An RGB triple, or a point or vector in metres (the component `Rgb`); for `[f32; 3]`
-/// and `[f64; 3]` fields: `#[schema(value_type = crate::schema::Rgb)]`.
+/// An RGB triple, or a point or vector in metres (the component `Rgb`); for
+/// [`crate::color::Rgb`], [`crate::color::Rgb64`], `[f32; 3]` and `[f64; 3]` fields:
+/// `#[schema(value_type = crate::schema::Rgb)]`.
 pub(crate) struct Rgb;
 
 impl PartialSchema for Rgb {

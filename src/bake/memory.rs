@@ -144,7 +144,7 @@ pub fn memory_estimate(scene: &Scene, mesh: &Mesh, mode: TransferMode) -> Memory
             *u = true;
         }
     }
-    let kd: Vec<[f32; 3]> = scene
+    let kd: Vec<crate::color::Rgb> = scene
         .materials
         .iter()
         .zip(&used)

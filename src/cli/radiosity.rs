@@ -120,7 +120,7 @@ fn print_report(model: &Model, report: &Report) {
         "E lux"
     );
     for (name, s) in &report.surfaces {
-        let rgb = |v: [f64; 3]| format!("{:>9.4} {:>9.4} {:>9.4}", v[0], v[1], v[2]);
+        let rgb = |v: relight::color::Rgb64| format!("{:>9.4} {:>9.4} {:>9.4}", v[0], v[1], v[2]);
         outln!(
             "{:<20} {:>9.4}  {} {:>9.4}  {} {:>9.4}",
             name,

@@ -25,7 +25,7 @@ use crate::scene::{Grid, Requirements, Scene};
 pub fn maintained_weights(w: &[Rgb], mf: &[f64]) -> Vec<Rgb> {
     w.iter()
         .zip(mf)
-        .map(|(wg, &m)| wg.map(|c| (c as f64 * m) as f32))
+        .map(|(wg, &m)| (wg.to_f64() * m).to_f32())
         .collect()
 }
 
@@ -306,7 +306,7 @@ mod tests {
 
     #[test]
     fn maintained_weights_scale_each_group_by_its_factor() {
-        let w = maintained_weights(&[[1.0, 2.0, 3.0], [4.0; 3]], &[0.5, 0.8]);
+        let w = maintained_weights(&[Rgb::new(1.0, 2.0, 3.0), Rgb::splat(4.0)], &[0.5, 0.8]);
         assert_eq!(w, vec![[0.5, 1.0, 1.5], [3.2; 3]]);
     }
 }

@@ -22,7 +22,7 @@ use glam::{DVec3, Vec3A};
 use serde::Serialize;
 
 use super::{Model, QueryError};
-use crate::color::{luminance64, Rgb};
+use crate::color::{Rgb, Rgb64};
 use crate::photometry::glare::{guth_position_index, ugr, GlareSource};
 
 /// Eye height above where an observer is placed, metres, when a request gives none
@@ -89,7 +89,7 @@ pub struct ObserverView {
     eye: DVec3,
     direction: DVec3,
     /// Per light group, the indirect illuminance at the eye at unit weight (lux, RGB).
-    background: Vec<[f64; 3]>,
+    background: Vec<Rgb64>,
     /// Luminaires that can count, with their geometry at unit weight.
     sources: Vec<Viewed>,
     /// Luminaires that cannot: (group, luminaire id, reason).
@@ -182,11 +182,10 @@ impl Model {
         let background = groups
             .iter()
             .map(|g| {
-                let mut e = [0.0; 3];
+                let b = Rgb::column(&g.b);
+                let mut e = Rgb64::ZERO;
                 for &(j, wj) in &weights {
-                    for (c, ec) in e.iter_mut().enumerate() {
-                        *ec += wj * g.b[3 * j as usize + c] as f64;
-                    }
+                    e += wj * b[j as usize].to_f64();
                 }
                 e
             })
@@ -225,17 +224,15 @@ impl Model {
     /// The rating of one view under weights `w`.
     fn rate(&self, v: &ObserverView, w: &[Rgb]) -> ObserverGlare {
         let lights = &self.baked.scene.lights;
-        let mut e = [0.0; 3];
-        for (bg, wg) in v.background.iter().zip(w) {
-            for c in 0..3 {
-                e[c] += bg[c] * wg[c] as f64;
-            }
+        let mut e = Rgb64::ZERO;
+        for (&bg, wg) in v.background.iter().zip(w) {
+            e += bg * wg.to_f64();
         }
-        let e_ind = luminance64(e).max(0.0);
+        let e_ind = e.luminance().max(0.0);
         let lb = e_ind / std::f64::consts::PI;
         let lit = |g: usize, color: &Rgb| {
-            let wg = w.get(g).copied().unwrap_or([0.0; 3]);
-            luminance64([0, 1, 2].map(|c| (wg[c] * color[c]) as f64))
+            let wg = w.get(g).copied().unwrap_or(Rgb::ZERO);
+            (wg * *color).to_f64().luminance()
         };
         let mut terms: Vec<GlareTerm> = v
             .sources

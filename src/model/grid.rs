@@ -11,7 +11,7 @@ use glam::DVec3;
 use rayon::prelude::*;
 use serde::Serialize;
 
-use crate::color::{luminance, Rgb};
+use crate::color::Rgb;
 use crate::geometry::bvh::Bvh;
 use crate::geometry::obstructed;
 use crate::scene::{Grid, Scene};
@@ -82,17 +82,15 @@ impl GridResponse {
             weights,
             &mut rgb,
         );
-        rgb.chunks_exact(3)
-            .map(|c| luminance([c[0], c[1], c[2]]))
-            .collect()
+        Rgb::column(&rgb).iter().map(|c| c.luminance()).collect()
     }
 
     /// Luminous illuminance (lx) at every point for group g at unit weight and its default
     /// colour `color`.
     pub fn group_values(&self, g: usize, color: Rgb) -> Vec<f64> {
-        self.per_group[g]
-            .chunks_exact(3)
-            .map(|c| luminance([c[0] * color[0], c[1] * color[1], c[2] * color[2]]) as f64)
+        Rgb::column(&self.per_group[g])
+            .iter()
+            .map(|&c| (c * color).luminance() as f64)
             .collect()
     }
 

@@ -18,7 +18,7 @@ use std::collections::BTreeMap;
 
 use serde::{Deserialize, Serialize};
 
-use crate::color::Rgb;
+use crate::color::{Rgb, Rgb64};
 use crate::scene::Scene;
 
 /// Largest accepted intensity (a dimming factor; 1 = as modelled).
@@ -106,7 +106,7 @@ impl LightState {
                     intensity: g.intensity,
                     color: g.color,
                 });
-                s.color.map(|c| c * s.intensity)
+                s.color * s.intensity
             })
             .collect())
     }
@@ -151,7 +151,7 @@ impl LightState {
                 scene,
                 id,
                 intensity.map(|x| x as f32),
-                color.map(|c| c.map(|x| x as f32)),
+                color.map(|c| Rgb64(c).to_f32()),
             )?;
         }
         Ok(state)
@@ -222,15 +222,15 @@ mod tests {
     #[test]
     fn validate_refuses_negative_non_finite_and_huge_numbers() {
         let ok = |intensity: f32, color: Rgb| LightSetting { intensity, color }.validate("g");
-        assert!(ok(0.0, [0.0; 3]).is_ok());
-        assert!(ok(MAX_INTENSITY, [MAX_INTENSITY; 3]).is_ok());
+        assert!(ok(0.0, Rgb::ZERO).is_ok());
+        assert!(ok(MAX_INTENSITY, Rgb::splat(MAX_INTENSITY)).is_ok());
         for bad in [
-            ok(-0.1, [1.0; 3]),
-            ok(f32::NAN, [1.0; 3]),
-            ok(2e6, [1.0; 3]),
-            ok(1.0, [1.0, -1.0, 1.0]),
-            ok(1.0, [1.0, f32::INFINITY, 1.0]),
-            ok(1.0, [2e6, 1.0, 1.0]),
+            ok(-0.1, Rgb::ONE),
+            ok(f32::NAN, Rgb::ONE),
+            ok(2e6, Rgb::ONE),
+            ok(1.0, Rgb::new(1.0, -1.0, 1.0)),
+            ok(1.0, Rgb::new(1.0, f32::INFINITY, 1.0)),
+            ok(1.0, Rgb::new(2e6, 1.0, 1.0)),
         ] {
             assert!(matches!(bad, Err(LightError::Invalid { ref id, .. }) if id == "g"));
         }
@@ -242,7 +242,12 @@ mod tests {
         let mut state = LightState::default();
         assert_eq!(state.weights(&scene).unwrap(), vec![[1.0; 3], [1.0; 3]]);
         state
-            .set(&scene, "corridor_row", Some(0.5), Some([1.0, 0.5, 0.0]))
+            .set(
+                &scene,
+                "corridor_row",
+                Some(0.5),
+                Some(Rgb::new(1.0, 0.5, 0.0)),
+            )
             .unwrap();
         assert_eq!(
             state.weights(&scene).unwrap(),
@@ -250,7 +255,7 @@ mod tests {
         );
         // A colour alone keeps the default intensity, an intensity alone the colour.
         state
-            .set(&scene, "window_row", None, Some([0.0, 1.0, 2.0]))
+            .set(&scene, "window_row", None, Some(Rgb::new(0.0, 1.0, 2.0)))
             .unwrap();
         assert_eq!(state.weights(&scene).unwrap()[0], [0.0, 1.0, 2.0]);
         state.set(&scene, "window_row", Some(3.0), None).unwrap();
@@ -289,7 +294,7 @@ mod tests {
             "nowhere".into(),
             LightSetting {
                 intensity: 1.0,
-                color: [1.0; 3],
+                color: Rgb::ONE,
             },
         );
         assert!(matches!(

@@ -37,7 +37,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 
 use crate::bake::Baked;
-use crate::color::luminance64;
+use crate::color::{Rgb, Rgb64};
 
 pub mod annual;
 pub mod batch;
@@ -70,7 +70,7 @@ pub struct GroupInfo {
     pub intensity: f32,
     /// Default colour.
     #[cfg_attr(feature = "server", schema(value_type = crate::schema::Rgb))]
-    pub color: [f32; 3],
+    pub color: Rgb,
     /// Area of the emitting patches, m².
     pub emitting_area: f64,
     /// Luminous flux at intensity 1, colour white, lm (emissive surfaces and luminaires).
@@ -159,14 +159,11 @@ fn group_infos(baked: &Baked) -> Vec<GroupInfo> {
         .zip(&t.groups)
         .map(|(l, g)| {
             let mut area = 0.0;
-            let mut flux = [0f64; 3];
-            for i in 0..t.n {
-                let e = &g.e[3 * i..3 * i + 3];
+            let mut flux = Rgb64::ZERO;
+            for (&a, e) in t.area.iter().zip(Rgb::column(&g.e)) {
                 if e.iter().any(|&v| v > 0.0) {
-                    area += t.area[i] as f64;
-                    for c in 0..3 {
-                        flux[c] += t.area[i] as f64 * e[c] as f64;
-                    }
+                    area += a as f64;
+                    flux += a as f64 * e.to_f64();
                 }
             }
             let watts: Option<f64> = l.luminaires.iter().map(|m| m.watts).sum();
@@ -176,7 +173,7 @@ fn group_infos(baked: &Baked) -> Vec<GroupInfo> {
                 intensity: l.intensity,
                 color: l.color,
                 emitting_area: area,
-                lumens: luminance64(flux) + luminance64(g.flux),
+                lumens: flux.luminance() + g.flux.luminance(),
                 luminaires: l.luminaires.len(),
                 watts: if l.luminaires.is_empty() { None } else { watts },
             }

@@ -28,7 +28,7 @@ use serde::Serialize;
 
 use super::query::{GridAnswer, LuminairePower};
 use super::{Model, QueryError};
-use crate::color::{luminance, luminance64, Rgb};
+use crate::color::Rgb;
 
 /// A target on one grid, lux or ratio bounds.
 #[derive(Debug, Clone, Default)]
@@ -400,7 +400,7 @@ impl Model {
         let is_free = |g: usize| free.contains(&g);
         // Fixed groups keep the given state; free ones are 0 in the fixed part.
         let fixed_w: Vec<Rgb> = (0..scene.lights.len())
-            .map(|g| if is_free(g) { [0.0; 3] } else { base[g] })
+            .map(|g| if is_free(g) { Rgb::ZERO } else { base[g] })
             .collect();
         let terms: Vec<GridTerms> = targets
             .iter()
@@ -435,7 +435,7 @@ impl Model {
             .collect();
         let flux: Vec<f64> = free
             .iter()
-            .map(|&g| self.groups[g].lumens * luminance(scene.lights[g].color) as f64)
+            .map(|&g| self.groups[g].lumens * scene.lights[g].color.luminance() as f64)
             .collect();
         let glare = self.glare_models(&fixed_w, free, targets)?;
         let levels = optimize(&flux, &labelled, &terms, &glare)?;
@@ -493,7 +493,7 @@ impl Model {
             let fixed = parts(fixed_w)?;
             let mut per_group = Vec::with_capacity(free.len());
             for &g in free {
-                let mut w = vec![[0.0; 3]; scene.lights.len()];
+                let mut w = vec![Rgb::ZERO; scene.lights.len()];
                 w[g] = scene.lights[g].color;
                 per_group.push(parts(&w)?);
             }
@@ -531,9 +531,9 @@ impl Model {
                 let intensity = match free.iter().position(|&f| f == g) {
                     Some(k) => levels[k],
                     None => {
-                        let y = luminance(l.color) as f64;
+                        let y = l.color.luminance() as f64;
                         if y > 0.0 {
-                            luminance(w[g]) as f64 / y
+                            w[g].luminance() as f64 / y
                         } else {
                             0.0
                         }
@@ -554,7 +554,7 @@ impl Model {
     pub fn lumens(&self, w: &[Rgb]) -> f64 {
         w.iter()
             .zip(&self.groups)
-            .map(|(wt, info)| luminance64(wt.map(|c| c as f64)) * info.lumens)
+            .map(|(wt, info)| wt.to_f64().luminance() * info.lumens)
             .sum()
     }
 }

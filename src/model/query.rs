@@ -16,7 +16,7 @@ use super::grid::{self, GridStats};
 use super::lighting::{LightState, Lighting, MAX_EMISSION};
 use super::report::{surface_illuminance, Lux, SurfaceIlluminance};
 use super::{Cancel, Model, QueryError};
-use crate::color::{luminance64, Rgb};
+use crate::color::{Rgb, Rgb64};
 use crate::scene::Requirements;
 use crate::transport::transfer::{Solution, TransferMode};
 
@@ -180,7 +180,7 @@ impl Model {
     }
 
     /// One patch's emission, lm/m² per channel, checked against [`MAX_EMISSION`].
-    pub fn emission_value(&self, patch: usize, rgb: [f64; 3]) -> Result<[f32; 3], QueryError> {
+    pub fn emission_value(&self, patch: usize, rgb: [f64; 3]) -> Result<Rgb, QueryError> {
         let n = self.patches();
         if patch >= n {
             return Err(QueryError::Invalid(format!(
@@ -194,7 +194,7 @@ impl Model {
                 )));
             }
         }
-        Ok(rgb.map(|x| x as f32))
+        Ok(Rgb64(rgb).to_f32())
     }
 
     /// The full solution (emission, radiosity, illuminance per patch).
@@ -269,7 +269,7 @@ impl Model {
     /// Illuminance (lux, RGB) at point `x` (m) on a receiver facing `n`: the light
     /// gathered from radiosity `b` plus, for group weights, the luminaires' direct light
     /// with shadow rays.
-    pub fn point_illuminance(&self, b: &[f32], w: Option<&[Rgb]>, x: DVec3, n: DVec3) -> [f64; 3] {
+    pub fn point_illuminance(&self, b: &[f32], w: Option<&[Rgb]>, x: DVec3, n: DVec3) -> Rgb64 {
         let k = &self.baked;
         let mut e = crate::transport::probe::illuminance_at(&k.mesh, &k.bvh, b, x, n);
         self.add_luminaires(w.unwrap_or(&[]), x, n, &mut e);
@@ -278,16 +278,14 @@ impl Model {
 
     /// Adds to `e` (RGB lux) the direct light of the luminaires of group weights `w` at
     /// point `x` (m) on a receiver facing `n`, with shadow rays.
-    pub(super) fn add_luminaires(&self, w: &[Rgb], x: DVec3, n: DVec3, e: &mut [f64; 3]) {
+    pub(super) fn add_luminaires(&self, w: &[Rgb], x: DVec3, n: DVec3, e: &mut Rgb64) {
         let k = &self.baked;
-        for (g, w) in k.scene.lights.iter().zip(w) {
-            if g.luminaires.is_empty() || w.iter().all(|&c| c == 0.0) {
+        for (g, &w) in k.scene.lights.iter().zip(w) {
+            if g.luminaires.is_empty() || w == Rgb::ZERO {
                 continue;
             }
             let d = crate::transport::direct::point_illuminance(&k.bvh, &g.luminaires, x, n);
-            for c in 0..3 {
-                e[c] += w[c] as f64 * d[c];
-            }
+            *e += w.to_f64() * d;
         }
     }
 
@@ -316,10 +314,10 @@ impl Model {
             if info.luminaires == 0 {
                 continue;
             }
-            let lm = luminance64([0, 1, 2].map(|c| wt[c] as f64 * g.flux[c]));
+            let lm = (wt.to_f64() * g.flux).luminance();
             lumens += lm;
             match info.watts {
-                Some(full) if info.lumens > 0.0 => watts += full * lm / luminance64(g.flux),
+                Some(full) if info.lumens > 0.0 => watts += full * lm / g.flux.luminance(),
                 _ => watts_known = false,
             }
         }
@@ -415,8 +413,8 @@ impl Model {
             .zip(gathers.iter())
             .map(|(&(x, n), g)| {
                 let (mut e, mut em) = (g.gather(&b), g.gather(&bm));
-                for ((group, wg), wmg) in k.scene.lights.iter().zip(w).zip(wm) {
-                    if group.luminaires.is_empty() || wg.iter().all(|&c| c == 0.0) {
+                for ((group, &wg), &wmg) in k.scene.lights.iter().zip(w).zip(wm) {
+                    if group.luminaires.is_empty() || wg == Rgb::ZERO {
                         continue;
                     }
                     let d = crate::transport::direct::point_illuminance(
@@ -425,10 +423,8 @@ impl Model {
                         x,
                         n,
                     );
-                    for c in 0..3 {
-                        e[c] += wg[c] as f64 * d[c];
-                        em[c] += wmg[c] as f64 * d[c];
-                    }
+                    e += wg.to_f64() * d;
+                    em += wmg.to_f64() * d;
                 }
                 (Lux::new(e), Lux::new(em))
             })
@@ -524,9 +520,9 @@ impl Model {
         cancel: &Cancel,
     ) -> Result<IlluminanceAnswer, QueryError> {
         let sol = self.solve(l)?;
-        let at = |x: DVec3, n: DVec3| -> [f64; 3] {
+        let at = |x: DVec3, n: DVec3| -> Rgb64 {
             if cancel.is_cancelled() {
-                [0.0; 3]
+                Rgb64::ZERO
             } else {
                 self.point_illuminance(&sol.b, None, x, n)
             }
@@ -547,7 +543,7 @@ impl Model {
                 let values: Vec<f32> = g
                     .points
                     .par_iter()
-                    .map(|p| luminance64(at(DVec3::from_array(*p), n)) as f32)
+                    .map(|p| at(DVec3::from_array(*p), n).luminance() as f32)
                     .collect();
                 (g.id.clone(), grid_answer(g, grid::stats(values, excluded)))
             })

@@ -5,7 +5,7 @@ use std::collections::BTreeMap;
 
 use serde::Serialize;
 
-use crate::color::luminance64;
+use crate::color::{Rgb, Rgb64};
 use crate::geometry::mesh::Mesh;
 use crate::scene::Scene;
 use crate::transport::transfer::{Power, Solution, Transfer};
@@ -18,20 +18,20 @@ pub struct SurfaceAverage {
     pub area: f64,
     /// Mean radiosity, lm/m² per channel.
     #[cfg_attr(feature = "server", schema(value_type = crate::schema::Rgb))]
-    pub radiosity: [f64; 3],
+    pub radiosity: Rgb64,
     /// Mean incident illuminance, lux per channel.
     #[cfg_attr(feature = "server", schema(value_type = crate::schema::Rgb))]
-    pub illuminance: [f64; 3],
+    pub illuminance: Rgb64,
 }
 
 impl SurfaceAverage {
     /// Luminous radiosity, lm/m².
     pub fn radiosity_y(&self) -> f64 {
-        luminance64(self.radiosity)
+        self.radiosity.luminance()
     }
     /// Luminous illuminance, lux.
     pub fn illuminance_y(&self) -> f64 {
-        luminance64(self.illuminance)
+        self.illuminance.luminance()
     }
 }
 
@@ -42,26 +42,25 @@ pub fn surface_averages(
     s: &Solution,
 ) -> BTreeMap<String, SurfaceAverage> {
     let mut out = BTreeMap::new();
+    let (sb, sh) = (Rgb::column(&s.b), Rgb::column(&s.h));
     for (k, range) in mesh.surface_patches.iter().enumerate() {
         let mut a = 0f64;
-        let mut b = [0f64; 3];
-        let mut h = [0f64; 3];
+        let mut b = Rgb64::ZERO;
+        let mut h = Rgb64::ZERO;
         for i in range.clone() {
             let i = i as usize;
             let ai = mesh.patches[i].area;
             a += ai;
-            for c in 0..3 {
-                b[c] += ai * s.b[3 * i + c] as f64;
-                h[c] += ai * s.h[3 * i + c] as f64;
-            }
+            b += ai * sb[i].to_f64();
+            h += ai * sh[i].to_f64();
         }
         if a > 0.0 {
             out.insert(
                 scene.surfaces[k].name.clone(),
                 SurfaceAverage {
                     area: a,
-                    radiosity: b.map(|x| x / a),
-                    illuminance: h.map(|x| x / a),
+                    radiosity: b / a,
+                    illuminance: h / a,
                 },
             );
         }
@@ -75,13 +74,13 @@ pub fn surface_averages(
 pub struct PowerReport {
     /// Emitted flux per channel, lm.
     #[cfg_attr(feature = "server", schema(value_type = crate::schema::Rgb))]
-    pub emitted: [f64; 3],
+    pub emitted: Rgb64,
     /// Absorbed flux per channel, lm.
     #[cfg_attr(feature = "server", schema(value_type = crate::schema::Rgb))]
-    pub absorbed: [f64; 3],
+    pub absorbed: Rgb64,
     /// Flux that escapes the scene, per channel, lm.
     #[cfg_attr(feature = "server", schema(value_type = crate::schema::Rgb))]
-    pub escaped: [f64; 3],
+    pub escaped: Rgb64,
     /// Luminous emitted flux, lm.
     pub emitted_lm: f64,
     /// Luminous absorbed flux, lm.
@@ -95,9 +94,9 @@ pub struct PowerReport {
 impl PowerReport {
     pub fn new(p: Power) -> PowerReport {
         let (e, a, x) = (
-            luminance64(p.emitted),
-            luminance64(p.absorbed),
-            luminance64(p.escaped),
+            p.emitted.luminance(),
+            p.absorbed.luminance(),
+            p.escaped.luminance(),
         );
         PowerReport {
             emitted: p.emitted,
@@ -135,13 +134,13 @@ pub struct Lux {
     pub lux: f64,
     /// Per channel, lx.
     #[cfg_attr(feature = "server", schema(value_type = crate::schema::Rgb))]
-    pub rgb: [f64; 3],
+    pub rgb: Rgb64,
 }
 
 impl Lux {
-    pub fn new(rgb: [f64; 3]) -> Lux {
+    pub fn new(rgb: Rgb64) -> Lux {
         Lux {
-            lux: luminance64(rgb),
+            lux: rgb.luminance(),
             rgb,
         }
     }
@@ -150,7 +149,7 @@ impl Lux {
     pub fn scaled(&self, k: f64) -> Lux {
         Lux {
             lux: self.lux * k,
-            rgb: self.rgb.map(|c| c * k),
+            rgb: self.rgb * k,
         }
     }
 }
@@ -184,18 +183,17 @@ impl SurfaceIlluminance {
 
 /// Statistics of per-patch illuminance `h` (n × 3, lux) over surface `s`.
 pub fn surface_illuminance(mesh: &Mesh, s: usize, h: &[f32]) -> SurfaceIlluminance {
+    let h = Rgb::column(h);
     let mut area = 0f64;
-    let mut acc = [0f64; 3];
+    let mut acc = Rgb64::ZERO;
     let mut min: Option<Lux> = None;
     let mut max: Option<Lux> = None;
     for i in mesh.surface_patches[s].clone() {
         let i = i as usize;
         let a = mesh.patches[i].area;
-        let rgb = [h[3 * i] as f64, h[3 * i + 1] as f64, h[3 * i + 2] as f64];
+        let rgb = h[i].to_f64();
         area += a;
-        for c in 0..3 {
-            acc[c] += a * rgb[c];
-        }
+        acc += a * rgb;
         let l = Lux::new(rgb);
         if min.is_none_or(|m| l.lux < m.lux) {
             min = Some(l);
@@ -205,7 +203,7 @@ pub fn surface_illuminance(mesh: &Mesh, s: usize, h: &[f32]) -> SurfaceIlluminan
         }
     }
     let avg = Lux::new(acc.map(|x| if area > 0.0 { x / area } else { 0.0 }));
-    let zero = Lux::new([0.0; 3]);
+    let zero = Lux::new(Rgb64::ZERO);
     let min = min.unwrap_or(zero);
     SurfaceIlluminance {
         area,

@@ -4,7 +4,6 @@
 
 use glam::DVec3;
 
-use crate::color::luminance;
 use crate::daylight::tregenza::Subdivision;
 use crate::daylight::Site;
 use crate::transport::sky_view;
@@ -82,7 +81,7 @@ pub(super) fn fit_sun_spread(
     let mut g = vec![0f64; m * m];
     let mut r = vec![0f64; m];
     // Reflected-flux weight and sky-patch row of every patch.
-    let weight = |i: usize| t.area[i] as f64 * luminance(t.rho[i]) as f64;
+    let weight = |i: usize| t.area[i] as f64 * t.rho[i].luminance() as f64;
     let rows = s.direct.chunks_exact(s.k);
     for (i, (row, &si)) in rows.clone().zip(sun).enumerate() {
         let w = weight(i);

@@ -33,7 +33,7 @@ pub(crate) fn cct_to_rgb(kelvin: f64) -> Rgb {
     let b = 0.0557 * x - 0.2040 * y + 1.0570 * z;
     let rgb = [r.max(0.0), gg.max(0.0), b.max(0.0)];
     let lum = 0.2126 * rgb[0] + 0.7152 * rgb[1] + 0.0722 * rgb[2];
-    rgb.map(|c| (c / lum) as f32)
+    Rgb(rgb.map(|c| (c / lum) as f32))
 }
 
 #[cfg(test)]
@@ -45,12 +45,8 @@ mod tests {
         let warm = cct_to_rgb(2700.0);
         let d65 = cct_to_rgb(6504.0);
         assert!(warm[0] > warm[2]);
-        assert!((luminance_of(warm) - 1.0).abs() < 1e-5);
+        assert!((warm.luminance() - 1.0).abs() < 1e-5);
         // 6504 K is close to the sRGB white point: near-equal channels.
         assert!((d65[0] / d65[2] - 1.0).abs() < 0.12, "{d65:?}");
-    }
-
-    fn luminance_of(c: Rgb) -> f32 {
-        0.2126 * c[0] + 0.7152 * c[1] + 0.0722 * c[2]
     }
 }

@@ -172,7 +172,7 @@ impl Luminaire {
             (None, Distribution::Table(_)) => integral,
             (None, _) => return Err("lumens is required for isotropic and spot luminaires".into()),
         };
-        let y = crate::color::luminance(color);
+        let y = color.luminance();
         if y.is_nan() || y <= 0.0 || color.iter().any(|c| !c.is_finite() || *c < 0.0) {
             return Err("color must be non-negative with a positive luminance".into());
         }
@@ -189,7 +189,7 @@ impl Luminaire {
             opening,
             scale: lumens / integral,
             lumens,
-            color: color.map(|c| c / y),
+            color: color / y,
             watts,
         })
     }
@@ -323,7 +323,7 @@ mod tests {
             c0: None,
             distribution: Distribution::Isotropic,
             lumens: Some(1000.0),
-            color: [1.0; 3],
+            color: Rgb::ONE,
             watts: None,
         })
         .unwrap();
@@ -364,7 +364,7 @@ mod tests {
             c0: Some(DVec3::Y),
             distribution: Distribution::Table(Box::new(data)),
             lumens: None,
-            color: [1.0; 3],
+            color: Rgb::ONE,
             watts: None,
         })
         .unwrap();

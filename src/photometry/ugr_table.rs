@@ -384,7 +384,7 @@ pub fn ugr_table(table: &CandelaTable, opts: UgrTableOptions) -> Result<UgrTable
             c0: Some(DVec3::X),
             distribution,
             lumens: Some(integral * lamp_lumens / rated),
-            color: [1.0; 3],
+            color: crate::color::Rgb::ONE,
             watts: None,
         },
         integral,

@@ -166,18 +166,18 @@ impl PixelTracer<'_> {
     fn pixel(&self, x: usize, y: usize, p: u32) -> (Rgb, Rgb) {
         let d = self.rays.dir(x, y);
         if p == u32::MAX {
-            return ([self.outside(d) as f32; 3], [0.0; 3]);
+            return (Rgb::splat(self.outside(d) as f32), Rgb::ZERO);
         }
         let Some(s) = self.sun else {
-            return ([0.0; 3], [0.0; 3]);
+            return (Rgb::ZERO, Rgb::ZERO);
         };
         match self.sunlight(p, d, s) {
             Some(e) => {
                 let r = self.rho[p as usize];
                 let k = std::f32::consts::FRAC_1_PI * e;
-                ([r[0] * k, r[1] * k, r[2] * k], [e; 3])
+                (r * k, Rgb::splat(e))
             }
-            None => ([0.0; 3], [0.0; 3]),
+            None => (Rgb::ZERO, Rgb::ZERO),
         }
     }
 

@@ -143,11 +143,10 @@ fn jpeg_layout(j: &[u8]) -> Option<(usize, usize)> {
 /// Encodes linear RGB as OpenEXR (32-bit float).
 pub fn encode_exr(img: &[Rgb], w: u32, h: u32) -> Result<Vec<u8>, String> {
     use image::ImageEncoder;
-    let flat: Vec<f32> = img.iter().flatten().copied().collect();
     let mut out = std::io::Cursor::new(Vec::new());
     image::codecs::openexr::OpenExrEncoder::new(&mut out)
         .write_image(
-            bytemuck::cast_slice(&flat),
+            bytemuck::cast_slice(img),
             w,
             h,
             image::ExtendedColorType::Rgb32F,
@@ -161,7 +160,7 @@ pub fn encode_pfm(img: &[Rgb], w: u32, h: u32) -> Vec<u8> {
     let mut out = format!("PF\n{w} {h}\n-1.0\n").into_bytes();
     for y in (0..h as usize).rev() {
         for p in &img[y * w as usize..(y + 1) * w as usize] {
-            for c in p {
+            for c in p.iter() {
                 out.extend_from_slice(&c.to_le_bytes());
             }
         }

@@ -164,7 +164,7 @@ pub fn export_glb(
     let l = ex.radiance(weights, &mut per_patch);
     let ev = o.exposure.unwrap_or_else(|| auto_exposure(&l));
     let k = ev.exp2();
-    let color: Vec<[f32; 3]> = l
+    let color: Vec<Rgb> = l
         .iter()
         .map(|c| c.map(|x| tone_curve(x * k, o.tonemap)))
         .collect();
@@ -182,7 +182,7 @@ pub fn export_glb(
         "bufferView": iv, "componentType": 5125, "count": ilen / 4, "type": "SCALAR"
     }));
     let position = b.vec3(&ex.positions(), true);
-    let color_0 = b.vec3(&color, false);
+    let color_0 = b.vec3(bytemuck::cast_slice(&color), false);
     let mut attributes = json!({"POSITION": position, "COLOR_0": color_0});
     let groups = ex.groups(o.relightable, &mut b, &mut attributes, &mut per_patch);
     let doc = ex.document(attributes, groups, (ev, o.tonemap), &b);
@@ -202,14 +202,14 @@ struct Export<'a> {
 impl Export<'_> {
     /// Radiance (cd/m²) at the shading vertices under group weights `weights`;
     /// `per_patch` is scratch space of 3 floats a patch.
-    fn radiance(&self, weights: &[Rgb], per_patch: &mut [f32]) -> Vec<[f32; 3]> {
+    fn radiance(&self, weights: &[Rgb], per_patch: &mut [f32]) -> Vec<Rgb> {
         let inv_pi = std::f32::consts::FRAC_1_PI;
         self.model
             .per_patch_groups(weights, Quantity::Radiosity, per_patch);
         self.shading
             .vertex_values(per_patch)
             .into_iter()
-            .map(|c| c.map(|x| x * inv_pi))
+            .map(|c| c * inv_pi)
             .collect()
     }
 
@@ -242,13 +242,13 @@ impl Export<'_> {
             let mut entry = json!({
                 "id": light.id,
                 "name": light.name,
-                "weight": self.weights.get(g).copied().unwrap_or([0.0; 3]),
+                "weight": self.weights.get(g).copied().unwrap_or(Rgb::ZERO),
             });
             if relightable {
-                let mut one = vec![[0f32; 3]; self.weights.len()];
-                one[g] = [1.0; 3];
+                let mut one = vec![Rgb::ZERO; self.weights.len()];
+                one[g] = Rgb::ONE;
                 let lg = self.radiance(&one, per_patch);
-                attributes[&names[g]] = json!(b.vec3(&lg, false));
+                attributes[&names[g]] = json!(b.vec3(bytemuck::cast_slice(&lg), false));
                 entry["attribute"] = json!(names[g]);
             }
             groups.push(entry);

@@ -3,7 +3,7 @@
 use rayon::prelude::*;
 
 use super::font::glyph;
-use crate::color::{luminance, Rgb};
+use crate::color::Rgb;
 
 /// False colour: a perceptual blue→green→yellow→red scale of luminance over
 /// `[lo, hi]` on a log10 axis, with a legend bar on the right edge labelled in lux.
@@ -13,7 +13,7 @@ pub fn false_color(img: &[Rgb], width: u32, height: u32, lo: f32, hi: f32) -> Ve
     let mut out: Vec<u8> = img
         .par_iter()
         .flat_map_iter(|p| {
-            let y = luminance(*p);
+            let y = p.luminance();
             let t = if y <= 0.0 {
                 0.0
             } else {
@@ -190,7 +190,7 @@ mod tests {
     #[test]
     fn legend_labels_are_drawn_in_white_beside_the_bar() {
         let (w, h) = (400u32, 300u32);
-        let img = vec![[0.0f32; 3]; (w * h) as usize];
+        let img = vec![Rgb::ZERO; (w * h) as usize];
         let out = false_color(&img, w, h, 1.0, 100.0);
         let bar = w / 24;
         let white = |x: u32, y: u32| {
@@ -209,7 +209,7 @@ mod tests {
     #[test]
     fn false_color_range_to_1e39_allocated_until_abort() {
         // 1e39 lux is +inf as f32: the legend's tick loop ran over 2^31 decades.
-        let img = vec![[1.0f32; 3]; 64 * 48];
+        let img = vec![Rgb::ONE; 64 * 48];
         for (lo, hi) in [
             (1.0, f32::INFINITY),
             (f32::NAN, f32::NAN),

@@ -47,8 +47,8 @@ impl GroupImages {
             .collect();
         let mut data = vec![0f32; 3 * g * view.pixels()];
         data.par_chunks_mut(3 * g).enumerate().for_each(|(i, px)| {
-            for (k, img) in images.iter().enumerate() {
-                px[3 * k..3 * k + 3].copy_from_slice(&img[i]);
+            for (p, img) in Rgb::column_mut(px).iter_mut().zip(&images) {
+                *p = img[i];
             }
         });
         GroupImages {
@@ -77,12 +77,10 @@ impl GroupImages {
 
     #[inline]
     fn pixel(&self, i: usize, weights: &[Rgb]) -> Rgb {
-        let px = &self.data[3 * self.groups * i..3 * self.groups * (i + 1)];
-        let mut acc = [0f32; 3];
-        for (v, w) in px.chunks_exact(3).zip(weights) {
-            acc[0] += w[0] * v[0];
-            acc[1] += w[1] * v[1];
-            acc[2] += w[2] * v[2];
+        let px = Rgb::column(&self.data[3 * self.groups * i..3 * self.groups * (i + 1)]);
+        let mut acc = Rgb::ZERO;
+        for (&v, &w) in px.iter().zip(weights) {
+            acc += w * v;
         }
         acc
     }

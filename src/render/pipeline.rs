@@ -10,7 +10,7 @@ use super::{
     encode_8bit, encode_exr, encode_pfm, false_color, Camera, Format, GroupImages, Shading, ToneMap,
 };
 use super::{final_gather, ViewBuffer};
-use crate::color::{luminance, Rgb};
+use crate::color::Rgb;
 use crate::model::query::Quantity;
 use crate::model::{Lighting, Model, QueryError};
 
@@ -123,10 +123,8 @@ pub fn render_values(
 ) -> Result<Rendered, RenderError> {
     let Frame { view, shading, .. } = frame;
     let add = |mut img: Vec<Rgb>, more: &[Rgb]| {
-        for (p, e) in img.iter_mut().zip(more) {
-            for c in 0..3 {
-                p[c] += e[c];
-            }
+        for (p, &e) in img.iter_mut().zip(more) {
+            *p += e;
         }
         img
     };
@@ -204,7 +202,7 @@ pub fn final_images(
 
 /// max/100 .. max of an image's luminous values (lux); 0.01 .. 1 for a black image.
 fn default_range(img: &[Rgb]) -> (f32, f32) {
-    let max = img.iter().map(|p| luminance(*p)).fold(0.0, f32::max);
+    let max = img.iter().map(|p| p.luminance()).fold(0.0, f32::max);
     let max = if max > 0.0 { max } else { 1.0 };
     (max / 100.0, max)
 }

@@ -110,13 +110,10 @@ impl ViewBuffer {
     /// One pixel's value: the weighted sum of its vertices, times `scale`.
     #[inline]
     fn pixel(&self, i: usize, values: &[Rgb], scale: f32) -> Rgb {
-        let mut acc = [0f32; 3];
+        let mut acc = Rgb::ZERO;
         for k in self.start[i] as usize..self.start[i + 1] as usize {
-            let v = &values[self.sv[k] as usize];
             let w = self.weight[k] * scale;
-            acc[0] += w * v[0];
-            acc[1] += w * v[1];
-            acc[2] += w * v[2];
+            acc += w * values[self.sv[k] as usize];
         }
         acc
     }
@@ -149,11 +146,7 @@ impl ViewBuffer {
     ) -> (Vec<u8>, f32) {
         tonemap_pixels(
             self.pixels(),
-            |i| {
-                let p = self.pixel(i, values, scale);
-                let e = extra[i];
-                [p[0] + e[0], p[1] + e[1], p[2] + e[2]]
-            },
+            |i| self.pixel(i, values, scale) + extra[i],
             exposure,
             tm,
         )

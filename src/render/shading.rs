@@ -174,17 +174,14 @@ impl Shading {
 
     /// Vertex values from per-patch values (n × 3 interleaved).
     pub fn vertex_values(&self, per_patch: &[f32]) -> Vec<Rgb> {
+        let per_patch = Rgb::column(per_patch);
         (0..self.len())
             .into_par_iter()
             .with_min_len(1024)
             .map(|s| {
-                let mut acc = [0f32; 3];
+                let mut acc = Rgb::ZERO;
                 for k in self.start[s] as usize..self.start[s + 1] as usize {
-                    let p = self.patch[k] as usize;
-                    let w = self.weight[k];
-                    for c in 0..3 {
-                        acc[c] += w * per_patch[3 * p + c];
-                    }
+                    acc += self.weight[k] * per_patch[self.patch[k] as usize];
                 }
                 acc
             })

@@ -2,7 +2,7 @@
 
 use rayon::prelude::*;
 
-use crate::color::{luminance, Rgb};
+use crate::color::Rgb;
 
 /// Tone mapping of linear radiance after exposure.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Deserialize, serde::Serialize)]
@@ -24,7 +24,7 @@ pub fn auto_exposure(img: &[Rgb]) -> f32 {
             chunk
                 .iter()
                 .step_by(5)
-                .map(|p| luminance(*p))
+                .map(|p| p.luminance())
                 .filter(|&y| y > 0.0)
                 .fold((0f64, 0usize), |(s, c), y| (s + (y as f64).ln(), c + 1))
         })

@@ -13,7 +13,7 @@ use super::materials::Material;
 use super::toml::LightToml;
 use super::triangles::{is_two_sided, Surface, Triangle};
 use super::{SceneError, SceneToml};
-use crate::color::{luminance, Rgb};
+use crate::color::Rgb;
 use crate::input_limits::MAX_LIGHT_GROUPS;
 
 /// A light group: emitters switched and dimmed together.
@@ -44,7 +44,7 @@ impl LightGroup {
             name: id.to_string(),
             ke_scale: 1.0,
             intensity: 1.0,
-            color: [1.0; 3],
+            color: Rgb::ONE,
             luminaires: vec![],
             maintenance_factor: 1.0,
             ra: None,
@@ -196,7 +196,7 @@ fn configured_group(
         name: l.name.clone().unwrap_or_else(|| l.id.clone()),
         ke_scale: 1.0,
         intensity,
-        color: l.color.unwrap_or([1.0; 3]),
+        color: l.color.unwrap_or(Rgb::ONE),
         luminaires: vec![],
         // The scene's default is applied by `apply_maintenance_factors`.
         maintenance_factor: l.maintenance_factor.unwrap_or(1.0),
@@ -271,7 +271,7 @@ fn rescale_to_lumens(
                 } else {
                     1.0
                 };
-                t.area() * sides * luminance(materials[t.material as usize].ke) as f64
+                t.area() * sides * materials[t.material as usize].ke.luminance() as f64
             })
             .sum();
         if flux <= 0.0 {

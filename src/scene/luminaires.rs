@@ -233,6 +233,6 @@ fn color(l: &LuminaireToml) -> Result<Rgb, String> {
         (Some(c), None) => Ok(c),
         (None, Some(k)) if (MIN_CCT..=MAX_CCT).contains(&k) => Ok(cct_to_rgb(k)),
         (None, Some(k)) => Err(format!("cct = {k}: must be 1000..40000 K")),
-        (None, None) => Ok([1.0; 3]),
+        (None, None) => Ok(Rgb::ONE),
     }
 }

@@ -160,8 +160,8 @@ impl MaterialTable {
             Ok(v) => v,
             Err(e) => return lenient(format!("cannot be read ({e})"), warnings),
         };
-        let base = if m.kd_given { m.kd } else { [1.0; 3] };
-        let kd: Rgb = std::array::from_fn(|c| base[c] * mean[c]);
+        let base = if m.kd_given { m.kd } else { Rgb::ONE };
+        let kd = base * mean;
         m.kd = textured_kd(&m, kd, (shown, line), strict, warnings)?;
         Ok(m)
     }
@@ -197,8 +197,8 @@ impl MaterialTable {
             self.index.insert(name.clone(), self.materials.len() as u32);
             self.materials.push(Material {
                 name: name.clone(),
-                kd: [0.5; 3],
-                ke: [0.0; 3],
+                kd: Rgb::splat(0.5),
+                ke: Rgb::ZERO,
                 two_sided: cfg.material.get(name).is_some_and(|o| o.two_sided),
             });
             missing.push((name.clone(), *line));
@@ -294,8 +294,8 @@ impl MaterialTable {
                 ));
                 self.materials.push(Material {
                     name: DEFAULT_MATERIAL.into(),
-                    kd: [0.5; 3],
-                    ke: [0.0; 3],
+                    kd: Rgb::splat(0.5),
+                    ke: Rgb::ZERO,
                     two_sided: false,
                 });
                 (self.materials.len() - 1) as u32

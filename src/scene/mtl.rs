@@ -171,9 +171,9 @@ impl MtlParser<'_> {
         self.lines_of.insert(name.to_string(), line);
         self.lib.materials.push(MtlMaterial {
             name: name.to_string(),
-            kd: [0.0; 3],
+            kd: Rgb::ZERO,
             kd_given: false,
-            ke: [0.0; 3],
+            ke: Rgb::ZERO,
             line,
             map_kd: None,
         });
@@ -314,7 +314,7 @@ fn map_file_name(words: &[&str]) -> Option<String> {
 /// A reflectance with a channel of 1 or more, scaled so its largest channel is
 /// [`MAX_KD`]; None when it is in range.
 pub(crate) fn clamp_kd(v: Rgb) -> Option<Rgb> {
-    let top = v.iter().copied().fold(0.0f32, f32::max);
+    let top = v.max_component();
     (top >= 1.0).then(|| v.map(|x| (x / top * MAX_KD).min(MAX_KD)))
 }
 
@@ -344,7 +344,7 @@ fn color_values(key: &str, words: SplitWhitespace<'_>) -> Result<Rgb, String> {
     if vals.len() == 1 {
         v = [v[0]; 3];
     }
-    Ok(v)
+    Ok(Rgb(v))
 }
 
 /// A numeric statement relight does not use (`k`, one of [`NUMERIC`]): its values must

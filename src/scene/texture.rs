@@ -6,7 +6,7 @@
 //! that is transparent everywhere counts every texel equally). Radiosity needs one
 //! reflectance per patch; the mean is the texture's reflectance as seen from afar.
 
-use crate::color::Rgb;
+use crate::color::{Rgb, Rgb64};
 use crate::input_limits::{MAX_TEXTURE_PIXELS, MAX_TEXTURE_SIDE};
 
 /// The alpha-weighted mean linear RGB of the encoded image `bytes`, or why it cannot be
@@ -41,21 +41,23 @@ pub(crate) fn mean_linear_rgb(bytes: &[u8]) -> Result<Rgb, String> {
     reader.limits(limits);
     let img = reader.decode().map_err(|e| e.to_string())?.to_rgba8();
     let lut: [f64; 256] = std::array::from_fn(|k| srgb_to_linear(k as f64 / 255.0));
-    let (mut sum, mut weight, mut plain) = ([0f64; 3], 0f64, [0f64; 3]);
+    let (mut sum, mut weight, mut plain) = (Rgb64::ZERO, 0f64, Rgb64::ZERO);
     for px in img.pixels() {
         let a = px[3] as f64 / 255.0;
-        for c in 0..3 {
-            let v = lut[px[c] as usize];
-            sum[c] += a * v;
-            plain[c] += v;
-        }
+        let v = Rgb64::new(
+            lut[px[0] as usize],
+            lut[px[1] as usize],
+            lut[px[2] as usize],
+        );
+        sum += a * v;
+        plain += v;
         weight += a;
     }
     let texels = img.pixels().len() as f64;
     Ok(if weight > 0.0 {
-        sum.map(|s| (s / weight) as f32)
+        (sum / weight).to_f32()
     } else {
-        plain.map(|s| (s / texels) as f32)
+        (plain / texels).to_f32()
     })
 }
 

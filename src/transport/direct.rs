@@ -19,6 +19,7 @@
 use glam::{DVec3, Vec3A};
 use rayon::prelude::*;
 
+use crate::color::{Rgb, Rgb64};
 use crate::geometry::bvh::Bvh;
 use crate::geometry::mesh::Mesh;
 use crate::photometry::Luminaire;
@@ -134,34 +135,30 @@ pub fn group_direct(scene: &Scene, mesh: &Mesh, bvh: &Bvh) -> Vec<Option<Vec<f32
             if g.luminaires.is_empty() {
                 return None;
             }
-            let per_patch: Vec<[f64; 3]> = (0..mesh.len())
+            let per_patch: Vec<Rgb64> = (0..mesh.len())
                 .into_par_iter()
                 .with_min_len(64)
                 .map(|j| {
-                    let mut acc = [0.0; 3];
+                    let mut acc = Rgb64::ZERO;
                     for l in &g.luminaires {
                         let e = patch_illuminance(mesh, bvh, l, j, &coarse, &fine);
-                        for (a, &k) in acc.iter_mut().zip(&l.color) {
-                            *a += e * k as f64;
-                        }
+                        acc += e * l.color.to_f64();
                     }
                     acc
                 })
                 .collect();
-            Some(per_patch.iter().flat_map(|a| a.map(|v| v as f32)).collect())
+            Some(per_patch.iter().flat_map(|a| a.to_f32().0).collect())
         })
         .collect()
 }
 
 /// Direct illuminance (lux per channel) of `luminaires` at point `x` on a receiver facing
 /// `n`, per point, with shadows (sampled over near luminous openings).
-pub fn point_illuminance(bvh: &Bvh, luminaires: &[Luminaire], x: DVec3, n: DVec3) -> [f64; 3] {
-    let mut acc = [0.0; 3];
+pub fn point_illuminance(bvh: &Bvh, luminaires: &[Luminaire], x: DVec3, n: DVec3) -> Rgb64 {
+    let mut acc = Rgb64::ZERO;
     for l in luminaires {
         let (e, _, _) = shadowed(bvh, l, x, n, u32::MAX);
-        for (a, &k) in acc.iter_mut().zip(&l.color) {
-            *a += e * k as f64;
-        }
+        acc += e * l.color.to_f64();
     }
     acc
 }
@@ -172,19 +169,16 @@ pub fn group_flux(
     g: &crate::scene::LightGroup,
     area: &[f32],
     direct: Option<&[f32]>,
-) -> ([f64; 3], [f64; 3]) {
-    let mut emitted = [0.0; 3];
-    for l in &g.luminaires {
-        for (a, &k) in emitted.iter_mut().zip(&l.color) {
-            *a += l.lumens * k as f64;
-        }
-    }
-    let mut landed = [0.0; 3];
+) -> (Rgb64, Rgb64) {
+    let emitted = g
+        .luminaires
+        .iter()
+        .map(|l| l.lumens * l.color.to_f64())
+        .sum();
+    let mut landed = Rgb64::ZERO;
     if let Some(d) = direct {
-        for (i, a) in area.iter().enumerate() {
-            for c in 0..3 {
-                landed[c] += *a as f64 * d[3 * i + c] as f64;
-            }
+        for (&a, d) in area.iter().zip(Rgb::column(d)) {
+            landed += a as f64 * d.to_f64();
         }
     }
     (emitted, landed)

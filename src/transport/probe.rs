@@ -8,6 +8,7 @@
 use glam::{DVec3, Vec3A};
 use rayon::prelude::*;
 
+use crate::color::{Rgb, Rgb64};
 use crate::geometry::bvh::Bvh;
 use crate::geometry::mesh::Mesh;
 use crate::scene::Scene;
@@ -24,12 +25,11 @@ const RAYS_PER_SHARE: f64 = 4096.0;
 
 /// Illuminance (lux per channel) at `x` on a receiver facing `n`, for per-patch radiosity
 /// `b` (n × 3 interleaved, lm/m²).
-pub fn illuminance_at(mesh: &Mesh, bvh: &Bvh, b: &[f32], x: DVec3, n: DVec3) -> [f64; 3] {
-    let mut e = [0.0; 3];
+pub fn illuminance_at(mesh: &Mesh, bvh: &Bvh, b: &[f32], x: DVec3, n: DVec3) -> Rgb64 {
+    let b_rgb = Rgb::column(b);
+    let mut e = Rgb64::ZERO;
     for (j, w) in gather_weights(mesh, bvh, b, x, n) {
-        for c in 0..3 {
-            e[c] += w * b[3 * j as usize + c] as f64;
-        }
+        e += w * b_rgb[j as usize].to_f64();
     }
     e
 }
@@ -49,16 +49,16 @@ pub fn gather_weights(
     x: DVec3,
     n: DVec3,
 ) -> Vec<(u32, f64)> {
-    let b = importance;
+    let b = Rgb::column(importance);
     let n = n.normalize();
     let lift = 1e-6 * (1.0 + x.abs().max_element());
     let o = Vec3A::from((x + n * lift).as_vec3());
-    let candidates: Vec<(usize, f64, [f64; 3])> = (0..mesh.len())
+    let candidates: Vec<(usize, f64, Rgb64)> = (0..mesh.len())
         .into_par_iter()
         .with_min_len(256)
         .filter_map(|j| {
-            let bj = [b[3 * j] as f64, b[3 * j + 1] as f64, b[3 * j + 2] as f64];
-            if bj.iter().all(|&v| v == 0.0) {
+            let bj = b[j].to_f64();
+            if bj == Rgb64::ZERO {
                 return None;
             }
             let p = &mesh.patches[j];
@@ -71,7 +71,7 @@ pub fn gather_weights(
         .collect();
     let total: f64 = candidates
         .iter()
-        .map(|(_, ff, bj)| ff * crate::color::luminance64(*bj))
+        .map(|(_, ff, bj)| ff * bj.luminance())
         .sum();
     candidates
         .par_iter()
@@ -102,7 +102,7 @@ pub fn gather_weights(
                 free
             };
             let share = if total > 0.0 {
-                ff * crate::color::luminance64(bj) / total
+                ff * bj.luminance() / total
             } else {
                 0.0
             };
@@ -147,7 +147,7 @@ pub fn grid_columns(
         .iter()
         .map(|grid| {
             let n = DVec3::from_array(grid.normal);
-            let rows: Vec<Vec<[f32; 3]>> = grid
+            let rows: Vec<Vec<Rgb>> = grid
                 .points
                 .par_iter()
                 .map(|p| {
@@ -164,19 +164,17 @@ pub fn grid_columns(
                                 x,
                                 n,
                             );
+                            let b = Rgb::column(&g.b);
                             for &(j, wj) in &w {
-                                let bj = &g.b[3 * j as usize..3 * j as usize + 3];
-                                for (ec, &b) in e.iter_mut().zip(bj) {
-                                    *ec += wj * b as f64;
-                                }
+                                e += wj * b[j as usize].to_f64();
                             }
-                            e.map(|v| v as f32)
+                            e.to_f32()
                         })
                         .collect()
                 })
                 .collect();
             (0..groups.len())
-                .map(|g| rows.iter().flat_map(|r| r[g]).collect())
+                .map(|g| rows.iter().flat_map(|r| r[g].0).collect())
                 .collect()
         })
         .collect()

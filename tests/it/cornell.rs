@@ -1,6 +1,7 @@
 //! The bundled Cornell box against the independent path-traced reference
 //! (`tests/data/cornell_reference.json`, a copy of shared/reference/cornell-box/reference.json).
 
+use relight::color::Rgb;
 use relight::model::report::surface_averages;
 
 use crate::common;
@@ -14,7 +15,7 @@ fn cornell_box_matches_the_path_traced_reference() {
         "default meshing has {} patches",
         b.mesh.len()
     );
-    let sol = b.transfer.relight(&[[1.0; 3]]);
+    let sol = b.transfer.relight(&[Rgb::ONE]);
     let ours = surface_averages(&b.scene, &b.mesh, &sol);
     let reference: serde_json::Value = serde_json::from_str(
         &std::fs::read_to_string(

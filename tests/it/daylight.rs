@@ -809,9 +809,7 @@ fn points_reflect_the_same_daylight_through_their_coefficients_as_through_the_pa
                         reach,
                     );
                 }
-                for c in &mut want {
-                    *c += direct;
-                }
+                want += relight::color::Rgb64::splat(direct);
                 for c in 0..3 {
                     assert!(
                         (got.rgb[c] - want[c]).abs() <= 1e-4 * want[c].max(1.0),

@@ -5,6 +5,7 @@
 
 use glam::Vec3;
 use relight::bake::{load_or_bake, BakeOptions, CachePolicy};
+use relight::color::Rgb;
 use relight::model::{Cancel, Model};
 use relight::render::final_gather::patch_bvh;
 use relight::render::pipeline::final_images;
@@ -55,7 +56,7 @@ fn a_closed_glowing_room_shows_the_analytic_radiance_everywhere() {
         width: 48,
         height: 36,
     };
-    let img = finals(&m, &cam).linear(&[[1.0; 3]]);
+    let img = finals(&m, &cam).linear(&[Rgb::ONE]);
     let want = 1.0 / (std::f32::consts::PI * 0.5);
     let worst = img
         .iter()
@@ -96,7 +97,7 @@ fn a_point_downlights_shadow_edge_lies_on_the_geometric_umbra() {
     let m = model(s.path());
     let (w, h, fov) = (128u32, 128u32, 40.0f32);
     let cam = looking_down(5.0, fov, w);
-    let img = finals(&m, &cam).linear(&[[1.0; 3]]);
+    let img = finals(&m, &cam).linear(&[Rgb::ONE]);
     // Along the middle row (z = 0), image x runs along +x.
     let row = &img[(h as usize / 2) * w as usize..][..w as usize];
     let lit = row[w as usize - 8][1];
@@ -156,7 +157,7 @@ fn an_area_lights_penumbra_follows_the_visible_configuration_factor() {
     let m = model(s.path());
     let (w, h, fov, cam_y) = (160u32, 160u32, 36.0f32, 5.0);
     let cam = looking_down(cam_y as f32, fov, w);
-    let img = finals(&m, &cam).linear(&[[1.0; 3]]);
+    let img = finals(&m, &cam).linear(&[Rgb::ONE]);
     let tan = (fov as f64 / 2.0).to_radians().tan();
     let to_floor = |px: f64| (px / (w as f64 / 2.0) - 1.0) * tan * cam_y;
     // The radiance of a floor point (x, z): ρ/π × M × the visible factor. Seen from

@@ -2,6 +2,7 @@
 
 use glam::DVec3;
 use relight::bake::{load_or_bake, BakeOptions, CachePolicy};
+use relight::color::Rgb;
 use relight::model::{Cancel, LightState, Model};
 
 use crate::common::{self, *};
@@ -109,7 +110,7 @@ fn ugr_at_an_observer_matches_the_hand_calculation() {
         "panel".into(),
         relight::model::LightSetting {
             intensity: 0.25,
-            color: [1.0; 3],
+            color: Rgb::ONE,
         },
     );
     let w = model.weights(&dim).unwrap();

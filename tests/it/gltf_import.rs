@@ -273,7 +273,7 @@ fn material_scene(materials: Value, doc: &mut Doc, extra: Value) -> Vec<u8> {
     doc.glb(rest)
 }
 
-fn kd_of(s: &Scene, surface: &str) -> [f32; 3] {
+fn kd_of(s: &Scene, surface: &str) -> relight::color::Rgb {
     let k = s.surface_index(surface).unwrap() as u32;
     let t = s.triangles.iter().find(|t| t.surface == k).unwrap();
     s.materials[t.material as usize].kd

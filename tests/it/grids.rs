@@ -2,6 +2,7 @@
 //! left out of the statistics, and EN 12464-1 areas place their points by the standard.
 
 use relight::bake::{load_or_bake, BakeOptions, CachePolicy};
+use relight::color::Rgb;
 use relight::model::Model;
 use relight::scene::grids::{en12464_spacing, GridKind};
 
@@ -39,7 +40,7 @@ lumens = 3000
 
 fn answer(m: &Model, id: &str) -> relight::model::query::GridAnswer {
     let gi = m.grids.iter().position(|g| g.grid.id == id).unwrap();
-    m.grid_answer(gi, &vec![[1.0; 3]; m.baked.scene.lights.len()])
+    m.grid_answer(gi, &vec![Rgb::ONE; m.baked.scene.lights.len()])
 }
 
 /// The gallery's floor grid and the rooflight's reference plane reported Emin 0 lx and

@@ -2,6 +2,7 @@
 //! and the Cornell reference, per-patch emission solved by sweeps, and the cache.
 
 use relight::bake::{load_or_bake, BakeOptions, Baked, CachePolicy};
+use relight::color::Rgb;
 use relight::model::report::surface_averages;
 use relight::transport::transfer::TransferMode;
 
@@ -86,7 +87,7 @@ fn hierarchical_closed_room_conserves_energy_and_agrees_with_factored() {
         hier.stats.links
     );
     // The power balance holds and almost nothing escapes.
-    let on = [[1.0f32; 3]];
+    let on = [Rgb::ONE];
     let (sh, sf) = (h.transfer.relight(&on), f.transfer.relight(&on));
     let p = h.transfer.power(&sh);
     for c in 0..3 {
@@ -132,7 +133,7 @@ fn hierarchical_cornell_box_matches_the_reference() {
         &scenes_dir().join("cornell-box"),
         TransferMode::Hierarchical,
     );
-    let sol = b.transfer.relight(&[[1.0; 3]]);
+    let sol = b.transfer.relight(&[Rgb::ONE]);
     let ours = surface_averages(&b.scene, &b.mesh, &sol);
     let reference: serde_json::Value = serde_json::from_str(
         &std::fs::read_to_string(
@@ -208,7 +209,7 @@ fn hierarchical_solves_per_patch_emission_and_survives_the_cache() {
     assert_eq!(ha.stats, hb.stats);
     assert_eq!(a.transfer.groups[0].b, b.transfer.groups[0].b);
     // The lamp's emission as a per-patch vector, solved by sweeps, equals its group column.
-    let relit = b.transfer.relight(&[[1.0; 3]]);
+    let relit = b.transfer.relight(&[Rgb::ONE]);
     let solved = b
         .transfer
         .solve(&relit.e)

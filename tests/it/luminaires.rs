@@ -2,7 +2,7 @@
 //! closed forms in the style of CIE 171:2006 (test cases for lighting programs).
 
 use relight::bake::{load_or_bake, BakeOptions, Baked, CachePolicy};
-use relight::color::luminance64;
+use relight::color::Rgb;
 use relight::model::grid::GridResponse;
 
 use crate::common::{self, *};
@@ -20,7 +20,7 @@ fn bake(s: &TempScene) -> Baked {
 fn grid_values(b: &Baked, id: &str) -> Vec<f32> {
     let grids = GridResponse::build_all(&b.scene, &b.bvh, b.transfer.grids.clone());
     let g = grids.iter().find(|g| g.grid.id == id).unwrap();
-    g.values(&vec![[1.0; 3]; b.scene.lights.len()])
+    g.values(&vec![Rgb::ONE; b.scene.lights.len()])
 }
 
 const BLACK: &str = "newmtl black\nKd 0 0 0\n";
@@ -172,7 +172,7 @@ fn ldt_files_and_their_ies_twins_give_the_same_light() {
                 c0: None,
                 distribution: d,
                 lumens: None,
-                color: [1.0; 3],
+                color: Rgb::ONE,
                 watts: None,
             })
             .unwrap()
@@ -380,10 +380,10 @@ points = [[2, 0, 2]]
     );
     let b = bake(&s);
     let t = &b.transfer;
-    let sol = t.relight(&[[1.0; 3]]);
+    let sol = t.relight(&[Rgb::ONE]);
     let area: f64 = t.area.iter().map(|&a| a as f64).sum();
     let mean_h: f64 = (0..t.n)
-        .map(|i| t.area[i] as f64 * luminance64([0, 1, 2].map(|c| sol.h[3 * i + c] as f64)))
+        .map(|i| t.area[i] as f64 * Rgb::column(&sol.h)[i].to_f64().luminance())
         .sum::<f64>()
         / area;
     let want = 10000.0 / (area * (1.0 - rho));
@@ -395,7 +395,7 @@ points = [[2, 0, 2]]
     assert!(err < 0.01, "mean {mean_h}, want {want}");
     // The direct flux lands entirely on the walls.
     let g = &t.groups[0];
-    let landed = luminance64(g.landed) / luminance64(g.flux);
+    let landed = g.landed.luminance() / g.flux.luminance();
     assert!((landed - 1.0).abs() < 0.01, "direct flux landing: {landed}");
     // Floor centre: direct I/h² plus an indirect part close to the room's mean indirect
     // ρΦ/(A(1−ρ)) (reported; the closed form holds for the mean, not per point).
@@ -416,13 +416,16 @@ fn office_lumens_in_equal_absorbed_plus_escaped() {
     let _gate = common::shared();
     let dir = scenes_dir().join("office");
     let b = load_or_bake(&dir, CachePolicy::Off, &BakeOptions::default(), &|_, _| {}).unwrap();
-    for w in [[[1.0; 3], [1.0; 3]], [[0.3, 0.3, 0.3], [1.0, 0.8, 0.6]]] {
+    for w in [
+        [Rgb::ONE, Rgb::ONE],
+        [Rgb::splat(0.3), Rgb::new(1.0, 0.8, 0.6)],
+    ] {
         let sol = b.transfer.relight(&w);
         let p = b.transfer.power(&sol);
         let (e, a, x) = (
-            luminance64(p.emitted),
-            luminance64(p.absorbed),
-            luminance64(p.escaped),
+            p.emitted.luminance(),
+            p.absorbed.luminance(),
+            p.escaped.luminance(),
         );
         assert!(e > 1000.0);
         assert!(x > 0.01 * e, "the window lets light out: {x} of {e}");
@@ -433,9 +436,9 @@ fn office_lumens_in_equal_absorbed_plus_escaped() {
     }
     // At full power the six 2500 lm downlights emit their rated flux (the table's own
     // integral, within the 5° sampling of the file).
-    let p = b.transfer.power(&b.transfer.relight(&[[1.0; 3], [1.0; 3]]));
+    let p = b.transfer.power(&b.transfer.relight(&[Rgb::ONE, Rgb::ONE]));
     assert!(
-        (luminance64(p.emitted) / 15000.0 - 1.0).abs() < 0.005,
+        (p.emitted.luminance() / 15000.0 - 1.0).abs() < 0.005,
         "{p:?}"
     );
 }

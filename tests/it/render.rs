@@ -1,6 +1,7 @@
 //! The renderer: known pixel values, no cracks, depth order, false colour, and the Cornell
 //! box against the path-traced reference image.
 
+use relight::color::Rgb;
 use relight::render::{self, Camera, GroupImages, Shading, ToneMap, ViewBuffer};
 
 use crate::common::{self, *};
@@ -42,7 +43,7 @@ fn constant_radiosity_renders_its_exact_value_without_cracks() {
     }
     // Tone mapping: 0.5 linear, clamp, is sRGB 187.52 → 188; the gathered image (within
     // 1e-4 of 0.5) stays within that code's rounding.
-    let exact = render::tonemap(&[[0.5; 3]], 0.0, ToneMap::Clamp);
+    let exact = render::tonemap(&[Rgb::splat(0.5)], 0.0, ToneMap::Clamp);
     assert_eq!(exact, [188, 188, 188]);
     let px = render::tonemap(&img, 0.0, ToneMap::Clamp);
     assert!(px.iter().all(|&v| v == 187 || v == 188), "{:?}", &px[..3]);
@@ -106,8 +107,8 @@ fn the_z_buffer_puts_the_near_block_in_front() {
 fn false_colour_maps_known_values_to_known_colours() {
     let _gate = common::shared();
     // Log scale 1..100 lux: 1 → the first stop, 100 → the last, 10 → the middle.
-    let mut img = vec![[0.0f32; 3]; 96];
-    img[..3].copy_from_slice(&[[1.0; 3], [10.0; 3], [100.0; 3]]);
+    let mut img = vec![Rgb::ZERO; 96];
+    img[..3].copy_from_slice(&[Rgb::ONE, Rgb::splat(10.0), Rgb::splat(100.0)]);
     let out = render::false_color(&img, 96, 1, 1.0, 100.0);
     // The legend covers the last 4 columns; check the first three pixels.
     assert_eq!(&out[0..3], &render::scale_color(0.0));
@@ -125,12 +126,12 @@ fn cornell_box_image_matches_the_path_traced_reference() {
     // The reference camera; render at 2× and box-filter to 256² like the reference pixels.
     let c = Camera::from_def(&b.scene.cameras[0], 512, 512);
     let view = ViewBuffer::build(&b.mesh, &shading, &c);
-    let sol = b.transfer.relight(&[[1.0; 3]]);
+    let sol = b.transfer.relight(&[Rgb::ONE]);
     let img = view.gather(&shading.vertex_values(&sol.b), std::f32::consts::FRAC_1_PI);
     // The fast path for light-group states, a weighted sum of per-group images, gives the
     // same image as the gather, for any RGB weight.
     let gi = GroupImages::radiance(&view, &shading, &b.transfer);
-    let wt = [[0.3f32, 0.6, 0.9]];
+    let wt = [Rgb::new(0.3, 0.6, 0.9)];
     let tinted = view.gather(
         &shading.vertex_values(&b.transfer.relight(&wt).b),
         std::f32::consts::FRAC_1_PI,

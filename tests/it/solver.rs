@@ -2,6 +2,7 @@
 //! energy balance, agreement of the two modes, and linearity of relighting.
 
 use relight::bake::{load_or_bake, BakeOptions, Baked, CachePolicy};
+use relight::color::Rgb;
 use relight::model::lighting::{LightSetting, LightState};
 use relight::transport::transfer::TransferMode;
 
@@ -36,7 +37,7 @@ fn furnace_closed_room_with_uniform_emission() {
         Some("[mesh]\ntarget_patches = 1500\n"),
     );
     let b = bake(s.path(), BakeOptions::default());
-    let sol = b.transfer.relight(&[[1.0; 3]]);
+    let sol = b.transfer.relight(&[Rgb::ONE]);
     let worst = sol
         .b
         .iter()
@@ -121,7 +122,7 @@ fn finely_meshed_cube_conserves_energy_and_departs_from_6x6() {
     let _gate = common::shared();
     let s = unit_cube(None);
     let b = bake(s.path(), BakeOptions::default());
-    let sol = b.transfer.relight(&[[1.0; 3]]);
+    let sol = b.transfer.relight(&[Rgb::ONE]);
     // Closed cube: area-weighted mean radiosity = Φ / (A (1 − ρ)) with Φ = 1 lm, A = 6 m².
     let total: f64 = (0..b.mesh.len())
         .map(|i| b.mesh.patches[i].area * sol.b[3 * i] as f64)
@@ -166,7 +167,7 @@ fn energy_balance_closed_and_open() {
     let mtl = "newmtl wall\nKd 0.7 0.5 0.3\nnewmtl lamp\nKd 0 0 0\nKe 100 100 100\n";
     let s = write_scene(&obj, mtl, Some("[mesh]\ntarget_patches = 1200\n"));
     let b = bake(s.path(), BakeOptions::default());
-    let sol = b.transfer.relight(&[[1.0; 3]]);
+    let sol = b.transfer.relight(&[Rgb::ONE]);
     let p = b.transfer.power(&sol);
     for c in 0..3 {
         assert!(
@@ -201,7 +202,7 @@ fn energy_balance_closed_and_open() {
         );
     let s = write_scene(&obj, mtl, Some("[mesh]\ntarget_patches = 1200\n"));
     let b = bake(s.path(), BakeOptions::default());
-    let sol = b.transfer.relight(&[[1.0; 3]]);
+    let sol = b.transfer.relight(&[Rgb::ONE]);
     let p = b.transfer.power(&sol);
     for c in 0..3 {
         let rel = (p.emitted[c] - p.absorbed[c] - p.escaped[c]) / p.emitted[c];
@@ -263,7 +264,7 @@ fn relighting_is_linear_and_mixes_colours_per_channel() {
     };
     let on = |i: f32| LightSetting {
         intensity: i,
-        color: [1.0; 3],
+        color: Rgb::ONE,
     };
     let base = b.transfer.relight(&weights(on(1.0), on(0.0)));
     let one = b.transfer.relight(&weights(on(1.0), on(1.0)));
@@ -281,7 +282,7 @@ fn relighting_is_linear_and_mixes_colours_per_channel() {
         on(0.0),
         LightSetting {
             intensity: 1.0,
-            color: [1.0, 0.0, 0.0],
+            color: Rgb::new(1.0, 0.0, 0.0),
         },
     ));
     let lamp = b.transfer.relight(&weights(on(0.0), on(1.0)));
@@ -295,7 +296,7 @@ fn relighting_is_linear_and_mixes_colours_per_channel() {
         on(0.3),
         LightSetting {
             intensity: 2.0,
-            color: [1.0, 0.5, 0.25],
+            color: Rgb::new(1.0, 0.5, 0.25),
         },
     );
     let relit = b.transfer.relight(&mix);
@@ -309,6 +310,6 @@ fn relighting_is_linear_and_mixes_colours_per_channel() {
     let lamp_only = b
         .transfer
         .power(&b.transfer.relight(&weights(on(0.0), on(1.0))));
-    let y = relight::color::luminance64(lamp_only.emitted);
+    let y = lamp_only.emitted.luminance();
     assert!((y - 400.0).abs() < 0.01, "lamp emits {y} lm");
 }

@@ -14,6 +14,7 @@ use super::format::{
     MAX_HEADER_BYTES, PREAMBLE,
 };
 use super::CacheError;
+use crate::color::{Rgb, Rgb64};
 use crate::transport::hierarchy::{Hierarchy, StoredLinks};
 use crate::transport::solve::ChannelLu;
 use crate::transport::transfer::{Factored, GroupColumns, SkyColumns, Transfer, TransferMode};
@@ -231,11 +232,8 @@ fn assemble(path: &Path, h: &Header, mut s: Sections) -> Result<Transfer, CacheE
             .remove(name)
             .ok_or_else(|| corrupt(format!("missing section '{name}'")))
     };
-    let rho_flat = take("rho")?;
-    let rho = rho_flat
-        .chunks_exact(3)
-        .map(|c| [c[0], c[1], c[2]])
-        .collect();
+    // The section's size is checked above: 3n floats.
+    let rho = Rgb::column(&take("rho")?).to_vec();
     let area = take("area")?;
     let escape = take("escape")?;
     let mut groups = Vec::new();
@@ -244,8 +242,8 @@ fn assemble(path: &Path, h: &Header, mut s: Sections) -> Result<Transfer, CacheE
             e: take(&format!("e{g}"))?,
             b: take(&format!("b{g}"))?,
             h: take(&format!("h{g}"))?,
-            flux: h.group_flux.get(g).map_or([0.0; 3], |f| f[0]),
-            landed: h.group_flux.get(g).map_or([0.0; 3], |f| f[1]),
+            flux: h.group_flux.get(g).map_or(Rgb64::ZERO, |f| Rgb64(f[0])),
+            landed: h.group_flux.get(g).map_or(Rgb64::ZERO, |f| Rgb64(f[1])),
         });
     }
     let mut grids = Vec::new();

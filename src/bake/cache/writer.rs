@@ -84,7 +84,7 @@ pub fn write(
         mesh_fingerprint: format!("{mesh_fingerprint:016x}"),
         mode: t.mode,
         groups: t.groups.len(),
-        group_flux: t.groups.iter().map(|g| [g.flux, g.landed]).collect(),
+        group_flux: t.groups.iter().map(|g| [g.flux.0, g.landed.0]).collect(),
         channel_lu: t.factored.as_ref().map(|f| f.channel_lu),
         lu_count: t.factored.as_ref().map_or(0, |f| f.lus.len()),
         info: t.info,
@@ -112,10 +112,9 @@ pub fn write(
 /// crate targets little-endian machines, checked at compile time).
 fn sections_of(t: &Transfer) -> Vec<(String, Data<'_>)> {
     let mut all: Vec<(String, Data)> = Vec::new();
-    let rho: Vec<f32> = t.rho.iter().flatten().copied().collect();
     all.push((
         "rho".into(),
-        Data::Bytes(bytemuck::cast_slice(&rho).to_vec()),
+        Data::Bytes(bytemuck::cast_slice(&t.rho).to_vec()),
     ));
     if let Some(f) = &t.factored {
         for (k, lu) in f.lus.iter().enumerate() {

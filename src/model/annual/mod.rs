@@ -39,7 +39,7 @@ use serde::Serialize;
 use super::metrics::{self, PointHours};
 pub use super::metrics::{En17037, Udi};
 use super::{Cancel, Model, QueryError};
-use crate::color::luminance64;
+use crate::color::Rgb;
 use crate::daylight::epw::{self, Weather};
 use crate::daylight::tregenza::Subdivision;
 use crate::transport::sky_view;
@@ -170,9 +170,9 @@ impl Model {
             out.par_chunks_mut(s.k).enumerate().for_each(|(i, row)| {
                 let r = t.rho[i];
                 for (k, o) in row.iter_mut().enumerate() {
-                    let d = s.direct[i * s.k + k];
-                    let ind = &s.indirect[k][3 * i..3 * i + 3];
-                    *o = luminance64(std::array::from_fn(|c| (r[c] * (d + ind[c])) as f64)) as f32;
+                    let d = Rgb::splat(s.direct[i * s.k + k]);
+                    let ind = Rgb::column(&s.indirect[k])[i];
+                    *o = (r * (d + ind)).to_f64().luminance() as f32;
                 }
             });
             out

@@ -12,7 +12,7 @@ use glam::DVec3;
 use rayon::prelude::*;
 
 use super::patches::SunLight;
-use crate::color::Rgb;
+use crate::color::{Rgb, Rgb64};
 use crate::daylight::sky_luminance::Sky;
 use crate::daylight::Site;
 use crate::model::sky_state::SkyState;
@@ -40,10 +40,10 @@ pub struct PointGather {
     pub weights: Vec<(u32, f32)>,
     pub view: Option<SkyView>,
     /// Per sky patch k, RGB: the gathered reflection of the sky patch's direct light
-    /// `Σ_j w_j ρ_j D_jk` (first 3K values), then of its interreflected light
-    /// `Σ_j w_j ρ_j I_kj` (next 3K), lux per cd/m². A new sky is then 6K products per
+    /// `Σ_j w_j ρ_j D_jk` (first K triples), then of its interreflected light
+    /// `Σ_j w_j ρ_j I_kj` (next K), lux per cd/m². A new sky is then 2K products per
     /// point.
-    coefficients: OnceLock<Vec<f32>>,
+    coefficients: OnceLock<Vec<Rgb>>,
     /// The view's [`SkyView::shape_sums`], made on first use.
     shape_sums: OnceLock<[f64; 3]>,
 }
@@ -56,40 +56,35 @@ impl PointGather {
     }
 
     /// The daylight coefficients (see [`PointGather::coefficients`]).
-    fn coefficients(&self, s: &SkyColumns, rho: &[Rgb]) -> &[f32] {
+    fn coefficients(&self, s: &SkyColumns, rho: &[Rgb]) -> &[Rgb] {
         self.coefficients.get_or_init(|| {
             let k = s.k;
-            let mut out = vec![0f32; 6 * k];
-            let wr: Vec<(usize, [f32; 3])> = self
+            let mut out = vec![Rgb::ZERO; 2 * k];
+            let wr: Vec<(usize, Rgb)> = self
                 .weights
                 .iter()
-                .map(|&(j, w)| (j as usize, rho[j as usize].map(|r| r * w)))
+                .map(|&(j, w)| (j as usize, rho[j as usize] * w))
                 .collect();
             // Direct part: rows of D are contiguous per patch.
-            let mut d = vec![0f64; 3 * k];
+            let mut d = vec![Rgb64::ZERO; k];
             for &(j, r) in &wr {
                 let row = &s.direct[j * k..(j + 1) * k];
-                for (dk, &v) in d.chunks_exact_mut(3).zip(row) {
-                    for c in 0..3 {
-                        dk[c] += (r[c] * v) as f64;
-                    }
+                for (dk, &v) in d.iter_mut().zip(row) {
+                    *dk += (r * v).to_f64();
                 }
+            }
+            let (direct, interreflected) = out.split_at_mut(k);
+            for (o, v) in direct.iter_mut().zip(&d) {
+                *o = v.to_f32();
             }
             // Interreflected part: columns of I are contiguous per sky patch.
-            for (kk, ind) in s.indirect.iter().enumerate() {
-                let mut i = [0f64; 3];
+            for (o, ind) in interreflected.iter_mut().zip(&s.indirect) {
+                let ind = Rgb::column(ind);
+                let mut i = Rgb64::ZERO;
                 for &(j, r) in &wr {
-                    let v = &ind[3 * j..3 * j + 3];
-                    for c in 0..3 {
-                        i[c] += (r[c] * v[c]) as f64;
-                    }
+                    i += (r * ind[j]).to_f64();
                 }
-                for c in 0..3 {
-                    out[3 * (k + kk) + c] = i[c] as f32;
-                }
-            }
-            for (o, v) in out[..3 * k].iter_mut().zip(&d) {
-                *o = *v as f32;
+                *o = i.to_f32();
             }
             out
         })
@@ -126,34 +121,27 @@ impl PointGather {
         rho: &[Rgb],
         l: &[f64],
         sun: &[(usize, f64)],
-    ) -> [f64; 3] {
-        let c = self.coefficients(s, rho);
-        let k = s.k;
-        let mut e = [0f64; 3];
+    ) -> Rgb64 {
+        let (direct, interreflected) = self.coefficients(s, rho).split_at(s.k);
+        let mut e = Rgb64::ZERO;
         for (kk, &lk) in l.iter().enumerate() {
             if lk == 0.0 {
                 continue;
             }
-            for ch in 0..3 {
-                e[ch] += lk * (c[3 * kk + ch] as f64 + c[3 * (k + kk) + ch] as f64);
-            }
+            e += lk * (direct[kk].to_f64() + interreflected[kk].to_f64());
         }
         for &(kk, lum) in sun {
-            for ch in 0..3 {
-                e[ch] += lum * c[3 * (k + kk) + ch] as f64;
-            }
+            e += lum * interreflected[kk].to_f64();
         }
         e
     }
 
-    /// Σ w_j B_j per channel.
-    pub fn gather(&self, b: &[f32]) -> [f64; 3] {
-        let mut e = [0.0; 3];
+    /// Σ w_j B_j per channel, for per-patch radiosity `b` (n × 3 interleaved).
+    pub fn gather(&self, b: &[f32]) -> Rgb64 {
+        let b = Rgb::column(b);
+        let mut e = Rgb64::ZERO;
         for &(j, w) in &self.weights {
-            let j = 3 * j as usize;
-            for c in 0..3 {
-                e[c] += w as f64 * b[j + c] as f64;
-            }
+            e += w as f64 * b[j as usize].to_f64();
         }
         e
     }

@@ -28,7 +28,7 @@ use super::query::{GridAnswer, IlluminanceQuery};
 use super::report::SurfaceIlluminance;
 use super::sky_state::{SkyState, SunPosition};
 use super::{Cancel, Model, QueryError};
-use crate::color::{luminance64, Rgb};
+use crate::color::{Rgb, Rgb64};
 use crate::daylight::Site;
 use crate::transport::sky_view::{self, Reach};
 
@@ -64,7 +64,7 @@ pub struct DaylightPoint {
     pub lux: f64,
     /// Per channel, lx.
     #[cfg_attr(feature = "server", schema(value_type = crate::schema::Rgb))]
-    pub rgb: [f64; 3],
+    pub rgb: Rgb64,
     /// 100 · E_daylight / E_horizontal, percent, for the CIE overcast sky; else null.
     #[cfg_attr(feature = "server", schema(required = true))]
     pub daylight_factor: Option<f64>,
@@ -206,7 +206,7 @@ impl Model {
             .at_points(&q.points, cancel)?
             .into_iter()
             .map(|(e, daylight)| DaylightPoint {
-                lux: luminance64(e),
+                lux: e.luminance(),
                 rgb: e,
                 daylight_factor: light.daylight_factor(daylight),
             })
@@ -244,7 +244,7 @@ impl Model {
             .into_iter()
             .map(|(e, daylight)| {
                 let df = light.daylight_factor(daylight).unwrap_or(0.0);
-                (luminance64(e) as f32, df as f32)
+                (e.luminance() as f32, df as f32)
             })
             .unzip();
         let excluded = &response.excluded;

@@ -45,9 +45,9 @@ impl Model {
         let n = t.n;
         // Interreflected: the sky patches' luminances, plus the sun's share where its
         // interreflection is not solved exactly.
-        let mut w: Vec<Rgb> = l.iter().map(|&x| [x as f32; 3]).collect();
+        let mut w: Vec<Rgb> = l.iter().map(|&x| Rgb::splat(x as f32)).collect();
         for &(k, lum) in &sun.spread {
-            w[k] = w[k].map(|x| x + lum as f32);
+            w[k] += Rgb::splat(lum as f32);
         }
         let mut h = vec![0f32; 3 * n];
         weighted_sum(s.indirect.iter().map(|c| c.as_slice()), &w, &mut h);
@@ -62,20 +62,18 @@ impl Model {
             None
         };
         // Direct: the sky patches, then the sun.
-        for i in 0..n {
+        for (i, hi) in Rgb::column_mut(&mut h).iter_mut().enumerate() {
             let row = &s.direct[i * s.k..(i + 1) * s.k];
             let mut d: f64 = row.iter().zip(l).map(|(&a, &b)| a as f64 * b).sum();
             if let Some(sd) = sun_direct {
                 d += sd[i] as f64;
             }
-            for c in 0..3 {
-                h[3 * i + c] += d as f32;
-            }
+            *hi += Rgb::splat(d as f32);
         }
-        let b = h
-            .chunks_exact(3)
+        let b = Rgb::column(&h)
+            .iter()
             .zip(&t.rho)
-            .flat_map(|(hc, r)| [hc[0] * r[0], hc[1] * r[1], hc[2] * r[2]])
+            .flat_map(|(&h, &r)| (h * r).0)
             .collect();
         PatchDaylight { h, b }
     }
@@ -103,7 +101,7 @@ impl Model {
             let first: Vec<f32> = direct
                 .iter()
                 .zip(&t.rho)
-                .flat_map(|(&e, r)| [e * r[0], e * r[1], e * r[2]])
+                .flat_map(|(&e, &r)| (e * r).0)
                 .collect();
             t.solve(&first).map(|sol| sol.h)
         } else {

@@ -7,7 +7,7 @@ use rayon::prelude::*;
 
 use super::gather::PointGather;
 use super::patches::SunLight;
-use crate::color::{luminance64, Rgb};
+use crate::color::{Rgb, Rgb64};
 use crate::daylight::Site;
 use crate::model::sky_state::SkyState;
 use crate::model::{Cancel, Model, QueryError};
@@ -67,29 +67,22 @@ impl<'a> PointLight<'a> {
 
     /// The light at point `x` (m) facing `nrm` with gather `g`: (all light, daylight
     /// alone), RGB lux.
-    fn at(&self, g: &PointGather, x: DVec3, nrm: DVec3) -> ([f64; 3], f64) {
+    fn at(&self, g: &PointGather, x: DVec3, nrm: DVec3) -> (Rgb64, f64) {
         let m = self.model;
         let mut e = g.reflected(self.cols, &m.baked.transfer.rho, self.l, self.spread);
         if let Some(b) = &self.sun_b {
-            let s = g.gather(b);
-            for c in 0..3 {
-                e[c] += s[c];
-            }
+            e += g.gather(b);
         }
         let mut direct = g.direct_sky(self.sky, self.site);
         if let Some(sun) = self.sun {
             direct += m.sun_at(x, nrm, sun, self.reach);
         }
-        for c in &mut e {
-            *c += direct;
-        }
-        let daylight = luminance64(e);
+        e += Rgb64::splat(direct);
+        let daylight = e.luminance();
         if let Some(w) = self.w {
             let el = g.gather(&self.b_el);
             m.add_luminaires(w, x, nrm, &mut e);
-            for c in 0..3 {
-                e[c] += el[c];
-            }
+            e += el;
         }
         (e, daylight)
     }
@@ -100,7 +93,7 @@ impl<'a> PointLight<'a> {
         &self,
         points: &[(DVec3, DVec3)],
         cancel: &Cancel,
-    ) -> Result<Vec<([f64; 3], f64)>, QueryError> {
+    ) -> Result<Vec<(Rgb64, f64)>, QueryError> {
         let gathers = self.model.gathers(points, cancel)?;
         Ok(points
             .par_iter()

@@ -22,7 +22,7 @@ use std::collections::{BTreeMap, HashMap};
 use super::compliance::Compliance;
 use super::query::{GridAnswer, IlluminanceQuery, LuminairePower};
 use super::{Cancel, Lighting, Model, QueryError};
-use crate::color::{luminance, luminance64, Rgb};
+use crate::color::Rgb;
 use crate::photometry::{Distribution, PhotometricFormat};
 
 mod html;
@@ -175,7 +175,7 @@ impl DesignReport {
             .map(|(g, wg)| GroupLevel {
                 id: g.id.clone(),
                 name: g.name.clone(),
-                level: luminance(*wg) as f64,
+                level: wg.luminance() as f64,
                 color: (wg[0] != wg[1] || wg[1] != wg[2]).then_some(*wg),
                 maintenance_factor: answer
                     .maintenance_factors
@@ -349,7 +349,7 @@ fn reflectances(model: &Model) -> Vec<Reflectance> {
             (!emits && a >= 0.01 * total).then(|| Reflectance {
                 material: mat.name.clone(),
                 area: a,
-                rho: luminance64(mat.kd.map(f64::from)),
+                rho: mat.kd.to_f64().luminance(),
                 kd: mat.kd,
             })
         })

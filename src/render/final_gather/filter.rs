@@ -79,10 +79,8 @@ fn scale_by(values: &mut [f32], albedo: &[Rgb], g: usize, f: impl Fn(f32) -> f32
         .zip(albedo)
         .for_each(|(px, a)| {
             let m = a.map(&f);
-            for rgb in px.chunks_mut(3) {
-                for (v, m) in rgb.iter_mut().zip(m) {
-                    *v *= m;
-                }
+            for rgb in Rgb::column_mut(px) {
+                *rgb *= m;
             }
         });
 }

@@ -15,6 +15,7 @@ use rayon::prelude::*;
 
 use super::lights::GroupLights;
 use super::FinalScene;
+use crate::color::Rgb;
 use crate::transport::formfactor::Rng;
 
 /// Reads the reflected radiosity at a point where a gather ray landed close by: `(point,
@@ -51,9 +52,10 @@ impl Reflected {
             .collect();
         let nv = scene.shading.len();
         let mut values = vec![0f32; nv * 3 * g];
+        let triples = Rgb::column_mut(&mut values);
         for (k, vals) in per_group.iter().enumerate() {
-            for (s, v) in vals.iter().enumerate() {
-                values[3 * (s * g + k)..3 * (s * g + k) + 3].copy_from_slice(v);
+            for (s, &v) in vals.iter().enumerate() {
+                triples[s * g + k] = v;
             }
         }
         Reflected { groups: g, values }

@@ -17,7 +17,7 @@ use std::collections::BTreeMap;
 use glam::DVec3;
 
 use super::FinalScene;
-use crate::color::Rgb;
+use crate::color::{Rgb, Rgb64};
 use crate::geometry::bvh::Bvh;
 use crate::photometry::Luminaire;
 use crate::transport::direct::{shadowed, visible};
@@ -105,8 +105,7 @@ impl<'a> GroupLights<'a> {
         scratch: &mut Scratch,
         out: &mut [f32],
     ) {
-        for (k, g) in self.groups.iter().enumerate() {
-            let out = &mut out[3 * k..3 * k + 3];
+        for (out, g) in Rgb::column_mut(out).iter_mut().zip(&self.groups) {
             if !g.luminaires.is_empty() {
                 self.luminaires(g.luminaires, (x, n, p), rng, scratch, out);
             }
@@ -123,7 +122,7 @@ impl<'a> GroupLights<'a> {
         (x, n, p): (DVec3, DVec3, u32),
         rng: &mut Rng,
         scratch: &mut Scratch,
-        out: &mut [f32],
+        out: &mut Rgb,
     ) {
         let cand = &mut scratch.candidates;
         cand.clear();
@@ -137,10 +136,8 @@ impl<'a> GroupLights<'a> {
         }
         let cut = SIGNIFICANT * total;
         let mut tail = 0.0;
-        let add = |out: &mut [f32], l: &Luminaire, e: f64| {
-            for (o, k) in out.iter_mut().zip(l.color) {
-                *o += (e * k as f64) as f32;
-            }
+        let add = |out: &mut Rgb, l: &Luminaire, e: f64| {
+            *out += (e * l.color.to_f64()).to_f32();
         };
         for &(i, c) in cand.iter() {
             if c >= cut {
@@ -172,7 +169,7 @@ impl<'a> GroupLights<'a> {
         at: (DVec3, DVec3, u32),
         rng: &mut Rng,
         scratch: &mut Scratch,
-        out: &mut [f32],
+        out: &mut Rgb,
     ) {
         let (x, n, _) = at;
         // The triangles whose front x sees, with their unoccluded form factors.
@@ -195,9 +192,7 @@ impl<'a> GroupLights<'a> {
             let share = ff * e.luminous / total;
             let k = ((share * budget).ceil() as u32).clamp(1, self.emitter_rays);
             let f = (ff * self.seen(e, at, k, rng)) as f32;
-            for (o, m) in out.iter_mut().zip(e.exitance) {
-                *o += f * m;
-            }
+            *out += f * e.exitance;
         }
     }
 
@@ -261,20 +256,17 @@ struct Seen {
 /// The emitting input triangles of group `k`, with their exitance at unit weight (the
 /// area-weighted mean of their patches' emission `e`, lm/m²).
 fn emitters_of(scene: &FinalScene<'_>, k: usize, e: &[f32]) -> Vec<Emitter> {
-    let mut by_source: BTreeMap<u32, (f64, [f64; 3])> = BTreeMap::new();
-    for (j, patch) in scene.mesh.patches.iter().enumerate() {
+    let mut by_source: BTreeMap<u32, (f64, Rgb64)> = BTreeMap::new();
+    for (patch, ej) in scene.mesh.patches.iter().zip(Rgb::column(e)) {
         if patch.group != Some(k as u32) {
             continue;
         }
-        let ej = &e[3 * j..3 * j + 3];
         if ej.iter().all(|&v| v <= 0.0) {
             continue;
         }
-        let s = by_source.entry(patch.source).or_insert((0.0, [0.0; 3]));
+        let s = by_source.entry(patch.source).or_insert((0.0, Rgb64::ZERO));
         s.0 += patch.area;
-        for (a, &v) in s.1.iter_mut().zip(ej) {
-            *a += patch.area * v as f64;
-        }
+        s.1 += patch.area * ej.to_f64();
     }
     by_source
         .into_iter()
@@ -284,13 +276,13 @@ fn emitters_of(scene: &FinalScene<'_>, k: usize, e: &[f32]) -> Vec<Emitter> {
             if area <= 0.0 || normal == DVec3::ZERO {
                 return None;
             }
-            let exitance = sum.map(|v| (v / area) as f32);
+            let exitance = (sum / area).to_f32();
             Some(Emitter {
                 corners: t.p,
                 centroid: (t.p[0] + t.p[1] + t.p[2]) / 3.0,
                 normal,
                 exitance,
-                luminous: crate::color::luminance(exitance).max(1e-12) as f64,
+                luminous: exitance.luminance().max(1e-12) as f64,
             })
         })
         .collect()

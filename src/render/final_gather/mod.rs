@@ -158,7 +158,7 @@ pub fn build(
     let (w, h) = (cam.width as usize, cam.height as usize);
     let mut direct = vec![0f32; w * h * 3 * g];
     let mut indirect = vec![0f32; w * h * 3 * g];
-    let mut albedo = vec![[0f32; 3]; w * h];
+    let mut albedo = vec![Rgb::ZERO; w * h];
     let mut guides = vec![Guide::default(); w * h];
     let mut saw_emitter = vec![false; w * h];
     let row = 3 * g * w;
@@ -240,9 +240,7 @@ impl Tracer<'_> {
             if s == 0 {
                 guide = seen.guide;
             }
-            for c in 0..3 {
-                sums.albedo[c] += seen.albedo[c] / samples;
-            }
+            *sums.albedo += seen.albedo / samples;
             for (a, v) in sums.direct.iter_mut().zip(&dir_s) {
                 *a += v / samples;
             }
@@ -322,12 +320,10 @@ impl Tracer<'_> {
         }
         let Some((_, p)) = hit else { return false };
         let mut any = false;
-        for (k, col) in self.scene.groups.iter().enumerate() {
-            for c in 0..3 {
-                let e = col.e[3 * p as usize + c];
-                out[3 * k + c] += e * std::f32::consts::FRAC_1_PI;
-                any |= e > 0.0;
-            }
+        for (o, col) in Rgb::column_mut(out).iter_mut().zip(self.scene.groups) {
+            let e = Rgb::column(&col.e)[p as usize];
+            *o += e * std::f32::consts::FRAC_1_PI;
+            any |= e.iter().any(|&v| v > 0.0);
         }
         any
     }
@@ -374,11 +370,12 @@ impl Tracer<'_> {
                 indirect,
             );
         }
-        for k in 0..self.groups {
-            for c in 0..3 {
-                direct[3 * k + c] += rho[c] * inv_pi * e_direct[3 * k + c];
-                indirect[3 * k + c] *= rho[c] * inv_pi;
-            }
+        // Per group: direct += ρ/π · E_direct, indirect ×= ρ/π.
+        let reflect = rho * inv_pi;
+        let (direct, indirect) = (Rgb::column_mut(direct), Rgb::column_mut(indirect));
+        for ((d, i), &e) in direct.iter_mut().zip(indirect).zip(Rgb::column(&e_direct)) {
+            *d += reflect * e;
+            *i *= reflect;
         }
         scratch.lux = e_direct;
         Seen {
@@ -412,11 +409,10 @@ impl Tracer<'_> {
             &mut lux,
         );
         let rho = self.scene.rho[q as usize];
+        let (out, lux) = (Rgb::column_mut(out), Rgb::column(&lux));
         for (k, col) in self.scene.groups.iter().enumerate() {
             let own = if self.lights.explicit(k) { 0.0 } else { 1.0 };
-            for c in 0..3 {
-                out[3 * k + c] = rho[c] * lux[3 * k + c] + own * col.e[3 * q as usize + c];
-            }
+            out[k] = rho * lux[k] + own * Rgb::column(&col.e)[q as usize];
         }
     }
 }

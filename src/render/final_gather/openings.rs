@@ -10,6 +10,7 @@
 
 use glam::DVec3;
 
+use crate::color::Rgb;
 use crate::photometry::{Luminaire, LuminousOpening};
 use crate::scene::LightGroup;
 
@@ -82,9 +83,7 @@ impl Openings {
             return false;
         }
         let lum = l.intensity(v) / area;
-        for (c, k) in l.color.iter().enumerate() {
-            out[3 * s.group + c] += (lum * *k as f64) as f32;
-        }
+        Rgb::column_mut(out)[s.group] += (lum * l.color.to_f64()).to_f32();
         true
     }
 

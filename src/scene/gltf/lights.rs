@@ -71,7 +71,7 @@ impl Reader<'_> {
         if !(candela.is_finite() && candela >= 0.0) {
             return Err(self.err(format!("light '{id}': intensity must be finite and ≥ 0")));
         }
-        let color = light.color();
+        let color = crate::color::Rgb(light.color());
         let integral = distribution.integral();
         let spec = LuminaireSpec {
             id: &id,

@@ -67,7 +67,7 @@ impl Reader<'_> {
         let pbr = m.pbr_metallic_roughness();
         let base = pbr.base_color_factor();
         let metallic = pbr.metallic_factor().clamp(0.0, 1.0);
-        let mut kd: Rgb = std::array::from_fn(|c| (1.0 - metallic) * base[c]);
+        let mut kd = (1.0 - metallic) * Rgb::new(base[0], base[1], base[2]);
         kd = self.tinted(kd, pbr.base_color_texture(), name, textures)?;
         if kd.iter().any(|x| !x.is_finite() || *x < 0.0) {
             return Err(self.err(format!(
@@ -111,7 +111,7 @@ impl Reader<'_> {
     ) -> Result<Rgb, SceneError> {
         let strength = m.emissive_strength().unwrap_or(1.0);
         let ef = m.emissive_factor();
-        let mut ke: Rgb = std::array::from_fn(|c| std::f32::consts::PI * ef[c] * strength);
+        let mut ke = std::f32::consts::PI * Rgb(ef) * strength;
         if ke.iter().any(|&x| x > 0.0) {
             ke = self.tinted(ke, m.emissive_texture(), name, textures)?;
         }
@@ -141,7 +141,7 @@ impl Reader<'_> {
         };
         Ok(
             match self.texture_mean(info.texture(), material, textures)? {
-                Some(mean) => std::array::from_fn(|k| c[k] * mean[k]),
+                Some(mean) => c * mean,
                 None => c,
             },
         )

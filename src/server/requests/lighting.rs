@@ -12,7 +12,7 @@ use utoipa::openapi::RefOr;
 use utoipa::{PartialSchema, ToSchema};
 
 use super::{deserialize_by, raw, schema_ref, some, visit_numbers};
-use crate::color::Rgb;
+use crate::color::{Rgb, Rgb64};
 use crate::model::lighting::{LightState, MAX_EMISSION, MAX_INTENSITY};
 use crate::model::sky_state::{SkySpec, SkyState};
 use crate::model::Lighting;
@@ -214,7 +214,7 @@ fn color(c: Color, what: &str) -> Result<Rgb, AppError> {
     for x in c.0 .0 {
         bounded(x, what, 0.0, MAX_INTENSITY as f64)?;
     }
-    Ok(c.0 .0.map(|x| x as f32))
+    Ok(Rgb64(c.0 .0).to_f32())
 }
 
 /// Per-group weights of a lighting state (absent: every group at its default).
@@ -244,9 +244,9 @@ pub(crate) fn emission_vector(e: &Emission, model: &Model) -> Result<Vec<f32>, A
     model.require_factored()?;
     let n = model.patches();
     let mut out = vec![0f32; 3 * n];
+    let out_rgb = Rgb::column_mut(&mut out);
     let mut put = |i: usize, t: &Triple| -> Result<(), AppError> {
-        let rgb = model.emission_value(i, t.0)?;
-        out[3 * i..3 * i + 3].copy_from_slice(&rgb);
+        out_rgb[i] = model.emission_value(i, t.0)?;
         Ok(())
     };
     match e {

@@ -37,7 +37,7 @@ pub(crate) struct BatchResult {
     /// With radiosity = true: B per patch, lm/m², in patch order.
     #[serde(skip_serializing_if = "Option::is_none")]
     #[schema(nullable = false, value_type = Option<Vec<crate::schema::Rgb>>)]
-    radiosity: Option<Vec<[f32; 3]>>,
+    radiosity: Option<Vec<crate::color::Rgb>>,
     /// With grids: by grid id.
     #[serde(skip_serializing_if = "Option::is_none")]
     #[schema(nullable = false)]
@@ -90,7 +90,7 @@ pub(crate) async fn batch(
                 cancel,
                 |k, l, sol| {
                     let radiosity = with_radiosity
-                        .then(|| bytemuck::cast_slice::<f32, [f32; 3]>(&sol.b).to_vec());
+                        .then(|| crate::color::Rgb::column(&sol.b).to_vec());
                     let grid_answers = if grids.is_empty() {
                         None
                     } else {

@@ -38,10 +38,10 @@ pub(crate) struct RadiosityResponse {
     unit: &'static str,
     /// quantity = radiosity: B per patch, lm/m².
     #[schema(nullable = false, value_type = Option<Vec<Rgb>>)]
-    radiosity: Option<Vec<[f32; 3]>>,
+    radiosity: Option<Vec<crate::color::Rgb>>,
     /// quantity = illuminance: H per patch, lx.
     #[schema(nullable = false, value_type = Option<Vec<Rgb>>)]
-    illuminance: Option<Vec<[f32; 3]>>,
+    illuminance: Option<Vec<crate::color::Rgb>>,
     /// With surfaces = true: by surface id.
     #[schema(nullable = false, inline)]
     surfaces: Option<BTreeMap<String, SurfaceAverage>>,

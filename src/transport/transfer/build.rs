@@ -16,9 +16,7 @@ pub fn group_emission(scene: &Scene, mesh: &Mesh) -> Vec<Vec<f32>> {
         if let Some(g) = p.group {
             let ke = scene.materials[p.material as usize].ke;
             let s = scene.lights[g as usize].ke_scale;
-            for c in 0..3 {
-                cols[g as usize][3 * i + c] = (ke[c] as f64 * s) as f32;
-            }
+            Rgb::column_mut(&mut cols[g as usize])[i] = (ke.to_f64() * s).to_f32();
         }
     }
     cols
@@ -46,10 +44,9 @@ pub fn group_sources(
         .map(|(gi, col)| {
             let mut s = col.clone();
             if let Some(d) = direct.get(gi).and_then(|d| d.as_deref()) {
-                for (i, r) in rho.iter().enumerate() {
-                    for c in 0..3 {
-                        s[3 * i + c] += r[c] * d[3 * i + c];
-                    }
+                let sources = Rgb::column_mut(&mut s).iter_mut();
+                for ((s, &r), &d) in sources.zip(rho).zip(Rgb::column(d)) {
+                    *s += r * d;
                 }
             }
             s
@@ -77,7 +74,7 @@ fn sky_sources(d: &SkyDirect, rho: &[Rgb]) -> Vec<Vec<f32>> {
         .map(|k| {
             rho.iter()
                 .enumerate()
-                .flat_map(|(i, r)| r.map(|c| c * d.direct[i * d.k + k]))
+                .flat_map(|(i, &r)| (r * d.direct[i * d.k + k]).0)
                 .collect()
         })
         .collect()
@@ -194,9 +191,10 @@ impl Build<'_> {
         let c = 3 * cols.len();
         // Sources E + ρD (groups, then sky patches), row-major n × 3(G + K).
         let mut src = vec![0f32; n * c];
+        let src_rgb = Rgb::column_mut(&mut src);
         for (gi, col) in cols.iter().enumerate() {
-            for (i, v) in col.chunks_exact(3).enumerate() {
-                src[i * c + 3 * gi..i * c + 3 * gi + 3].copy_from_slice(v);
+            for (i, &v) in Rgb::column(col).iter().enumerate() {
+                src_rgb[i * cols.len() + gi] = v;
             }
         }
         let sol = if c == 0 {

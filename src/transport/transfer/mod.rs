@@ -20,7 +20,7 @@
 use faer::Mat;
 use serde::Serialize;
 
-use crate::color::Rgb;
+use crate::color::{Rgb, Rgb64};
 use crate::geometry::mesh::Mesh;
 use crate::scene::{Scene, TransferChoice};
 use crate::transport::hierarchy::Hierarchy;
@@ -99,9 +99,9 @@ pub struct GroupColumns {
     pub h: Vec<f32>,
     /// Luminous flux of the group's point luminaires, lm per channel (zero for
     /// emissive-surface groups).
-    pub flux: [f64; 3],
+    pub flux: Rgb64,
     /// The part of `flux` that lands directly on patches (Σ A·D), lm per channel.
-    pub landed: [f64; 3],
+    pub landed: Rgb64,
 }
 
 /// The direct light of the sky patches at unit luminance, the input of a daylight bake.
@@ -228,21 +228,21 @@ pub struct Solution {
     /// Incident illuminance, lux.
     pub h: Vec<f32>,
     /// Flux of point luminaires in this state, lm per channel.
-    pub luminaire_flux: [f64; 3],
+    pub luminaire_flux: Rgb64,
     /// Luminaire flux that hits no patch and leaves the scene directly, lm per channel.
-    pub direct_escaped: [f64; 3],
+    pub direct_escaped: Rgb64,
 }
 
 /// Power balance of a solution, lumens per channel.
 #[derive(Debug, Clone, Copy, Serialize)]
 pub struct Power {
     /// Σ A·E plus the flux of point luminaires.
-    pub emitted: [f64; 3],
+    pub emitted: Rgb64,
     /// Σ A·(1 − ρ)·H.
-    pub absorbed: [f64; 3],
+    pub absorbed: Rgb64,
     /// Σ A·B·(1 − Σ_j F_ij), light that leaves through openings, plus luminaire light
     /// that hits nothing.
-    pub escaped: [f64; 3],
+    pub escaped: Rgb64,
 }
 
 impl Transfer {
@@ -269,15 +269,13 @@ impl Transfer {
             e: vec![0.0; len],
             b: vec![0.0; len],
             h: vec![0.0; len],
-            luminaire_flux: [0.0; 3],
-            direct_escaped: [0.0; 3],
+            luminaire_flux: Rgb64::ZERO,
+            direct_escaped: Rgb64::ZERO,
         };
         for (g, w) in self.groups.iter().zip(weights) {
-            let w = w.map(|x| x as f64);
-            s.luminaire_flux = std::array::from_fn(|c| s.luminaire_flux[c] + w[c] * g.flux[c]);
-            s.direct_escaped = std::array::from_fn(|c| {
-                s.direct_escaped[c] + w[c] * (g.flux[c] - g.landed[c]).max(0.0)
-            });
+            let w = w.to_f64();
+            s.luminaire_flux += w * g.flux;
+            s.direct_escaped += w * (g.flux - g.landed).map(|v| v.max(0.0));
         }
         weighted_sum(
             self.groups.iter().map(|g| g.e.as_slice()),
@@ -326,15 +324,17 @@ impl Transfer {
             e: e.to_vec(),
             b,
             h,
-            luminaire_flux: [0.0; 3],
-            direct_escaped: [0.0; 3],
+            luminaire_flux: Rgb64::ZERO,
+            direct_escaped: Rgb64::ZERO,
         };
         if let Some(hier) = &self.hierarchy {
-            // Sources row-major n × 3m: patch i's channel ch of state j at i·3m + 3j + ch.
+            // Sources row-major n × 3m: patch i's channel ch of state j at i·3m + 3j + ch,
+            // so patch i's triple of state j at i·m + j.
             let mut s = vec![0f32; n * c];
+            let rows = Rgb::column_mut(&mut s);
             for (j, e) in emissions.iter().enumerate() {
-                for (row, v) in s.chunks_exact_mut(c).zip(e.chunks_exact(3)) {
-                    row[3 * j..3 * j + 3].copy_from_slice(v);
+                for (i, &v) in Rgb::column(e).iter().enumerate() {
+                    rows[i * m + j] = v;
                 }
             }
             let sol = hier.solve(
@@ -346,8 +346,9 @@ impl Transfer {
                 &|_| {},
             );
             let pick = |x: &[f32], j: usize| -> Vec<f32> {
-                x.chunks_exact(c)
-                    .flat_map(|row| row[3 * j..3 * j + 3].iter().copied())
+                Rgb::column(x)
+                    .chunks_exact(m)
+                    .flat_map(|row| row[j].0)
                     .collect()
             };
             return Some(
@@ -386,17 +387,15 @@ impl Transfer {
     pub fn power(&self, s: &Solution) -> Power {
         let mut p = Power {
             emitted: s.luminaire_flux,
-            absorbed: [0.0; 3],
+            absorbed: Rgb64::ZERO,
             escaped: s.direct_escaped,
         };
+        let (e, b, h) = (Rgb::column(&s.e), Rgb::column(&s.b), Rgb::column(&s.h));
         for i in 0..self.n {
             let a = self.area[i] as f64;
-            for c in 0..3 {
-                let k = 3 * i + c;
-                p.emitted[c] += a * s.e[k] as f64;
-                p.absorbed[c] += a * (1.0 - self.rho[i][c] as f64) * s.h[k] as f64;
-                p.escaped[c] += a * s.b[k] as f64 * self.escape[i] as f64;
-            }
+            p.emitted += a * e[i].to_f64();
+            p.absorbed += a * (Rgb64::ONE - self.rho[i].to_f64()) * h[i].to_f64();
+            p.escaped += a * b[i].to_f64() * self.escape[i] as f64;
         }
         p
     }
@@ -462,7 +461,7 @@ mod tests {
         let rho: Vec<Rgb> = (0..n)
             .map(|i| {
                 let r = 0.2 + 0.7 * (i % 7) as f32 / 7.0;
-                [r, 0.1 + 0.8 * next(), r]
+                Rgb::new(r, 0.1 + 0.8 * next(), r)
             })
             .collect();
         let rho_ch: [Vec<f32>; 3] = std::array::from_fn(|c| rho.iter().map(|r| r[c]).collect());
@@ -492,7 +491,7 @@ mod tests {
             .map(|k| {
                 let mut e = vec![0f32; 3 * n];
                 let p = (k * 37) % n;
-                e[3 * p..3 * p + 3].copy_from_slice(&[1.0, 0.5 + (k % 3) as f32, 0.25 * k as f32]);
+                Rgb::column_mut(&mut e)[p] = Rgb::new(1.0, 0.5 + (k % 3) as f32, 0.25 * k as f32);
                 e
             })
             .collect();
@@ -510,16 +509,15 @@ mod tests {
                 assert!((s.h[k] - one.h[k]).abs() <= 1e-5 * scale, "H[{k}]");
             }
             // And both solve the system: B = E + ρ F B, H = F B.
+            let (b, h) = (Rgb::column(&s.b), Rgb::column(&s.h));
+            let off = |x: Rgb, want: Rgb64| (x.to_f64() - want).map(f64::abs).max_component();
             for i in 0..n {
-                for c in 0..3 {
-                    let fb: f64 = (0..n)
-                        .map(|j| fac.f[i * n + j] as f64 * s.b[3 * j + c] as f64)
-                        .sum();
-                    let k = 3 * i + c;
-                    assert!((s.h[k] as f64 - fb).abs() <= 1e-5 * scale as f64);
-                    let want = e[k] as f64 + t.rho[i][c] as f64 * fb;
-                    assert!((s.b[k] as f64 - want).abs() <= 1e-5 * scale as f64);
-                }
+                let fb: Rgb64 = (0..n)
+                    .map(|j| fac.f[i * n + j] as f64 * b[j].to_f64())
+                    .sum();
+                assert!(off(h[i], fb) <= 1e-5 * scale as f64);
+                let want = Rgb::column(e)[i].to_f64() + t.rho[i].to_f64() * fb;
+                assert!(off(b[i], want) <= 1e-5 * scale as f64);
             }
         }
         assert!(t.solve_many(&[]).unwrap().is_empty());

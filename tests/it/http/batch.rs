@@ -2,6 +2,7 @@
 //! linear; and the hierarchical mode's refusal of batches over its work limit.
 
 use axum::http::StatusCode;
+use relight::color::Rgb;
 use relight::input_limits::MAX_EMISSION_SWEEP_WORK;
 use relight::model::batch::hierarchy_sweep_work;
 use relight::server::{router, AppState};
@@ -47,7 +48,7 @@ async fn batched_emission_states_were_solved_one_by_one_into_the_timeout() {
     let b = |k: usize| floats(&results[k]["radiosity"]);
 
     // The group state is the weighted sum of the columns, exactly.
-    assert_eq!(b(60), t.relight(&[[0.5; 3]]).b);
+    assert_eq!(b(60), t.relight(&[Rgb::splat(0.5)]).b);
     // Each emission state equals its own solve (the single-solve path of
     // `POST /radiosity`), to f32 rounding of the differently blocked solves: checked on
     // the states at both ends of each chunk and around the group state, and on every

@@ -1,6 +1,7 @@
 //! `illuminance` on surfaces, at points and on grids, and `batch` of many states at once.
 
 use axum::http::StatusCode;
+use relight::color::Rgb;
 use serde_json::{json, Value};
 
 use super::{app, post, ready};
@@ -51,7 +52,7 @@ async fn illuminance_per_surface_and_at_points_matches_the_reference() {
     // Per surface: avg equals the library's area-weighted mean; min ≤ avg ≤ max.
     let floor = &v["surfaces"]["floor"];
     let r = ready("cornell-box");
-    let sol = r.model.baked.transfer.relight(&[[1.0; 3]]);
+    let sol = r.model.baked.transfer.relight(&[Rgb::ONE]);
     let avg =
         &relight::model::report::surface_averages(&r.model.baked.scene, &r.model.baked.mesh, &sol)
             ["floor"];
@@ -158,7 +159,7 @@ async fn grids_answer_with_statistics_and_luminaire_power() {
         assert!((g["u0"].as_f64().unwrap() - min / avg).abs() < 1e-6);
         assert!((g["min_max"].as_f64().unwrap() - min / max).abs() < 1e-6);
         // Linear in the weights: the half-dimmed window row equals the weighted sum.
-        let full = gr.values(&[[0.5; 3], [1.0; 3]]);
+        let full = gr.values(&[Rgb::splat(0.5), Rgb::ONE]);
         for (a, b) in values.iter().zip(&full) {
             assert!((a - *b as f64).abs() <= 1e-4 * a.max(1.0));
         }

@@ -1,6 +1,7 @@
 //! `optimize`: the least luminous flux that meets illuminance targets on grids.
 
 use axum::http::StatusCode;
+use relight::color::Rgb;
 
 use super::{app, post, ready};
 use crate::common;
@@ -17,7 +18,7 @@ async fn optimize_finds_the_least_flux_levels_that_meet_the_targets() {
     let r = ready("office");
     let desk = r.model.grids.iter().find(|g| g.grid.id == "desk").unwrap();
     let meets = |x: f64, y: f64| {
-        let s = desk.stats(&[[x as f32; 3], [y as f32; 3]]);
+        let s = desk.stats(&[Rgb::splat(x as f32), Rgb::splat(y as f32)]);
         s.avg >= 500.0 * (1.0 - 1e-4) && s.u0 >= 0.6 - 1e-4
     };
     assert!(meets(a, b), "levels {a} {b}");
@@ -80,11 +81,15 @@ async fn a_ugr_ceiling_is_honoured_at_the_least_flux_or_refused_with_the_reason(
     let observers = relight::model::compliance::task_observers(&desk.grid);
     let cancel = relight::model::Cancel::default();
     let worst_ugr = |x: f64, y: f64| {
-        m.glare(&observers, &[[x as f32; 3], [y as f32; 3]], &cancel)
-            .unwrap()
-            .iter()
-            .filter_map(|o| o.ugr)
-            .fold(f64::NEG_INFINITY, f64::max)
+        m.glare(
+            &observers,
+            &[Rgb::splat(x as f32), Rgb::splat(y as f32)],
+            &cancel,
+        )
+        .unwrap()
+        .iter()
+        .filter_map(|o| o.ugr)
+        .fold(f64::NEG_INFINITY, f64::max)
     };
     let ask = |ceiling: f64| {
         format!(r#"{{"targets": [{{"grid": "desk", "eavg_min": 300, "ugr_max": {ceiling}}}]}}"#)
@@ -110,11 +115,18 @@ async fn a_ugr_ceiling_is_honoured_at_the_least_flux_or_refused_with_the_reason(
     let u = worst_ugr(a, b);
     assert!((t["achieved"]["ugr"].as_f64().unwrap() - u).abs() < 1e-9);
     assert!(u <= ceiling + 1e-3, "UGR {u} over {ceiling}");
-    assert!(desk.stats(&[[a as f32; 3], [b as f32; 3]]).avg >= 300.0 * (1.0 - 1e-4));
+    assert!(
+        desk.stats(&[Rgb::splat(a as f32), Rgb::splat(b as f32)])
+            .avg
+            >= 300.0 * (1.0 - 1e-4)
+    );
     // Brute force over a 1 % grid of levels: nothing that meets both uses less flux (the
     // rows have the same lumens, so flux ∝ a + b); the ceiling costs flux.
     let meets = |x: f64, y: f64| {
-        desk.stats(&[[x as f32; 3], [y as f32; 3]]).avg >= 300.0 && worst_ugr(x, y) <= ceiling
+        desk.stats(&[Rgb::splat(x as f32), Rgb::splat(y as f32)])
+            .avg
+            >= 300.0
+            && worst_ugr(x, y) <= ceiling
     };
     let best = (0..=100)
         .flat_map(|i| (0..=100).map(move |j| (i as f64 / 100.0, j as f64 / 100.0)))

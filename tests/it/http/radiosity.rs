@@ -2,6 +2,7 @@
 
 use axum::body::Body;
 use axum::http::{header, Request, StatusCode};
+use relight::color::Rgb;
 use relight::server::{router, AppState, ServerConfig};
 use serde_json::json;
 
@@ -19,7 +20,11 @@ async fn radiosity_json_equals_the_library() {
     .await;
     assert_eq!(s, StatusCode::OK, "{v}");
     let r = ready("desk-room");
-    let sol = r.model.baked.transfer.relight(&[[0.4; 3], [2.0, 1.0, 0.5]]);
+    let sol = r
+        .model
+        .baked
+        .transfer
+        .relight(&[Rgb::splat(0.4), Rgb::new(2.0, 1.0, 0.5)]);
     assert_eq!(floats(&v["radiosity"]), sol.b);
     assert_eq!(v["unit"], "lm/m2");
     let desk = &v["surfaces"]["desk_top"];
@@ -33,7 +38,7 @@ async fn radiosity_json_equals_the_library() {
     .await;
     assert_eq!(
         floats(&v["radiosity"]),
-        r.model.baked.transfer.relight(&[[1.0; 3], [0.0; 3]]).b
+        r.model.baked.transfer.relight(&[Rgb::ONE, Rgb::ZERO]).b
     );
 }
 
@@ -60,7 +65,7 @@ async fn radiosity_binary_equals_the_library() {
         r.model
             .baked
             .transfer
-            .relight(&[[1.0, 0.6, 0.3]])
+            .relight(&[Rgb::new(1.0, 0.6, 0.3)])
             .b
             .as_slice()
     );

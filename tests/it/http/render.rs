@@ -181,13 +181,13 @@ async fn mesh_and_per_patch_illuminance_let_a_client_shade_like_the_server() {
         }
     }
     // quantity = illuminance gives H (lux), binary and JSON alike.
-    let weights: Vec<[f32; 3]> = r
+    let weights: Vec<relight::color::Rgb> = r
         .model
         .groups
         .iter()
         .map(|g| {
             let k = if g.id == "lamp" { 0.4 } else { g.intensity };
-            g.color.map(|c| c * k)
+            g.color * k
         })
         .collect();
     let h_want = r.model.baked.transfer.relight(&weights).h;

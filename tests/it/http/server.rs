@@ -4,6 +4,7 @@ use std::sync::Arc;
 
 use axum::body::Body;
 use axum::http::{header, Request, StatusCode};
+use relight::color::Rgb;
 use relight::server::{router, AppState, ServerConfig};
 
 use super::{app, get, ready, send, state};
@@ -94,7 +95,12 @@ async fn real_server_on_a_loopback_port_relights_the_cornell_box() {
         .chunks_exact(4)
         .map(|c| f32::from_le_bytes(c.try_into().unwrap()))
         .collect();
-    let want = ready_cornell().model.baked.transfer.relight(&[[0.7; 3]]).b;
+    let want = ready_cornell()
+        .model
+        .baked
+        .transfer
+        .relight(&[Rgb::splat(0.7)])
+        .b;
     assert_eq!(got, want);
     server.abort();
 }

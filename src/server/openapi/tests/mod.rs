@@ -265,7 +265,7 @@ fn answer_schemas_describe_the_model_types() {
         id: "ceiling".into(),
         name: "Ceiling".into(),
         intensity: 1.0,
-        color: [1.0, 0.9, 0.8],
+        color: crate::color::Rgb::new(1.0, 0.9, 0.8),
         emitting_area: 0.1,
         lumens: 1000.0,
         luminaires: 0,
@@ -304,7 +304,7 @@ fn answer_schemas_describe_the_model_types() {
             ..grid.clone()
         },
     );
-    let lux = Lux::new([1.0, 2.0, 3.0]);
+    let lux = Lux::new(crate::color::Rgb64::new(1.0, 2.0, 3.0));
     let power = LuminairePower {
         luminaire_lumens: 100.0,
         luminaire_watts: Some(1.0),
@@ -342,9 +342,9 @@ fn answer_schemas_describe_the_model_types() {
         },
     );
     let p = Power {
-        emitted: [1.0; 3],
-        absorbed: [0.5; 3],
-        escaped: [0.5; 3],
+        emitted: crate::color::Rgb64::ONE,
+        absorbed: crate::color::Rgb64::splat(0.5),
+        escaped: crate::color::Rgb64::splat(0.5),
     };
     check("Power", PowerReport::new(p));
     let optimized = OptimizeAnswer {
@@ -352,7 +352,7 @@ fn answer_schemas_describe_the_model_types() {
             "ceiling".to_string(),
             LevelAnswer {
                 intensity: 0.5,
-                color: [1.0; 3],
+                color: crate::color::Rgb::ONE,
                 free: true,
             },
         )]
