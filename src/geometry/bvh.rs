@@ -136,6 +136,7 @@ impl Bvh {
         }
         // Pending far children and where the ray enters them.
         let mut stack = [(0u32, 0f32); 64];
+        let mut spill: Vec<(u32, f32)> = Vec::new();
         let mut sp = 0usize;
         let mut node = 0u32;
         loop {
@@ -159,9 +160,14 @@ impl Bvh {
                         } else {
                             ((b, tb), (a, ta))
                         };
-                        // Depth is bounded by the build (SAH splits, halving fallback).
-                        stack[sp] = later;
-                        sp += 1;
+                        // A tree deeper than the stack (a very skewed scene) spills
+                        // over into the heap rather than losing a subtree.
+                        if sp < stack.len() {
+                            stack[sp] = later;
+                            sp += 1;
+                        } else {
+                            spill.push(later);
+                        }
                         node = near;
                         continue;
                     }
@@ -177,11 +183,14 @@ impl Bvh {
                 }
             }
             loop {
-                if sp == 0 {
+                let (next, enter) = if let Some(top) = spill.pop() {
+                    top
+                } else if sp > 0 {
+                    sp -= 1;
+                    stack[sp]
+                } else {
                     return false;
-                }
-                sp -= 1;
-                let (next, enter) = stack[sp];
+                };
                 if enter <= far() * 1.000_001 {
                     node = next;
                     break;
