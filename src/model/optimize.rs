@@ -30,16 +30,33 @@ use super::query::{GridAnswer, LuminairePower};
 use super::{Model, QueryError};
 use crate::color::Rgb;
 
-/// A target on one grid, lux or ratio bounds.
-#[derive(Debug, Clone, Default)]
-pub struct Target {
-    /// Label for messages (the grid id).
-    pub grid: String,
+/// Bounds on one grid (lux, or a ratio for U₀; `None` is not asked). The grid is named by
+/// its id (`G = String`, the label in messages) or by its index ([`GridTarget`]).
+#[derive(Debug, Clone, Copy, Default)]
+pub struct Target<G = String> {
+    pub grid: G,
     pub eavg_min: Option<f64>,
     pub emin_min: Option<f64>,
     pub u0_min: Option<f64>,
-    /// The highest UGR allowed at the grid's task observers.
+    /// The highest UGR allowed at the grid's task observers
+    /// ([`super::compliance::task_observers`]).
     pub ugr_max: Option<f64>,
+}
+
+/// A target by grid index.
+pub type GridTarget = Target<usize>;
+
+impl<G> Target<G> {
+    /// The same bounds on a grid named `grid`.
+    pub fn named<H>(&self, grid: H) -> Target<H> {
+        Target {
+            grid,
+            eavg_min: self.eavg_min,
+            emin_min: self.emin_min,
+            u0_min: self.u0_min,
+            ugr_max: self.ugr_max,
+        }
+    }
 }
 
 /// One observer's glare as a function of the free levels x (see the module docs):
@@ -251,18 +268,6 @@ fn explain(targets: &[Target], terms: &[GridTerms], g: usize) -> String {
     }
 }
 
-/// Bounds on one grid, by grid index (lux, or a ratio for U₀).
-#[derive(Debug, Clone, Copy, Default)]
-pub struct GridTarget {
-    pub grid: usize,
-    pub eavg_min: Option<f64>,
-    pub emin_min: Option<f64>,
-    pub u0_min: Option<f64>,
-    /// The highest UGR at the grid's task observers
-    /// ([`super::compliance::task_observers`]).
-    pub ugr_max: Option<f64>,
-}
-
 /// Largest illuminance bound accepted, lx.
 pub const MAX_TARGET_LUX: f64 = 1e6;
 
@@ -425,13 +430,7 @@ impl Model {
             .collect();
         let labelled: Vec<Target> = targets
             .iter()
-            .map(|t| Target {
-                grid: self.grids[t.grid].grid.id.clone(),
-                eavg_min: t.eavg_min,
-                emin_min: t.emin_min,
-                u0_min: t.u0_min,
-                ugr_max: t.ugr_max,
-            })
+            .map(|t| t.named(self.grids[t.grid].grid.id.clone()))
             .collect();
         let flux: Vec<f64> = free
             .iter()

@@ -32,61 +32,60 @@ pub struct SunPosition {
     pub azimuth: f64,
 }
 
-/// A sky, as a request gives it. `sun` or `time` places the sun (for `cie_clear` and
-/// `perez` one of them is required; the overcast and uniform skies have no sun and ignore
-/// them).
-#[derive(Debug, Clone, Deserialize, PartialEq)]
-#[cfg_attr(feature = "server", derive(utoipa::ToSchema))]
-#[serde(tag = "type", rename_all = "snake_case", deny_unknown_fields)]
-pub enum SkySpec {
-    /// Uniform luminance; `horizontal_illuminance` lux on an unobstructed horizontal plane.
-    Uniform {
-        horizontal_illuminance: f64,
-        #[serde(default, deserialize_with = "some")]
-        #[cfg_attr(feature = "server", schema(nullable = false))]
-        sun: Option<SunPosition>,
-        #[serde(default, deserialize_with = "some")]
-        #[cfg_attr(feature = "server", schema(nullable = false))]
-        time: Option<String>,
-    },
-    /// CIE traditional overcast sky, L(γ) ∝ 1 + 2 sin γ; daylight factors are given
-    /// against `horizontal_illuminance`.
-    CieOvercast {
-        horizontal_illuminance: f64,
-        #[serde(default, deserialize_with = "some")]
-        #[cfg_attr(feature = "server", schema(nullable = false))]
-        sun: Option<SunPosition>,
-        #[serde(default, deserialize_with = "some")]
-        #[cfg_attr(feature = "server", schema(nullable = false))]
-        time: Option<String>,
-    },
-    /// CIE clear sky with the sun: `horizontal_illuminance` is the sky's diffuse part
-    /// alone, `direct_normal_illuminance` the sun's (lux).
-    CieClear {
-        horizontal_illuminance: f64,
-        direct_normal_illuminance: f64,
-        #[serde(default, deserialize_with = "some")]
-        #[cfg_attr(feature = "server", schema(nullable = false))]
-        sun: Option<SunPosition>,
-        #[serde(default, deserialize_with = "some")]
-        #[cfg_attr(feature = "server", schema(nullable = false))]
-        time: Option<String>,
-    },
-    /// Perez all-weather sky from an hour's irradiance (W/m²), luminous efficacy after
-    /// Perez 1990; `dew_point` (°C, default 11) sets the precipitable water.
-    Perez {
-        direct_normal_irradiance: f64,
-        diffuse_horizontal_irradiance: f64,
-        #[serde(default, deserialize_with = "some")]
-        #[cfg_attr(feature = "server", schema(nullable = false))]
-        dew_point: Option<f64>,
-        #[serde(default, deserialize_with = "some")]
-        #[cfg_attr(feature = "server", schema(nullable = false))]
-        sun: Option<SunPosition>,
-        #[serde(default, deserialize_with = "some")]
-        #[cfg_attr(feature = "server", schema(nullable = false))]
-        time: Option<String>,
-    },
+/// Declares the sky enum with the optional `sun` and `time` (never `null`) after each
+/// variant's own fields: every sky takes them.
+macro_rules! placed_by_sun_or_time {
+    ($(#[$m:meta])* pub enum $name:ident {
+        $($(#[$vm:meta])* $variant:ident { $($fields:tt)* },)*
+    }) => {
+        $(#[$m])*
+        pub enum $name {
+            $($(#[$vm])* $variant {
+                $($fields)*
+                #[serde(default, deserialize_with = "some")]
+                #[cfg_attr(feature = "server", schema(nullable = false))]
+                sun: Option<SunPosition>,
+                #[serde(default, deserialize_with = "some")]
+                #[cfg_attr(feature = "server", schema(nullable = false))]
+                time: Option<String>,
+            },)*
+        }
+    };
+}
+
+placed_by_sun_or_time! {
+    /// A sky, as a request gives it. `sun` or `time` places the sun (for `cie_clear` and
+    /// `perez` one of them is required; the overcast and uniform skies have no sun and ignore
+    /// them).
+    #[derive(Debug, Clone, Deserialize, PartialEq)]
+    #[cfg_attr(feature = "server", derive(utoipa::ToSchema))]
+    #[serde(tag = "type", rename_all = "snake_case", deny_unknown_fields)]
+    pub enum SkySpec {
+        /// Uniform luminance; `horizontal_illuminance` lux on an unobstructed horizontal plane.
+        Uniform {
+            horizontal_illuminance: f64,
+        },
+        /// CIE traditional overcast sky, L(γ) ∝ 1 + 2 sin γ; daylight factors are given
+        /// against `horizontal_illuminance`.
+        CieOvercast {
+            horizontal_illuminance: f64,
+        },
+        /// CIE clear sky with the sun: `horizontal_illuminance` is the sky's diffuse part
+        /// alone, `direct_normal_illuminance` the sun's (lux).
+        CieClear {
+            horizontal_illuminance: f64,
+            direct_normal_illuminance: f64,
+        },
+        /// Perez all-weather sky from an hour's irradiance (W/m²), luminous efficacy after
+        /// Perez 1990; `dew_point` (°C, default 11) sets the precipitable water.
+        Perez {
+            direct_normal_irradiance: f64,
+            diffuse_horizontal_irradiance: f64,
+            #[serde(default, deserialize_with = "some")]
+            #[cfg_attr(feature = "server", schema(nullable = false))]
+            dew_point: Option<f64>,
+        },
+    }
 }
 
 /// Present means a value, never `null`.

@@ -36,6 +36,11 @@ use tower_http::trace::{DefaultMakeSpan, DefaultOnFailure, DefaultOnResponse, Tr
 use tower_http::LatencyUnit;
 use tracing::Level;
 
+use routes::{
+    annual, batch, daylight, export, glare, illuminance, optimize, radiosity, render, report,
+    scenes, service, upload,
+};
+
 pub use error::AppError;
 
 async fn track(State(state): State<Arc<AppState>>, req: Request, next: Next) -> Response {
@@ -76,58 +81,37 @@ async fn timeout(State(state): State<Arc<AppState>>, req: Request, next: Next) -
 pub fn router(state: Arc<AppState>) -> Router {
     let cors = cors_layer(&state.config.cors_origins);
     let static_dir = state.config.static_dir.clone();
-    let not_found = axum::handler::HandlerWithoutStateExt::into_service(routes::service::not_found);
+    let not_found = axum::handler::HandlerWithoutStateExt::into_service(service::not_found);
     let app = Router::new()
-        .route("/healthz", get(routes::service::healthz))
-        .route("/readyz", get(routes::service::readyz))
-        .route("/metrics", get(routes::service::metrics))
-        .route("/api/openapi.json", get(routes::service::openapi))
-        .route("/api/scenes", get(routes::scenes::list_scenes))
+        .route("/healthz", get(service::healthz))
+        .route("/readyz", get(service::readyz))
+        .route("/metrics", get(service::metrics))
+        .route("/api/openapi.json", get(service::openapi))
+        .route("/api/scenes", get(scenes::list_scenes))
         .route(
             "/api/scenes/{id}",
-            get(routes::scenes::scene_details)
-                .put(routes::upload::put_scene)
-                .delete(routes::upload::delete_scene),
+            get(scenes::scene_details)
+                .put(upload::put_scene)
+                .delete(upload::delete_scene),
         )
-        .route("/api/scenes/{id}/patches", get(routes::scenes::patches))
-        .route("/api/scenes/{id}/mesh", get(routes::scenes::mesh))
-        .route(
-            "/api/scenes/{id}/mesh/preview",
-            get(routes::scenes::mesh_preview),
-        )
-        .route(
-            "/api/scenes/{id}/radiosity",
-            post(routes::radiosity::radiosity),
-        )
+        .route("/api/scenes/{id}/patches", get(scenes::patches))
+        .route("/api/scenes/{id}/mesh", get(scenes::mesh))
+        .route("/api/scenes/{id}/mesh/preview", get(scenes::mesh_preview))
+        .route("/api/scenes/{id}/radiosity", post(radiosity::radiosity))
         .route(
             "/api/scenes/{id}/illuminance",
-            post(routes::illuminance::illuminance),
+            post(illuminance::illuminance),
         )
-        .route(
-            "/api/scenes/{id}/daylight",
-            post(routes::daylight::daylight),
-        )
-        .route("/api/scenes/{id}/annual", post(routes::annual::annual))
-        .route("/api/scenes/{id}/glare", post(routes::glare::glare))
-        .route("/api/scenes/{id}/batch", post(routes::batch::batch))
-        .route(
-            "/api/scenes/{id}/optimize",
-            post(routes::optimize::optimize),
-        )
-        .route("/api/scenes/{id}/render", post(routes::render::render_post))
-        .route(
-            "/api/scenes/{id}/render.png",
-            get(routes::render::render_get),
-        )
-        .route(
-            "/api/scenes/{id}/export.glb",
-            get(routes::export::export_glb),
-        )
-        .route("/api/scenes/{id}/report", get(routes::report::report))
-        .route(
-            "/api/{*rest}",
-            axum::routing::any(routes::service::not_found),
-        )
+        .route("/api/scenes/{id}/daylight", post(daylight::daylight))
+        .route("/api/scenes/{id}/annual", post(annual::annual))
+        .route("/api/scenes/{id}/glare", post(glare::glare))
+        .route("/api/scenes/{id}/batch", post(batch::batch))
+        .route("/api/scenes/{id}/optimize", post(optimize::optimize))
+        .route("/api/scenes/{id}/render", post(render::render_post))
+        .route("/api/scenes/{id}/render.png", get(render::render_get))
+        .route("/api/scenes/{id}/export.glb", get(export::export_glb))
+        .route("/api/scenes/{id}/report", get(report::report))
+        .route("/api/{*rest}", axum::routing::any(service::not_found))
         .fallback_service(ServeDir::new(static_dir).not_found_service(not_found))
         .layer(axum::extract::DefaultBodyLimit::max(
             state.config.body_limit,

@@ -166,13 +166,16 @@ impl Model {
         q: &IlluminanceQuery,
         cancel: &Cancel,
     ) -> Result<DaylightAnswer, QueryError> {
-        let mut answer = self.daylight_once(sky, w, q, cancel)?;
+        let (site, l, sun_light) = self.sky_light(sky)?;
+        let light = PointLight::new(self, sky, site, &l, &sun_light, w);
+        let mut answer = self.daylight_once(&light, &sun_light, q, cancel)?;
         if let Some(w) = w {
             // Light is linear in the groups: the maintained answer is the same query under
-            // the maintained weights (the gathers are cached by the first).
+            // the maintained weights (the sky, the sun and the gathers are the first's).
             let factors = self.factors(q).groups;
             let wm = super::compliance::maintained_weights(w, &factors);
-            let m = self.daylight_once(sky, Some(&wm), q, cancel)?;
+            let light = PointLight::new(self, sky, site, &l, &sun_light, Some(&wm));
+            let m = self.daylight_once(&light, &sun_light, q, cancel)?;
             let groups = self.baked.scene.lights.iter().map(|g| g.id.clone());
             answer.maintenance_factors = groups.zip(factors).collect();
             answer.maintained = Some(super::query::Maintained {
@@ -192,16 +195,15 @@ impl Model {
         Ok(answer)
     }
 
-    /// [`Model::daylight`] without the maintained answers.
+    /// [`Model::daylight`] without the maintained answers, for the light of one sky and one
+    /// set of group weights.
     fn daylight_once(
         &self,
-        sky: &SkyState,
-        w: Option<&[Rgb]>,
+        light: &PointLight,
+        sun_light: &SunLight,
         q: &IlluminanceQuery,
         cancel: &Cancel,
     ) -> Result<DaylightAnswer, QueryError> {
-        let (site, l, sun_light) = self.sky_light(sky)?;
-        let light = PointLight::new(self, sky, site, &l, &sun_light, w);
         let points = light
             .at_points(&q.points, cancel)?
             .into_iter()
@@ -214,15 +216,15 @@ impl Model {
         let mut grids = BTreeMap::new();
         for &gi in &q.grids {
             cancel.check()?;
-            let answer = self.daylight_grid(gi, &light, cancel)?;
+            let answer = self.daylight_grid(gi, light, cancel)?;
             grids.insert(self.grids[gi].grid.id.clone(), answer);
         }
         cancel.check()?;
         Ok(DaylightAnswer {
             unit: "lx",
-            sky: SkyInfo::of(sky),
+            sky: SkyInfo::of(light.sky),
             points,
-            surfaces: self.daylight_surfaces(&q.surfaces, &l, &sun_light, w),
+            surfaces: self.daylight_surfaces(&q.surfaces, light.l, sun_light, light.w),
             grids,
             maintenance_factors: BTreeMap::new(),
             maintained: None,

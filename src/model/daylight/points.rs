@@ -22,7 +22,7 @@ pub(super) struct PointLight<'a> {
     site: &'a Site,
     cols: &'a SkyColumns,
     /// Sky patch luminances, cd/m² (0 the ground).
-    l: &'a [f64],
+    pub(super) l: &'a [f64],
     /// The sun's spread over the sky patches ([`SunLight::spread`]).
     spread: &'a [(usize, f64)],
     /// [`Model::sun_reflected`].
@@ -30,7 +30,7 @@ pub(super) struct PointLight<'a> {
     /// The sun's scene direction and normal illuminance.
     sun: Option<(DVec3, f64)>,
     reach: Reach,
-    w: Option<&'a [Rgb]>,
+    pub(super) w: Option<&'a [Rgb]>,
     /// The electric light's radiosity, lm/m² (n × 3; empty without `w`).
     b_el: Vec<f32>,
 }

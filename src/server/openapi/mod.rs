@@ -8,6 +8,11 @@
 //! written by hand, for speed; `routes::radiosity::RadiosityResponse` describes it.
 //! `tests` checks real answers against the document.
 //!
+//! Every `#[utoipa::path]` is written in one compact style: method, path, operation id and
+//! `tags = [..]` on the first line, then the summary, then parameters, body and
+//! responses. (rustfmt leaves an attribute with an array or a `json!` alone, where it would
+//! spread a plain one over a line per key.)
+//!
 //! The document is checked against the running server by schemathesis
 //! (`tests/schemathesis/run.sh`, run by `.ci/run`): every status code, content type,
 //! header and body the server gives must be described here, and every request the

@@ -13,7 +13,7 @@ use crate::server::requests::annual::Weather;
 use crate::server::requests::AnnualRequest;
 use crate::server::AppError;
 
-#[utoipa::path(post, path = "/api/scenes/{id}/annual", operation_id = "annual", tag = "scenes",
+#[utoipa::path(post, path = "/api/scenes/{id}/annual", operation_id = "annual", tags = ["scenes"],
     summary = "Annual climate-based metrics per grid from an EPW weather file (a file in the scene's folder, or its text): sDA300/50 %, ASE1000,250h, useful daylight illuminance bands, EN 17037's minimum level, and per point the occupied hours with at least 300 lx. Every hour is a Perez sky; the sun's direct light is traced per point and hour.",
     params(SceneIdParam),
     request_body(content = AnnualRequest, content_type = "application/json",

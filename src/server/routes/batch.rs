@@ -53,7 +53,7 @@ pub(crate) struct BatchResponse {
     results: Vec<BatchResult>,
 }
 
-#[utoipa::path(post, path = "/api/scenes/{id}/batch", operation_id = "batch", tag = "scenes",
+#[utoipa::path(post, path = "/api/scenes/{id}/batch", operation_id = "batch", tags = ["scenes"],
     summary = "Up to 1000 lighting states in one request, each with surface illuminance statistics and the power balance.",
     params(SceneIdParam),
     request_body(content = BatchRequest, content_type = "application/json",

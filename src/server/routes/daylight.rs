@@ -10,7 +10,7 @@ use crate::server::parse::ScenePost;
 use crate::server::requests::DaylightRequest;
 use crate::server::AppError;
 
-#[utoipa::path(post, path = "/api/scenes/{id}/daylight", operation_id = "daylight", tag = "scenes",
+#[utoipa::path(post, path = "/api/scenes/{id}/daylight", operation_id = "daylight", tags = ["scenes"],
     summary = "Daylight from a sky (uniform, CIE overcast, CIE clear with the sun, Perez from irradiance; the sun placed by position or local time at the scene's [site]): illuminance per surface, at points (the direct sky integrated over what each point sees, the sun by a shadow ray, interreflections gathered) and on grids, with daylight factors (percent) for the CIE overcast sky. Electric light in `lights` is added.",
     params(SceneIdParam),
     request_body(content = DaylightRequest, content_type = "application/json",

@@ -15,15 +15,10 @@ use crate::server::parse::{ReadyScene, SceneId};
 use crate::server::requests::export::{ExportQuery, ExportRequest};
 use crate::server::AppError;
 
-#[utoipa::path(
-    get,
-    path = "/api/scenes/{id}/export.glb",
-    operation_id = "exportGlb",
-    tag = "scenes",
+#[utoipa::path(get, path = "/api/scenes/{id}/export.glb", operation_id = "exportGlb", tags = ["scenes"],
     summary = "The meshed scene relit, as glTF 2.0 binary for any glTF viewer: vertex colours are the relit image's display values (COLOR_0, linear, after exposure and tone map) on an unlit material, and one `_LIGHT_<GROUP>` attribute per light group (radiance in cd/m² at intensity 1, white) lets a client remix the lights without the server. Takes `light.<group>=<intensity>` or `light.<group>=r,g,b` per light group besides the parameters below. A parameter given twice, an unknown parameter or a value that is not a number where one is expected is a 400; values out of range and unknown light groups are 422s.",
     params(SceneIdParam, ExportQuery),
-    responses(GlbFile, QueryErrors)
-)]
+    responses(GlbFile, QueryErrors))]
 pub(crate) async fn export_glb(
     SceneId(id): SceneId,
     ReadyScene(ready, state): ReadyScene,

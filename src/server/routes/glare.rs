@@ -15,7 +15,7 @@ pub(crate) struct GlareAnswer {
     observers: Vec<ObserverGlare>,
 }
 
-#[utoipa::path(post, path = "/api/scenes/{id}/glare", operation_id = "glare", tag = "scenes",
+#[utoipa::path(post, path = "/api/scenes/{id}/glare", operation_id = "glare", tags = ["scenes"],
     summary = "Discomfort glare (CIE 117 UGR) at observers for a lighting state: per observer the UGR, the background luminance L_b = E_ind/π (cd/m²) and each luminaire's luminance (cd/m²), solid angle (sr) and Guth position index. Luminaires need a luminous opening (the photometric file's dimensions).",
     params(SceneIdParam),
     request_body(content = GlareRequest, content_type = "application/json",

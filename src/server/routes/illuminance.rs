@@ -10,7 +10,7 @@ use crate::server::parse::ScenePost;
 use crate::server::requests::IlluminanceRequest;
 use crate::server::AppError;
 
-#[utoipa::path(post, path = "/api/scenes/{id}/illuminance", operation_id = "illuminance", tag = "scenes",
+#[utoipa::path(post, path = "/api/scenes/{id}/illuminance", operation_id = "illuminance", tags = ["scenes"],
     summary = "Illuminance per surface (avg, min, max, uniformity), at points (direct light of the luminaires plus light gathered from the solved patches, with occlusion), and on calculation grids (Eavg, Emin, Emax, U0, Emin/Emax), with the luminaires' lumens and watts.",
     params(SceneIdParam),
     request_body(content = IlluminanceRequest, content_type = "application/json",

@@ -9,7 +9,7 @@ use crate::server::parse::ScenePost;
 use crate::server::requests::OptimizeRequest;
 use crate::server::AppError;
 
-#[utoipa::path(post, path = "/api/scenes/{id}/optimize", operation_id = "optimize", tag = "scenes",
+#[utoipa::path(post, path = "/api/scenes/{id}/optimize", operation_id = "optimize", tags = ["scenes"],
     summary = "Dimming levels (0..1 per free group, modelled colours) that meet grid targets with the least emitted flux: a linear program over the precomputed grid responses. 422 explains unreachable targets.",
     params(SceneIdParam),
     request_body(content = OptimizeRequest, content_type = "application/json",

@@ -47,7 +47,7 @@ pub(crate) struct RadiosityResponse {
     surfaces: Option<BTreeMap<String, SurfaceAverage>>,
 }
 
-#[utoipa::path(post, path = "/api/scenes/{id}/radiosity", operation_id = "radiosity", tag = "scenes",
+#[utoipa::path(post, path = "/api/scenes/{id}/radiosity", operation_id = "radiosity", tags = ["scenes"],
     summary = "Per-patch radiosity for a lighting state (group settings, or a per-patch emission in factored mode), with daylight added for a `sky`.",
     params(SceneIdParam),
     request_body(content = RadiosityRequest, content_type = "application/json",

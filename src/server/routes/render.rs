@@ -168,7 +168,7 @@ async fn respond(
     Ok(resp)
 }
 
-#[utoipa::path(post, path = "/api/scenes/{id}/render", operation_id = "render", tag = "scenes",
+#[utoipa::path(post, path = "/api/scenes/{id}/render", operation_id = "render", tags = ["scenes"],
     summary = "A relit image from a camera preset or a full camera; with `sky`, daylight is added (the sun traced per pixel, the sky seen through openings).",
     params(SceneIdParam),
     request_body(content = RenderRequest, content_type = "application/json",
@@ -185,15 +185,10 @@ pub(crate) async fn render_post(
 }
 
 /// `GET …/render.png?camera=front&w=512&h=512&light.ceiling=0.5&exposure=0&mode=falsecolor`
-#[utoipa::path(
-    get,
-    path = "/api/scenes/{id}/render.png",
-    operation_id = "renderPng",
-    tag = "scenes",
+#[utoipa::path(get, path = "/api/scenes/{id}/render.png", operation_id = "renderPng", tags = ["scenes"],
     summary = "A relit PNG for quick use from a browser or curl, e.g. ?camera=front&w=512&h=512&light.ceiling=0.5. Besides the parameters below it takes `width`/`height` (aliases of w/h) and `light.<group>=<intensity>` or `light.<group>=r,g,b` (intensity 1 at that colour) for each light group. A parameter given twice, an unknown parameter or a value that is not a number where one is expected is a 400; values out of range, unknown cameras and light groups are 422s.",
     params(SceneIdParam, RenderQuery),
-    responses(RenderPng, QueryErrors)
-)]
+    responses(RenderPng, QueryErrors))]
 pub(crate) async fn render_get(
     ReadyScene(ready, state): ReadyScene,
     Query(q): Query<Vec<(String, String)>>,

@@ -108,15 +108,10 @@ fn image_options(
 }
 
 /// `GET …/report?light.window_row=0.5&title=…&project=…&author=…`
-#[utoipa::path(
-    get,
-    path = "/api/scenes/{id}/report",
-    operation_id = "report",
-    tag = "scenes",
+#[utoipa::path(get, path = "/api/scenes/{id}/report", operation_id = "report", tags = ["scenes"],
     summary = "A printable design report (HTML, self-contained: print it to PDF from a browser) of a lighting state, given in the query as render.png takes it (`light.<group>=<intensity>` or `light.<group>=r,g,b`, exposure, tonemap, mode, quality; w/h size the images, default 640×400; `camera` limits them to that preset, else one per camera preset). It holds a title block, the luminaire schedule, per grid a false-colour plan with Ēm, Emin, Emax, U₀, UGR and pass or fail against the grid's requirements, the assumptions (maintenance factors, reflectances), the relit images, and installed power with its density. A parameter given twice, an unknown parameter or a value that is not a number where one is expected is a 400; values out of range, unknown cameras and light groups, and a title, project or author over 200 characters are 422s.",
     params(SceneIdParam, ReportQuery, RenderQuery),
-    responses(ReportHtml, QueryErrors)
-)]
+    responses(ReportHtml, QueryErrors))]
 pub(crate) async fn report(
     ReadyScene(ready, state): ReadyScene,
     Query(q): Query<Vec<(String, String)>>,

@@ -100,7 +100,7 @@ pub(crate) struct SceneList {
     scenes: Vec<SceneSummary>,
 }
 
-#[utoipa::path(get, path = "/api/scenes", operation_id = "listScenes", tag = "scenes",
+#[utoipa::path(get, path = "/api/scenes", operation_id = "listScenes", tags = ["scenes"],
     summary = "All scenes with status (queued, baking with progress 0..1, ready, failed with error), patch count and light groups.",
     responses((status = 200, description = "Scene list.", body = SceneList)))]
 pub(crate) async fn list_scenes(State(state): State<Arc<AppState>>) -> Json<SceneList> {
@@ -180,7 +180,7 @@ impl SceneDetails {
     }
 }
 
-#[utoipa::path(get, path = "/api/scenes/{id}", operation_id = "sceneDetails", tag = "scenes",
+#[utoipa::path(get, path = "/api/scenes/{id}", operation_id = "sceneDetails", tags = ["scenes"],
     summary = "Light groups, cameras, luminaires, calculation grids, surfaces (with patch ranges), bounds, units and transfer mode of a scene.",
     params(SceneIdParam),
     responses((status = 200, description = "Scene details.", body = SceneDetails), SceneErrors))]
@@ -195,15 +195,10 @@ pub(crate) struct Patches<'a> {
     patches: Vec<PatchInfo<'a>>,
 }
 
-#[utoipa::path(
-    get,
-    path = "/api/scenes/{id}/patches",
-    operation_id = "patches",
-    tag = "scenes",
+#[utoipa::path(get, path = "/api/scenes/{id}/patches", operation_id = "patches", tags = ["scenes"],
     summary = "Per patch: surface, area (m²), centroid and normal (m). JSON, or binary with `Accept: application/octet-stream`.",
     params(SceneIdParam),
-    responses(PatchesAnswer, SizedGetErrors)
-)]
+    responses(PatchesAnswer, SizedGetErrors))]
 pub(crate) async fn patches(
     ReadyScene(ready, state): ReadyScene,
     headers: HeaderMap,
@@ -242,29 +237,19 @@ fn patch_list(model: &Model, binary_out: bool) -> Response {
 }
 
 /// The shading mesh (layout in [`crate::render::Shading::mesh_bytes`]).
-#[utoipa::path(
-    get,
-    path = "/api/scenes/{id}/mesh",
-    operation_id = "mesh",
-    tag = "scenes",
+#[utoipa::path(get, path = "/api/scenes/{id}/mesh", operation_id = "mesh", tags = ["scenes"],
     summary = "The shading mesh for client-side drawing: vertices, triangles (one per patch), surface per triangle, and per-vertex patch weights (vertex colour = Σ weight · B[patch]).",
     params(SceneIdParam),
-    responses(MeshBuffer, SizedGetErrors)
-)]
+    responses(MeshBuffer, SizedGetErrors))]
 pub(crate) async fn mesh(ReadyScene(ready, state): ReadyScene) -> Result<Response, AppError> {
     mesh_answer(&state, ready, 200, "the shading mesh", Ready::mesh_bytes).await
 }
 
 /// The preview mesh (see [`crate::render::preview`]).
-#[utoipa::path(
-    get,
-    path = "/api/scenes/{id}/mesh/preview",
-    operation_id = "meshPreview",
-    tag = "scenes",
+#[utoipa::path(get, path = "/api/scenes/{id}/mesh/preview", operation_id = "meshPreview", tags = ["scenes"],
     summary = "A coarser shading mesh (about 30,000 triangles) for drawing while the camera moves, in the layout of /mesh. Its vertex weights refer to the scene's patches, so the same per-patch radiosity colours it. Scenes of at most 60,000 patches answer their full mesh.",
     params(SceneIdParam),
-    responses(MeshBuffer, SizedGetErrors)
-)]
+    responses(MeshBuffer, SizedGetErrors))]
 pub(crate) async fn mesh_preview(
     ReadyScene(ready, state): ReadyScene,
 ) -> Result<Response, AppError> {

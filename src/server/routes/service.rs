@@ -14,7 +14,7 @@ use super::scenes::SceneSummary;
 use crate::server::openapi::{Document, HealthText, MetricsText};
 use crate::server::{AppError, AppState};
 
-#[utoipa::path(get, path = "/healthz", operation_id = "healthz", tag = "service",
+#[utoipa::path(get, path = "/healthz", operation_id = "healthz", tags = ["service"],
     summary = "Liveness: 200 while the process is up.",
     responses((status = 200, description = "The text `ok`.", body = HealthText, content_type = "text/plain")))]
 pub(crate) async fn healthz() -> &'static str {
@@ -25,7 +25,7 @@ pub(crate) async fn not_found() -> AppError {
     AppError::NotFound("no such endpoint; see /api/openapi.json".into())
 }
 
-#[utoipa::path(get, path = "/metrics", operation_id = "metrics", tag = "service",
+#[utoipa::path(get, path = "/metrics", operation_id = "metrics", tags = ["service"],
     summary = "Prometheus metrics: requests and latency per route, bake times.",
     responses((status = 200, description = "Prometheus text exposition format 0.0.4.", body = MetricsText, content_type = "text/plain")))]
 pub(crate) async fn metrics(State(state): State<Arc<AppState>>) -> Response {
@@ -71,7 +71,7 @@ fn memory_metrics(state: &AppState) -> String {
     out
 }
 
-#[utoipa::path(get, path = "/api/openapi.json", operation_id = "openapi", tag = "service",
+#[utoipa::path(get, path = "/api/openapi.json", operation_id = "openapi", tags = ["service"],
     summary = "This document.",
     responses((status = 200, description = "The OpenAPI 3.1 document.", body = Document)))]
 pub(crate) async fn openapi() -> Response {
@@ -89,7 +89,7 @@ pub(crate) struct Readiness {
     scenes: Vec<SceneSummary>,
 }
 
-#[utoipa::path(get, path = "/readyz", operation_id = "readyz", tag = "service",
+#[utoipa::path(get, path = "/readyz", operation_id = "readyz", tags = ["service"],
     summary = "Readiness: 200 once every scene is ready or failed, else 503 with every scene's status and progress.",
     responses(
         (status = 200, description = "Every scene is ready or failed.", body = Readiness),

@@ -304,7 +304,7 @@ fn forget(state: &AppState, id: &str) {
         .forget_scene(id);
 }
 
-#[utoipa::path(put, path = "/api/scenes/{id}", operation_id = "putScene", tag = "scenes",
+#[utoipa::path(put, path = "/api/scenes/{id}", operation_id = "putScene", tags = ["scenes"],
     summary = "Upload a scene: a glTF binary, or a zip of a scene folder (OBJ/MTL/textures/IES/scene.toml, or a .gltf with its files). It is checked (unpacked within limits, loaded as a scene) before it is stored, then baked in the background: poll GET /api/scenes/{id}. Replaces an earlier upload with this id. Needs the admin token.",
     params(SceneIdParam),
     request_body(content((GlbModel = "model/gltf-binary"), (ZipArchive = "application/zip")),
@@ -378,7 +378,7 @@ pub(crate) async fn put_scene(
     Ok(resp)
 }
 
-#[utoipa::path(delete, path = "/api/scenes/{id}", operation_id = "deleteScene", tag = "scenes",
+#[utoipa::path(delete, path = "/api/scenes/{id}", operation_id = "deleteScene", tags = ["scenes"],
     summary = "Delete an uploaded scene, its folder and its cache entries. The server's own scenes cannot be deleted, nor a scene while it bakes. Needs the admin token.",
     params(SceneIdParam),
     responses(
