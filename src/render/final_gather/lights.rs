@@ -53,7 +53,6 @@ struct Sources<'a> {
 pub(super) struct GroupLights<'a> {
     bvh: &'a Bvh,
     groups: Vec<Sources<'a>>,
-    emitter_rays: u32,
 }
 
 /// Reused buffers of one thread.
@@ -65,7 +64,7 @@ pub(super) struct Scratch {
 }
 
 impl<'a> GroupLights<'a> {
-    pub(super) fn new(scene: &'a FinalScene<'a>, emitter_rays: u32) -> GroupLights<'a> {
+    pub(super) fn new(scene: &'a FinalScene<'a>) -> GroupLights<'a> {
         let groups = scene
             .lights
             .iter()
@@ -84,7 +83,6 @@ impl<'a> GroupLights<'a> {
         GroupLights {
             bvh: scene.patches,
             groups,
-            emitter_rays: emitter_rays.max(1),
         }
     }
 
@@ -95,12 +93,11 @@ impl<'a> GroupLights<'a> {
     }
 
     /// Adds to `out` (per group RGB, lux) the direct illuminance at `x` on patch `p`
-    /// (normal `n`).
+    /// (normal `n`), with at most `rays` shadow rays per emitting triangle.
     pub(super) fn direct(
         &self,
-        x: DVec3,
-        n: DVec3,
-        p: u32,
+        (x, n, p): (DVec3, DVec3, u32),
+        rays: u32,
         rng: &mut Rng,
         scratch: &mut Scratch,
         out: &mut [f32],
@@ -110,7 +107,7 @@ impl<'a> GroupLights<'a> {
                 self.luminaires(g.luminaires, (x, n, p), rng, scratch, out);
             }
             if !g.emitters.is_empty() {
-                self.emitters(&g.emitters, (x, n, p), rng, scratch, out);
+                self.emitters(&g.emitters, (x, n, p), rays.max(1), rng, scratch, out);
             }
         }
     }
@@ -162,11 +159,13 @@ impl<'a> GroupLights<'a> {
         }
     }
 
-    /// Emitting triangles: exact form factor × visible share.
+    /// Emitting triangles: exact form factor × visible share, from at most `rays` shadow
+    /// rays per triangle (shared out by the triangles' shares of the light).
     fn emitters(
         &self,
         em: &[Emitter],
         at: (DVec3, DVec3, u32),
+        rays: u32,
         rng: &mut Rng,
         scratch: &mut Scratch,
         out: &mut Rgb,
@@ -186,11 +185,11 @@ impl<'a> GroupLights<'a> {
         if total <= 0.0 {
             return;
         }
-        let budget = self.emitter_rays as f64;
+        let budget = rays as f64;
         for &(i, ff) in cand.iter() {
             let e = &em[i];
             let share = ff * e.luminous / total;
-            let k = ((share * budget).ceil() as u32).clamp(1, self.emitter_rays);
+            let k = ((share * budget).ceil() as u32).clamp(1, rays);
             let f = (ff * self.seen(e, at, k, rng)) as f32;
             *out += f * e.exitance;
         }

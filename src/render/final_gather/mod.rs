@@ -145,7 +145,7 @@ pub fn build(
     cancel: &Cancel,
 ) -> Result<GroupImages, QueryError> {
     let g = scene.groups.len();
-    let lights = lights::GroupLights::new(scene, settings.emitter_rays);
+    let lights = lights::GroupLights::new(scene);
     let tracer = Tracer {
         reflected: gather::Reflected::new(scene, &lights),
         openings: openings::Openings::new(scene.lights),
@@ -357,7 +357,13 @@ impl Tracer<'_> {
         let mut e_direct = std::mem::take(&mut scratch.lux);
         e_direct.clear();
         e_direct.resize(3 * self.groups, 0.0);
-        self.lights.direct(x, n, p, rng, scratch, &mut e_direct);
+        self.lights.direct(
+            (x, n, p),
+            self.settings.emitter_rays,
+            rng,
+            scratch,
+            &mut e_direct,
+        );
         if gather_rays > 0 {
             let mut near =
                 |at: DVec3, q: u32, rng: &mut Rng, v: &mut [f32]| self.reflected_at(at, q, rng, v);
@@ -398,8 +404,13 @@ impl Tracer<'_> {
         let patch = &self.scene.mesh.patches[q as usize];
         let mut scratch = lights::Scratch::default();
         let mut lux = vec![0f32; out.len()];
-        self.lights
-            .direct(at, patch.normal, q, rng, &mut scratch, &mut lux);
+        self.lights.direct(
+            (at, patch.normal, q),
+            NEAR_EMITTER_RAYS,
+            rng,
+            &mut scratch,
+            &mut lux,
+        );
         self.reflected.gather(
             self.scene,
             (at, patch.normal, q),
@@ -419,6 +430,10 @@ impl Tracer<'_> {
 
 /// Rays of the small gather at a point a gather ray landed on close by.
 const NEAR_GATHER_RAYS: usize = 9;
+
+/// Shadow rays per emitting triangle for the direct light at such a point: its value is
+/// one of the many that a pixel's gather averages, so a few rays suffice.
+const NEAR_EMITTER_RAYS: u32 = 2;
 
 /// What a camera sample saw: its reflectance and its filter guide.
 #[derive(Default)]
