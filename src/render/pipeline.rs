@@ -192,6 +192,7 @@ pub fn final_images(
         mesh: &b.mesh,
         shading,
         patches,
+        bvh: &b.bvh,
         triangles: &b.scene.triangles,
         rho: &b.transfer.rho,
         groups: &b.transfer.groups,

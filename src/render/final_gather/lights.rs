@@ -19,6 +19,7 @@ use glam::DVec3;
 use super::FinalScene;
 use crate::color::{Rgb, Rgb64};
 use crate::geometry::bvh::Bvh;
+use crate::geometry::mesh::Mesh;
 use crate::photometry::Luminaire;
 use crate::transport::direct::{shadowed, visible};
 use crate::transport::formfactor::{point_to_polygon, sample_triangle, Rng};
@@ -51,7 +52,10 @@ struct Sources<'a> {
 
 /// Every group's direct-light sources.
 pub(super) struct GroupLights<'a> {
+    /// The scene BVH (ids: scene triangles): shadow rays skip the triangle a patch was cut
+    /// from, and this tree is far smaller than the patches'.
     bvh: &'a Bvh,
+    mesh: &'a Mesh,
     groups: Vec<Sources<'a>>,
 }
 
@@ -81,7 +85,8 @@ impl<'a> GroupLights<'a> {
             })
             .collect();
         GroupLights {
-            bvh: scene.patches,
+            bvh: scene.bvh,
+            mesh: scene.mesh,
             groups,
         }
     }
@@ -102,12 +107,14 @@ impl<'a> GroupLights<'a> {
         scratch: &mut Scratch,
         out: &mut [f32],
     ) {
+        // Below, the third member is the scene triangle the shadow rays skip.
+        let at = (x, n, self.mesh.patches[p as usize].source);
         for (out, g) in Rgb::column_mut(out).iter_mut().zip(&self.groups) {
             if !g.luminaires.is_empty() {
-                self.luminaires(g.luminaires, (x, n, p), rng, scratch, out);
+                self.luminaires(g.luminaires, at, rng, scratch, out);
             }
             if !g.emitters.is_empty() {
-                self.emitters(&g.emitters, (x, n, p), rays.max(1), rng, scratch, out);
+                self.emitters(&g.emitters, at, rays.max(1), rng, scratch, out);
             }
         }
     }
@@ -116,7 +123,7 @@ impl<'a> GroupLights<'a> {
     fn luminaires(
         &self,
         ls: &[Luminaire],
-        (x, n, p): (DVec3, DVec3, u32),
+        (x, n, skip): (DVec3, DVec3, u32),
         rng: &mut Rng,
         scratch: &mut Scratch,
         out: &mut Rgb,
@@ -138,7 +145,7 @@ impl<'a> GroupLights<'a> {
         };
         for &(i, c) in cand.iter() {
             if c >= cut {
-                add(out, &ls[i], shadowed(self.bvh, &ls[i], x, n, p).0);
+                add(out, &ls[i], shadowed(self.bvh, &ls[i], x, n, skip).0);
             } else {
                 tail += c;
             }
@@ -151,7 +158,7 @@ impl<'a> GroupLights<'a> {
         let last = small.len() - 1;
         for (k, &(i, c)) in small.iter().enumerate() {
             if r < c || k == last {
-                let e = shadowed(self.bvh, &ls[i], x, n, p).0;
+                let e = shadowed(self.bvh, &ls[i], x, n, skip).0;
                 add(out, &ls[i], e * tail / c);
                 return;
             }
@@ -218,7 +225,7 @@ impl<'a> GroupLights<'a> {
     fn sample_emitter(
         &self,
         e: &Emitter,
-        (x, n, p): (DVec3, DVec3, u32),
+        (x, n, skip): (DVec3, DVec3, u32),
         side: u32,
         rng: &mut Rng,
         sums: &mut Seen,
@@ -235,7 +242,7 @@ impl<'a> GroupLights<'a> {
                 if w.is_nan() || w <= 0.0 {
                     continue;
                 }
-                if visible(self.bvh, x, n, y, p) {
+                if visible(self.bvh, x, n, y, skip) {
                     sums.free += w;
                 } else {
                     sums.hidden += w;

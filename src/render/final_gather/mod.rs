@@ -80,8 +80,11 @@ impl Default for FinalSettings {
 pub struct FinalScene<'a> {
     pub mesh: &'a Mesh,
     pub shading: &'a Shading,
-    /// A BVH over the mesh's patches (ids = patch indices): [`patch_bvh`].
+    /// A BVH over the mesh's patches (ids = patch indices): [`patch_bvh`], for the
+    /// gather's nearest hits.
     pub patches: &'a Bvh,
+    /// The scene BVH (ids = scene triangles), for shadow rays.
+    pub bvh: &'a Bvh,
     /// The scene's input triangles (the emitters' exact shapes).
     pub triangles: &'a [Triangle],
     /// Per patch reflectance.
