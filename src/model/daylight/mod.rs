@@ -168,14 +168,14 @@ impl Model {
     ) -> Result<DaylightAnswer, QueryError> {
         let (site, l, sun_light) = self.sky_light(sky)?;
         let light = PointLight::new(self, sky, site, &l, &sun_light, w);
-        let mut answer = self.daylight_once(&light, &sun_light, q, cancel)?;
+        let mut answer = self.daylight_once(&light, q, cancel)?;
         if let Some(w) = w {
             // Light is linear in the groups: the maintained answer is the same query under
             // the maintained weights (the sky, the sun and the gathers are the first's).
             let factors = self.factors(q).groups;
             let wm = super::compliance::maintained_weights(w, &factors);
             let light = PointLight::new(self, sky, site, &l, &sun_light, Some(&wm));
-            let m = self.daylight_once(&light, &sun_light, q, cancel)?;
+            let m = self.daylight_once(&light, q, cancel)?;
             let groups = self.baked.scene.lights.iter().map(|g| g.id.clone());
             answer.maintenance_factors = groups.zip(factors).collect();
             answer.maintained = Some(super::query::Maintained {
@@ -200,7 +200,6 @@ impl Model {
     fn daylight_once(
         &self,
         light: &PointLight,
-        sun_light: &SunLight,
         q: &IlluminanceQuery,
         cancel: &Cancel,
     ) -> Result<DaylightAnswer, QueryError> {
@@ -224,7 +223,7 @@ impl Model {
             unit: "lx",
             sky: SkyInfo::of(light.sky),
             points,
-            surfaces: self.daylight_surfaces(&q.surfaces, light.l, sun_light, light.w),
+            surfaces: self.daylight_surfaces(&q.surfaces, light.l, light.sun_light, light.w),
             grids,
             maintenance_factors: BTreeMap::new(),
             maintained: None,

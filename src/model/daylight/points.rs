@@ -23,8 +23,8 @@ pub(super) struct PointLight<'a> {
     cols: &'a SkyColumns,
     /// Sky patch luminances, cd/m² (0 the ground).
     pub(super) l: &'a [f64],
-    /// The sun's spread over the sky patches ([`SunLight::spread`]).
-    spread: &'a [(usize, f64)],
+    /// The sun's light: its spread over the sky patches and its direct light on patches.
+    pub(super) sun_light: &'a SunLight,
     /// [`Model::sun_reflected`].
     sun_b: Option<Vec<f32>>,
     /// The sun's scene direction and normal illuminance.
@@ -56,7 +56,7 @@ impl<'a> PointLight<'a> {
             site,
             cols: t.sky.as_ref().expect("site() checks the sky responses"),
             l,
-            spread: &sun_light.spread,
+            sun_light,
             sun_b: model.sun_reflected(sun_light),
             sun: sky.sun_direction(site),
             reach: model.reach(),
@@ -69,7 +69,12 @@ impl<'a> PointLight<'a> {
     /// alone), RGB lux.
     fn at(&self, g: &PointGather, x: DVec3, nrm: DVec3) -> (Rgb64, f64) {
         let m = self.model;
-        let mut e = g.reflected(self.cols, &m.baked.transfer.rho, self.l, self.spread);
+        let mut e = g.reflected(
+            self.cols,
+            &m.baked.transfer.rho,
+            self.l,
+            &self.sun_light.spread,
+        );
         if let Some(b) = &self.sun_b {
             e += g.gather(b);
         }
