@@ -197,6 +197,58 @@ pub fn final_images(
         rho: &b.transfer.rho,
         groups: &b.transfer.groups,
         lights: &b.scene.lights,
+        sky: None,
+    };
+    final_gather::build(&scene, cam, &final_gather::FinalSettings::default(), cancel)
+}
+
+/// The `final` image of `model`'s daylight under `sky` seen by `cam`, at unit weight (one
+/// group): the sun traced per pixel, the sky through openings and glazing, the daylight's
+/// interreflection gathered ([`final_gather::FinalSky`]).
+pub fn final_daylight_image(
+    model: &Model,
+    shading: &Shading,
+    patches: &crate::geometry::bvh::Bvh,
+    cam: &Camera,
+    sky: &crate::model::sky_state::SkyState,
+    cancel: &crate::model::Cancel,
+) -> Result<GroupImages, QueryError> {
+    let b = &model.baked;
+    let site = model.site()?;
+    let day = model.patch_daylight(sky)?;
+    let luminance = |d: glam::DVec3| sky.luminance(site, d);
+    let subdivision = crate::transport::sky_view::subdivision();
+    let patch_luminance = sky.patch_luminances(&subdivision);
+    let Some(columns) = b.transfer.sky.as_ref() else {
+        return Err(QueryError::Invalid(
+            "the scene has no daylight transfer".into(),
+        ));
+    };
+    let scene = final_gather::FinalScene {
+        mesh: &b.mesh,
+        shading,
+        patches,
+        bvh: &b.bvh,
+        triangles: &b.scene.triangles,
+        rho: &b.transfer.rho,
+        groups: &b.transfer.groups,
+        lights: &b.scene.lights,
+        sky: Some(final_gather::FinalSky {
+            reflected: &day.b,
+            sun: sky
+                .sun_direction(site)
+                .map(|(direction, normal_illuminance)| super::daylight::SunView {
+                    direction,
+                    normal_illuminance,
+                }),
+            luminance: &luminance,
+            glazing: &b.glazing,
+            reach: model.reach_length(),
+            coefficients: &columns.direct,
+            patch_luminance: &patch_luminance,
+            subdivision: &subdivision,
+            site,
+        }),
     };
     final_gather::build(&scene, cam, &final_gather::FinalSettings::default(), cancel)
 }

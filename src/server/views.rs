@@ -20,6 +20,9 @@ pub struct View {
     groups: OnceLock<Option<GroupImages>>,
     /// The `final` quality's per-group images, once built (one build at a time).
     finals: Mutex<Option<Arc<GroupImages>>>,
+    /// The `final` image of the daylight under the last sky asked for (its key), once
+    /// built: a new sky state builds it again, as a new camera does.
+    daylight: Mutex<Option<(String, Arc<GroupImages>)>>,
 }
 
 impl View {
@@ -32,6 +35,7 @@ impl View {
                 .and_then(|g| g.as_ref())
                 .map_or(0, GroupImages::bytes)
             + lock(&self.finals).as_ref().map_or(0, |f| f.bytes())
+            + lock(&self.daylight).as_ref().map_or(0, |(_, f)| f.bytes())
     }
 
     /// Whether the `final` images are built.
@@ -61,6 +65,35 @@ impl View {
         )?;
         let built = Arc::new(built);
         *slot = Some(built.clone());
+        Ok(built)
+    }
+
+    /// The `final` image of the daylight under `sky`, built now unless the last one built
+    /// was for the same sky (one build at a time, as [`Self::final_images`]).
+    pub fn final_daylight(
+        &self,
+        ready: &Ready,
+        cam: &Camera,
+        sky: &crate::model::sky_state::SkyState,
+        cancel: &Cancel,
+    ) -> Result<Arc<GroupImages>, QueryError> {
+        let key = format!("{sky:?}");
+        let mut slot = lock(&self.daylight);
+        if let Some((k, f)) = slot.as_ref() {
+            if *k == key {
+                return Ok(f.clone());
+            }
+        }
+        *slot = None;
+        let built = Arc::new(crate::render::pipeline::final_daylight_image(
+            &ready.model,
+            ready.shading(),
+            ready.patch_bvh(),
+            cam,
+            sky,
+            cancel,
+        )?);
+        *slot = Some((key, built.clone()));
         Ok(built)
     }
 
@@ -197,6 +230,7 @@ pub fn view_for(state: &AppState, ready: &Ready, cam: &Camera) -> Arc<View> {
             buffer: ViewBuffer::build(&ready.model.baked.mesh, ready.shading(), cam),
             groups: OnceLock::new(),
             finals: Mutex::new(None),
+            daylight: Mutex::new(None),
         })
     }));
     match built {

@@ -19,12 +19,23 @@ const SITE: &str = "[site]\nlatitude = 49.5\nlongitude = 8.5\ntimezone = 1\n";
 
 /// A 4 × 4 × 3 m room (x, z in 0 … 4, floor at y = 0) of material `mat`, with a roof
 /// opening `x0..x1` × `z0..z1` at y = 3.
-fn roof_room(mat: &str, (x0, x1): (f64, f64), (z0, z1): (f64, f64), toml: &str) -> TempScene {
+fn roof_room(mat: &str, ox: (f64, f64), oz: (f64, f64), toml: &str) -> TempScene {
+    roof_room_floored(mat, mat, ox, oz, toml)
+}
+
+/// [`roof_room`] with its floor of material `floor`.
+fn roof_room_floored(
+    floor: &str,
+    mat: &str,
+    (x0, x1): (f64, f64),
+    (z0, z1): (f64, f64),
+    toml: &str,
+) -> TempScene {
     let (w, h) = (4.0, 3.0);
     let mut obj = String::new();
     obj += &quad(
         "floor",
-        mat,
+        floor,
         [[0., 0., 0.], [w, 0., 0.], [w, 0., w], [0., 0., w]],
         [0., 1., 0.],
     );
@@ -747,6 +758,100 @@ fn a_sun_patch_is_sharp_in_renders() {
         let near_edge = (x - ox.0).abs().min((x - ox.1).abs()) < 2.9 * tan / 200.0;
         if !near_edge && (e - want).abs() > 1e-3 * 50_000.0 {
             wrong += 1;
+        }
+    }
+    assert_eq!(wrong, 0, "pixels off the sun patch's exact outline");
+}
+
+/// `final` quality under a sky: a grey floor (ρ = 0.5) in a black room under a uniform sky
+/// through a roof opening shows ρ/π × E_h × the opening's configuration factor at every
+/// pixel, the sky read by the gather rays that leave through the opening; and the sun
+/// through it lights the floor to the pixel, with the sky's light added.
+#[test]
+fn final_images_gather_the_sky_through_the_opening_and_trace_the_sun() {
+    let _gate = common::shared();
+    use relight::render::final_gather::patch_bvh;
+    use relight::render::pipeline::final_daylight_image;
+    use relight::render::{Camera, Shading};
+    let (ox, oz) = ((1.6, 2.4), (1.4, 2.6));
+    let s = roof_room_floored(
+        "grey",
+        "black",
+        ox,
+        oz,
+        &format!("{SITE}[mesh]\ntarget_patches = 300\n"),
+    );
+    let m = model(&s, TransferMode::Factored);
+    let side = 40usize;
+    let cam = Camera {
+        position: glam::Vec3::new(2.0, 2.9, 2.0),
+        target: glam::Vec3::new(2.0, 0.0, 2.0),
+        up: glam::Vec3::new(0.0, 0.0, -1.0),
+        fov_deg: 60.0,
+        width: side as u32,
+        height: side as u32,
+    };
+    let shading = Shading::new(&m.baked.mesh);
+    let patches = patch_bvh(&m.baked.mesh);
+    let image = |sky: serde_json::Value| {
+        let spec: SkySpec = serde_json::from_value(sky).unwrap();
+        let state = spec.resolve(m.site().unwrap()).unwrap();
+        final_daylight_image(&m, &shading, &patches, &cam, &state, &Cancel::default())
+            .unwrap()
+            .linear(&[relight::color::Rgb::ONE])
+    };
+    // Pixel (i, j) sees the floor at x = 2 + 2.9 tan 30° (2 (i + ½)/side − 1), z alike.
+    let tan = 30f64.to_radians().tan();
+    let floor_at = |i: usize| 2.0 + 2.9 * tan * (2.0 * (i as f64 + 0.5) / side as f64 - 1.0);
+    let uniform = image(json!({"type": "uniform", "horizontal_illuminance": 10000}));
+    let (mut worst, mut sum, mut want_sum) = (0f64, 0f64, 0f64);
+    for j in 0..side {
+        for i in 0..side {
+            let (x, z) = (floor_at(i), floor_at(j));
+            let want = 0.5 / std::f64::consts::PI * 10_000.0 * rect_factor((x, z), ox, oz, 3.0);
+            let got = uniform[j * side + i][1] as f64;
+            if i % 4 == 0 && j % 4 == 0 {
+                eprint!("{:5.2}/{:4.0} ", got / want, want);
+                if i == 36 {
+                    eprintln!();
+                }
+            }
+            worst = worst.max((got / want - 1.0).abs());
+            sum += got;
+            want_sum += want;
+        }
+    }
+    let mean = sum / want_sum - 1.0;
+    // Relative to the brightest pixel's value (the opening's factor is 0.11 below it,
+    // 0.045 at the image's corners).
+    let peak = 0.5 / std::f64::consts::PI * 10_000.0 * rect_factor((2.0, 2.0), ox, oz, 3.0);
+    let worst = worst / peak;
+    eprintln!(
+        "uniform sky, final: mean {:+.2} %, worst pixel {:.1} % of the brightest",
+        100.0 * mean,
+        100.0 * worst
+    );
+    assert!(mean.abs() < 0.03, "mean off by {mean}");
+    assert!(worst < 0.12, "a pixel off by {worst}");
+    // The sun overhead (50,000 lx normal, a clear sky of 1 lx beside it): a sharp square
+    // of ρ/π × 50,000 cd/m² under the opening, nothing outside it.
+    let sunny = image(json!({"type": "cie_clear", "horizontal_illuminance": 1,
+        "direct_normal_illuminance": 50000, "sun": {"altitude": 90, "azimuth": 180}}));
+    let lit = 0.5 / std::f64::consts::PI * 50_000.0;
+    let half_pixel = 2.9 * tan / side as f64;
+    let mut wrong = 0;
+    for j in 0..side {
+        for i in 0..side {
+            let (x, z) = (floor_at(i), floor_at(j));
+            let inside = x > ox.0 && x < ox.1 && z > oz.0 && z < oz.1;
+            let edge = [x - ox.0, x - ox.1, z - oz.0, z - oz.1]
+                .iter()
+                .any(|d| d.abs() < half_pixel);
+            let want = if inside { lit } else { 0.0 };
+            let got = sunny[j * side + i][1] as f64;
+            if !edge && (got - want).abs() > 0.01 * lit {
+                wrong += 1;
+            }
         }
     }
     assert_eq!(wrong, 0, "pixels off the sun patch's exact outline");

@@ -35,6 +35,13 @@ pub(super) struct Reflected {
 
 impl Reflected {
     pub(super) fn new(scene: &FinalScene<'_>, lights: &GroupLights<'_>) -> Reflected {
+        if let Some(sky) = &scene.sky {
+            let vals = scene.shading.vertex_values(sky.reflected);
+            return Reflected {
+                groups: 1,
+                values: vals.iter().flat_map(|v| v.0).collect(),
+            };
+        }
         let g = scene.groups.len();
         let per_group: Vec<Vec<crate::color::Rgb>> = scene
             .groups
@@ -62,22 +69,25 @@ impl Reflected {
     }
 
     /// Adds to `out` (per group RGB) the gathered irradiance (lux) at `x` on patch `p`
-    /// (normal `n`), from `rays` cosine-weighted rays. A ray that lands closer than
+    /// (normal `n`), from `rays` cosine-weighted rays; rays that leave the scene read the
+    /// sky, weighted against the aimed sky rays of `aim` when given. A ray that lands closer than
     /// [`NEAR`] × the size of the patch it meets asks `near(point, patch, values)` for the
     /// reflected radiosity there instead (per group RGB into `values`), when given: near
-    /// a corner the patch's mean is not the light at the point.
+    /// a corner the patch's mean is not the light at the point. Returns the harmonic mean
+    /// distance of the rays' hits (metres; infinite when every ray left the scene): the
+    /// scale over which the gathered light can change (Ward's irradiance caching).
     pub(super) fn gather(
         &self,
         scene: &FinalScene<'_>,
         (x, n, p): (DVec3, DVec3, u32),
         rays: usize,
         rng: &mut Rng,
-        mut near: Option<&mut NearHit<'_>>,
+        (mut near, aim): (Option<&mut NearHit<'_>>, Option<&super::SkyAim>),
         out: &mut [f32],
-    ) {
+    ) -> f32 {
         let g = self.groups;
-        let side = (rays as f64).sqrt().ceil().max(1.0) as usize;
-        let count = side * side;
+        let count = ray_count(rays);
+        let side = count.isqrt();
         let (t, b) = crate::geometry::frame(n);
         let lift = 1e-6 * (1.0 + x.abs().max_element());
         let o = x + n * lift;
@@ -87,6 +97,7 @@ impl Reflected {
         let w = 1.0 / count as f32;
         // The reflected radiosity at close hits, reused from ray to ray.
         let mut near_values: Vec<f32> = Vec::new();
+        let mut inverse_distances = 0f64;
         for i in 0..count {
             let u1 = ((i % side) as f64 + du) / side as f64;
             let u2 = ((i / side) as f64 + dv) / side as f64;
@@ -108,7 +119,25 @@ impl Reflected {
                     }
                 },
             );
-            let Some((th, q)) = hit else { continue };
+            if let Some((th, _)) = hit {
+                inverse_distances += 1.0 / (th as f64).max(1e-9);
+            }
+            let Some((th, q)) = hit else {
+                // Out of the scene: the sky (through any glazing), as radiosity π L, or
+                // weighted against the aimed sky rays.
+                if let Some(sky) = &scene.sky {
+                    let l = sky.outside(o, d, false) as f64;
+                    let v = match aim {
+                        Some(a) => {
+                            let pc = count as f64 * n.dot(d) / std::f64::consts::PI;
+                            l * n.dot(d) / (pc + sky.aimed_density(a, d))
+                        }
+                        None => std::f64::consts::PI * l / count as f64,
+                    };
+                    Rgb::column_mut(out)[0] += Rgb::splat(v as f32);
+                }
+                continue;
+            };
             let patch = &mesh.patches[q as usize];
             if patch.normal.dot(d) >= 0.0 {
                 continue;
@@ -132,7 +161,14 @@ impl Reflected {
                 *o += w * (wa * rows[0][k] + wb * rows[1][k] + wc * rows[2][k]);
             }
         }
+        (count as f64 / inverse_distances) as f32
     }
+}
+
+/// The rays [`Reflected::gather`] traces when asked for `rays`: a whole square grid.
+pub(super) fn ray_count(rays: usize) -> usize {
+    let side = (rays as f64).sqrt().ceil().max(1.0) as usize;
+    side * side
 }
 
 /// Barycentric weights of point `x` (on or near the triangle `c`), clamped to the

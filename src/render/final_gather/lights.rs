@@ -69,8 +69,13 @@ pub(super) struct Scratch {
 
 impl<'a> GroupLights<'a> {
     pub(super) fn new(scene: &'a FinalScene<'a>) -> GroupLights<'a> {
-        let groups = scene
-            .lights
+        // Under a sky the image is the daylight's alone: no group's lights.
+        let groups = if scene.sky.is_some() {
+            &[][..]
+        } else {
+            scene.lights
+        };
+        let groups = groups
             .iter()
             .zip(scene.groups)
             .enumerate()

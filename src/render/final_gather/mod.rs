@@ -57,6 +57,9 @@ pub struct FinalSettings {
     pub emitter_rays: u32,
     /// À-trous passes over the indirect light (0: unfiltered).
     pub filter_passes: u32,
+    /// Mixed into every pixel's random sequence: two seeds give two independent images,
+    /// whose difference measures the noise (benches).
+    pub seed: u32,
 }
 
 impl Default for FinalSettings {
@@ -72,6 +75,7 @@ impl Default for FinalSettings {
             gather_rays: env("RELIGHT_FINAL_GATHER", 64),
             emitter_rays: env("RELIGHT_FINAL_EMITTER", 16),
             filter_passes: env("RELIGHT_FINAL_FILTER", 2),
+            seed: env("RELIGHT_FINAL_SEED", 0),
         }
     }
 }
@@ -93,6 +97,168 @@ pub struct FinalScene<'a> {
     pub groups: &'a [GroupColumns],
     /// The scene's light groups (their point luminaires).
     pub lights: &'a [LightGroup],
+    /// With a sky, [`build`] makes one image, the daylight, instead of the groups'.
+    pub sky: Option<FinalSky<'a>>,
+}
+
+/// The daylight of one sky state, for a `final` image of it: the sun traced exactly, the
+/// sky read by gather rays that leave the scene (through openings and glazing), and the
+/// daylight's solved radiosity read where gather rays land.
+pub struct FinalSky<'a> {
+    /// Per patch the reflected daylight, lm/m² (n × 3): the sky's and the sun's light,
+    /// direct and interreflected, times the reflectance.
+    pub reflected: &'a [f32],
+    /// The sun, when it is up.
+    pub sun: Option<super::daylight::SunView>,
+    /// Luminance (cd/m²) towards a unit scene direction: the sky's, the ground's below
+    /// the horizon (the sun's disc apart).
+    pub luminance: &'a (dyn Fn(DVec3) -> f64 + Sync),
+    pub glazing: &'a crate::geometry::glazing::Glazing,
+    /// A length beyond the scene, metres.
+    pub reach: f64,
+    /// Where gather rays toward the sky are aimed: per patch, the direct light of every
+    /// sky patch at unit luminance (lux per cd/m², n × K, the bake's daylight
+    /// coefficients), the sky patches' luminances (cd/m², K), their subdivision and the
+    /// site that orients it.
+    pub coefficients: &'a [f32],
+    pub patch_luminance: &'a [f64],
+    pub subdivision: &'a crate::daylight::tregenza::Subdivision,
+    pub site: &'a crate::daylight::Site,
+}
+
+/// Gather rays per camera sample aimed at the sky patches that the sample's patch sees
+/// ([`SkyAim`]), besides the cosine-weighted ones.
+const SKY_RAYS: usize = 16;
+
+/// The sky rays of one camera sample: drawn by the sky patches' share of its patch's
+/// direct daylight, and combined with the cosine-weighted gather rays that leave the scene
+/// by the balance heuristic (multiple importance sampling), so light through a small
+/// opening is found by many rays, not by the few cosine rays that happen to pass it.
+pub(super) struct SkyAim {
+    /// Cumulative shares of the sky patches (K), the last 1.
+    cdf: Vec<f64>,
+    /// Per sky patch its share (0 … 1).
+    share: Vec<f64>,
+    /// Sky rays drawn.
+    rays: usize,
+}
+
+impl<'a> FinalSky<'a> {
+    /// The sky rays for a point of patch `p`: None when the patch sees no sky.
+    fn aim(&self, p: u32) -> Option<SkyAim> {
+        let k = self.patch_luminance.len();
+        let row = self
+            .coefficients
+            .get(p as usize * k..(p as usize + 1) * k)?;
+        let share: Vec<f64> = row
+            .iter()
+            .zip(self.patch_luminance)
+            .map(|(&c, &l)| c as f64 * l)
+            .collect();
+        let total: f64 = share.iter().sum();
+        if total <= 0.0 || !total.is_finite() {
+            return None;
+        }
+        let share: Vec<f64> = share.iter().map(|v| v / total).collect();
+        let mut acc = 0.0;
+        let cdf = share
+            .iter()
+            .map(|v| {
+                acc += v;
+                acc
+            })
+            .collect();
+        Some(SkyAim {
+            cdf,
+            share,
+            rays: SKY_RAYS,
+        })
+    }
+
+    /// The density (per sr, over all the aim's rays: `rays × pdf`) with which `aim` draws
+    /// direction `d`.
+    pub(super) fn aimed_density(&self, aim: &SkyAim, d: DVec3) -> f64 {
+        let (alt, az) = self.site.sky_position(d);
+        let k = self.subdivision.patch_of(alt.to_radians(), az.to_radians());
+        let omega = self.subdivision.patches[k].solid_angle;
+        aim.rays as f64 * aim.share[k] / omega
+    }
+
+    /// Adds to `out` (group 0's RGB, lux as the gather counts it) the aimed sky rays from
+    /// `x` (normal `n`, skipping scene triangle `skip`), weighted against `cosine_rays`
+    /// cosine-weighted rays.
+    fn aimed(
+        &self,
+        bvh: &Bvh,
+        aim: &SkyAim,
+        (x, n, skip): (DVec3, DVec3, u32),
+        cosine_rays: usize,
+        rng: &mut Rng,
+        out: &mut [f32],
+    ) {
+        let o = x + n * (1e-6 * (1.0 + x.abs().max_element()));
+        let mut sum = 0f64;
+        for _ in 0..aim.rays {
+            let u = rng.next_f64();
+            let k = aim.cdf.partition_point(|&c| c < u).min(aim.cdf.len() - 1);
+            let patch = &self.subdivision.patches[k];
+            let (s0, s1) = (patch.altitude.0.sin(), patch.altitude.1.sin());
+            let alt = (s0 + (s1 - s0) * rng.next_f64()).clamp(-1.0, 1.0).asin();
+            let az = patch.azimuth + patch.width * (rng.next_f64() - 0.5);
+            let d = self.site.direction(alt.to_degrees(), az.to_degrees());
+            let cos = n.dot(d);
+            if cos <= 0.0 {
+                continue;
+            }
+            let far = o + d * self.reach;
+            if bvh.occluded(
+                Vec3A::from(o.as_vec3()),
+                Vec3A::from(far.as_vec3()),
+                [skip, u32::MAX],
+            ) {
+                continue;
+            }
+            let l = self.outside(o, d, false) as f64;
+            let pc = cosine_rays as f64 * cos / std::f64::consts::PI;
+            sum += l * cos / (pc + self.aimed_density(aim, d));
+        }
+        Rgb::column_mut(out)[0] += Rgb::splat(sum as f32);
+    }
+}
+
+impl FinalSky<'_> {
+    /// The sun's illuminance (lux) at `x` (normal `n`), with shadow rays through `bvh`
+    /// (skipping scene triangle `skip`) and the glazing's transmittance.
+    fn sun_lux(&self, bvh: &Bvh, (x, n, skip): (DVec3, DVec3, u32)) -> f32 {
+        let Some(s) = self.sun else { return 0.0 };
+        let cos = n.dot(s.direction);
+        if cos <= 0.0 {
+            return 0.0;
+        }
+        let o = x + n * (1e-6 * (1.0 + x.abs().max_element()));
+        let far = o + s.direction * self.reach;
+        if bvh.occluded(
+            Vec3A::from(o.as_vec3()),
+            Vec3A::from(far.as_vec3()),
+            [skip, u32::MAX],
+        ) {
+            return 0.0;
+        }
+        (s.normal_illuminance * cos * self.glazing.transmittance(o, far)) as f32
+    }
+
+    /// The luminance seen out of the scene from `o` along `d` (cd/m²): the sky's and the
+    /// sun's disc, dimmed by the glazing on the way.
+    fn outside(&self, o: DVec3, d: DVec3, disc: bool) -> f32 {
+        let mut l = (self.luminance)(d);
+        if let (true, Some(s)) = (disc, self.sun) {
+            let radius = (crate::daylight::sky_luminance::SUN_DIAMETER_DEG / 2.0).to_radians();
+            if d.dot(s.direction) >= radius.cos() {
+                l += s.normal_illuminance / crate::daylight::sky_luminance::Sun::solid_angle();
+            }
+        }
+        (l * self.glazing.transmittance(o, o + d * self.reach)) as f32
+    }
 }
 
 /// Most pixels a `final` image may have (1024 × 1024): its cost grows with the pixels
@@ -147,11 +313,20 @@ pub fn build(
     settings: &FinalSettings,
     cancel: &Cancel,
 ) -> Result<GroupImages, QueryError> {
-    let g = scene.groups.len();
+    let g = if scene.sky.is_some() {
+        1
+    } else {
+        scene.groups.len()
+    };
     let lights = lights::GroupLights::new(scene);
     let tracer = Tracer {
         reflected: gather::Reflected::new(scene, &lights),
-        openings: openings::Openings::new(scene.lights),
+        // The luminaires' openings show in the groups' images, not in the daylight's.
+        openings: openings::Openings::new(if scene.sky.is_some() {
+            &[]
+        } else {
+            scene.lights
+        }),
         rays: super::daylight::CameraRays::new(cam),
         lights,
         settings: *settings,
@@ -209,13 +384,39 @@ const EMITTER_GRID: usize = 32;
 
 impl Tracer<'_> {
     /// Traces pixel (x, y) into `sums`; the guide of its first sample, and whether a
-    /// sample met an emitter.
-    fn pixel(&self, x: usize, y: usize, sums: PixelSums<'_>) -> (Guide, bool) {
+    /// sample met an emitter. A pixel whose samples see different surfaces (an edge or a
+    /// silhouette) is traced again with [`EDGE_SAMPLES`]× the samples per side, sharing
+    /// the same gather rays among them: where a pixel is split between surfaces, its few
+    /// samples decide the split, and that error is larger than the gather's.
+    fn pixel(&self, x: usize, y: usize, mut sums: PixelSums<'_>) -> (Guide, bool) {
         let k = self.settings.samples_per_side.max(1) as usize;
+        let mut rng = Rng::new(
+            y * self.rays.width() + x,
+            0x5eed ^ self.settings.seed as usize,
+        );
+        let first = self.samples(x, y, k, &mut rng, &mut sums);
+        if !first.split || k * EDGE_SAMPLES > MAX_SAMPLES_PER_SIDE {
+            return (first.guide, first.emitters);
+        }
+        sums.direct.iter_mut().for_each(|v| *v = 0.0);
+        sums.indirect.iter_mut().for_each(|v| *v = 0.0);
+        *sums.albedo = Rgb::ZERO;
+        let again = self.samples(x, y, k * EDGE_SAMPLES, &mut rng, &mut sums);
+        (again.guide, again.emitters)
+    }
+
+    /// Traces `k × k` jittered samples of pixel (x, y) into `sums` (which start at zero).
+    fn samples(
+        &self,
+        x: usize,
+        y: usize,
+        k: usize,
+        rng: &mut Rng,
+        sums: &mut PixelSums<'_>,
+    ) -> Samples {
         let samples = (k * k) as f32;
-        let mut rng = Rng::new(y * self.rays.width() + x, 0x5eed);
         let gather_each = (self.settings.gather_rays as usize).div_ceil(k * k);
-        let mut guide = Guide::default();
+        let mut out = Samples::default();
         let g = self.groups;
         let mut scratch = lights::Scratch::default();
         let mut dir_s = vec![0f32; 3 * g];
@@ -235,13 +436,15 @@ impl Tracer<'_> {
             let seen = self.sample(
                 d,
                 hit,
-                &mut rng,
+                rng,
                 &mut scratch,
                 (&mut dir_s, &mut ind_s),
                 gather_each,
             );
             if s == 0 {
-                guide = seen.guide;
+                out.guide = seen.guide;
+            } else {
+                out.split |= !seen.guide.alike(&out.guide);
             }
             *sums.albedo += seen.albedo / samples;
             for (a, v) in sums.direct.iter_mut().zip(&dir_s) {
@@ -259,7 +462,8 @@ impl Tracer<'_> {
                 *a += v / samples;
             }
         }
-        (guide, emitter_samples > 0)
+        out.emitters = emitter_samples > 0;
+        out
     }
 
     /// Adds what pixel (x, y) sees emitted, measured on an [`EMITTER_GRID`]² grid of
@@ -321,7 +525,17 @@ impl Tracer<'_> {
         if self.openings.seen(self.rays.origin(), d, t_scene, out) {
             return true;
         }
-        let Some((_, p)) = hit else { return false };
+        let Some((_, p)) = hit else {
+            if let Some(sky) = &self.scene.sky {
+                let l = sky.outside(self.rays.origin(), d, true);
+                Rgb::column_mut(out)[0] += Rgb::splat(l);
+                return l > 0.0;
+            }
+            return false;
+        };
+        if self.scene.sky.is_some() {
+            return false;
+        }
         let mut any = false;
         for (o, col) in Rgb::column_mut(out).iter_mut().zip(self.scene.groups) {
             let e = Rgb::column(&col.e)[p as usize];
@@ -367,17 +581,33 @@ impl Tracer<'_> {
             scratch,
             &mut e_direct,
         );
+        if let Some(sky) = &self.scene.sky {
+            e_direct[..3]
+                .iter_mut()
+                .for_each(|v| *v += sky.sun_lux(self.scene.bvh, (x, n, patch.source)));
+        }
+        let mut reach = f32::INFINITY;
+        let aim = self.scene.sky.as_ref().and_then(|s| s.aim(p));
         if gather_rays > 0 {
             let mut near =
                 |at: DVec3, q: u32, rng: &mut Rng, v: &mut [f32]| self.reflected_at(at, q, rng, v);
-            self.reflected.gather(
+            reach = self.reflected.gather(
                 self.scene,
                 (x, n, p),
                 gather_rays,
                 rng,
-                Some(&mut near),
+                (Some(&mut near), aim.as_ref()),
                 indirect,
             );
+        }
+        if let (Some(sky), Some(aim)) = (&self.scene.sky, &aim) {
+            let cosine = if gather_rays > 0 {
+                gather::ray_count(gather_rays)
+            } else {
+                0
+            };
+            let at = (x, n, patch.source);
+            sky.aimed(self.scene.bvh, aim, at, cosine, rng, indirect);
         }
         // Per group: direct += ρ/π · E_direct, indirect ×= ρ/π.
         let reflect = rho * inv_pi;
@@ -394,6 +624,7 @@ impl Tracer<'_> {
                 normal: n.as_vec3().to_array(),
                 surface: patch.surface,
                 depth: t,
+                reach,
             },
         }
     }
@@ -419,11 +650,16 @@ impl Tracer<'_> {
             (at, patch.normal, q),
             NEAR_GATHER_RAYS,
             rng,
-            None,
+            (None, None),
             &mut lux,
         );
         let rho = self.scene.rho[q as usize];
         let (out, lux) = (Rgb::column_mut(out), Rgb::column(&lux));
+        if let Some(sky) = &self.scene.sky {
+            let sun = sky.sun_lux(self.scene.bvh, (at, patch.normal, patch.source));
+            out[0] = rho * (lux[0] + Rgb::splat(sun));
+            return;
+        }
         for (k, col) in self.scene.groups.iter().enumerate() {
             let own = if self.lights.explicit(k) { 0.0 } else { 1.0 };
             out[k] = rho * lux[k] + own * Rgb::column(&col.e)[q as usize];
@@ -437,6 +673,22 @@ const NEAR_GATHER_RAYS: usize = 9;
 /// Shadow rays per emitting triangle for the direct light at such a point: its value is
 /// one of the many that a pixel's gather averages, so a few rays suffice.
 const NEAR_EMITTER_RAYS: u32 = 2;
+
+/// Samples per side of a pixel whose first samples saw different surfaces, as a multiple
+/// of [`FinalSettings::samples_per_side`].
+const EDGE_SAMPLES: usize = 2;
+
+/// Most samples per side of a pixel.
+const MAX_SAMPLES_PER_SIDE: usize = 16;
+
+/// What a pixel's samples saw: the first sample's guide, whether the samples saw
+/// different surfaces, and whether any met an emitter.
+#[derive(Default)]
+struct Samples {
+    guide: Guide,
+    split: bool,
+    emitters: bool,
+}
 
 /// What a camera sample saw: its reflectance and its filter guide.
 #[derive(Default)]

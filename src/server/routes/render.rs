@@ -47,7 +47,16 @@ pub(super) fn render_image(
         None
     };
     if let Some(sky) = sky {
-        return render_under_sky(ready, &entry, lighting, sky, finals.as_deref(), o);
+        let daylight = match &finals {
+            Some(_) => {
+                let d = entry.final_daylight(ready, &o.camera, sky, cancel)?;
+                super::super::views::trim(state);
+                Some(d)
+            }
+            None => None,
+        };
+        let finals = finals.as_deref().zip(daylight.as_deref());
+        return render_under_sky(ready, &entry, lighting, sky, finals, o);
     }
     if let Some(f) = &finals {
         let frame = Frame {
@@ -74,14 +83,16 @@ pub(super) fn render_image(
     pipeline::render(&ready.model, frame, lighting, o).map_err(encode)
 }
 
-/// [`render_image`] under a sky: the daylight traced per pixel (the sun with shadows), the
-/// light groups from the patches or, at final quality, from `finals`.
+/// [`render_image`] under a sky. At `fast` quality the daylight is the patches' plus the
+/// sun traced per pixel (with shadows) and the sky seen out of the scene, and the light
+/// groups the patches'. At `final` quality, `finals` holds the groups' images and the
+/// daylight's (the sun traced, the sky and the interreflection gathered per pixel).
 fn render_under_sky(
     ready: &Ready,
     entry: &crate::server::views::View,
     lighting: &Lighting,
     sky: &SkyState,
-    finals: Option<&crate::render::GroupImages>,
+    finals: Option<(&crate::render::GroupImages, &crate::render::GroupImages)>,
     o: &RenderOptions,
 ) -> Result<pipeline::Rendered, AppError> {
     let encode = |e: RenderError| match e {
@@ -118,11 +129,13 @@ fn render_under_sky(
     let (mut rad, lux) = daylight_pixels(&scene, &entry.buffer, &o.camera, sun, &|d| {
         sky.luminance(site, d)
     });
-    if let (Some(f), Lighting::Groups(w)) = (finals, lighting) {
-        // The light groups at final quality; the daylight as the patches carry it.
+    if let (Some((f, day)), Lighting::Groups(w)) = (finals, lighting) {
+        // Final quality: the groups' and the daylight's images; the patches show nothing.
+        rad = day.linear(&[crate::color::Rgb::ONE]);
         for (r, g) in rad.iter_mut().zip(f.linear(w)) {
             (0..3).for_each(|c| r[c] += g[c]);
         }
+        b.iter_mut().for_each(|v| *v = 0.0);
     }
     let frame = Frame {
         view: &entry.buffer,
@@ -146,6 +159,10 @@ async fn respond(
         // Per-pixel daylight (two RGB images) and per-patch daylight (b, h and a column).
         let px = o.camera.width as u64 * o.camera.height as u64;
         bytes += 24 * px + 36 * ready.model.patches() as u64;
+        if o.quality == Quality::Final && !o.falsecolor {
+            // The daylight's own `final` image, built per sky.
+            bytes += crate::render::final_gather::estimate_bytes(&o.camera, 1);
+        }
     }
     let what = format!(
         "a {}×{} render (view buffer up to {})",
