@@ -810,13 +810,7 @@ fn final_images_gather_the_sky_through_the_opening_and_trace_the_sun() {
             let (x, z) = (floor_at(i), floor_at(j));
             let want = 0.5 / std::f64::consts::PI * 10_000.0 * rect_factor((x, z), ox, oz, 3.0);
             let got = uniform[j * side + i][1] as f64;
-            if i % 4 == 0 && j % 4 == 0 {
-                eprint!("{:5.2}/{:4.0} ", got / want, want);
-                if i == 36 {
-                    eprintln!();
-                }
-            }
-            worst = worst.max((got / want - 1.0).abs());
+            worst = worst.max((got - want).abs());
             sum += got;
             want_sum += want;
         }
@@ -831,7 +825,9 @@ fn final_images_gather_the_sky_through_the_opening_and_trace_the_sun() {
         100.0 * mean,
         100.0 * worst
     );
-    assert!(mean.abs() < 0.03, "mean off by {mean}");
+    // Measured: mean −0.67 %, worst 8.2 % (an image corner, where the filter has the
+    // fewest taps); with cosine rays alone the sky left ±20 % of noise.
+    assert!(mean.abs() < 0.02, "mean off by {mean}");
     assert!(worst < 0.12, "a pixel off by {worst}");
     // The sun overhead (50,000 lx normal, a clear sky of 1 lx beside it): a sharp square
     // of ρ/π × 50,000 cd/m² under the opening, nothing outside it.

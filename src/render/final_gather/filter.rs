@@ -129,16 +129,14 @@ fn tap_sum(
     let mut taps = [(0usize, 0f32, 0f32, 0f32); 25];
     let mut n = 0;
     for (ky, wy) in KERNEL.iter().enumerate() {
-        let yy = y as isize + (ky as isize - 2) * step as isize;
-        if yy < 0 || yy >= h as isize {
+        let Some(yy) = mirror(y as isize + (ky as isize - 2) * step as isize, h) else {
             continue;
-        }
+        };
         for (kx, wx) in KERNEL.iter().enumerate() {
-            let xx = x as isize + (kx as isize - 2) * step as isize;
-            if xx < 0 || xx >= w as isize {
+            let Some(xx) = mirror(x as isize + (kx as isize - 2) * step as isize, w) else {
                 continue;
-            }
-            let j = yy as usize * w + xx as usize;
+            };
+            let j = yy * w + xx;
             let wt = wx * wy * likeness(c, &guides[j], scale);
             if wt > 0.0 {
                 taps[n] = (j, wt, kx as f32 - 2.0, ky as f32 - 2.0);
@@ -154,6 +152,22 @@ fn tap_sum(
             *o += wt * v;
         }
     }
+}
+
+/// A tap's row or column `i` in an image `n` pixels across, mirrored at the image's border:
+/// the taps stay symmetric about the centre there (at their nominal offsets), so the
+/// fitted plane is not extrapolated from taps on one side, which amplified the noise in
+/// the outermost pixels. None beyond a mirror's reach.
+fn mirror(i: isize, n: usize) -> Option<usize> {
+    let n = n as isize;
+    let m = if i < 0 {
+        -i
+    } else if i >= n {
+        2 * (n - 1) - i
+    } else {
+        i
+    };
+    (0..n).contains(&m).then_some(m as usize)
 }
 
 /// How alike tap `q`'s geometry is to the centre `c`'s, 0..1: the same surface, normals
