@@ -281,15 +281,17 @@ pub fn patch_bvh(mesh: &Mesh) -> Bvh {
 /// Peak bytes [`build`] allocates for `groups` light groups on `cam`.
 pub fn estimate_bytes(cam: &Camera, groups: usize) -> u64 {
     let px = cam.width as u64 * cam.height as u64;
-    px * (48 * groups.max(1) as u64 + 12 + std::mem::size_of::<Guide>() as u64)
+    px * (60 * groups.max(1) as u64 + 13 + std::mem::size_of::<Guide>() as u64)
 }
 
 /// One pixel's accumulators while tracing.
 struct PixelSums<'a> {
-    /// Per group RGB radiance that needs no filtering (direct light, emitters), cd/m².
+    /// Per group RGB radiance that needs no filtering (direct light), cd/m².
     direct: &'a mut [f32],
     /// Per group RGB indirect radiance, cd/m² (filtered later).
     indirect: &'a mut [f32],
+    /// Per group RGB radiance of the emitters seen, cd/m².
+    emitted: &'a mut [f32],
     /// Mean reflectance of the pixel's samples.
     albedo: &'a mut Rgb,
 }
@@ -338,29 +340,33 @@ pub fn build(
     let mut indirect = vec![0f32; w * h * 3 * g];
     let mut albedo = vec![Rgb::ZERO; w * h];
     let mut guides = vec![Guide::default(); w * h];
-    let mut saw_emitter = vec![false; w * h];
+    let mut emitted = vec![0f32; w * h * 3 * g];
+    let mut coverage = vec![Coverage::None; w * h];
     let row = 3 * g * w;
     direct
         .par_chunks_mut(row.max(1))
         .zip(indirect.par_chunks_mut(row.max(1)))
+        .zip(emitted.par_chunks_mut(row.max(1)))
         .zip(albedo.par_chunks_mut(w).zip(guides.par_chunks_mut(w)))
-        .zip(saw_emitter.par_chunks_mut(w))
+        .zip(coverage.par_chunks_mut(w))
         .enumerate()
-        .for_each(|(y, (((dr, ir), (al, gd)), saw))| {
+        .for_each(|(y, ((((dr, ir), er), (al, gd)), cov))| {
             if cancel.is_cancelled() {
                 return;
             }
             for x in 0..w {
+                let px = 3 * g * x..3 * g * (x + 1);
                 let sums = PixelSums {
-                    direct: &mut dr[3 * g * x..3 * g * (x + 1)],
-                    indirect: &mut ir[3 * g * x..3 * g * (x + 1)],
+                    direct: &mut dr[px.clone()],
+                    indirect: &mut ir[px.clone()],
+                    emitted: &mut er[px],
                     albedo: &mut al[x],
                 };
-                (gd[x], saw[x]) = tracer.pixel(x, y, sums);
+                (gd[x], cov[x]) = tracer.pixel(x, y, sums);
             }
         });
     cancel.check()?;
-    tracer.emitter_rims(&saw_emitter, (w, h), &mut direct);
+    tracer.emitter_rims(&coverage, (w, h), &mut emitted);
     let footprint = 2.0 * ((cam.fov_deg as f64).to_radians() * 0.5).tan() / h as f64;
     filter::denoise(
         &mut indirect,
@@ -370,8 +376,8 @@ pub fn build(
         footprint as f32,
         settings.filter_passes,
     );
-    for (d, i) in direct.iter_mut().zip(&indirect) {
-        *d += i;
+    for ((d, i), e) in direct.iter_mut().zip(&indirect).zip(&emitted) {
+        *d += i + e;
     }
     Ok(GroupImages::from_parts(cam.width, cam.height, g, direct))
 }
@@ -388,7 +394,7 @@ impl Tracer<'_> {
     /// silhouette) is traced again with [`EDGE_SAMPLES`]× the samples per side, sharing
     /// the same gather rays among them: where a pixel is split between surfaces, its few
     /// samples decide the split, and that error is larger than the gather's.
-    fn pixel(&self, x: usize, y: usize, mut sums: PixelSums<'_>) -> (Guide, bool) {
+    fn pixel(&self, x: usize, y: usize, mut sums: PixelSums<'_>) -> (Guide, Coverage) {
         let k = self.settings.samples_per_side.max(1) as usize;
         let mut rng = Rng::new(
             y * self.rays.width() + x,
@@ -400,6 +406,7 @@ impl Tracer<'_> {
         }
         sums.direct.iter_mut().for_each(|v| *v = 0.0);
         sums.indirect.iter_mut().for_each(|v| *v = 0.0);
+        sums.emitted.iter_mut().for_each(|v| *v = 0.0);
         *sums.albedo = Rgb::ZERO;
         let again = self.samples(x, y, k * EDGE_SAMPLES, &mut rng, &mut sums);
         (again.guide, again.emitters)
@@ -454,15 +461,18 @@ impl Tracer<'_> {
                 *a += v / samples;
             }
         }
-        if emitter_samples > 0 && emitter_samples < k * k {
+        out.emitters = if emitter_samples == 0 {
+            Coverage::None
+        } else if emitter_samples < k * k {
             // An emitter's edge in the pixel: measure its coverage on a fine grid instead.
-            self.emitted_in_pixel(x, y, sums.direct);
+            self.emitted_in_pixel(x, y, sums.emitted);
+            Coverage::Measured
         } else {
-            for (a, v) in sums.direct.iter_mut().zip(&emitted) {
+            for (a, v) in sums.emitted.iter_mut().zip(&emitted) {
                 *a += v / samples;
             }
-        }
-        out.emitters = emitter_samples > 0;
+            Coverage::All
+        };
         out
     }
 
@@ -485,22 +495,27 @@ impl Tracer<'_> {
         }
     }
 
-    /// The pixels beside one whose samples met an emitter, that none of their own samples
-    /// met: an emitter's edge may cover a sliver of them that their few samples missed,
-    /// so their coverage is measured on the fine grid too ([`Self::emitted_in_pixel`]).
-    fn emitter_rims(&self, saw: &[bool], (w, h): (usize, usize), direct: &mut [f32]) {
-        let near = |x: usize, y: usize| {
-            (y.saturating_sub(1)..=(y + 1).min(h - 1))
-                .any(|yy| (x.saturating_sub(1)..=(x + 1).min(w - 1)).any(|xx| saw[yy * w + xx]))
+    /// The pixels whose samples all met an emitter or all missed, beside one whose samples
+    /// did otherwise: an emitter's edge may cover a sliver of them that their few samples
+    /// missed, or leave a sliver uncovered that they all missed, so their coverage is
+    /// measured on the fine grid too ([`Self::emitted_in_pixel`]), replacing the samples'.
+    fn emitter_rims(&self, cov: &[Coverage], (w, h): (usize, usize), emitted: &mut [f32]) {
+        let differs = |x: usize, y: usize| {
+            let c = cov[y * w + x];
+            (y.saturating_sub(1)..=(y + 1).min(h - 1)).any(|yy| {
+                (x.saturating_sub(1)..=(x + 1).min(w - 1)).any(|xx| cov[yy * w + xx] != c)
+            })
         };
         let stride = 3 * self.groups;
-        direct
+        emitted
             .par_chunks_mut((stride * w).max(1))
             .enumerate()
             .for_each(|(y, row)| {
                 for x in 0..w {
-                    if !saw[y * w + x] && near(x, y) {
-                        self.emitted_in_pixel(x, y, &mut row[stride * x..stride * (x + 1)]);
+                    if cov[y * w + x] != Coverage::Measured && differs(x, y) {
+                        let px = &mut row[stride * x..stride * (x + 1)];
+                        px.iter_mut().for_each(|v| *v = 0.0);
+                        self.emitted_in_pixel(x, y, px);
                     }
                 }
             });
@@ -682,12 +697,22 @@ const EDGE_SAMPLES: usize = 2;
 const MAX_SAMPLES_PER_SIDE: usize = 16;
 
 /// What a pixel's samples saw: the first sample's guide, whether the samples saw
-/// different surfaces, and whether any met an emitter.
+/// different surfaces, and how many met an emitter.
 #[derive(Default)]
 struct Samples {
     guide: Guide,
     split: bool,
-    emitters: bool,
+    emitters: Coverage,
+}
+
+/// How a pixel's emitters were measured: none of its samples met one, some did (so its
+/// coverage was measured on the fine grid), or all did.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+enum Coverage {
+    #[default]
+    None,
+    Measured,
+    All,
 }
 
 /// What a camera sample saw: its reflectance and its filter guide.
