@@ -37,6 +37,7 @@ ap.add_argument("scene")
 ap.add_argument("--relight", default="target/release/relight")
 ap.add_argument("--cache", default=None)
 ap.add_argument("--quality", default="fast,final")
+ap.add_argument("--transfer", default="hierarchical", help="as the bake's (the floor fits no dense mode)")
 ap.add_argument("--views", default="")
 ap.add_argument("--out", default="/tmp/floor-views")
 args = ap.parse_args()
@@ -58,6 +59,8 @@ for v in views:
                "--quality", q, "-o", out]
         if args.cache:
             cmd += ["--cache", args.cache]
+        if args.transfer:
+            cmd += ["--transfer", args.transfer]
         t0 = time.time()
         subprocess.run(cmd, check=True, stdout=subprocess.DEVNULL)
         dt = time.time() - t0

@@ -230,3 +230,51 @@ fn an_area_lights_penumbra_follows_the_visible_configuration_factor() {
     );
     assert!(worst < 0.02, "worst column off by {:.2} %", 100.0 * worst);
 }
+
+/// An emissive panel's edge across a column of pixels, 65 % of each covered: every pixel of
+/// the column shows 65 % of the panel's luminance. Each pixel's four samples all met the
+/// panel about one time in five (0.65⁴), and such pixels were drawn fully lit: only pixels
+/// whose samples disagreed, or that none of their samples met beside one that did,
+/// measured their coverage. On the office floor's panels that made up 95 % of the
+/// squared difference from the path tracer.
+#[test]
+fn an_emitters_edge_pixel_whose_samples_all_met_it_was_drawn_fully_lit() {
+    let _gate = common::shared();
+    // The panel faces the camera 2 m away; the view spans x, y in −1 … 1 m at the panel,
+    // 32 pixels across (image x runs along −x), and the panel ends 65 % into column 10.
+    let side = 32usize;
+    let edge = 1.0 - 2.0 * (10.0 + 0.65) / side as f64;
+    let obj = quad(
+        "panel",
+        "glow",
+        [
+            [edge, -1.5, 0.0],
+            [edge, 1.5, 0.0],
+            [1.5, 1.5, 0.0],
+            [1.5, -1.5, 0.0],
+        ],
+        [0., 0., -1.],
+    );
+    let toml = "[mesh]\nmax_edge = 0.5\n[[lights]]\nid = \"glow\"\nmaterials = [\"glow\"]\n";
+    let s = write_scene(&obj, "newmtl glow\nKd 0 0 0\nKe 1 1 1\n", Some(toml));
+    let m = model(s.path());
+    let cam = Camera {
+        position: Vec3::new(0.0, 0.0, -2.0),
+        target: Vec3::ZERO,
+        up: Vec3::Y,
+        fov_deg: (2.0 * 0.5f32.atan()).to_degrees(),
+        width: side as u32,
+        height: side as u32,
+    };
+    let img = finals(&m, &cam).linear(&[Rgb::ONE]);
+    let lum = std::f32::consts::FRAC_1_PI;
+    for y in 0..side {
+        for (x, want) in [(9, 1.0), (10, 0.65), (11, 0.0)] {
+            let got = img[y * side + x][1] / lum;
+            assert!(
+                (got - want).abs() < 0.02,
+                "pixel ({x}, {y}) shows {got} of the panel's luminance, not {want}"
+            );
+        }
+    }
+}
