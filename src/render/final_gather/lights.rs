@@ -5,10 +5,12 @@
 //!   luminaire that gives at least [`SIGNIFICANT`] of the point's unoccluded total gets its
 //!   shadow rays. The rest, the tail, is estimated without bias by one luminaire drawn in
 //!   proportion to its share, weighted by the tail's total.
-//! - **Emissive surfaces**: each emitting input triangle that faces the point gives its
-//!   exitance times the exact unoccluded point-to-triangle form factor, times the visible
-//!   share of that factor, from stratified shadow rays weighted by the factor's kernel
-//!   (more rays for brighter triangles).
+//! - **Emissive surfaces**: each emitting input triangle that faces the point and gives at
+//!   least [`SIGNIFICANT`] of its unoccluded light gives its exitance times the exact
+//!   unoccluded point-to-triangle form factor, times the visible share of that factor,
+//!   from stratified shadow rays weighted by the factor's kernel (more rays for brighter
+//!   triangles). The rest, the tail, is estimated without bias by one triangle drawn in
+//!   proportion to its light, with one ray.
 //!   A group with more than [`MAX_EMITTER_TRIANGLES`] emitting triangles leaves its
 //!   emission to the gather instead ([`GroupLights::explicit`]).
 
@@ -27,6 +29,46 @@ use crate::transport::formfactor::{point_to_polygon, sample_triangle, Rng};
 /// A luminaire whose unoccluded illuminance is at least this share of the point's total
 /// gets its own shadow rays; the others are sampled.
 pub(super) const SIGNIFICANT: f64 = 0.01;
+
+/// Emitting triangles drawn from the tail per camera sample.
+const TAIL_DRAWS: u32 = 4;
+
+/// How many shadow rays the direct light takes.
+#[derive(Debug, Clone, Copy)]
+pub(super) enum Rays {
+    /// Every source that gives at least [`SIGNIFICANT`] of the light gets its rays (an
+    /// emitting triangle up to this many, by its share), the rest one drawn ray.
+    Stratified(u32),
+    /// One source drawn in proportion to its unoccluded light, with one ray: for values
+    /// that many others are averaged with (the gather's close hits).
+    OneDrawn,
+}
+
+impl Rays {
+    /// The share of the light above which a source gets its own rays.
+    fn significant(self) -> f64 {
+        match self {
+            Rays::Stratified(_) => SIGNIFICANT,
+            Rays::OneDrawn => f64::INFINITY,
+        }
+    }
+
+    /// Triangles drawn from the tail, one ray each.
+    fn tail_draws(self) -> u32 {
+        match self {
+            Rays::Stratified(k) => TAIL_DRAWS.min(k.max(1)),
+            Rays::OneDrawn => 1,
+        }
+    }
+
+    /// Most rays per emitting triangle.
+    fn per_triangle(self) -> u32 {
+        match self {
+            Rays::Stratified(k) => k.max(1),
+            Rays::OneDrawn => 1,
+        }
+    }
+}
 
 /// Emitting triangles per group handled exactly; a group with more is gathered.
 pub(super) const MAX_EMITTER_TRIANGLES: usize = 1024;
@@ -65,6 +107,8 @@ pub(super) struct Scratch {
     /// Per group RGB direct illuminance of the current sample, lux.
     pub(super) lux: Vec<f32>,
     candidates: Vec<(usize, f64)>,
+    /// Emitting triangles seen: (group, triangle, form factor, luminous light).
+    emitters: Vec<(u32, u32, f64, f64)>,
 }
 
 impl<'a> GroupLights<'a> {
@@ -103,25 +147,24 @@ impl<'a> GroupLights<'a> {
     }
 
     /// Adds to `out` (per group RGB, lux) the direct illuminance at `x` on patch `p`
-    /// (normal `n`), with at most `rays` shadow rays per emitting triangle.
+    /// (normal `n`), with shadow rays as `rays` says.
     pub(super) fn direct(
         &self,
         (x, n, p): (DVec3, DVec3, u32),
-        rays: u32,
+        rays: Rays,
         rng: &mut Rng,
         scratch: &mut Scratch,
         out: &mut [f32],
     ) {
         // Below, the third member is the scene triangle the shadow rays skip.
         let at = (x, n, self.mesh.patches[p as usize].source);
-        for (out, g) in Rgb::column_mut(out).iter_mut().zip(&self.groups) {
+        let out = Rgb::column_mut(out);
+        for (out, g) in out.iter_mut().zip(&self.groups) {
             if !g.luminaires.is_empty() {
-                self.luminaires(g.luminaires, at, rng, scratch, out);
-            }
-            if !g.emitters.is_empty() {
-                self.emitters(&g.emitters, at, rays.max(1), rng, scratch, out);
+                self.luminaires(g.luminaires, at, rays.significant(), rng, scratch, out);
             }
         }
+        self.emitters(at, rays, rng, scratch, out);
     }
 
     /// Point luminaires: the significant ones exactly, the tail by one drawn sample.
@@ -129,6 +172,7 @@ impl<'a> GroupLights<'a> {
         &self,
         ls: &[Luminaire],
         (x, n, skip): (DVec3, DVec3, u32),
+        significant: f64,
         rng: &mut Rng,
         scratch: &mut Scratch,
         out: &mut Rgb,
@@ -143,7 +187,7 @@ impl<'a> GroupLights<'a> {
                 total += c;
             }
         }
-        let cut = SIGNIFICANT * total;
+        let cut = significant * total;
         let mut tail = 0.0;
         let add = |out: &mut Rgb, l: &Luminaire, e: f64| {
             *out += (e * l.color.to_f64()).to_f32();
@@ -171,39 +215,76 @@ impl<'a> GroupLights<'a> {
         }
     }
 
-    /// Emitting triangles: exact form factor × visible share, from at most `rays` shadow
-    /// rays per triangle (shared out by the triangles' shares of the light).
+    /// Emitting triangles of every group: exact form factor × visible share. The triangles
+    /// that give at least [`Rays::significant`] of the light of all groups together get
+    /// up to `rays` shadow rays each (by their share); the rest, the tail, one triangle
+    /// drawn in proportion to its light, weighted by the tail's total over its own (an
+    /// unbiased estimate of their sum). Shares are of the unit-weight light, so the rays
+    /// depend on the geometry alone and each group's image stays linear; a room's panels
+    /// spend no rays on the panels of the rooms beyond its walls one by one.
     fn emitters(
         &self,
-        em: &[Emitter],
         at: (DVec3, DVec3, u32),
-        rays: u32,
+        rays: Rays,
         rng: &mut Rng,
         scratch: &mut Scratch,
-        out: &mut Rgb,
+        out: &mut [Rgb],
     ) {
         let (x, n, _) = at;
-        // The triangles whose front x sees, with their unoccluded form factors.
-        let cand = &mut scratch.candidates;
+        // The triangles whose front x sees: (group, triangle, form factor, light).
+        let cand = &mut scratch.emitters;
         cand.clear();
-        cand.extend(
-            em.iter()
-                .enumerate()
-                .filter(|(_, e)| e.normal.dot(x - e.centroid) > 0.0)
-                .map(|(i, e)| (i, point_to_polygon(x, n, &e.corners)))
-                .filter(|&(_, ff)| ff > 0.0),
-        );
-        let total: f64 = cand.iter().map(|&(i, ff)| ff * em[i].luminous).sum();
+        for (k, g) in self.groups.iter().enumerate() {
+            for (i, e) in g.emitters.iter().enumerate() {
+                if e.normal.dot(x - e.centroid) <= 0.0 {
+                    continue;
+                }
+                let ff = point_to_polygon(x, n, &e.corners);
+                if ff > 0.0 {
+                    cand.push((k as u32, i as u32, ff, ff * e.luminous));
+                }
+            }
+        }
+        let total: f64 = cand.iter().map(|c| c.3).sum();
         if total <= 0.0 {
             return;
         }
+        let cut = rays.significant() * total;
+        let draws = rays.tail_draws();
+        let rays = rays.per_triangle();
         let budget = rays as f64;
-        for &(i, ff) in cand.iter() {
-            let e = &em[i];
-            let share = ff * e.luminous / total;
-            let k = ((share * budget).ceil() as u32).clamp(1, rays);
-            let f = (ff * self.seen(e, at, k, rng)) as f32;
-            *out += f * e.exitance;
+        let mut tail = 0.0;
+        for &(k, i, ff, part) in cand.iter() {
+            if part < cut {
+                tail += part;
+                continue;
+            }
+            let e = &self.groups[k as usize].emitters[i as usize];
+            let m = ((part / total * budget).ceil() as u32).clamp(1, rays);
+            out[k as usize] += (ff * self.seen(e, at, m, rng)) as f32 * e.exitance;
+        }
+        if tail <= 0.0 {
+            return;
+        }
+        // Stratified draws over the tail's cumulative light, one ray each.
+        for j in 0..draws {
+            let mut r = (j as f64 + rng.next_f64()) / draws as f64 * tail;
+            let mut drawn = None;
+            for &(k, i, ff, part) in cand.iter() {
+                if part >= cut {
+                    continue;
+                }
+                drawn = Some((k, i, ff, part));
+                if r < part {
+                    break;
+                }
+                r -= part;
+            }
+            if let Some((k, i, ff, part)) = drawn {
+                let e = &self.groups[k as usize].emitters[i as usize];
+                let f = ff * self.seen(e, at, 1, rng) * tail / part / draws as f64;
+                out[k as usize] += f as f32 * e.exitance;
+            }
         }
     }
 

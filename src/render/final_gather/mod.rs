@@ -591,7 +591,7 @@ impl Tracer<'_> {
         e_direct.resize(3 * self.groups, 0.0);
         self.lights.direct(
             (x, n, p),
-            self.settings.emitter_rays,
+            lights::Rays::Stratified(self.settings.emitter_rays),
             rng,
             scratch,
             &mut e_direct,
@@ -655,7 +655,7 @@ impl Tracer<'_> {
         let mut lux = vec![0f32; out.len()];
         self.lights.direct(
             (at, patch.normal, q),
-            NEAR_EMITTER_RAYS,
+            lights::Rays::OneDrawn,
             rng,
             &mut scratch,
             &mut lux,
@@ -684,10 +684,6 @@ impl Tracer<'_> {
 
 /// Rays of the small gather at a point a gather ray landed on close by.
 const NEAR_GATHER_RAYS: usize = 9;
-
-/// Shadow rays per emitting triangle for the direct light at such a point: its value is
-/// one of the many that a pixel's gather averages, so a few rays suffice.
-const NEAR_EMITTER_RAYS: u32 = 2;
 
 /// Samples per side of a pixel whose first samples saw different surfaces, as a multiple
 /// of [`FinalSettings::samples_per_side`].
