@@ -149,6 +149,28 @@ async fn renders_and_per_patch_answers_take_the_same_sky() {
     .await;
     assert_eq!(s, StatusCode::OK);
     assert_eq!(h["content-type"], "image/png");
+    // At final quality the daylight gets its own traced image (the sky gathered per
+    // pixel): at the same exposure, about as bright as the patches' image.
+    let mut means = Vec::new();
+    for quality in ["fast", "final"] {
+        let body = json!({"camera": "entrance", "width": 48, "height": 32, "sky": sky,
+            "exposure": -12, "quality": quality});
+        let req = axum::http::Request::post("/api/scenes/rooflight/render")
+            .header(axum::http::header::CONTENT_TYPE, "application/json")
+            .body(axum::body::Body::from(body.to_string()))
+            .unwrap();
+        let (s, _, png) = super::send(app(), req).await;
+        assert_eq!(s, StatusCode::OK, "{quality}");
+        let img = image::load_from_memory(&png).unwrap().to_rgb8();
+        let sum: f64 = img.pixels().map(|p| p.0[1] as f64).sum();
+        means.push(sum / (48.0 * 32.0));
+    }
+    eprintln!("rooflight under a clear sky, mean green value, fast and final: {means:?}");
+    assert!(means[1] > 20.0, "the final image is dark: {means:?}");
+    assert!(
+        (means[1] / means[0] - 1.0).abs() < 0.15,
+        "fast and final differ: {means:?}"
+    );
     // Per-patch illuminance under the sky agrees with /daylight's surface statistics.
     let overcast = json!({"type": "cie_overcast", "horizontal_illuminance": 10000});
     let (s, _, r) = post(
