@@ -17,18 +17,10 @@ import sys
 
 import numpy as np
 
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
+from pfm import read_pfm  # noqa: E402
+
 HERE = os.path.dirname(os.path.abspath(__file__))
-
-
-def read_pfm(path):
-    with open(path, "rb") as f:
-        kind = f.readline().strip()
-        w, h = map(int, f.readline().split())
-        scale = float(f.readline())
-        data = np.frombuffer(f.read(), dtype="<f4" if scale < 0 else ">f4")
-    ch = 3 if kind == b"PF" else 1
-    img = data.reshape(h, w, ch)[::-1].astype(np.float64)
-    return np.repeat(img, 3, axis=2) if ch == 1 else img
 
 
 ap = argparse.ArgumentParser()

@@ -187,18 +187,7 @@ pub fn final_images(
     cam: &Camera,
     cancel: &crate::model::Cancel,
 ) -> Result<GroupImages, QueryError> {
-    let b = &model.baked;
-    let scene = final_gather::FinalScene {
-        mesh: &b.mesh,
-        shading,
-        patches,
-        bvh: &b.bvh,
-        triangles: &b.scene.triangles,
-        rho: &b.transfer.rho,
-        groups: &b.transfer.groups,
-        lights: &b.scene.lights,
-        sky: None,
-    };
+    let scene = final_scene(model, shading, patches, None);
     final_gather::build(&scene, cam, &final_gather::FinalSettings::default(), cancel)
 }
 
@@ -224,7 +213,35 @@ pub fn final_daylight_image(
             "the scene has no daylight transfer".into(),
         ));
     };
-    let scene = final_gather::FinalScene {
+    let final_sky = final_gather::FinalSky {
+        reflected: &day.b,
+        sun: sky
+            .sun_direction(site)
+            .map(|(direction, normal_illuminance)| super::daylight::SunView {
+                direction,
+                normal_illuminance,
+            }),
+        luminance: &luminance,
+        glazing: &b.glazing,
+        reach: model.reach_length(),
+        coefficients: &columns.direct,
+        patch_luminance: &patch_luminance,
+        subdivision: &subdivision,
+        site,
+    };
+    let scene = final_scene(model, shading, patches, Some(final_sky));
+    final_gather::build(&scene, cam, &final_gather::FinalSettings::default(), cancel)
+}
+
+/// What [`final_gather::build`] reads of `model`, with the daylight of `sky` when given.
+fn final_scene<'a>(
+    model: &'a Model,
+    shading: &'a Shading,
+    patches: &'a crate::geometry::bvh::Bvh,
+    sky: Option<final_gather::FinalSky<'a>>,
+) -> final_gather::FinalScene<'a> {
+    let b = &model.baked;
+    final_gather::FinalScene {
         mesh: &b.mesh,
         shading,
         patches,
@@ -233,24 +250,18 @@ pub fn final_daylight_image(
         rho: &b.transfer.rho,
         groups: &b.transfer.groups,
         lights: &b.scene.lights,
-        sky: Some(final_gather::FinalSky {
-            reflected: &day.b,
-            sun: sky
-                .sun_direction(site)
-                .map(|(direction, normal_illuminance)| super::daylight::SunView {
-                    direction,
-                    normal_illuminance,
-                }),
-            luminance: &luminance,
-            glazing: &b.glazing,
-            reach: model.reach_length(),
-            coefficients: &columns.direct,
-            patch_luminance: &patch_luminance,
-            subdivision: &subdivision,
-            site,
-        }),
-    };
-    final_gather::build(&scene, cam, &final_gather::FinalSettings::default(), cancel)
+        sky,
+    }
+}
+
+/// Encodes per-pixel radiance `rad` (cd/m², `o.camera`'s size, row 0 at the top) as a
+/// shaded image: a `final` image under a sky, the groups' and the daylight's summed.
+pub fn render_radiance(rad: &[Rgb], o: &RenderOptions) -> Result<Rendered, RenderError> {
+    finish(
+        o,
+        |exposure| super::tonemap::tonemap_pixels(rad.len(), |i| rad[i], exposure, o.tonemap),
+        || rad.to_vec(),
+    )
 }
 
 /// max/100 .. max of an image's luminous values (lux); 0.01 .. 1 for a black image.

@@ -82,7 +82,7 @@ impl Reflected {
         (x, n, p): (DVec3, DVec3, u32),
         rays: usize,
         rng: &mut Rng,
-        (mut near, aim): (Option<&mut NearHit<'_>>, Option<&super::SkyAim>),
+        (mut near, aim): (Option<&mut NearHit<'_>>, Option<&super::sky::SkyAim>),
         out: &mut [f32],
     ) -> f32 {
         let g = self.groups;

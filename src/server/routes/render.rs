@@ -99,16 +99,22 @@ fn render_under_sky(
         RenderError::Query(q) => q.into(),
         RenderError::Encode(m) => AppError::Internal(m),
     };
+    if let (Some((f, day)), Lighting::Groups(w)) = (finals, lighting) {
+        // Final quality: the groups' images and the daylight's, nothing from the patches.
+        let mut rad = day.linear(&[crate::color::Rgb::ONE]);
+        for (r, g) in rad.iter_mut().zip(f.linear(w)) {
+            *r += g;
+        }
+        return pipeline::render_radiance(&rad, o).map_err(encode);
+    }
     let m = &ready.model;
     let day = m.patch_daylight_without_sun(sky)?;
     let (mut b, mut h) = (day.b, day.h);
     if let Lighting::Groups(w) = lighting {
         let t = &m.baked.transfer;
         let mut more = vec![0f32; b.len()];
-        if finals.is_none() {
-            t.relight_into(w, &mut more);
-            b.iter_mut().zip(&more).for_each(|(a, x)| *a += x);
-        }
+        t.relight_into(w, &mut more);
+        b.iter_mut().zip(&more).for_each(|(a, x)| *a += x);
         t.illuminance_into(w, &mut more);
         h.iter_mut().zip(&more).for_each(|(a, x)| *a += x);
     }
@@ -126,17 +132,9 @@ fn render_under_sky(
         rho: &m.baked.transfer.rho,
         reach: m.reach_length(),
     };
-    let (mut rad, lux) = daylight_pixels(&scene, &entry.buffer, &o.camera, sun, &|d| {
+    let (rad, lux) = daylight_pixels(&scene, &entry.buffer, &o.camera, sun, &|d| {
         sky.luminance(site, d)
     });
-    if let (Some((f, day)), Lighting::Groups(w)) = (finals, lighting) {
-        // Final quality: the groups' and the daylight's images; the patches show nothing.
-        rad = day.linear(&[crate::color::Rgb::ONE]);
-        for (r, g) in rad.iter_mut().zip(f.linear(w)) {
-            (0..3).for_each(|c| r[c] += g[c]);
-        }
-        b.iter_mut().for_each(|v| *v = 0.0);
-    }
     let frame = Frame {
         view: &entry.buffer,
         groups: None,
