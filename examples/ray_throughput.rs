@@ -4,32 +4,33 @@
 //! - nearest hit (`nearest`): cosine-weighted rays from random points of random patches,
 //!   as the final gather traces them, on the patch BVH.
 //!
-//! `cargo run --release --example ray_throughput [SCENE_DIR]` (default
-//! `scenes/office-floor`; bakes into the default cache if it is not there yet).
+//! `cargo run --release --example ray_throughput [SCENE_DIR] [RAYS]` (default
+//! `scenes/office-floor`, a million rays). The scene is meshed, not baked.
 
-use relight::bake::{default_cache_dir, load_or_bake, BakeOptions, CachePolicy};
+use relight::bake::scene_bvh;
+use relight::geometry::mesh::Mesh;
 use relight::render::final_gather::patch_bvh;
+use relight::scene::Scene;
 
 fn main() {
-    let dir = std::env::args()
-        .nth(1)
-        .unwrap_or_else(|| "scenes/office-floor".into());
-    let cache = default_cache_dir();
-    let opts = BakeOptions::default();
-    let baked = load_or_bake(
-        std::path::Path::new(&dir),
-        CachePolicy::ReadWrite(&cache),
-        &opts,
-        &|_, _| {},
-    )
-    .expect("the scene loads");
-    let mesh = &baked.mesh;
-    let any_hit = relight::bench::ray_throughput(mesh, &baked.bvh, 1_000_000);
-    let patches = patch_bvh(mesh);
-    let nearest = relight::bench::nearest_throughput(mesh, &patches, 1_000_000);
+    let mut args = std::env::args().skip(1);
+    let dir = args.next().unwrap_or_else(|| "scenes/office-floor".into());
+    let rays: usize = args.next().and_then(|s| s.parse().ok()).unwrap_or(1_000_000);
+    let scene = Scene::load(std::path::Path::new(&dir)).expect("the scene loads");
+    let mesh = Mesh::build(&scene);
+    let t = std::time::Instant::now();
+    let bvh = scene_bvh(&scene);
+    let scene_build = t.elapsed().as_secs_f64();
+    let any_hit = relight::bench::ray_throughput(&mesh, &bvh, rays);
+    let t = std::time::Instant::now();
+    let patches = patch_bvh(&mesh);
+    let patch_build = t.elapsed().as_secs_f64();
+    let nearest = relight::bench::nearest_throughput(&mesh, &patches, rays);
     println!(
-        "{{\"scene\": \"{dir}\", \"patches\": {}, \"any_hit_mrays_per_core\": {any_hit:.2}, \
-         \"nearest_mrays_per_core\": {nearest:.2}}}",
+        "{{\"scene\": \"{dir}\", \"triangles\": {}, \"patches\": {}, \
+         \"scene_bvh_build_s\": {scene_build:.3}, \"patch_bvh_build_s\": {patch_build:.3}, \
+         \"any_hit_mrays_per_core\": {any_hit:.2}, \"nearest_mrays_per_core\": {nearest:.2}}}",
+        scene.triangles.len(),
         mesh.len()
     );
 }

@@ -1,5 +1,12 @@
-//! Geometry: a bounding volume hierarchy (binned SAH) over the scene triangles, for
-//! visibility (any-hit segment) queries.
+//! Geometry: a bounding volume hierarchy over the scene triangles, for visibility (any-hit
+//! segment) and nearest-hit queries.
+//!
+//! The tree is built binary (binned SAH over all three axes) and then collapsed into
+//! 8-wide nodes whose children's boxes sit in structure-of-arrays lanes, so one step of a
+//! walk tests a ray against 8 boxes at once (AVX where the build targets it, see
+//! `.cargo/config.toml`; the same arithmetic lane by lane elsewhere). Walks visit the
+//! children a ray enters nearest first and skip the boxes it enters past the hit found
+//! so far.
 //!
 //! Occlusion is geometric: a triangle blocks light from either side, even though it only
 //! emits, reflects and receives on its front. Queries skip the triangles a segment
@@ -9,6 +16,7 @@
 
 use glam::Vec3A;
 
+/// A node of the binary tree the build makes before it is collapsed.
 #[derive(Clone, Copy, Debug)]
 struct Node {
     lo: Vec3A,
@@ -17,6 +25,51 @@ struct Node {
     first: u32,
     /// Triangles in a leaf; 0 for inner nodes.
     count: u32,
+}
+
+/// Children per node of the collapsed tree.
+const WIDTH: usize = 8;
+
+/// A node of the collapsed tree: up to 8 children, their boxes lane by lane.
+#[derive(Clone, Copy, Debug)]
+#[repr(C, align(64))]
+struct Wide {
+    /// Lower corners, by axis then lane.
+    lo: [[f32; WIDTH]; 3],
+    /// Upper corners, by axis then lane.
+    hi: [[f32; WIDTH]; 3],
+    /// Per lane, a [`Child`] code: an inner node's index, or a leaf's triangles.
+    child: [u32; WIDTH],
+    /// Lanes in use (the first `lanes`); the others hold empty boxes.
+    lanes: u32,
+}
+
+/// A child code of a [`Wide`] node: the top bit marks a leaf, whose next 4 bits hold its
+/// triangle count less one and whose low 27 bits its first triangle.
+struct Child;
+
+impl Child {
+    const LEAF: u32 = 1 << 31;
+    const FIRST_BITS: u32 = 27;
+    /// Triangles a leaf may hold.
+    const MAX_COUNT: u32 = 16;
+    /// Triangles a tree may hold (a leaf's first triangle must fit its 27 bits).
+    const MAX_TRIANGLES: usize = 1 << Self::FIRST_BITS;
+
+    fn leaf(first: u32, count: u32) -> u32 {
+        debug_assert!((1..=Self::MAX_COUNT).contains(&count));
+        Self::LEAF | ((count - 1) << Self::FIRST_BITS) | first
+    }
+
+    /// The triangles of a leaf code, or None for an inner node's.
+    #[inline(always)]
+    fn triangles(code: u32) -> Option<std::ops::Range<usize>> {
+        (code & Self::LEAF != 0).then(|| {
+            let first = (code & ((1 << Self::FIRST_BITS) - 1)) as usize;
+            let count = ((code >> Self::FIRST_BITS) & 0xf) as usize + 1;
+            first..first + count
+        })
+    }
 }
 
 #[derive(Clone, Copy, Debug)]
@@ -28,31 +81,121 @@ struct Tri {
 
 /// A BVH over triangles given as corner triples.
 pub struct Bvh {
-    nodes: Vec<Node>,
+    /// The collapsed tree; the root is the first node (none without triangles).
+    nodes: Vec<Wide>,
     tris: Vec<Tri>,
     /// Caller's index of each stored triangle.
     ids: Vec<u32>,
 }
 
+/// Triangles per leaf the build aims for.
 const LEAF_MAX: usize = 4;
-const BINS: usize = 12;
+const BINS: usize = 16;
+/// Entries of a walk's stack kept on the thread's stack; deeper trees spill to the heap.
+const STACK: usize = 256;
+
+/// A ray prepared for the box tests: origin and reciprocal direction by axis, lane-wide.
+#[derive(Clone, Copy)]
+struct Ray8 {
+    o: [f32; 3],
+    inv: [f32; 3],
+}
+
+impl Ray8 {
+    fn new(o: Vec3A, inv: Vec3A) -> Ray8 {
+        Ray8 {
+            o: o.to_array(),
+            inv: inv.to_array(),
+        }
+    }
+}
+
+/// Where the ray enters each of a node's boxes within `(tmin, tmax)`, and the mask of
+/// lanes it meets. On an axis the ray is parallel to (`inv` infinite), a box face through
+/// the origin makes a NaN that the comparisons treat as a miss on that lane, as the
+/// lane-by-lane version does.
+#[cfg(all(target_arch = "x86_64", target_feature = "avx"))]
+#[inline(always)]
+fn enter8(n: &Wide, r: &Ray8, tmin: f32, tmax: f32) -> (u32, [f32; WIDTH]) {
+    use std::arch::x86_64::*;
+    // SAFETY: AVX is enabled for this build (cfg above); the loads read 8 f32 from
+    // arrays of 8 f32, and `Wide` is 64-byte aligned, so every row is 32-byte aligned.
+    unsafe {
+        let mut near = _mm256_set1_ps(tmin);
+        let mut far = _mm256_set1_ps(tmax);
+        for a in 0..3 {
+            let o = _mm256_set1_ps(r.o[a]);
+            let inv = _mm256_set1_ps(r.inv[a]);
+            let t0 = _mm256_mul_ps(_mm256_sub_ps(_mm256_load_ps(n.lo[a].as_ptr()), o), inv);
+            let t1 = _mm256_mul_ps(_mm256_sub_ps(_mm256_load_ps(n.hi[a].as_ptr()), o), inv);
+            near = _mm256_max_ps(near, _mm256_min_ps(t0, t1));
+            far = _mm256_min_ps(far, _mm256_max_ps(t0, t1));
+        }
+        let far = _mm256_mul_ps(far, _mm256_set1_ps(1.000_001));
+        let hit = _mm256_movemask_ps(_mm256_cmp_ps(near, far, _CMP_LE_OQ)) as u32;
+        let mut t = [0f32; WIDTH];
+        _mm256_storeu_ps(t.as_mut_ptr(), near);
+        (hit & ((1u32 << n.lanes) - 1), t)
+    }
+}
+
+#[cfg(not(all(target_arch = "x86_64", target_feature = "avx")))]
+#[inline(always)]
+fn enter8(n: &Wide, r: &Ray8, tmin: f32, tmax: f32) -> (u32, [f32; WIDTH]) {
+    enter8_lanes(n, r, tmin, tmax)
+}
+
+/// [`enter8`] lane by lane, with the same operations in the same order (x86's `min` and
+/// `max` return their second operand when either is NaN).
+#[cfg_attr(all(target_arch = "x86_64", target_feature = "avx"), allow(dead_code))]
+#[inline(always)]
+fn enter8_lanes(n: &Wide, r: &Ray8, tmin: f32, tmax: f32) -> (u32, [f32; WIDTH]) {
+    let min = |a: f32, b: f32| if a < b { a } else { b };
+    let max = |a: f32, b: f32| if a > b { a } else { b };
+    let mut t = [0f32; WIDTH];
+    let mut hit = 0u32;
+    for (lane, t) in t.iter_mut().enumerate() {
+        let (mut near, mut far) = (tmin, tmax);
+        for a in 0..3 {
+            let t0 = (n.lo[a][lane] - r.o[a]) * r.inv[a];
+            let t1 = (n.hi[a][lane] - r.o[a]) * r.inv[a];
+            near = max(near, min(t0, t1));
+            far = min(far, max(t0, t1));
+        }
+        far *= 1.000_001;
+        *t = near;
+        if near <= far {
+            hit |= 1 << lane;
+        }
+    }
+    (hit & ((1u32 << n.lanes) - 1), t)
+}
 
 impl Bvh {
     /// Builds the hierarchy. `tris[i]` keeps the id `i` in queries.
+    ///
+    /// # Panics
+    /// With more than 2²⁷ (134 million) triangles; scenes are limited far below that.
     pub fn new(tris: &[[Vec3A; 3]]) -> Bvh {
+        assert!(
+            tris.len() <= Child::MAX_TRIANGLES,
+            "a BVH holds at most 2^27 triangles"
+        );
         let mut ids: Vec<u32> = (0..tris.len() as u32).collect();
         let cent: Vec<Vec3A> = tris.iter().map(|t| (t[0] + t[1] + t[2]) / 3.0).collect();
         let lo: Vec<Vec3A> = tris.iter().map(|t| t[0].min(t[1]).min(t[2])).collect();
         let hi: Vec<Vec3A> = tris.iter().map(|t| t[0].max(t[1]).max(t[2])).collect();
-        let mut nodes = Vec::with_capacity(2 * tris.len().max(1));
-        nodes.push(Node {
+        let mut binary = Vec::with_capacity(2 * tris.len().max(1));
+        binary.push(Node {
             lo: Vec3A::ZERO,
             hi: Vec3A::ZERO,
             first: 0,
             count: 0,
         });
+        let mut nodes = Vec::new();
         if !tris.is_empty() {
-            build(&mut nodes, 0, &mut ids, 0, &cent, &lo, &hi);
+            build(&mut binary, 0, &mut ids, 0, &cent, &lo, &hi);
+            collapse(&binary, &[0], &mut nodes);
         }
         let stored = ids
             .iter()
@@ -115,10 +258,10 @@ impl Bvh {
     }
 
     /// Depth first through the nodes whose box the ray `o + t·d` (`inv` = 1/d) enters
-    /// within `(tmin, far())`, the nearer child first, calling `visit` with the index of
-    /// every stored triangle in the leaves reached, until it returns true; whether it did.
-    /// `far` may shrink as triangles are visited (a nearest-hit query): boxes entered past
-    /// it are skipped.
+    /// within `(tmin, far())`, the nearer children first, calling `visit` with the index
+    /// of every stored triangle in the leaves reached, until it returns true; whether it
+    /// did. `far` may shrink as triangles are visited (a nearest-hit query): boxes entered
+    /// past it are skipped.
     #[inline(always)]
     fn traverse_ray(
         &self,
@@ -128,62 +271,45 @@ impl Bvh {
         far: impl Fn() -> f32,
         mut visit: impl FnMut(usize) -> bool,
     ) -> bool {
-        let Some(root) = self.nodes.first().filter(|_| !self.tris.is_empty()) else {
-            return false;
-        };
-        if slab_t(root.lo, root.hi, o, inv, tmin, far()).is_none() {
+        if self.nodes.is_empty() {
             return false;
         }
-        // Pending far children and where the ray enters them.
-        let mut stack = [(0u32, 0f32); 64];
+        let ray = Ray8::new(o, inv);
+        // Pending children (codes) and where the ray enters them, the nearest on top.
+        let mut stack = [(0u32, 0f32); STACK];
         let mut spill: Vec<(u32, f32)> = Vec::new();
         let mut sp = 0usize;
-        let mut node = 0u32;
+        let mut node = 0usize;
         loop {
-            let n = &self.nodes[node as usize];
-            if n.count > 0 {
-                for k in n.first..n.first + n.count {
-                    if visit(k as usize) {
-                        return true;
-                    }
-                }
-            } else {
-                let (a, b) = (n.first, n.first + 1);
-                let (na, nb) = (&self.nodes[a as usize], &self.nodes[b as usize]);
-                let f = far();
-                let ta = slab_t(na.lo, na.hi, o, inv, tmin, f);
-                let tb = slab_t(nb.lo, nb.hi, o, inv, tmin, f);
-                match (ta, tb) {
-                    (Some(ta), Some(tb)) => {
-                        let ((near, _), later) = if ta <= tb {
-                            ((a, ta), (b, tb))
-                        } else {
-                            ((b, tb), (a, ta))
-                        };
-                        // A tree deeper than the stack (a very skewed scene) spills
-                        // over into the heap rather than losing a subtree.
-                        if sp < stack.len() {
-                            stack[sp] = later;
-                            sp += 1;
-                        } else {
-                            spill.push(later);
-                        }
-                        node = near;
-                        continue;
-                    }
-                    (Some(_), None) => {
-                        node = a;
-                        continue;
-                    }
-                    (None, Some(_)) => {
-                        node = b;
-                        continue;
-                    }
-                    (None, None) => {}
+            let n = &self.nodes[node];
+            let (mut mask, t) = enter8(n, &ray, tmin, far());
+            // Push the lanes entered, then order the pushed run so the nearest is on top.
+            let base = sp;
+            while mask != 0 {
+                let lane = mask.trailing_zeros() as usize;
+                mask &= mask - 1;
+                let entry = (n.child[lane], t[lane]);
+                if sp < STACK {
+                    stack[sp] = entry;
+                    sp += 1;
+                } else {
+                    // A tree deeper than the stack (a very skewed scene) spills over
+                    // into the heap rather than losing a subtree.
+                    spill.push(entry);
                 }
             }
+            for i in base + 1..sp {
+                let e = stack[i];
+                let mut j = i;
+                while j > base && stack[j - 1].1 < e.1 {
+                    stack[j] = stack[j - 1];
+                    j -= 1;
+                }
+                stack[j] = e;
+            }
+            // Pop until an inner node to open, visiting the leaves on the way.
             loop {
-                let (next, enter) = if let Some(top) = spill.pop() {
+                let (code, enter) = if let Some(top) = spill.pop() {
                     top
                 } else if sp > 0 {
                     sp -= 1;
@@ -191,52 +317,63 @@ impl Bvh {
                 } else {
                     return false;
                 };
-                if enter <= far() * 1.000_001 {
-                    node = next;
-                    break;
+                if enter > far() * 1.000_001 {
+                    continue;
+                }
+                match Child::triangles(code) {
+                    Some(range) => {
+                        for k in range {
+                            if visit(k) {
+                                return true;
+                            }
+                        }
+                    }
+                    None => {
+                        node = code as usize;
+                        break;
+                    }
                 }
             }
         }
     }
 
-    /// Depth first through the nodes whose box passes `enter`, calling `visit` with the
-    /// index of every stored triangle in the leaves reached, until it returns true;
-    /// whether it did.
+    /// Depth first through the children whose box passes `enter(lo, hi)`, calling `visit`
+    /// with the index of every stored triangle in the leaves reached, until it returns
+    /// true; whether it did.
     #[inline(always)]
     fn traverse(
         &self,
-        mut enter: impl FnMut(&Node) -> bool,
+        mut enter: impl FnMut(Vec3A, Vec3A) -> bool,
         mut visit: impl FnMut(usize) -> bool,
     ) -> bool {
-        if self.tris.is_empty() {
+        if self.nodes.is_empty() {
             return false;
         }
-        let mut stack = [0u32; 64];
-        let mut sp = 0usize;
-        let mut node = 0u32;
+        let mut stack: Vec<u32> = Vec::with_capacity(64);
+        let mut node = 0usize;
         loop {
-            let n = &self.nodes[node as usize];
-            if enter(n) {
-                if n.count > 0 {
-                    for k in n.first..n.first + n.count {
-                        if visit(k as usize) {
-                            return true;
-                        }
-                    }
-                } else {
-                    if sp < stack.len() {
-                        stack[sp] = n.first + 1;
-                        sp += 1;
-                    }
-                    node = n.first;
+            let n = &self.nodes[node];
+            for lane in 0..n.lanes as usize {
+                let lo = Vec3A::new(n.lo[0][lane], n.lo[1][lane], n.lo[2][lane]);
+                let hi = Vec3A::new(n.hi[0][lane], n.hi[1][lane], n.hi[2][lane]);
+                if !enter(lo, hi) {
                     continue;
                 }
+                match Child::triangles(n.child[lane]) {
+                    Some(range) => {
+                        for k in range {
+                            if visit(k) {
+                                return true;
+                            }
+                        }
+                    }
+                    None => stack.push(n.child[lane]),
+                }
             }
-            if sp == 0 {
-                return false;
+            match stack.pop() {
+                Some(next) => node = next as usize,
+                None => return false,
             }
-            sp -= 1;
-            node = stack[sp];
         }
     }
 
@@ -244,7 +381,7 @@ impl Bvh {
     /// `lo..hi` (boxes touching at a face count).
     pub fn overlapping(&self, lo: Vec3A, hi: Vec3A, out: &mut Vec<u32>) {
         self.traverse(
-            |n| n.lo.cmple(hi).all() && lo.cmple(n.hi).all(),
+            |nlo, nhi| nlo.cmple(hi).all() && lo.cmple(nhi).all(),
             |k| {
                 let t = &self.tris[k];
                 let (a, b, c) = (t.v0, t.v0 + t.e1, t.v0 + t.e2);
@@ -326,18 +463,6 @@ impl Bvh {
     }
 }
 
-/// Where the ray `o + t·d` (`inv` = 1/d) enters the box `lo..hi` within `(tmin, tmax)`,
-/// if it meets it there.
-#[inline]
-fn slab_t(lo: Vec3A, hi: Vec3A, o: Vec3A, inv: Vec3A, tmin: f32, tmax: f32) -> Option<f32> {
-    let t0 = (lo - o) * inv;
-    let t1 = (hi - o) * inv;
-    // NaN (0·inf on an axis-parallel ray in a box face) drops out of min/max.
-    let near = t0.min(t1).max_element().max(tmin);
-    let far = t0.max(t1).min_element().min(tmax);
-    (near <= far * 1.000_001).then_some(near)
-}
-
 #[inline]
 fn hit_t(t: &Tri, o: Vec3A, d: Vec3A, tmin: f32, tmax: f32) -> Option<f32> {
     let p = d.cross(t.e2);
@@ -387,37 +512,48 @@ fn build(
     }
     nodes[at].lo = blo;
     nodes[at].hi = bhi;
-    let leaf = |nodes: &mut Vec<Node>| {
+    if ids.len() <= LEAF_MAX {
         nodes[at].first = first;
         nodes[at].count = ids.len() as u32;
-    };
-    if ids.len() <= LEAF_MAX {
-        return leaf(nodes);
+        return;
     }
-    // Binned SAH over the widest centroid axis.
+    // Binned SAH over every axis the centroids spread along.
     let ext = chi - clo;
-    let axis = if ext.x >= ext.y && ext.x >= ext.z {
-        0
-    } else if ext.y >= ext.z {
-        1
-    } else {
-        2
-    };
-    if ext[axis] <= 0.0 {
-        return leaf(nodes);
+    let mut best = (f32::INFINITY, 0usize, 0usize);
+    for axis in 0..3 {
+        if ext[axis] <= 0.0 {
+            continue;
+        }
+        let scale = BINS as f32 / ext[axis];
+        let bin_of =
+            |i: u32| (((cent[i as usize][axis] - clo[axis]) * scale) as usize).min(BINS - 1);
+        let (cost, split) = best_split(ids, &bin_of, lo, hi);
+        if cost < best.0 {
+            best = (cost, split, axis);
+        }
     }
-    let scale = BINS as f32 / ext[axis];
-    let bin_of = |i: u32| (((cent[i as usize][axis] - clo[axis]) * scale) as usize).min(BINS - 1);
-    let best = best_split(ids, &bin_of, lo, hi);
-    if best.0 >= ids.len() as f32 * half_area(blo, bhi) && ids.len() <= 16 {
-        return leaf(nodes);
+    let (cost, split, axis) = best;
+    // A leaf where splitting costs more than testing every triangle (one box test
+    // against one triangle test), as long as the leaf stays within a child code's count.
+    let leaf_cost = ids.len() as f32 * half_area(blo, bhi);
+    if cost >= leaf_cost && ids.len() <= Child::MAX_COUNT as usize {
+        nodes[at].first = first;
+        nodes[at].count = ids.len() as u32;
+        return;
     }
-    let mid = if best.1 == 0 {
+    // No split on the bins (all centroids in one bin or on one point): the median of
+    // the widest axis, so leaves stay small even for stacked duplicates.
+    let mid = if split == 0 {
+        let axis = ext.max_position();
+        ids.sort_unstable_by(|&a, &b| cent[a as usize][axis].total_cmp(&cent[b as usize][axis]));
         ids.len() / 2
     } else {
+        let scale = BINS as f32 / ext[axis];
+        let bin_of =
+            |i: u32| (((cent[i as usize][axis] - clo[axis]) * scale) as usize).min(BINS - 1);
         let mut m = 0;
         for k in 0..ids.len() {
-            if bin_of(ids[k]) < best.1 {
+            if bin_of(ids[k]) < split {
                 ids.swap(k, m);
                 m += 1;
             }
@@ -443,6 +579,53 @@ fn build(
     let (l, r) = ids.split_at_mut(mid);
     build(nodes, left, l, first, cent, lo, hi);
     build(nodes, left + 1, r, first + mid as u32, cent, lo, hi);
+}
+
+/// Collapses the binary subtrees `roots` (at most [`WIDTH`]) into one wide node appended
+/// to `out`, and their descendants below it; the new node's index. Each child opens the
+/// inner binary node of largest surface area among its children until it has 8, so a
+/// wide node takes the place of about three binary levels.
+fn collapse(binary: &[Node], roots: &[usize], out: &mut Vec<Wide>) -> u32 {
+    let at = out.len();
+    out.push(Wide {
+        lo: [[f32::INFINITY; WIDTH]; 3],
+        hi: [[f32::INFINITY; WIDTH]; 3],
+        child: [0; WIDTH],
+        lanes: 0,
+    });
+    let mut kids: Vec<usize> = roots.to_vec();
+    while kids.len() < WIDTH {
+        let open = kids
+            .iter()
+            .enumerate()
+            .filter(|(_, &k)| binary[k].count == 0)
+            .max_by(|a, b| {
+                let area = |k: usize| half_area(binary[k].lo, binary[k].hi);
+                area(*a.1).total_cmp(&area(*b.1))
+            })
+            .map(|(i, _)| i);
+        let Some(i) = open else { break };
+        let left = binary[kids[i]].first as usize;
+        kids[i] = left;
+        kids.push(left + 1);
+    }
+    let mut node = out[at];
+    node.lanes = kids.len() as u32;
+    for (lane, &k) in kids.iter().enumerate() {
+        let b = &binary[k];
+        for a in 0..3 {
+            node.lo[a][lane] = b.lo[a];
+            node.hi[a][lane] = b.hi[a];
+        }
+        node.child[lane] = if b.count > 0 {
+            Child::leaf(b.first, b.count)
+        } else {
+            let l = b.first as usize;
+            collapse(binary, &[l, l + 1], out)
+        };
+    }
+    out[at] = node;
+    at as u32
 }
 
 /// Half the surface area of a box (the SAH's measure).
@@ -545,45 +728,157 @@ mod tests {
     /// hit skipped) is the nearest of all the triangles, by brute force.
     #[test]
     fn nearest_is_the_brute_force_nearest() {
-        let mut seed = 7u64;
-        let mut r = move || {
-            seed = seed
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            (seed >> 40) as f32 / (1u64 << 24) as f32
-        };
-        let mut tris = Vec::new();
-        for _ in 0..500 {
-            let c = Vec3A::new(r(), r(), r()) * 10.0;
-            let e = |r: &mut dyn FnMut() -> f32| Vec3A::new(r() - 0.5, r() - 0.5, r() - 0.5) * 4.0;
-            tris.push([c, c + e(&mut r), c + e(&mut r)]);
-        }
+        let mut r = lcg(7);
+        let tris = soup(&mut r, 3000);
         let bvh = Bvh::new(&tris);
         let mut hits = 0;
-        for _ in 0..2000 {
+        for _ in 0..3000 {
             let o = Vec3A::new(r(), r(), r()) * 10.0;
             let d = Vec3A::new(r() - 0.5, r() - 0.5, r() - 0.5).normalize();
             let brute = tris
                 .iter()
                 .enumerate()
                 .filter_map(|(i, t)| {
-                    let tri = Tri {
-                        v0: t[0],
-                        e1: t[1] - t[0],
-                        e2: t[2] - t[0],
-                    };
-                    hit_t(&tri, o, d, 0.0, f32::INFINITY).map(|t| (t, i as u32))
+                    hit_t(&stored(t), o, d, 0.0, f32::INFINITY).map(|t| (t, i as u32))
                 })
                 .min_by(|a, b| a.0.total_cmp(&b.0));
             let got = bvh.nearest(o, d, 0.0, f32::INFINITY);
-            assert_eq!(
-                got.map(|g| g.1),
-                brute.map(|b| b.1),
-                "ray from {o} along {d}"
-            );
+            // The same distance on the same triangle (or one of its stacked copies).
+            assert_eq!(got.map(|g| g.0), brute.map(|b| b.0), "ray from {o} along {d}");
+            if let (Some(g), Some(b)) = (got, brute) {
+                assert_eq!(tris[g.1 as usize], tris[b.1 as usize]);
+            }
             hits += usize::from(got.is_some());
         }
         // Most rays meet something, so the check is not vacuous.
-        assert!(hits > 1000, "{hits} hits");
+        assert!(hits > 1500, "{hits} hits");
+    }
+
+    fn lcg(seed: u64) -> impl FnMut() -> f32 {
+        let mut seed = seed;
+        move || {
+            seed = seed
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (seed >> 40) as f32 / (1u64 << 24) as f32
+        }
+    }
+
+    /// Random triangles in a 10 m cube, some large, and a stack of 40 copies of one
+    /// triangle (centroids on one point: the build must still bound its leaves).
+    fn soup(r: &mut impl FnMut() -> f32, n: usize) -> Vec<[Vec3A; 3]> {
+        let mut tris = Vec::new();
+        for k in 0..n {
+            let c = Vec3A::new(r(), r(), r()) * 10.0;
+            let size = if k % 50 == 0 { 8.0 } else { 1.5 };
+            let mut e = || Vec3A::new(r() - 0.5, r() - 0.5, r() - 0.5) * size;
+            tris.push([c, c + e(), c + e()]);
+        }
+        let t = tris[0];
+        tris.extend(std::iter::repeat_n(t, 40));
+        tris
+    }
+
+    fn stored(t: &[Vec3A; 3]) -> Tri {
+        Tri {
+            v0: t[0],
+            e1: t[1] - t[0],
+            e2: t[2] - t[0],
+        }
+    }
+
+    /// Occlusion and every crossing of a segment agree with testing every triangle, on a
+    /// tree of several levels of 8-wide nodes.
+    #[test]
+    fn occlusion_and_crossings_are_the_brute_force_ones() {
+        let mut r = lcg(11);
+        let tris = soup(&mut r, 3000);
+        let bvh = Bvh::new(&tris);
+        assert!(bvh.nodes.len() > 50, "{} wide nodes", bvh.nodes.len());
+        let (mut blocked, mut crossings) = (0, 0);
+        for _ in 0..3000 {
+            let a = Vec3A::new(r(), r(), r()) * 12.0 - 1.0;
+            let b = Vec3A::new(r(), r(), r()) * 12.0 - 1.0;
+            let d = b - a;
+            let mut brute: Vec<u32> = (0..tris.len() as u32)
+                .filter(|&i| hit_t(&stored(&tris[i as usize]), a, d, 1e-5, 1.0 - 1e-5).is_some())
+                .collect();
+            let skip = [brute.first().copied().unwrap_or(u32::MAX), u32::MAX];
+            let brute_blocked = brute.iter().any(|&i| i != skip[0]);
+            assert_eq!(bvh.occluded(a, b, skip), brute_blocked, "{a} → {b}");
+            let mut got = Vec::new();
+            bvh.each_hit(a, b, |id, _| got.push(id));
+            got.sort_unstable();
+            brute.sort_unstable();
+            assert_eq!(got, brute, "{a} → {b}");
+            blocked += usize::from(brute_blocked);
+            crossings += brute.len();
+        }
+        assert!(blocked > 500 && blocked < 2900, "{blocked} blocked");
+        assert!(crossings > 3000, "{crossings} crossings");
+    }
+
+    /// Every triangle whose box overlaps a query box is reported once, and no other.
+    #[test]
+    fn overlapping_is_the_brute_force_overlap() {
+        let mut r = lcg(5);
+        let tris = soup(&mut r, 2000);
+        let bvh = Bvh::new(&tris);
+        for _ in 0..300 {
+            let c = Vec3A::new(r(), r(), r()) * 10.0;
+            let h = Vec3A::new(r(), r(), r()) * 1.5;
+            let (lo, hi) = (c - h, c + h);
+            let mut got = Vec::new();
+            bvh.overlapping(lo, hi, &mut got);
+            got.sort_unstable();
+            let brute: Vec<u32> = (0..tris.len() as u32)
+                .filter(|&i| {
+                    let t = tris[i as usize];
+                    let (tl, th) = (t[0].min(t[1]).min(t[2]), t[0].max(t[1]).max(t[2]));
+                    tl.cmple(hi).all() && lo.cmple(th).all()
+                })
+                .collect();
+            assert_eq!(got, brute);
+        }
+    }
+
+    /// The vector box test and the lane-by-lane one agree on every lane, rays parallel to
+    /// an axis and through box faces included.
+    #[test]
+    fn the_vector_box_test_is_the_lane_by_lane_one() {
+        let mut r = lcg(9);
+        let mut node = Wide {
+            lo: [[0.0; WIDTH]; 3],
+            hi: [[0.0; WIDTH]; 3],
+            child: [0; WIDTH],
+            lanes: 7,
+        };
+        let mut met = 0;
+        for k in 0..20_000 {
+            for lane in 0..WIDTH {
+                for a in 0..3 {
+                    let (x, y) = ((r() * 4.0).round() - 2.0, (r() * 4.0).round() - 2.0);
+                    node.lo[a][lane] = x.min(y);
+                    node.hi[a][lane] = x.max(y);
+                }
+            }
+            let o = Vec3A::new((r() * 4.0).round() - 2.0, r() * 4.0 - 2.0, r() - 0.5);
+            let mut d = Vec3A::new(r() - 0.5, r() - 0.5, r() - 0.5);
+            if k % 3 == 0 {
+                d.x = 0.0;
+            }
+            let ray = Ray8::new(o, d.recip());
+            let (m1, t1) = enter8(&node, &ray, 0.0, 3.0);
+            let (m2, t2) = enter8_lanes(&node, &ray, 0.0, 3.0);
+            assert_eq!(m1, m2, "{o} {d}");
+            for lane in 0..WIDTH {
+                if m1 & (1 << lane) != 0 {
+                    assert_eq!(t1[lane], t2[lane]);
+                }
+            }
+            assert_eq!(m1 >> 7, 0, "an unused lane is never entered");
+            met += m1.count_ones();
+        }
+        assert!(met > 10_000, "{met} boxes met");
     }
 }
