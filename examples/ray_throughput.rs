@@ -2,7 +2,8 @@
 //! - any-hit (`occluded`): segments between random points of random patches, as the form
 //!   factors, links and shadow rays trace them, on the scene BVH ([`relight::bench::ray_throughput`]);
 //! - nearest hit (`nearest`): cosine-weighted rays from random points of random patches,
-//!   as the final gather traces them, on the patch BVH.
+//!   as the final gather traces them, on the patch BVH, and the same rays on the scene
+//!   BVH.
 //!
 //! `cargo run --release --example ray_throughput [SCENE_DIR] [RAYS]` (default
 //! `scenes/office-floor`, a million rays). The scene is meshed, not baked.
@@ -26,10 +27,12 @@ fn main() {
     let patches = patch_bvh(&mesh);
     let patch_build = t.elapsed().as_secs_f64();
     let nearest = relight::bench::nearest_throughput(&mesh, &patches, rays);
+    let scene_nearest = relight::bench::nearest_throughput(&mesh, &bvh, rays);
     println!(
         "{{\"scene\": \"{dir}\", \"triangles\": {}, \"patches\": {}, \
          \"scene_bvh_build_s\": {scene_build:.3}, \"patch_bvh_build_s\": {patch_build:.3}, \
-         \"any_hit_mrays_per_core\": {any_hit:.2}, \"nearest_mrays_per_core\": {nearest:.2}}}",
+         \"any_hit_mrays_per_core\": {any_hit:.2}, \"nearest_mrays_per_core\": {nearest:.2}, \
+         \"nearest_scene_bvh_mrays_per_core\": {scene_nearest:.2}}}",
         scene.triangles.len(),
         mesh.len()
     );

@@ -45,7 +45,8 @@ struct Wide {
 }
 
 /// A child code of a [`Wide`] node: the top bit marks a leaf, whose next 4 bits hold its
-/// triangle count less one and whose low 27 bits its first triangle.
+/// triangle count less one and whose low 27 bits its first [`Tri4`] block. A leaf's
+/// triangles fill consecutive blocks, the last one padded.
 struct Child;
 
 impl Child {
@@ -53,7 +54,7 @@ impl Child {
     const FIRST_BITS: u32 = 27;
     /// Triangles a leaf may hold.
     const MAX_COUNT: u32 = 16;
-    /// Triangles a tree may hold (a leaf's first triangle must fit its 27 bits).
+    /// Triangles a tree may hold (a leaf's first block must fit its 27 bits).
     const MAX_TRIANGLES: usize = 1 << Self::FIRST_BITS;
 
     fn leaf(first: u32, count: u32) -> u32 {
@@ -61,30 +62,52 @@ impl Child {
         Self::LEAF | ((count - 1) << Self::FIRST_BITS) | first
     }
 
-    /// The triangles of a leaf code, or None for an inner node's.
+    /// A leaf code's first block and triangle count, or None for an inner node's.
     #[inline(always)]
-    fn triangles(code: u32) -> Option<std::ops::Range<usize>> {
+    fn triangles(code: u32) -> Option<(usize, usize)> {
         (code & Self::LEAF != 0).then(|| {
             let first = (code & ((1 << Self::FIRST_BITS) - 1)) as usize;
             let count = ((code >> Self::FIRST_BITS) & 0xf) as usize + 1;
-            first..first + count
+            (first, count)
         })
     }
 }
 
-#[derive(Clone, Copy, Debug)]
-struct Tri {
-    v0: Vec3A,
-    e1: Vec3A,
-    e2: Vec3A,
+/// Four triangles, lane by lane: a corner and the two edges from it, by axis. Padding
+/// lanes hold a degenerate triangle, which no ray meets.
+#[derive(Clone, Copy, Debug, Default)]
+#[repr(C, align(16))]
+struct Tri4 {
+    v0: [[f32; 4]; 3],
+    e1: [[f32; 4]; 3],
+    e2: [[f32; 4]; 3],
+}
+
+impl Tri4 {
+    fn set(&mut self, lane: usize, t: &[Vec3A; 3]) {
+        let (e1, e2) = (t[1] - t[0], t[2] - t[0]);
+        for a in 0..3 {
+            self.v0[a][lane] = t[0][a];
+            self.e1[a][lane] = e1[a];
+            self.e2[a][lane] = e2[a];
+        }
+    }
+
+    /// The corners of the triangle in `lane` (as stored: the first corner plus edges).
+    fn corners(&self, lane: usize) -> [Vec3A; 3] {
+        let get = |m: &[[f32; 4]; 3]| Vec3A::new(m[0][lane], m[1][lane], m[2][lane]);
+        let v0 = get(&self.v0);
+        [v0, v0 + get(&self.e1), v0 + get(&self.e2)]
+    }
 }
 
 /// A BVH over triangles given as corner triples.
 pub struct Bvh {
     /// The collapsed tree; the root is the first node (none without triangles).
     nodes: Vec<Wide>,
-    tris: Vec<Tri>,
-    /// Caller's index of each stored triangle.
+    /// The leaves' triangles, four to a block.
+    blocks: Vec<Tri4>,
+    /// Caller's index of each stored triangle (block · 4 + lane); `u32::MAX` on padding.
     ids: Vec<u32>,
 }
 
@@ -193,34 +216,30 @@ impl Bvh {
             count: 0,
         });
         let mut nodes = Vec::new();
+        let mut leaves = Leaves {
+            tris,
+            order: &[],
+            blocks: Vec::with_capacity(tris.len() / 2),
+            ids: Vec::with_capacity(tris.len() * 2),
+        };
         if !tris.is_empty() {
             build(&mut binary, 0, &mut ids, 0, &cent, &lo, &hi);
-            collapse(&binary, &[0], &mut nodes);
+            leaves.order = &ids;
+            collapse(&binary, &[0], &mut nodes, &mut leaves);
         }
-        let stored = ids
-            .iter()
-            .map(|&i| {
-                let t = tris[i as usize];
-                Tri {
-                    v0: t[0],
-                    e1: t[1] - t[0],
-                    e2: t[2] - t[0],
-                }
-            })
-            .collect();
         Bvh {
             nodes,
-            tris: stored,
-            ids,
+            blocks: leaves.blocks,
+            ids: leaves.ids,
         }
     }
 
     /// True when some triangle other than `skip` blocks the open segment `from → to`.
     /// The segment's ends are trimmed by `1e-5` of its length.
     pub fn occluded(&self, from: Vec3A, to: Vec3A, skip: [u32; 2]) -> bool {
-        self.along(from, to, |k, tri, d, (tmin, tmax)| {
+        self.along(from, to, |k, _| {
             let id = self.ids[k];
-            id != skip[0] && id != skip[1] && hit(tri, from, d, tmin, tmax)
+            id != skip[0] && id != skip[1]
         })
     }
 
@@ -228,53 +247,42 @@ impl Bvh {
     /// where (the parameter along the segment, 0..1; ends trimmed as in
     /// [`Bvh::occluded`]). A segment through an edge shared by two triangles meets both.
     pub fn each_hit(&self, from: Vec3A, to: Vec3A, mut f: impl FnMut(u32, f32)) {
-        self.along(from, to, |k, tri, d, (tmin, tmax)| {
-            if let Some(t) = hit_t(tri, from, d, tmin, tmax) {
-                f(self.ids[k], t);
-            }
+        self.along(from, to, |k, t| {
+            f(self.ids[k], t);
             false
         });
     }
 
-    /// Visits the stored triangles in the leaves the segment `from → to` (ends trimmed by
-    /// `1e-5` of its length) passes through, as `visit(index, triangle, direction,
-    /// (tmin, tmax))`, until `visit` returns true; whether it did.
+    /// Calls `visit(index, t)` for the stored triangles the segment `from → to` (ends
+    /// trimmed by `1e-5` of its length) crosses, until it returns true; whether it did.
     #[inline(always)]
-    fn along(
-        &self,
-        from: Vec3A,
-        to: Vec3A,
-        mut visit: impl FnMut(usize, &Tri, Vec3A, (f32, f32)) -> bool,
-    ) -> bool {
-        let d = to - from;
-        let (tmin, tmax) = (1e-5f32, 1.0 - 1e-5f32);
-        self.traverse_ray(
-            from,
-            d.recip(),
-            tmin,
-            || tmax,
-            |k| visit(k, &self.tris[k], d, (tmin, tmax)),
-        )
+    fn along(&self, from: Vec3A, to: Vec3A, visit: impl FnMut(usize, f32) -> bool) -> bool {
+        self.traverse_ray(from, to - from, 1e-5, || 1.0 - 1e-5, visit)
     }
 
-    /// Depth first through the nodes whose box the ray `o + t·d` (`inv` = 1/d) enters
-    /// within `(tmin, far())`, the nearer children first, calling `visit` with the index
-    /// of every stored triangle in the leaves reached, until it returns true; whether it
-    /// did. `far` may shrink as triangles are visited (a nearest-hit query): boxes entered
-    /// past it are skipped.
+    /// Depth first through the nodes whose box the ray `o + t·d` enters within
+    /// `(tmin, far())`, the nearer children first, calling `visit(index, t)` for every
+    /// stored triangle in the leaves reached that the ray meets within `(tmin, far())`,
+    /// until it returns true; whether it did. `far` may shrink as triangles are visited
+    /// (a nearest-hit query): boxes entered past it are skipped, and `visit` sees the
+    /// hits of a block of four tested against the `far` before it.
     #[inline(always)]
     fn traverse_ray(
         &self,
         o: Vec3A,
-        inv: Vec3A,
+        d: Vec3A,
         tmin: f32,
         far: impl Fn() -> f32,
-        mut visit: impl FnMut(usize) -> bool,
+        mut visit: impl FnMut(usize, f32) -> bool,
     ) -> bool {
         if self.nodes.is_empty() {
             return false;
         }
-        let ray = Ray8::new(o, inv);
+        let ray = Ray8::new(o, d.recip());
+        let tri_ray = TriRay {
+            o: o.to_array(),
+            d: d.to_array(),
+        };
         // Pending children (codes) and where the ray enters them, the nearest on top.
         let mut stack = [(0u32, 0f32); STACK];
         let mut spill: Vec<(u32, f32)> = Vec::new();
@@ -321,10 +329,19 @@ impl Bvh {
                     continue;
                 }
                 match Child::triangles(code) {
-                    Some(range) => {
-                        for k in range {
-                            if visit(k) {
-                                return true;
+                    Some((first, count)) => {
+                        for (j, block) in self.blocks[first..first + count.div_ceil(4)]
+                            .iter()
+                            .enumerate()
+                        {
+                            let (mut hits, t) = hit4(block, &tri_ray, tmin, far());
+                            hits &= (1 << (count - 4 * j).min(4)) - 1;
+                            while hits != 0 {
+                                let lane = hits.trailing_zeros() as usize;
+                                hits &= hits - 1;
+                                if visit(4 * (first + j) + lane, t[lane]) {
+                                    return true;
+                                }
                             }
                         }
                     }
@@ -360,8 +377,8 @@ impl Bvh {
                     continue;
                 }
                 match Child::triangles(n.child[lane]) {
-                    Some(range) => {
-                        for k in range {
+                    Some((first, count)) => {
+                        for k in 4 * first..4 * first + count {
                             if visit(k) {
                                 return true;
                             }
@@ -383,8 +400,7 @@ impl Bvh {
         self.traverse(
             |nlo, nhi| nlo.cmple(hi).all() && lo.cmple(nhi).all(),
             |k| {
-                let t = &self.tris[k];
-                let (a, b, c) = (t.v0, t.v0 + t.e1, t.v0 + t.e2);
+                let [a, b, c] = self.blocks[k / 4].corners(k % 4);
                 if a.min(b).min(c).cmple(hi).all() && lo.cmple(a.max(b).max(c)).all() {
                     out.push(self.ids[k]);
                 }
@@ -396,17 +412,16 @@ impl Bvh {
     /// Distance parameter of the nearest hit along `from + t·d`, t in (tmin, tmax), with
     /// the id of the triangle hit.
     pub fn nearest(&self, from: Vec3A, d: Vec3A, tmin: f32, tmax: f32) -> Option<(f32, u32)> {
-        let inv = d.recip();
         let mut best: Option<(f32, u32)> = None;
         // The far end shrinks to each hit; the box test sees it.
         let tmax = std::cell::Cell::new(tmax);
         self.traverse_ray(
             from,
-            inv,
+            d,
             tmin,
             || tmax.get(),
-            |k| {
-                if let Some(t) = hit_t(&self.tris[k], from, d, tmin, tmax.get()) {
+            |k, t| {
+                if t < tmax.get() {
                     tmax.set(t);
                     best = Some((t, self.ids[k]));
                 }
@@ -428,19 +443,18 @@ impl Bvh {
         rank: impl Fn(u32) -> u8,
     ) -> Option<(f32, u32)> {
         const TIE: f32 = 1e-5;
-        let inv = d.recip();
         let mut best: Option<(f32, u32, u8)> = None;
         let far = std::cell::Cell::new(tmax);
+        let limit = || (far.get() * (1.0 + TIE)).min(tmax);
         self.traverse_ray(
             from,
-            inv,
+            d,
             tmin,
-            || far.get() * (1.0 + TIE),
-            |k| {
-                let limit = (far.get() * (1.0 + TIE)).min(tmax);
-                let Some(t) = hit_t(&self.tris[k], from, d, tmin, limit) else {
+            limit,
+            |k, t| {
+                if t >= limit() {
                     return false;
-                };
+                }
                 let id = self.ids[k];
                 let r = rank(id);
                 if r == 0 {
@@ -463,32 +477,150 @@ impl Bvh {
     }
 }
 
-#[inline]
-fn hit_t(t: &Tri, o: Vec3A, d: Vec3A, tmin: f32, tmax: f32) -> Option<f32> {
-    let p = d.cross(t.e2);
-    let det = t.e1.dot(p);
-    if det.abs() < 1e-20 {
-        return None;
-    }
-    let inv = 1.0 / det;
-    let s = o - t.v0;
-    let u = s.dot(p) * inv;
-    const E: f32 = 1e-6;
-    if !(-E..=1.0 + E).contains(&u) {
-        return None;
-    }
-    let q = s.cross(t.e1);
-    let v = d.dot(q) * inv;
-    if v < -E || u + v > 1.0 + E {
-        return None;
-    }
-    let tt = t.e2.dot(q) * inv;
-    (tt > tmin && tt < tmax).then_some(tt)
+/// A ray prepared for the triangle tests.
+#[derive(Clone, Copy)]
+struct TriRay {
+    o: [f32; 3],
+    d: [f32; 3],
 }
 
-#[inline]
-fn hit(t: &Tri, o: Vec3A, d: Vec3A, tmin: f32, tmax: f32) -> bool {
-    hit_t(t, o, d, tmin, tmax).is_some()
+/// Barycentric slack of the triangle test: rays through a shared edge meet both sides.
+const EDGE: f32 = 1e-6;
+
+/// Where the ray meets each triangle of a block within `(tmin, tmax)` (Möller–Trumbore),
+/// and the mask of lanes it meets. Each lane computes exactly what [`hit_lane`] does.
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+fn hit4(b: &Tri4, r: &TriRay, tmin: f32, tmax: f32) -> (u32, [f32; 4]) {
+    use std::arch::x86_64::*;
+    // SAFETY: SSE is part of every x86-64; the loads read 4 f32 from 16-byte aligned
+    // arrays of 4 (`Tri4` is `align(16)` and its rows are 16 bytes).
+    unsafe {
+        let ld = |a: &[f32; 4]| _mm_load_ps(a.as_ptr());
+        let (mul, add, sub) = (
+            |a, b| _mm_mul_ps(a, b),
+            |a, b| _mm_add_ps(a, b),
+            |a, b| _mm_sub_ps(a, b),
+        );
+        let dot = |a: [__m128; 3], b: [__m128; 3]| {
+            add(add(mul(a[0], b[0]), mul(a[1], b[1])), mul(a[2], b[2]))
+        };
+        let cross = |a: [__m128; 3], b: [__m128; 3]| {
+            [
+                sub(mul(a[1], b[2]), mul(a[2], b[1])),
+                sub(mul(a[2], b[0]), mul(a[0], b[2])),
+                sub(mul(a[0], b[1]), mul(a[1], b[0])),
+            ]
+        };
+        let d = r.d.map(|x| _mm_set1_ps(x));
+        let v0 = [ld(&b.v0[0]), ld(&b.v0[1]), ld(&b.v0[2])];
+        let e1 = [ld(&b.e1[0]), ld(&b.e1[1]), ld(&b.e1[2])];
+        let e2 = [ld(&b.e2[0]), ld(&b.e2[1]), ld(&b.e2[2])];
+        let p = cross(d, e2);
+        let det = dot(e1, p);
+        let inv = _mm_div_ps(_mm_set1_ps(1.0), det);
+        let s = [
+            sub(_mm_set1_ps(r.o[0]), v0[0]),
+            sub(_mm_set1_ps(r.o[1]), v0[1]),
+            sub(_mm_set1_ps(r.o[2]), v0[2]),
+        ];
+        let u = mul(dot(s, p), inv);
+        let q = cross(s, e1);
+        let v = mul(dot(d, q), inv);
+        let t = mul(dot(e2, q), inv);
+        let abs_det = _mm_andnot_ps(_mm_set1_ps(-0.0), det);
+        let lo = _mm_set1_ps(-EDGE);
+        let hi = _mm_set1_ps(1.0 + EDGE);
+        let ok = _mm_and_ps(
+            _mm_and_ps(
+                _mm_cmpge_ps(abs_det, _mm_set1_ps(1e-20)),
+                _mm_and_ps(_mm_cmpge_ps(u, lo), _mm_cmple_ps(u, hi)),
+            ),
+            _mm_and_ps(
+                _mm_and_ps(_mm_cmpge_ps(v, lo), _mm_cmple_ps(add(u, v), hi)),
+                _mm_and_ps(
+                    _mm_cmpgt_ps(t, _mm_set1_ps(tmin)),
+                    _mm_cmplt_ps(t, _mm_set1_ps(tmax)),
+                ),
+            ),
+        );
+        let mut out = [0f32; 4];
+        _mm_storeu_ps(out.as_mut_ptr(), t);
+        (_mm_movemask_ps(ok) as u32, out)
+    }
+}
+
+#[cfg(not(target_arch = "x86_64"))]
+#[inline(always)]
+fn hit4(b: &Tri4, r: &TriRay, tmin: f32, tmax: f32) -> (u32, [f32; 4]) {
+    let mut out = [0f32; 4];
+    let mut hits = 0;
+    for (lane, out) in out.iter_mut().enumerate() {
+        if let Some(t) = hit_lane(b, lane, r, tmin, tmax) {
+            *out = t;
+            hits |= 1 << lane;
+        }
+    }
+    (hits, out)
+}
+
+/// [`hit4`] for one lane, with the same operations in the same order.
+#[cfg_attr(target_arch = "x86_64", allow(dead_code))]
+fn hit_lane(b: &Tri4, lane: usize, r: &TriRay, tmin: f32, tmax: f32) -> Option<f32> {
+    let get = |m: &[[f32; 4]; 3]| [m[0][lane], m[1][lane], m[2][lane]];
+    let dot = |a: [f32; 3], b: [f32; 3]| a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+    let cross = |a: [f32; 3], b: [f32; 3]| {
+        [
+            a[1] * b[2] - a[2] * b[1],
+            a[2] * b[0] - a[0] * b[2],
+            a[0] * b[1] - a[1] * b[0],
+        ]
+    };
+    let (v0, e1, e2, d) = (get(&b.v0), get(&b.e1), get(&b.e2), r.d);
+    let p = cross(d, e2);
+    let det = dot(e1, p);
+    let inv = 1.0 / det;
+    let s = [r.o[0] - v0[0], r.o[1] - v0[1], r.o[2] - v0[2]];
+    let u = dot(s, p) * inv;
+    let q = cross(s, e1);
+    let v = dot(d, q) * inv;
+    let t = dot(e2, q) * inv;
+    let ok = det.abs() >= 1e-20
+        && u >= -EDGE
+        && u <= 1.0 + EDGE
+        && v >= -EDGE
+        && u + v <= 1.0 + EDGE
+        && t > tmin
+        && t < tmax;
+    ok.then_some(t)
+}
+
+/// The leaves' triangles as the collapse lays them out.
+struct Leaves<'a> {
+    tris: &'a [[Vec3A; 3]],
+    /// The build's order of the triangles (a leaf holds a run of it).
+    order: &'a [u32],
+    blocks: Vec<Tri4>,
+    ids: Vec<u32>,
+}
+
+impl Leaves<'_> {
+    /// Stores the leaf `order[first..first + count]` in new blocks; its child code.
+    fn add(&mut self, first: u32, count: u32) -> u32 {
+        let at = self.blocks.len();
+        let run = &self.order[first as usize..(first + count) as usize];
+        for chunk in run.chunks(4) {
+            let mut block = Tri4::default();
+            for (lane, &i) in chunk.iter().enumerate() {
+                block.set(lane, &self.tris[i as usize]);
+            }
+            self.blocks.push(block);
+            self.ids.extend(chunk);
+            self.ids
+                .extend(std::iter::repeat_n(u32::MAX, 4 - chunk.len()));
+        }
+        Child::leaf(at as u32, count)
+    }
 }
 
 fn build(
@@ -582,10 +714,11 @@ fn build(
 }
 
 /// Collapses the binary subtrees `roots` (at most [`WIDTH`]) into one wide node appended
-/// to `out`, and their descendants below it; the new node's index. Each child opens the
+/// to `out`, and their descendants below it, the leaves' triangles into `leaves`; the new
+/// node's index. Each child opens the
 /// inner binary node of largest surface area among its children until it has 8, so a
 /// wide node takes the place of about three binary levels.
-fn collapse(binary: &[Node], roots: &[usize], out: &mut Vec<Wide>) -> u32 {
+fn collapse(binary: &[Node], roots: &[usize], out: &mut Vec<Wide>, leaves: &mut Leaves) -> u32 {
     let at = out.len();
     out.push(Wide {
         lo: [[f32::INFINITY; WIDTH]; 3],
@@ -618,10 +751,10 @@ fn collapse(binary: &[Node], roots: &[usize], out: &mut Vec<Wide>) -> u32 {
             node.hi[a][lane] = b.hi[a];
         }
         node.child[lane] = if b.count > 0 {
-            Child::leaf(b.first, b.count)
+            leaves.add(b.first, b.count)
         } else {
             let l = b.first as usize;
-            collapse(binary, &[l, l + 1], out)
+            collapse(binary, &[l, l + 1], out, leaves)
         };
     }
     out[at] = node;
@@ -739,7 +872,7 @@ mod tests {
                 .iter()
                 .enumerate()
                 .filter_map(|(i, t)| {
-                    hit_t(&stored(t), o, d, 0.0, f32::INFINITY).map(|t| (t, i as u32))
+                    hit_t(t, o, d, 0.0, f32::INFINITY).map(|t| (t, i as u32))
                 })
                 .min_by(|a, b| a.0.total_cmp(&b.0));
             let got = bvh.nearest(o, d, 0.0, f32::INFINITY);
@@ -779,12 +912,15 @@ mod tests {
         tris
     }
 
-    fn stored(t: &[Vec3A; 3]) -> Tri {
-        Tri {
-            v0: t[0],
-            e1: t[1] - t[0],
-            e2: t[2] - t[0],
-        }
+    /// The lane-by-lane triangle test on one triangle: the brute-force reference.
+    fn hit_t(t: &[Vec3A; 3], o: Vec3A, d: Vec3A, tmin: f32, tmax: f32) -> Option<f32> {
+        let mut block = Tri4::default();
+        block.set(0, t);
+        let ray = TriRay {
+            o: o.to_array(),
+            d: d.to_array(),
+        };
+        hit_lane(&block, 0, &ray, tmin, tmax)
     }
 
     /// Occlusion and every crossing of a segment agree with testing every triangle, on a
@@ -801,7 +937,7 @@ mod tests {
             let b = Vec3A::new(r(), r(), r()) * 12.0 - 1.0;
             let d = b - a;
             let mut brute: Vec<u32> = (0..tris.len() as u32)
-                .filter(|&i| hit_t(&stored(&tris[i as usize]), a, d, 1e-5, 1.0 - 1e-5).is_some())
+                .filter(|&i| hit_t(&tris[i as usize], a, d, 1e-5, 1.0 - 1e-5).is_some())
                 .collect();
             let skip = [brute.first().copied().unwrap_or(u32::MAX), u32::MAX];
             let brute_blocked = brute.iter().any(|&i| i != skip[0]);
@@ -880,5 +1016,37 @@ mod tests {
             met += m1.count_ones();
         }
         assert!(met > 10_000, "{met} boxes met");
+    }
+
+    /// The vector triangle test and the lane-by-lane one agree on every lane.
+    #[test]
+    fn the_vector_triangle_test_is_the_lane_by_lane_one() {
+        let mut r = lcg(13);
+        let mut met = 0;
+        for _ in 0..20_000 {
+            let mut block = Tri4::default();
+            for lane in 0..4 {
+                let c = Vec3A::new(r(), r(), r()) * 2.0 - 1.0;
+                let mut e = || Vec3A::new(r() - 0.5, r() - 0.5, r() - 0.5) * 2.0;
+                block.set(lane, &[c, c + e(), c + e()]);
+            }
+            // From a random point toward a point near the first triangle's first corner.
+            let o = Vec3A::new(r(), r(), r()) * 4.0 - 2.0;
+            let aim = Vec3A::from(block.corners(0)[0]) + Vec3A::new(r(), r(), r()) * 0.5;
+            let ray = TriRay {
+                o: o.to_array(),
+                d: (aim - o).to_array(),
+            };
+            let (mask, t) = hit4(&block, &ray, 0.0, 4.0);
+            for (lane, &t) in t.iter().enumerate() {
+                let one = hit_lane(&block, lane, &ray, 0.0, 4.0);
+                assert_eq!(mask & (1 << lane) != 0, one.is_some());
+                if let Some(one) = one {
+                    assert_eq!(t, one);
+                    met += 1;
+                }
+            }
+        }
+        assert!(met > 2_000, "{met} triangles met");
     }
 }
