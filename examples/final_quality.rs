@@ -8,7 +8,7 @@ use std::time::Instant;
 use relight::bake::{load_or_bake, BakeOptions, CachePolicy};
 use relight::color::Rgb;
 use relight::model::{Cancel, Model};
-use relight::render::final_gather::patch_bvh;
+use relight::render::final_gather::patch_locator;
 use relight::render::pipeline::final_images;
 use relight::render::{Camera, Shading};
 
@@ -23,7 +23,7 @@ fn main() {
     let m = Model::new(b);
     let shading = Shading::new(&m.baked.mesh);
     let t0 = Instant::now();
-    let patches = patch_bvh(&m.baked.mesh);
+    let patches = patch_locator(&m.baked.mesh, &m.baked.scene.triangles);
     let bvh_ms = t0.elapsed().as_secs_f64() * 1e3;
     let cam = Camera::from_def(&m.baked.scene.cameras[0], side as u32, side as u32);
     let t0 = Instant::now();
@@ -83,7 +83,7 @@ fn main() {
         (num / den).sqrt()
     };
     println!(
-        "{{\"side\": {side}, \"patch_bvh_ms\": {bvh_ms:.1}, \"build_s\": {build_s:.2}, \
+        "{{\"side\": {side}, \"patch_locator_ms\": {bvh_ms:.1}, \"build_s\": {build_s:.2}, \
          \"relight_ms\": {relight_ms:.2}, \"rel_rmse_light_out\": {:.4}, \
          \"rel_rmse_light_and_rim_out\": {:.4}, \"linearity\": {lin:.1e}, \"bytes\": {}}}",
         rmse(&|x, y| light[y * 256 + x]),

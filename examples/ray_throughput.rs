@@ -1,22 +1,24 @@
 //! Ray throughput of one core on a scene's BVHs, millions of rays per second:
 //! - any-hit (`occluded`): segments between random points of random patches, as the form
 //!   factors, links and shadow rays trace them, on the scene BVH ([`relight::bench::ray_throughput`]);
-//! - nearest hit (`nearest`): cosine-weighted rays from random points of random patches,
-//!   as the final gather traces them, on the patch BVH, and the same rays on the scene
-//!   BVH.
+//! - nearest hit: cosine-weighted rays from random points of random patches, as the final
+//!   gather traces them (the scene BVH, then the patch under the hit).
 //!
 //! `cargo run --release --example ray_throughput [SCENE_DIR] [RAYS]` (default
 //! `scenes/office-floor`, a million rays). The scene is meshed, not baked.
 
 use relight::bake::scene_bvh;
 use relight::geometry::mesh::Mesh;
-use relight::render::final_gather::patch_bvh;
+use relight::render::final_gather::patch_locator;
 use relight::scene::Scene;
 
 fn main() {
     let mut args = std::env::args().skip(1);
     let dir = args.next().unwrap_or_else(|| "scenes/office-floor".into());
-    let rays: usize = args.next().and_then(|s| s.parse().ok()).unwrap_or(1_000_000);
+    let rays: usize = args
+        .next()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(1_000_000);
     let scene = Scene::load(std::path::Path::new(&dir)).expect("the scene loads");
     let mesh = Mesh::build(&scene);
     let t = std::time::Instant::now();
@@ -24,15 +26,13 @@ fn main() {
     let scene_build = t.elapsed().as_secs_f64();
     let any_hit = relight::bench::ray_throughput(&mesh, &bvh, rays);
     let t = std::time::Instant::now();
-    let patches = patch_bvh(&mesh);
-    let patch_build = t.elapsed().as_secs_f64();
-    let nearest = relight::bench::nearest_throughput(&mesh, &patches, rays);
-    let scene_nearest = relight::bench::nearest_throughput(&mesh, &bvh, rays);
+    let patches = patch_locator(&mesh, &scene.triangles);
+    let locator_build = t.elapsed().as_secs_f64();
+    let nearest = relight::bench::nearest_throughput(&mesh, &bvh, &patches, rays);
     println!(
         "{{\"scene\": \"{dir}\", \"triangles\": {}, \"patches\": {}, \
-         \"scene_bvh_build_s\": {scene_build:.3}, \"patch_bvh_build_s\": {patch_build:.3}, \
-         \"any_hit_mrays_per_core\": {any_hit:.2}, \"nearest_mrays_per_core\": {nearest:.2}, \
-         \"nearest_scene_bvh_mrays_per_core\": {scene_nearest:.2}}}",
+         \"scene_bvh_build_s\": {scene_build:.3}, \"patch_locator_build_s\": {locator_build:.3}, \
+         \"any_hit_mrays_per_core\": {any_hit:.2}, \"nearest_mrays_per_core\": {nearest:.2}}}",
         scene.triangles.len(),
         mesh.len()
     );

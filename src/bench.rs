@@ -64,14 +64,20 @@ pub fn ray_throughput(mesh: &Mesh, bvh: &Bvh, rays: usize) -> f64 {
 }
 
 /// Nearest-hit queries per second on one thread, millions: cosine-weighted rays from
-/// uniformly random points of uniformly random patches (as the final gather traces them)
-/// on `bvh`, a BVH over the patches ([`crate::render::final_gather::patch_bvh`]).
-pub fn nearest_throughput(mesh: &Mesh, bvh: &Bvh, rays: usize) -> f64 {
+/// uniformly random points of uniformly random patches, as the final gather traces them:
+/// on `bvh`, the scene BVH, then the patch hit looked up by `patches`
+/// ([`crate::render::final_gather::patch_locator`]).
+pub fn nearest_throughput(
+    mesh: &Mesh,
+    bvh: &Bvh,
+    patches: &crate::geometry::patch_locator::PatchLocator,
+    rays: usize,
+) -> f64 {
     if mesh.is_empty() {
         return 0.0;
     }
     let mut rng = Rng::new(3, 4);
-    let queries: Vec<(Vec3A, Vec3A)> = (0..rays)
+    let queries: Vec<(glam::DVec3, glam::DVec3, u32)> = (0..rays)
         .map(|_| {
             let (x, i) = random_patch_point(mesh, &mut rng);
             let nrm = mesh.patches[i].normal;
@@ -80,11 +86,11 @@ pub fn nearest_throughput(mesh: &Mesh, bvh: &Bvh, rays: usize) -> f64 {
             let (r, phi) = (u1.sqrt(), std::f64::consts::TAU * u2);
             let d = t * (r * phi.cos()) + b * (r * phi.sin()) + nrm * (1.0 - u1).sqrt();
             let o = x + nrm * 1e-6 * (1.0 + x.abs().max_element());
-            (Vec3A::from(o.as_vec3()), Vec3A::from(d.as_vec3()))
+            (o, d, mesh.patches[i].source)
         })
         .collect();
-    per_second(&queries, |(o, d)| {
-        bvh.nearest(*o, *d, 0.0, f32::INFINITY).is_some()
+    per_second(&queries, |&(o, d, own)| {
+        patches.nearest(bvh, o, d, Some(own), false).is_some()
     })
 }
 

@@ -446,33 +446,27 @@ impl Bvh {
         let mut best: Option<(f32, u32, u8)> = None;
         let far = std::cell::Cell::new(tmax);
         let limit = || (far.get() * (1.0 + TIE)).min(tmax);
-        self.traverse_ray(
-            from,
-            d,
-            tmin,
-            limit,
-            |k, t| {
-                if t >= limit() {
-                    return false;
-                }
-                let id = self.ids[k];
-                let r = rank(id);
-                if r == 0 {
-                    return false;
-                }
-                let take = match best {
-                    None => true,
-                    Some((bt, _, _)) if t < bt * (1.0 - TIE) => true,
-                    // A tie: the higher rank wins, then the nearer.
-                    Some((bt, _, br)) => r > br || (r == br && t < bt),
-                };
-                if take {
-                    best = Some((t, id, r));
-                    far.set(far.get().min(t));
-                }
-                false
-            },
-        );
+        self.traverse_ray(from, d, tmin, limit, |k, t| {
+            if t >= limit() {
+                return false;
+            }
+            let id = self.ids[k];
+            let r = rank(id);
+            if r == 0 {
+                return false;
+            }
+            let take = match best {
+                None => true,
+                Some((bt, _, _)) if t < bt * (1.0 - TIE) => true,
+                // A tie: the higher rank wins, then the nearer.
+                Some((bt, _, br)) => r > br || (r == br && t < bt),
+            };
+            if take {
+                best = Some((t, id, r));
+                far.set(far.get().min(t));
+            }
+            false
+        });
         best.map(|(t, id, _)| (t, id))
     }
 }
@@ -586,8 +580,7 @@ fn hit_lane(b: &Tri4, lane: usize, r: &TriRay, tmin: f32, tmax: f32) -> Option<f
     let v = dot(d, q) * inv;
     let t = dot(e2, q) * inv;
     let ok = det.abs() >= 1e-20
-        && u >= -EDGE
-        && u <= 1.0 + EDGE
+        && (-EDGE..=1.0 + EDGE).contains(&u)
         && v >= -EDGE
         && u + v <= 1.0 + EDGE
         && t > tmin
@@ -871,13 +864,15 @@ mod tests {
             let brute = tris
                 .iter()
                 .enumerate()
-                .filter_map(|(i, t)| {
-                    hit_t(t, o, d, 0.0, f32::INFINITY).map(|t| (t, i as u32))
-                })
+                .filter_map(|(i, t)| hit_t(t, o, d, 0.0, f32::INFINITY).map(|t| (t, i as u32)))
                 .min_by(|a, b| a.0.total_cmp(&b.0));
             let got = bvh.nearest(o, d, 0.0, f32::INFINITY);
             // The same distance on the same triangle (or one of its stacked copies).
-            assert_eq!(got.map(|g| g.0), brute.map(|b| b.0), "ray from {o} along {d}");
+            assert_eq!(
+                got.map(|g| g.0),
+                brute.map(|b| b.0),
+                "ray from {o} along {d}"
+            );
             if let (Some(g), Some(b)) = (got, brute) {
                 assert_eq!(tris[g.1 as usize], tris[b.1 as usize]);
             }
@@ -1032,7 +1027,7 @@ mod tests {
             }
             // From a random point toward a point near the first triangle's first corner.
             let o = Vec3A::new(r(), r(), r()) * 4.0 - 2.0;
-            let aim = Vec3A::from(block.corners(0)[0]) + Vec3A::new(r(), r(), r()) * 0.5;
+            let aim = block.corners(0)[0] + Vec3A::new(r(), r(), r()) * 0.5;
             let ray = TriRay {
                 o: o.to_array(),
                 d: (aim - o).to_array(),

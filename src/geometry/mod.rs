@@ -6,6 +6,7 @@ pub mod bvh;
 pub mod glazing;
 pub mod mesh;
 pub mod obstructed;
+pub mod patch_locator;
 
 use glam::DVec3;
 

@@ -71,6 +71,40 @@ impl Distribution {
         }
     }
 
+    /// The largest [`Self::shape`] over the directions whose cosine to the aim lies in
+    /// `lo..=hi`: exact for tables of type C (bilinear interpolation peaks at the corners
+    /// of the band's cells: its bounding angles and the measured ones between them, on
+    /// the measured planes) and for the profiles that grow towards the aim; the whole
+    /// table's peak for type B.
+    pub(super) fn peak_between(&self, lo: f64, hi: f64) -> f64 {
+        let (lo, hi) = (lo.clamp(-1.0, 1.0), hi.clamp(-1.0, 1.0));
+        match self {
+            Distribution::Isotropic => 1.0,
+            // Both grow with the cosine to the aim.
+            Distribution::Spot { .. } | Distribution::Cone { .. } => {
+                self.shape(hi, (1.0 - hi * hi).max(0.0).sqrt(), 0.0)
+            }
+            Distribution::Table(t) => match t.kind {
+                PhotometricType::C => {
+                    let (g0, g1) = (hi.acos().to_degrees(), lo.acos().to_degrees());
+                    let at = |g: f64| -> f64 {
+                        (0..t.horizontal.len())
+                            .map(|i| t.candela_at(g, t.horizontal[i]))
+                            .fold(0.0, f64::max)
+                    };
+                    t.vertical
+                        .iter()
+                        .copied()
+                        .filter(|&v| v > g0 && v < g1)
+                        .chain([g0, g1])
+                        .map(at)
+                        .fold(0.0, f64::max)
+                }
+                PhotometricType::B => t.candela.iter().flatten().copied().fold(0.0, f64::max),
+            },
+        }
+    }
+
     /// ∫ shape dΩ over the sphere (lumens for absolute tables). Costs about 260,000
     /// evaluations for spots and tables: compute it once per distinct distribution
     /// (see [`Luminaire::with_integral`]).

@@ -207,6 +207,18 @@ impl Luminaire {
                 .shape(d.dot(self.aim), d.dot(self.c0), d.dot(self.c90()))
     }
 
+    /// Per band of `bands` equal steps of the cosine to the aim (from −1 to 1), the
+    /// largest intensity towards a direction in it, cd.
+    pub fn peak_intensities(&self, bands: usize) -> Vec<f64> {
+        let step = 2.0 / bands as f64;
+        (0..bands)
+            .map(|k| {
+                let lo = -1.0 + k as f64 * step;
+                self.scale * self.distribution.peak_between(lo, lo + step)
+            })
+            .collect()
+    }
+
     /// Unoccluded illuminance (lux) at `x` on a receiver facing `n` (unit), from the
     /// whole luminaire (sampled over its opening when `x` is near).
     pub fn illuminance(&self, x: DVec3, n: DVec3) -> f64 {
@@ -380,6 +392,69 @@ mod tests {
                 "{d}: {}",
                 l.intensity(d)
             );
+        }
+    }
+
+    /// The band peaks bound the intensity in every direction of their band, and are
+    /// reached: on the bundled IES files (type C, quadrant and full tables), a cone and
+    /// a spot, over 200,000 random directions each.
+    #[test]
+    fn peak_intensities_bound_every_direction_of_their_band() {
+        let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
+        let mut dists = vec![
+            Distribution::Cone {
+                inner_deg: 20.0,
+                outer_deg: 35.0,
+            },
+            Distribution::Spot {
+                beam_deg: 30.0,
+                field_deg: 60.0,
+            },
+        ];
+        for f in [
+            "scenes/office-floor/downlight.ies",
+            "scenes/office-floor/panel.ies",
+        ] {
+            let text = std::fs::read_to_string(root.join(f)).unwrap();
+            dists.push(Distribution::Table(Box::new(
+                crate::photometry::ies::parse_ies(f, &text).unwrap(),
+            )));
+        }
+        let mut rng = crate::transport::formfactor::Rng::new(4, 5);
+        for distribution in dists {
+            let l = Luminaire::new(LuminaireSpec {
+                id: "l",
+                position: DVec3::ZERO,
+                aim: DVec3::new(0.3, -1.0, 0.1),
+                c0: None,
+                distribution,
+                lumens: Some(1000.0),
+                color: Rgb::ONE,
+                watts: None,
+            })
+            .unwrap();
+            let bands = 64;
+            let peak = l.peak_intensities(bands);
+            let mut seen = vec![0f64; bands];
+            for _ in 0..200_000 {
+                let z = 2.0 * rng.next_f64() - 1.0;
+                let phi = std::f64::consts::TAU * rng.next_f64();
+                let r = (1.0 - z * z).sqrt();
+                let d = DVec3::new(r * phi.cos(), z, r * phi.sin());
+                let band = (((d.dot(l.aim) + 1.0) * 0.5 * bands as f64) as usize).min(bands - 1);
+                let i = l.intensity(d);
+                assert!(
+                    i <= peak[band] * (1.0 + 1e-9),
+                    "{i} cd above the band's {}",
+                    peak[band]
+                );
+                seen[band] = seen[band].max(i);
+            }
+            // Reached: random directions come within 5 % of each band's peak.
+            let top = peak.iter().copied().fold(0.0, f64::max);
+            for (p, s) in peak.iter().zip(&seen) {
+                assert!(*s >= 0.95 * p - 1e-3 * top, "seen {s} of a peak {p}");
+            }
         }
     }
 }

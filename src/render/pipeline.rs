@@ -152,7 +152,7 @@ pub fn render_once(
     let view = ViewBuffer::build(&model.baked.mesh, shading, &o.camera);
     let finals = if o.quality == Quality::Final && !o.falsecolor {
         needs_groups(lighting)?;
-        let patches = final_gather::patch_bvh(&model.baked.mesh);
+        let patches = final_gather::patch_locator(&model.baked.mesh, &model.baked.scene.triangles);
         let cancel = crate::model::Cancel::default();
         Some(final_images(model, shading, &patches, &o.camera, &cancel)?)
     } else {
@@ -179,11 +179,11 @@ pub fn needs_groups(lighting: &Lighting) -> Result<(), QueryError> {
 }
 
 /// The `final` images of every light group of `model` seen by `cam`
-/// ([`final_gather::build`]); `patches` is [`final_gather::patch_bvh`] of its mesh.
+/// ([`final_gather::build`]); `patches` is [`final_gather::patch_locator`] of its mesh.
 pub fn final_images(
     model: &Model,
     shading: &Shading,
-    patches: &crate::geometry::bvh::Bvh,
+    patches: &crate::geometry::patch_locator::PatchLocator,
     cam: &Camera,
     cancel: &crate::model::Cancel,
 ) -> Result<GroupImages, QueryError> {
@@ -197,7 +197,7 @@ pub fn final_images(
 pub fn final_daylight_image(
     model: &Model,
     shading: &Shading,
-    patches: &crate::geometry::bvh::Bvh,
+    patches: &crate::geometry::patch_locator::PatchLocator,
     cam: &Camera,
     sky: &crate::model::sky_state::SkyState,
     cancel: &crate::model::Cancel,
@@ -237,7 +237,7 @@ pub fn final_daylight_image(
 fn final_scene<'a>(
     model: &'a Model,
     shading: &'a Shading,
-    patches: &'a crate::geometry::bvh::Bvh,
+    patches: &'a crate::geometry::patch_locator::PatchLocator,
     sky: Option<final_gather::FinalSky<'a>>,
 ) -> final_gather::FinalScene<'a> {
     let b = &model.baked;

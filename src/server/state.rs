@@ -19,8 +19,8 @@ pub struct Ready {
     pub model: Model,
     pub bake_seconds: f64,
     shading: std::sync::OnceLock<crate::render::Shading>,
-    /// A BVH over the patches, for `final` renders, built on first use.
-    patch_bvh: std::sync::OnceLock<crate::geometry::bvh::Bvh>,
+    /// The patches by scene triangle, for `final` renders, built on first use.
+    patch_locator: std::sync::OnceLock<crate::geometry::patch_locator::PatchLocator>,
     mesh_bytes: std::sync::OnceLock<axum::body::Bytes>,
     preview_bytes: std::sync::OnceLock<axum::body::Bytes>,
     /// This scene's share of the memory budget, held while it is loaded.
@@ -40,7 +40,7 @@ impl Ready {
             model,
             bake_seconds,
             shading: std::sync::OnceLock::new(),
-            patch_bvh: std::sync::OnceLock::new(),
+            patch_locator: std::sync::OnceLock::new(),
             mesh_bytes: std::sync::OnceLock::new(),
             preview_bytes: std::sync::OnceLock::new(),
         }
@@ -52,20 +52,23 @@ impl Ready {
             .get_or_init(|| crate::render::Shading::new(&self.model.baked.mesh))
     }
 
-    /// The BVH over the mesh's patches that `final` renders trace, built on first use.
-    pub fn patch_bvh(&self) -> &crate::geometry::bvh::Bvh {
-        self.patch_bvh
-            .get_or_init(|| crate::render::final_gather::patch_bvh(&self.model.baked.mesh))
+    /// The index of the patches by scene triangle that `final` renders trace with, built
+    /// on first use.
+    pub fn patch_locator(&self) -> &crate::geometry::patch_locator::PatchLocator {
+        self.patch_locator.get_or_init(|| {
+            let b = &self.model.baked;
+            crate::render::final_gather::patch_locator(&b.mesh, &b.scene.triangles)
+        })
     }
 
-    /// Bytes [`Ready::patch_bvh`] will allocate, 0 once built.
-    pub fn patch_bvh_pending_bytes(&self) -> u64 {
-        match self.patch_bvh.get() {
+    /// Bytes [`Ready::patch_locator`] will allocate, 0 once built.
+    pub fn patch_locator_pending_bytes(&self) -> u64 {
+        match self.patch_locator.get() {
             Some(_) => 0,
-            None => {
-                crate::render::final_gather::PATCH_BVH_BYTES_PER_PATCH
-                    * self.model.baked.mesh.len() as u64
-            }
+            None => crate::render::final_gather::patch_locator_bytes(
+                &self.model.baked.mesh,
+                self.model.baked.scene.triangles.len(),
+            ),
         }
     }
 

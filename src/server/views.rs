@@ -59,7 +59,7 @@ impl View {
         let built = crate::render::pipeline::final_images(
             &ready.model,
             ready.shading(),
-            ready.patch_bvh(),
+            ready.patch_locator(),
             cam,
             cancel,
         )?;
@@ -88,7 +88,7 @@ impl View {
         let built = Arc::new(crate::render::pipeline::final_daylight_image(
             &ready.model,
             ready.shading(),
-            ready.patch_bvh(),
+            ready.patch_locator(),
             cam,
             sky,
             cancel,
@@ -263,12 +263,15 @@ pub fn render_estimate(state: &AppState, ready: &Ready, o: &RenderOptions) -> u6
         }
     };
     let finals = match o.quality {
-        Quality::Final if !o.falsecolor => match lock(&state.views)
-            .peek(&view_key(ready, &o.camera))
-        {
-            Some(v) if v.has_finals() => 0,
-            _ => final_gather::estimate_bytes(&o.camera, groups) + ready.patch_bvh_pending_bytes(),
-        },
+        Quality::Final if !o.falsecolor => {
+            match lock(&state.views).peek(&view_key(ready, &o.camera)) {
+                Some(v) if v.has_finals() => 0,
+                _ => {
+                    final_gather::estimate_bytes(&o.camera, groups)
+                        + ready.patch_locator_pending_bytes()
+                }
+            }
+        }
         _ => 0,
     };
     images + view + finals

@@ -770,7 +770,7 @@ fn a_sun_patch_is_sharp_in_renders() {
 #[test]
 fn final_images_gather_the_sky_through_the_opening_and_trace_the_sun() {
     let _gate = common::shared();
-    use relight::render::final_gather::patch_bvh;
+    use relight::render::final_gather::patch_locator;
     use relight::render::pipeline::final_daylight_image;
     use relight::render::{Camera, Shading};
     let (ox, oz) = ((1.6, 2.4), (1.4, 2.6));
@@ -792,7 +792,7 @@ fn final_images_gather_the_sky_through_the_opening_and_trace_the_sun() {
         height: side as u32,
     };
     let shading = Shading::new(&m.baked.mesh);
-    let patches = patch_bvh(&m.baked.mesh);
+    let patches = patch_locator(&m.baked.mesh, &m.baked.scene.triangles);
     let image = |sky: serde_json::Value| {
         let spec: SkySpec = serde_json::from_value(sky).unwrap();
         let state = spec.resolve(m.site().unwrap()).unwrap();

@@ -7,7 +7,7 @@ use glam::Vec3;
 use relight::bake::{load_or_bake, BakeOptions, CachePolicy};
 use relight::color::Rgb;
 use relight::model::{Cancel, Model};
-use relight::render::final_gather::patch_bvh;
+use relight::render::final_gather::patch_locator;
 use relight::render::pipeline::final_images;
 use relight::render::{Camera, GroupImages, Shading};
 
@@ -20,7 +20,7 @@ fn model(dir: &std::path::Path) -> Model {
 
 fn finals(m: &Model, cam: &Camera) -> GroupImages {
     let shading = Shading::new(&m.baked.mesh);
-    let patches = patch_bvh(&m.baked.mesh);
+    let patches = patch_locator(&m.baked.mesh, &m.baked.scene.triangles);
     final_images(m, &shading, &patches, cam, &Cancel::default()).unwrap()
 }
 

@@ -10,7 +10,7 @@
 //! scene reads nothing. Directions are stratified on a √n × √n grid with a random offset
 //! per point, so neighbouring pixels' errors are independent and the filter removes them.
 
-use glam::{DVec3, Vec3A};
+use glam::DVec3;
 use rayon::prelude::*;
 
 use super::lights::GroupLights;
@@ -91,7 +91,7 @@ impl Reflected {
         let (t, b) = crate::geometry::frame(n);
         let lift = 1e-6 * (1.0 + x.abs().max_element());
         let o = x + n * lift;
-        let o32 = Vec3A::from(o.as_vec3());
+        let own = scene.mesh.patches[p as usize].source;
         let (du, dv) = (rng.next_f64(), rng.next_f64());
         let mesh = scene.mesh;
         let w = 1.0 / count as f32;
@@ -104,21 +104,7 @@ impl Reflected {
             let r = u1.sqrt();
             let phi = std::f64::consts::TAU * u2;
             let d = t * (r * phi.cos()) + b * (r * phi.sin()) + n * (1.0 - u1).max(0.0).sqrt();
-            let hit = scene.patches.nearest_ranked(
-                o32,
-                Vec3A::from(d.as_vec3()),
-                0.0,
-                f32::INFINITY,
-                |q| {
-                    if q == p {
-                        0
-                    } else if mesh.patches[q as usize].normal.dot(d) < 0.0 {
-                        2
-                    } else {
-                        1
-                    }
-                },
-            );
+            let hit = scene.patches.nearest(scene.bvh, o, d, Some(own), false);
             if let Some((th, _)) = hit {
                 inverse_distances += 1.0 / (th as f64).max(1e-9);
             }

@@ -1,10 +1,14 @@
 //! Direct light at a visible point, per light group, computed exactly.
 //!
-//! - **Point luminaires**: each luminaire's unoccluded illuminance is found first (over
-//!   its luminous opening when the point is near, [`Luminaire::for_each_emitter`]). Every
-//!   luminaire that gives at least [`SIGNIFICANT`] of the point's unoccluded total gets its
-//!   shadow rays. The rest, the tail, is estimated without bias by one luminaire drawn in
-//!   proportion to its share, weighted by the tail's total.
+//! - **Point luminaires**: each luminaire's unoccluded illuminance is bounded first,
+//!   without trigonometry: its peak intensity in the band of directions the point lies in
+//!   ([`Luminaire::peak_intensities`]) times the receiver's cosine over the squared
+//!   distance (a near luminaire, seen as an area, is computed over its opening,
+//!   [`Luminaire::for_each_emitter`]). Every luminaire whose bound is at least
+//!   [`SIGNIFICANT`] of the bounds' sum gets its shadow rays and its exact illuminance.
+//!   The rest, the tail, is estimated without bias by one luminaire drawn in proportion
+//!   to its bound, its exact shadowed illuminance weighted by the tail's sum over its
+//!   bound.
 //! - **Emissive surfaces**: each emitting input triangle that faces the point and gives at
 //!   least [`SIGNIFICANT`] of its unoccluded light gives its exitance times the exact
 //!   unoccluded point-to-triangle form factor, times the visible share of that factor,
@@ -84,9 +88,60 @@ struct Emitter {
     luminous: f64,
 }
 
+/// Bands of the cosine to a luminaire's aim in its [`Bound`].
+const BANDS: usize = 64;
+
+/// What bounds a luminaire's unoccluded illuminance cheaply.
+struct Bound {
+    position: DVec3,
+    aim: DVec3,
+    /// Receivers closer than this (squared, m²) see the luminaire as an area: their
+    /// bound is the exact illuminance over the opening.
+    near2: f64,
+    /// Peak intensity per band of the cosine to the aim, cd.
+    peak: [f32; BANDS],
+}
+
+impl Bound {
+    fn new(l: &Luminaire) -> Bound {
+        let mut peak = [0f32; BANDS];
+        for (p, v) in peak.iter_mut().zip(l.peak_intensities(BANDS)) {
+            // Rounded up, so the bound holds in f32.
+            *p = (v * (1.0 + 1e-6)) as f32;
+        }
+        let near = crate::photometry::AREA_DISTANCE_FACTOR * l.opening.largest_dimension();
+        Bound {
+            position: l.position,
+            aim: l.aim,
+            near2: near * near,
+            peak,
+        }
+    }
+
+    /// At least the unoccluded illuminance (lux) of `l` at `x` facing `n`; 0 only where
+    /// that is 0.
+    #[inline]
+    fn lux(&self, l: &Luminaire, x: DVec3, n: DVec3) -> f64 {
+        let v = x - self.position;
+        let d2 = v.length_squared();
+        if d2 < self.near2 {
+            return l.illuminance(x, n);
+        }
+        let cos_receiver = -n.dot(v);
+        if cos_receiver <= 0.0 {
+            return 0.0;
+        }
+        let inv = 1.0 / d2.sqrt();
+        let band = ((v.dot(self.aim) * inv + 1.0) * 0.5 * BANDS as f64) as usize;
+        self.peak[band.min(BANDS - 1)] as f64 * cos_receiver * inv / d2
+    }
+}
+
 /// One light group's sources.
 struct Sources<'a> {
     luminaires: &'a [Luminaire],
+    /// Per luminaire, what bounds its light.
+    bounds: Vec<Bound>,
     emitters: Vec<Emitter>,
     /// Whether its emitting surfaces are handled here (else by the gather).
     explicit: bool,
@@ -128,6 +183,7 @@ impl<'a> GroupLights<'a> {
                 let explicit = emitters.len() <= MAX_EMITTER_TRIANGLES;
                 Sources {
                     luminaires: &light.luminaires,
+                    bounds: light.luminaires.iter().map(Bound::new).collect(),
                     emitters: if explicit { emitters } else { Vec::new() },
                     explicit,
                 }
@@ -161,27 +217,29 @@ impl<'a> GroupLights<'a> {
         let out = Rgb::column_mut(out);
         for (out, g) in out.iter_mut().zip(&self.groups) {
             if !g.luminaires.is_empty() {
-                self.luminaires(g.luminaires, at, rays.significant(), rng, scratch, out);
+                self.luminaires(g, at, rays.significant(), rng, scratch, out);
             }
         }
         self.emitters(at, rays, rng, scratch, out);
     }
 
-    /// Point luminaires: the significant ones exactly, the tail by one drawn sample.
+    /// Point luminaires: those with a significant bound exactly, the tail by one drawn
+    /// in proportion to its bound.
     fn luminaires(
         &self,
-        ls: &[Luminaire],
+        g: &Sources<'_>,
         (x, n, skip): (DVec3, DVec3, u32),
         significant: f64,
         rng: &mut Rng,
         scratch: &mut Scratch,
         out: &mut Rgb,
     ) {
+        let ls = g.luminaires;
         let cand = &mut scratch.candidates;
         cand.clear();
         let mut total = 0.0;
-        for (i, l) in ls.iter().enumerate() {
-            let c = l.illuminance(x, n);
+        for (i, (l, b)) in ls.iter().zip(&g.bounds).enumerate() {
+            let c = b.lux(l, x, n);
             if c > 0.0 {
                 cand.push((i, c));
                 total += c;
@@ -202,16 +260,21 @@ impl<'a> GroupLights<'a> {
         if tail <= 0.0 {
             return;
         }
-        let mut r = rng.next_f64() * tail;
-        let small: Vec<(usize, f64)> = cand.iter().copied().filter(|&(_, c)| c < cut).collect();
-        let last = small.len() - 1;
-        for (k, &(i, c)) in small.iter().enumerate() {
-            if r < c || k == last {
-                let e = shadowed(self.bvh, &ls[i], x, n, skip).0;
-                add(out, &ls[i], e * tail / c);
-                return;
+        // The drawn one: where the running sum passes r (the last of the tail should
+        // rounding leave r unspent).
+        let r = rng.next_f64() * tail;
+        let mut sum = 0.0;
+        let mut drawn = None;
+        for &(i, c) in cand.iter().filter(|&&(_, c)| c < cut) {
+            drawn = Some((i, c));
+            sum += c;
+            if r < sum {
+                break;
             }
-            r -= c;
+        }
+        if let Some((i, c)) = drawn {
+            let e = shadowed(self.bvh, &ls[i], x, n, skip).0;
+            add(out, &ls[i], e * tail / c);
         }
     }
 

@@ -34,13 +34,14 @@ mod sky;
 
 pub use sky::FinalSky;
 
-use glam::{DVec3, Vec3A};
+use glam::DVec3;
 use rayon::prelude::*;
 
 use super::{Camera, GroupImages, Shading};
 use crate::color::Rgb;
 use crate::geometry::bvh::Bvh;
 use crate::geometry::mesh::Mesh;
+use crate::geometry::patch_locator::PatchLocator;
 use crate::model::{Cancel, QueryError};
 use crate::scene::{LightGroup, Triangle};
 use crate::transport::formfactor::Rng;
@@ -87,9 +88,9 @@ impl Default for FinalSettings {
 pub struct FinalScene<'a> {
     pub mesh: &'a Mesh,
     pub shading: &'a Shading,
-    /// A BVH over the mesh's patches (ids = patch indices): [`patch_bvh`], for the
-    /// gather's nearest hits.
-    pub patches: &'a Bvh,
+    /// Finds the patch a ray meets on the scene BVH ([`patch_locator`]), for the camera
+    /// rays and the gather's nearest hits.
+    pub patches: &'a PatchLocator,
     /// The scene BVH (ids = scene triangles), for shadow rays.
     pub bvh: &'a Bvh,
     /// The scene's input triangles (the emitters' exact shapes).
@@ -108,17 +109,16 @@ pub struct FinalScene<'a> {
 /// times the rays per pixel, and a request must finish within the server's timeout.
 pub const MAX_FINAL_PIXELS: u64 = 1 << 20;
 
-/// Bytes per patch that [`patch_bvh`] allocates, at most (a stored triangle, its id, two
-/// nodes and the build's temporaries).
-pub const PATCH_BVH_BYTES_PER_PATCH: u64 = 200;
+/// Bytes [`patch_locator`] allocates for `mesh` and its scene's `triangles`, at most.
+pub fn patch_locator_bytes(mesh: &Mesh, triangles: usize) -> u64 {
+    use crate::geometry::patch_locator::{LOCATOR_BYTES_PER_PATCH, LOCATOR_BYTES_PER_TRIANGLE};
+    LOCATOR_BYTES_PER_PATCH * mesh.len() as u64 + LOCATOR_BYTES_PER_TRIANGLE * triangles as u64
+}
 
-/// A BVH over `mesh`'s patches, ids = patch indices: the final gather's hits then name
-/// the patch and the point on it.
-pub fn patch_bvh(mesh: &Mesh) -> Bvh {
-    let tris: Vec<[Vec3A; 3]> = (0..mesh.len())
-        .map(|j| mesh.corners(j).map(|p| Vec3A::from(p.as_vec3())))
-        .collect();
-    Bvh::new(&tris)
+/// The index of `mesh`'s patches by the scene triangles they were cut from: a ray traced
+/// on the scene BVH then names the patch it meets and the point on it.
+pub fn patch_locator(mesh: &Mesh, triangles: &[Triangle]) -> PatchLocator {
+    PatchLocator::new(mesh, triangles)
 }
 
 /// Peak bytes [`build`] allocates for `groups` light groups on `cam`.
@@ -366,14 +366,8 @@ impl Tracer<'_> {
 
     /// The nearest patch whose front the camera ray along `d` meets.
     fn primary(&self, d: DVec3) -> Option<(f32, u32)> {
-        let mesh = self.scene.mesh;
-        self.scene.patches.nearest_ranked(
-            Vec3A::from(self.rays.origin().as_vec3()),
-            Vec3A::from(d.as_vec3()),
-            0.0,
-            f32::INFINITY,
-            |q| u8::from(mesh.patches[q as usize].normal.dot(d) < 0.0),
-        )
+        let o = self.rays.origin();
+        self.scene.patches.nearest(self.scene.bvh, o, d, None, true)
     }
 
     /// Adds what the camera ray along `d` (meeting `hit`) sees emitted (per group radiance, cd/m²): an
