@@ -5,10 +5,10 @@
 //!   ([`Luminaire::peak_intensities`]) times the receiver's cosine over the squared
 //!   distance (a near luminaire, seen as an area, is computed over its opening,
 //!   [`Luminaire::for_each_emitter`]). Every luminaire whose bound is at least
-//!   [`SIGNIFICANT`] of the bounds' sum gets its shadow rays and its exact illuminance.
-//!   The rest, the tail, is estimated without bias by one luminaire drawn in proportion
-//!   to its bound, its exact shadowed illuminance weighted by the tail's sum over its
-//!   bound.
+//!   [`SIGNIFICANT`] of the bounds' sum over all groups gets its shadow rays and its exact
+//!   illuminance. The rest, the tail, is estimated without bias by a few luminaires drawn
+//!   in proportion to their bounds, each one's exact shadowed illuminance weighted by the
+//!   tail's sum over its bound.
 //! - **Emissive surfaces**: each emitting input triangle that faces the point and gives at
 //!   least [`SIGNIFICANT`] of its unoccluded light gives its exitance times the exact
 //!   unoccluded point-to-triangle form factor, times the visible share of that factor,
@@ -34,7 +34,7 @@ use crate::transport::formfactor::{point_to_polygon, sample_triangle, Rng};
 /// gets its own shadow rays; the others are sampled.
 pub(super) const SIGNIFICANT: f64 = 0.01;
 
-/// Emitting triangles drawn from the tail per camera sample.
+/// Luminaires, and emitting triangles, drawn from the tail per camera sample.
 const TAIL_DRAWS: u32 = 4;
 
 /// How many shadow rays the direct light takes.
@@ -161,7 +161,8 @@ pub(super) struct GroupLights<'a> {
 pub(super) struct Scratch {
     /// Per group RGB direct illuminance of the current sample, lux.
     pub(super) lux: Vec<f32>,
-    candidates: Vec<(usize, f64)>,
+    /// Luminaires that light the point: (group, luminaire, bound on its lux).
+    candidates: Vec<(u32, u32, f64)>,
     /// Emitting triangles seen: (group, triangle, form factor, luminous light).
     emitters: Vec<(u32, u32, f64, f64)>,
 }
@@ -215,44 +216,48 @@ impl<'a> GroupLights<'a> {
         // Below, the third member is the scene triangle the shadow rays skip.
         let at = (x, n, self.mesh.patches[p as usize].source);
         let out = Rgb::column_mut(out);
-        for (out, g) in out.iter_mut().zip(&self.groups) {
-            if !g.luminaires.is_empty() {
-                self.luminaires(g, at, rays.significant(), rng, scratch, out);
-            }
-        }
+        self.luminaires(at, rays, rng, scratch, out);
         self.emitters(at, rays, rng, scratch, out);
     }
 
-    /// Point luminaires: those with a significant bound exactly, the tail by one drawn
-    /// in proportion to its bound.
+    /// Point luminaires of every group: those whose bound is at least
+    /// [`Rays::significant`] of all groups' bounds together get their shadow rays and
+    /// exact light; the rest, the tail, [`Rays::tail_draws`] luminaires drawn in
+    /// proportion to their bounds, each weighted by the tail's sum over its bound and the
+    /// number of draws (an unbiased estimate of the tail's light per group). The bounds
+    /// are of the unit-weight light, so the rays depend on the geometry alone and each
+    /// group's image stays linear; a room's luminaires spend no rays on those of the
+    /// rooms beyond its walls one by one.
     fn luminaires(
         &self,
-        g: &Sources<'_>,
         (x, n, skip): (DVec3, DVec3, u32),
-        significant: f64,
+        rays: Rays,
         rng: &mut Rng,
         scratch: &mut Scratch,
-        out: &mut Rgb,
+        out: &mut [Rgb],
     ) {
-        let ls = g.luminaires;
         let cand = &mut scratch.candidates;
         cand.clear();
         let mut total = 0.0;
-        for (i, (l, b)) in ls.iter().zip(&g.bounds).enumerate() {
-            let c = b.lux(l, x, n);
-            if c > 0.0 {
-                cand.push((i, c));
-                total += c;
+        for (k, g) in self.groups.iter().enumerate() {
+            for (i, (l, b)) in g.luminaires.iter().zip(&g.bounds).enumerate() {
+                let c = b.lux(l, x, n);
+                if c > 0.0 {
+                    cand.push((k as u32, i as u32, c));
+                    total += c;
+                }
             }
         }
-        let cut = significant * total;
+        let cut = rays.significant() * total;
         let mut tail = 0.0;
-        let add = |out: &mut Rgb, l: &Luminaire, e: f64| {
-            *out += (e * l.color.to_f64()).to_f32();
+        let mut add = |k: u32, i: u32, weight: f64| {
+            let l = &self.groups[k as usize].luminaires[i as usize];
+            let e = shadowed(self.bvh, l, x, n, skip).0 * weight;
+            out[k as usize] += (e * l.color.to_f64()).to_f32();
         };
-        for &(i, c) in cand.iter() {
+        for &(k, i, c) in cand.iter() {
             if c >= cut {
-                add(out, &ls[i], shadowed(self.bvh, &ls[i], x, n, skip).0);
+                add(k, i, 1.0);
             } else {
                 tail += c;
             }
@@ -260,21 +265,23 @@ impl<'a> GroupLights<'a> {
         if tail <= 0.0 {
             return;
         }
-        // The drawn one: where the running sum passes r (the last of the tail should
-        // rounding leave r unspent).
-        let r = rng.next_f64() * tail;
-        let mut sum = 0.0;
-        let mut drawn = None;
-        for &(i, c) in cand.iter().filter(|&&(_, c)| c < cut) {
-            drawn = Some((i, c));
-            sum += c;
-            if r < sum {
-                break;
+        let draws = rays.tail_draws();
+        for _ in 0..draws {
+            // The drawn one: where the running sum passes r (the last of the tail should
+            // rounding leave r unspent).
+            let r = rng.next_f64() * tail;
+            let mut sum = 0.0;
+            let mut drawn = None;
+            for &(k, i, c) in cand.iter().filter(|&&(_, _, c)| c < cut) {
+                drawn = Some((k, i, c));
+                sum += c;
+                if r < sum {
+                    break;
+                }
             }
-        }
-        if let Some((i, c)) = drawn {
-            let e = shadowed(self.bvh, &ls[i], x, n, skip).0;
-            add(out, &ls[i], e * tail / c);
+            if let Some((k, i, c)) = drawn {
+                add(k, i, tail / (c * draws as f64));
+            }
         }
     }
 
