@@ -131,6 +131,12 @@ impl PatchLocator {
     /// triangle's plane): the patch containing it, or when rounding leaves it in none,
     /// the one it lies least outside of. None when that side has no patches.
     pub fn locate(&self, tri: u32, back: bool, x: DVec3) -> Option<u32> {
+        self.locate_weighted(tri, back, x).map(|(j, _)| j)
+    }
+
+    /// As [`Self::locate`], with the point's barycentric weights on the patch's corners
+    /// (clamped to the patch, summing to 1).
+    pub fn locate_weighted(&self, tri: u32, back: bool, x: DVec3) -> Option<(u32, [f32; 3])> {
         let f = self.frames.get(tri as usize)?;
         let side = f.sides[usize::from(back)];
         if side.grid == 0 {
@@ -141,31 +147,37 @@ impl PatchLocator {
         let g = side.grid as usize;
         let cell = side.first_cell as usize + cell_of(v, g) * g + cell_of(u, g);
         let run = self.cell_start[cell] as usize..self.cell_start[cell + 1] as usize;
-        let best = self.best_of(&self.entries[run], u, v);
-        if best.is_some() {
-            return best.map(|(j, _)| j);
-        }
-        // An empty cell (a point beside the triangle, past rounding): every patch of
-        // the side.
-        let all = side.first_cell as usize..side.first_cell as usize + g * g;
-        let run = self.cell_start[all.start] as usize..self.cell_start[all.end] as usize;
-        self.best_of(&self.entries[run], u, v).map(|(j, _)| j)
+        let best = self.best_of(&self.entries[run], u, v).or_else(|| {
+            // An empty cell (a point beside the triangle, past rounding): every patch of
+            // the side.
+            let all = side.first_cell as usize..side.first_cell as usize + g * g;
+            let run = self.cell_start[all.start] as usize..self.cell_start[all.end] as usize;
+            self.best_of(&self.entries[run], u, v)
+        })?;
+        let w = best.1.map(|w| w.max(0.0));
+        let sum = w[0] + w[1] + w[2];
+        Some(if sum > 0.0 {
+            (best.0, w.map(|w| w / sum))
+        } else {
+            (best.0, [1.0 / 3.0; 3])
+        })
     }
 
     /// Of `ids`, the first patch containing (u, v), else the one it lies least outside
-    /// of, with its least barycentric weight.
-    fn best_of(&self, ids: &[u32], u: f32, v: f32) -> Option<(u32, f32)> {
-        let mut best: Option<(u32, f32)> = None;
+    /// of (by its least barycentric weight), with the point's weights in it.
+    fn best_of(&self, ids: &[u32], u: f32, v: f32) -> Option<(u32, [f32; 3])> {
+        let mut best: Option<(u32, [f32; 3], f32)> = None;
         for &j in ids {
-            let m = min_weight(&self.uv[j as usize], u, v);
+            let w = weights(&self.uv[j as usize], u, v);
+            let m = w[0].min(w[1]).min(w[2]);
             if m >= INSIDE {
-                return Some((j, m));
+                return Some((j, w));
             }
-            if best.is_none_or(|(_, b)| m > b) {
-                best = Some((j, m));
+            if best.is_none_or(|(_, _, b)| m > b) {
+                best = Some((j, w, m));
             }
         }
-        best
+        best.map(|(j, w, _)| (j, w))
     }
 
     /// The nearest patch the ray `o + t·d` (t > 0) meets, with its distance parameter,
@@ -182,6 +194,20 @@ impl PatchLocator {
         own: Option<u32>,
         cull_back: bool,
     ) -> Option<(f32, u32)> {
+        self.nearest_weighted(bvh, o, d, own, cull_back)
+            .map(|(t, j, _)| (t, j))
+    }
+
+    /// As [`Self::nearest`], with the hit's barycentric weights on the patch's corners
+    /// ([`Self::locate_weighted`]).
+    pub fn nearest_weighted(
+        &self,
+        bvh: &Bvh,
+        o: DVec3,
+        d: DVec3,
+        own: Option<u32>,
+        cull_back: bool,
+    ) -> Option<(f32, u32, [f32; 3])> {
         let d32 = Vec3A::from(d.as_vec3());
         let rank = |s: u32| -> u8 {
             if Some(s) == own {
@@ -207,7 +233,8 @@ impl PatchLocator {
         } else {
             !facing_back
         };
-        self.locate(s, back, o + d * t as f64).map(|j| (t, j))
+        self.locate_weighted(s, back, o + d * t as f64)
+            .map(|(j, w)| (t, j, w))
     }
 }
 
@@ -246,19 +273,20 @@ fn cell_of(x: f32, g: usize) -> usize {
     ((x * g as f32).max(0.0) as usize).min(g - 1)
 }
 
-/// The least barycentric weight of the point (u, v) in the 2D triangle `c`
-/// (`[u0, v0, u1, v1, u2, v2]`, either winding): ≥ 0 inside.
+/// The barycentric weights of the point (u, v) on the corners of the 2D triangle `c`
+/// (`[u0, v0, u1, v1, u2, v2]`, either winding): all ≥ 0 inside; −∞ for a degenerate
+/// triangle.
 #[inline]
-fn min_weight(c: &[f32; 6], u: f32, v: f32) -> f32 {
+fn weights(c: &[f32; 6], u: f32, v: f32) -> [f32; 3] {
     let edge = |a: usize, b: usize| {
         (c[2 * b] - c[2 * a]) * (v - c[2 * a + 1]) - (c[2 * b + 1] - c[2 * a + 1]) * (u - c[2 * a])
     };
     let (w0, w1, w2) = (edge(1, 2), edge(2, 0), edge(0, 1));
     let area = w0 + w1 + w2;
     if area == 0.0 {
-        return f32::NEG_INFINITY;
+        return [f32::NEG_INFINITY; 3];
     }
-    (w0 / area).min(w1 / area).min(w2 / area)
+    [w0 / area, w1 / area, w2 / area]
 }
 
 #[cfg(test)]
@@ -313,10 +341,18 @@ mod tests {
                     }
                 },
             );
-            let got = loc.nearest(&bvh, o, d, Some(mesh.patches[p].source), false);
+            let got = loc.nearest_weighted(&bvh, o, d, Some(mesh.patches[p].source), false);
             assert_eq!(got.is_some(), want.is_some(), "from patch {p} along {d}");
-            if let (Some((tg, jg)), Some((tw, jw))) = (got, want) {
+            if let (Some((tg, jg, w)), Some((tw, jw))) = (got, want) {
                 hits += 1;
+                // The weights put the point where the ray met the patch.
+                let c = mesh.corners(jg as usize);
+                let at = c[0] * w[0] as f64 + c[1] * w[1] as f64 + c[2] * w[2] as f64;
+                let x = o + d * tg as f64;
+                assert!(
+                    (at - x).length() < 1e-4 * (1.0 + tg as f64),
+                    "{at} against {x}"
+                );
                 assert!((tg - tw).abs() <= 1e-4 * tw.max(1.0), "{tg} against {tw}");
                 // On a shared edge either neighbour is right.
                 same += usize::from(jg == jw);

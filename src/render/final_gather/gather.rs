@@ -104,11 +104,13 @@ impl Reflected {
             let r = u1.sqrt();
             let phi = std::f64::consts::TAU * u2;
             let d = t * (r * phi.cos()) + b * (r * phi.sin()) + n * (1.0 - u1).max(0.0).sqrt();
-            let hit = scene.patches.nearest(scene.bvh, o, d, Some(own), false);
-            if let Some((th, _)) = hit {
+            let hit = scene
+                .patches
+                .nearest_weighted(scene.bvh, o, d, Some(own), false);
+            if let Some((th, _, _)) = hit {
                 inverse_distances += 1.0 / (th as f64).max(1e-9);
             }
-            let Some((th, q)) = hit else {
+            let Some((th, q, [wa, wb, wc])) = hit else {
                 // Out of the scene: the sky (through any glazing), as radiosity π L, or
                 // weighted against the aimed sky rays.
                 if let Some(sky) = &scene.sky {
@@ -140,7 +142,6 @@ impl Reflected {
                     continue;
                 }
             }
-            let (wa, wb, wc) = barycentric(&mesh.corners(q as usize), at);
             let sv = scene.shading.corner[q as usize];
             let rows = sv.map(|s| &self.values[3 * g * s as usize..3 * g * (s as usize + 1)]);
             for (k, o) in out.iter_mut().enumerate() {
@@ -155,21 +156,4 @@ impl Reflected {
 pub(super) fn ray_count(rays: usize) -> usize {
     let side = (rays as f64).sqrt().ceil().max(1.0) as usize;
     side * side
-}
-
-/// Barycentric weights of point `x` (on or near the triangle `c`), clamped to the
-/// triangle.
-fn barycentric(c: &[DVec3; 3], x: DVec3) -> (f32, f32, f32) {
-    let (e1, e2, v) = (c[1] - c[0], c[2] - c[0], x - c[0]);
-    let (d11, d12, d22) = (e1.dot(e1), e1.dot(e2), e2.dot(e2));
-    let (dv1, dv2) = (v.dot(e1), v.dot(e2));
-    let den = d11 * d22 - d12 * d12;
-    if den.abs() < 1e-300 {
-        return (1.0 / 3.0, 1.0 / 3.0, 1.0 / 3.0);
-    }
-    let b = ((d22 * dv1 - d12 * dv2) / den).clamp(0.0, 1.0);
-    let c2 = ((d11 * dv2 - d12 * dv1) / den).clamp(0.0, 1.0);
-    let s = (b + c2).max(1.0);
-    let (b, c2) = (b / s, c2 / s);
-    ((1.0 - b - c2) as f32, b as f32, c2 as f32)
 }
