@@ -3,9 +3,10 @@
 //! A ray is traced on the scene BVH (a few thousand input triangles, which stay in cache)
 //! rather than on a BVH over the patches (hundreds of thousands), and the patch under the
 //! hit is then looked up in the hit triangle's own plane: every triangle keeps, per side,
-//! a uniform grid over its barycentric square whose cells list the patches overlapping
-//! them, so a lookup tests a few patches in 2D. On office-floor (1,916 triangles, 177,222
-//! patches) a nearest hit on the scene BVH is about 3× as fast as on the patches'
+//! a grid of square cells (about the size of its mean patch) over the box of its patches,
+//! each cell listing the patches whose box overlaps it, so a lookup tests a few patches in
+//! 2D. On office-floor (1,916 triangles, 177,222 patches) a nearest hit with its patch
+//! found this way is about 2.5× as fast as on a BVH over the patches
 //! (`cargo run --release --example ray_throughput`).
 //!
 //! The patches of a triangle tile it (meshing only subdivides), a side at a time: the
@@ -18,23 +19,37 @@ use super::bvh::Bvh;
 use super::mesh::Mesh;
 use crate::scene::Triangle;
 
-/// One side of a triangle: its grid of cells, each a run of patch ids.
+/// One side of a triangle: its grid of square cells over the box of its patches (in the
+/// triangle's plane), each cell a run of patch ids.
 #[derive(Clone, Copy, Debug, Default)]
 struct Side {
-    /// Cells per axis of the barycentric square (0: the side has no patches).
-    grid: u32,
+    /// Cells along x and y (0: the side has no patches).
+    cells: [u32; 2],
+    /// The grid's lower corner, m.
+    lo: [f32; 2],
+    /// Cells per metre.
+    per_m: f32,
     /// The side's first cell in [`PatchLocator::cell_start`].
     first_cell: u32,
 }
 
-/// A triangle's barycentric frame and its sides.
+impl Side {
+    /// The cell of point (x, y), clamped to the grid.
+    #[inline]
+    fn cell(&self, x: f32, y: f32) -> usize {
+        let at = |k: usize, v: f32| {
+            (((v - self.lo[k]) * self.per_m).max(0.0) as usize).min(self.cells[k] as usize - 1)
+        };
+        self.first_cell as usize + at(1, y) * self.cells[0] as usize + at(0, x)
+    }
+}
+
+/// A triangle's frame in its plane and its sides.
 #[derive(Clone, Copy, Debug)]
 struct Frame {
     origin: DVec3,
-    /// `u = (x − origin)·to_u`, `v = (x − origin)·to_v`: the weights of the second and
-    /// third corners.
-    to_u: DVec3,
-    to_v: DVec3,
+    /// Orthonormal axes in the plane: a point's coordinates are `(x − origin)·axis`, m.
+    axes: [DVec3; 2],
     /// The winding normal (not normalised): the front side faces along it.
     normal: Vec3A,
     /// Front (along the normal) and back.
@@ -47,15 +62,21 @@ pub struct PatchLocator {
     /// Per cell, where its run of patch ids starts in `entries` (one more at the end).
     cell_start: Vec<u32>,
     entries: Vec<u32>,
-    /// Per patch, its corners' barycentric coordinates in its triangle, `[u0, v0, u1, v1,
-    /// u2, v2]`.
+    /// Per patch, its corners' coordinates in its triangle's plane, `[x0, y0, x1, y1, x2,
+    /// y2]`, m.
     uv: Vec<[f32; 6]>,
 }
 
-/// Bytes per patch a [`PatchLocator`] holds, at most, besides [`LOCATOR_BYTES_PER_TRIANGLE`]
-/// per scene triangle: its coordinates (24), grid entries (about four per patch) and cells
-/// (two per patch).
-pub const LOCATOR_BYTES_PER_PATCH: u64 = 24 + 4 * 6 + 4 * 3;
+/// Bytes per patch a [`PatchLocator`] holds, besides [`LOCATOR_BYTES_PER_TRIANGLE`] per
+/// scene triangle: its coordinates (24), grid entries (about four per patch) and cells
+/// (at most [`MAX_CELLS_PER_PATCH`] per patch, and a few per side).
+pub const LOCATOR_BYTES_PER_PATCH: u64 = 24 + 4 * 6 + 4 * MAX_CELLS_PER_PATCH as u64 + 4 * 8;
+
+/// Cells of a side's grid per patch: a cell is about as large as the side's mean patch.
+const CELLS_PER_PATCH: f64 = 1.0;
+/// Most cells of a side's grid per patch (a side whose patches' box is far larger than
+/// their area, a long sliver, gets longer cells).
+const MAX_CELLS_PER_PATCH: usize = 4;
 /// Bytes per scene triangle a [`PatchLocator`] holds.
 pub const LOCATOR_BYTES_PER_TRIANGLE: u64 = std::mem::size_of::<Frame>() as u64 + 8;
 
@@ -71,11 +92,13 @@ impl PatchLocator {
         // Patches per (triangle, side).
         let mut by_side: Vec<Vec<u32>> = vec![Vec::new(); 2 * triangles.len()];
         let mut uv = vec![[0f32; 6]; mesh.len()];
+        let mut areas = vec![0f64; 2 * triangles.len()];
         for (j, p) in mesh.patches.iter().enumerate() {
             let s = p.source as usize;
             let Some(f) = frames.get(s) else { continue };
             let back = p.normal.dot(f.normal.as_dvec3()) < 0.0;
             by_side[2 * s + usize::from(back)].push(j as u32);
+            areas[2 * s + usize::from(back)] += p.area;
             for (k, c) in mesh.corners(j).iter().enumerate() {
                 let (u, v) = f.coords(*c);
                 uv[j][2 * k] = u as f32;
@@ -90,25 +113,50 @@ impl PatchLocator {
                 if ids.is_empty() {
                     continue;
                 }
-                // About one patch per cell of the triangle's half of the square.
-                let grid = ((2.0 * ids.len() as f64).sqrt().ceil() as u32).clamp(1, 1024);
-                *side = Side {
-                    grid,
-                    first_cell: cell_start.len() as u32,
-                };
-                let g = grid as usize;
-                let mut cells: Vec<Vec<u32>> = vec![Vec::new(); g * g];
-                for &j in ids {
-                    let c = &uv[j as usize];
-                    let (lo, hi) = (
+                let bbox = |c: &[f32; 6]| {
+                    (
                         [c[0].min(c[2]).min(c[4]), c[1].min(c[3]).min(c[5])],
                         [c[0].max(c[2]).max(c[4]), c[1].max(c[3]).max(c[5])],
-                    );
-                    let (x0, y0) = (cell_of(lo[0], g), cell_of(lo[1], g));
-                    let (x1, y1) = (cell_of(hi[0], g), cell_of(hi[1], g));
-                    for y in y0..=y1 {
-                        for x in x0..=x1 {
-                            cells[y * g + x].push(j);
+                    )
+                };
+                let (mut lo, mut hi) = ([f32::INFINITY; 2], [f32::NEG_INFINITY; 2]);
+                for &j in ids {
+                    let (l, h) = bbox(&uv[j as usize]);
+                    for a in 0..2 {
+                        lo[a] = lo[a].min(l[a]);
+                        hi[a] = hi[a].max(h[a]);
+                    }
+                }
+                // Square cells about the size of the mean patch, within the cap.
+                let (w, h) = (
+                    ((hi[0] - lo[0]) as f64).max(0.0),
+                    ((hi[1] - lo[1]) as f64).max(0.0),
+                );
+                let n = ids.len() as f64;
+                let mut cell = (areas[2 * s + k] / (CELLS_PER_PATCH * n)).sqrt();
+                let most = (MAX_CELLS_PER_PATCH as f64 * n).max(1.0);
+                if cell.is_nan() || cell <= 0.0 || (w / cell + 1.0) * (h / cell + 1.0) > most {
+                    // Cells of (w + c)(h + c)/c² ≤ most: c from the quadratic.
+                    let (a, b, c) = (most - 1.0, -(w + h), -w * h);
+                    cell = (-b + (b * b - 4.0 * a * c).max(0.0).sqrt()) / (2.0 * a).max(1e-30);
+                }
+                let per_m = if cell > 0.0 { (1.0 / cell) as f32 } else { 0.0 };
+                let count = |len: f64| ((len * per_m as f64).floor() as u32 + 1).max(1);
+                *side = Side {
+                    cells: [count(w), count(h)],
+                    lo,
+                    per_m,
+                    first_cell: cell_start.len() as u32,
+                };
+                let (gx, gy) = (side.cells[0] as usize, side.cells[1] as usize);
+                let mut cells: Vec<Vec<u32>> = vec![Vec::new(); gx * gy];
+                let base = side.first_cell as usize;
+                for &j in ids {
+                    let (l, h) = bbox(&uv[j as usize]);
+                    let (c0, c1) = (side.cell(l[0], l[1]) - base, side.cell(h[0], h[1]) - base);
+                    for y in c0 / gx..=c1 / gx {
+                        for x in c0 % gx..=c1 % gx {
+                            cells[y * gx + x].push(j);
                         }
                     }
                 }
@@ -139,18 +187,18 @@ impl PatchLocator {
     pub fn locate_weighted(&self, tri: u32, back: bool, x: DVec3) -> Option<(u32, [f32; 3])> {
         let f = self.frames.get(tri as usize)?;
         let side = f.sides[usize::from(back)];
-        if side.grid == 0 {
+        if side.cells[0] == 0 {
             return None;
         }
         let (u, v) = f.coords(x);
         let (u, v) = (u as f32, v as f32);
-        let g = side.grid as usize;
-        let cell = side.first_cell as usize + cell_of(v, g) * g + cell_of(u, g);
+        let cell = side.cell(u, v);
         let run = self.cell_start[cell] as usize..self.cell_start[cell + 1] as usize;
         let best = self.best_of(&self.entries[run], u, v).or_else(|| {
             // An empty cell (a point beside the triangle, past rounding): every patch of
             // the side.
-            let all = side.first_cell as usize..side.first_cell as usize + g * g;
+            let all = side.first_cell as usize
+                ..side.first_cell as usize + (side.cells[0] * side.cells[1]) as usize;
             let run = self.cell_start[all.start] as usize..self.cell_start[all.end] as usize;
             self.best_of(&self.entries[run], u, v)
         })?;
@@ -217,9 +265,9 @@ impl PatchLocator {
                 return 0;
             };
             let back = f.normal.dot(d32) >= 0.0;
-            if f.sides[usize::from(back)].grid > 0 {
+            if f.sides[usize::from(back)].cells[0] > 0 {
                 2
-            } else if !cull_back && f.sides[usize::from(!back)].grid > 0 {
+            } else if !cull_back && f.sides[usize::from(!back)].cells[0] > 0 {
                 1
             } else {
                 0
@@ -228,7 +276,7 @@ impl PatchLocator {
         let (t, s) = bvh.nearest_ranked(Vec3A::from(o.as_vec3()), d32, 0.0, f32::INFINITY, rank)?;
         let f = &self.frames[s as usize];
         let facing_back = f.normal.dot(d32) >= 0.0;
-        let back = if f.sides[usize::from(facing_back)].grid > 0 {
+        let back = if f.sides[usize::from(facing_back)].cells[0] > 0 {
             facing_back
         } else {
             !facing_back
@@ -239,38 +287,29 @@ impl PatchLocator {
 }
 
 impl Frame {
-    /// The barycentric weights (u, v) of the second and third corners at `x`.
+    /// The coordinates of `x` in the triangle's plane, m.
     #[inline]
     fn coords(&self, x: DVec3) -> (f64, f64) {
         let r = x - self.origin;
-        (r.dot(self.to_u), r.dot(self.to_v))
+        (r.dot(self.axes[0]), r.dot(self.axes[1]))
     }
 }
 
-/// A triangle's barycentric frame (no sides yet). A degenerate triangle gets a zero frame:
+/// A triangle's frame in its plane (no sides yet). A degenerate triangle gets a zero frame:
 /// every point maps to its first corner.
 fn frame(p: &[DVec3; 3]) -> Frame {
     let (e1, e2) = (p[1] - p[0], p[2] - p[0]);
-    let (d11, d12, d22) = (e1.dot(e1), e1.dot(e2), e2.dot(e2));
-    let den = d11 * d22 - d12 * d12;
-    let (to_u, to_v) = if den.abs() > 1e-300 {
-        ((d22 * e1 - d12 * e2) / den, (d11 * e2 - d12 * e1) / den)
-    } else {
-        (DVec3::ZERO, DVec3::ZERO)
+    let normal = e1.cross(e2);
+    let axes = match (e1.try_normalize(), normal.try_normalize()) {
+        (Some(x), Some(n)) => [x, n.cross(x)],
+        _ => [DVec3::ZERO; 2],
     };
     Frame {
         origin: p[0],
-        to_u,
-        to_v,
-        normal: Vec3A::from(e1.cross(e2).as_vec3()),
+        axes,
+        normal: Vec3A::from(normal.as_vec3()),
         sides: [Side::default(); 2],
     }
-}
-
-/// The cell (0..g) of coordinate `x` on a `g`-cell axis over 0..1, clamped.
-#[inline]
-fn cell_of(x: f32, g: usize) -> usize {
-    ((x * g as f32).max(0.0) as usize).min(g - 1)
 }
 
 /// The barycentric weights of the point (u, v) on the corners of the 2D triangle `c`
