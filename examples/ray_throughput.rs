@@ -31,9 +31,10 @@ fn main() {
     let nearest = relight::bench::nearest_throughput(&mesh, &bvh, &patches, rays);
     println!(
         "{{\"scene\": \"{dir}\", \"triangles\": {}, \"patches\": {}, \
-         \"scene_bvh_build_s\": {scene_build:.3}, \"patch_locator_build_s\": {locator_build:.3}, \
+         \"scene_bvh_build_s\": {scene_build:.3}, \"patch_locator_build_s\": {locator_build:.3}, \"patch_locator_mb\": {:.1}, \
          \"any_hit_mrays_per_core\": {any_hit:.2}, \"nearest_mrays_per_core\": {nearest:.2}}}",
         scene.triangles.len(),
-        mesh.len()
+        mesh.len(),
+        patches.bytes() as f64 / 1e6
     );
 }

@@ -175,6 +175,13 @@ impl PatchLocator {
         }
     }
 
+    /// Bytes this index holds.
+    pub fn bytes(&self) -> u64 {
+        (self.frames.len() * std::mem::size_of::<Frame>()
+            + 4 * (self.cell_start.len() + self.entries.len())
+            + self.uv.len() * std::mem::size_of::<[f32; 6]>()) as u64
+    }
+
     /// The patch of triangle `tri` on side `back` under the point `x` (on or next to the
     /// triangle's plane): the patch containing it, or when rounding leaves it in none,
     /// the one it lies least outside of. None when that side has no patches.
