@@ -1,0 +1,315 @@
+//! Geometry: a bounding volume hierarchy over the scene triangles, for visibility (any-hit
+//! segment) and nearest-hit queries.
+//!
+//! The tree is built binary (binned SAH over all three axes) and then collapsed into
+//! 8-wide nodes whose children's boxes sit in structure-of-arrays lanes, so one step of a
+//! walk tests a ray against 8 boxes at once (AVX where the build targets it, see
+//! `.cargo/config.toml`; the same arithmetic lane by lane elsewhere). Walks visit the
+//! children a ray enters nearest first and skip the boxes it enters past the hit found
+//! so far.
+//!
+//! Occlusion is geometric: a triangle blocks light from either side, even though it only
+//! emits, reflects and receives on its front. Queries skip the triangles a segment
+//! starts and ends on, so a ray leaving a surface never counts that surface as a blocker,
+//! and endpoints are pulled in by a relative epsilon so that rays grazing a neighbouring
+//! coplanar triangle are not blocked.
+
+mod build;
+mod lanes;
+#[cfg(test)]
+mod tests;
+
+use glam::Vec3A;
+
+use build::{build, collapse, Leaves, Node};
+use lanes::{enter8, hit4, Child, Ray8, Tri4, TriRay, Wide};
+
+/// A BVH over triangles given as corner triples.
+pub struct Bvh {
+    /// The collapsed tree; the root is the first node (none without triangles).
+    nodes: Vec<Wide>,
+    /// The leaves' triangles, four to a block.
+    blocks: Vec<Tri4>,
+    /// Caller's index of each stored triangle (block · 4 + lane); `u32::MAX` on padding.
+    ids: Vec<u32>,
+}
+
+/// Entries of a walk's stack kept on the thread's stack; deeper trees spill to the heap.
+const STACK: usize = 256;
+
+impl Bvh {
+    /// Builds the hierarchy. `tris[i]` keeps the id `i` in queries.
+    ///
+    /// # Panics
+    /// With more than 2²⁷ (134 million) triangles; scenes are limited far below that.
+    pub fn new(tris: &[[Vec3A; 3]]) -> Bvh {
+        assert!(
+            tris.len() <= Child::MAX_TRIANGLES,
+            "a BVH holds at most 2^27 triangles"
+        );
+        let mut ids: Vec<u32> = (0..tris.len() as u32).collect();
+        let cent: Vec<Vec3A> = tris.iter().map(|t| (t[0] + t[1] + t[2]) / 3.0).collect();
+        let lo: Vec<Vec3A> = tris.iter().map(|t| t[0].min(t[1]).min(t[2])).collect();
+        let hi: Vec<Vec3A> = tris.iter().map(|t| t[0].max(t[1]).max(t[2])).collect();
+        let mut binary = Vec::with_capacity(2 * tris.len().max(1));
+        binary.push(Node {
+            lo: Vec3A::ZERO,
+            hi: Vec3A::ZERO,
+            first: 0,
+            count: 0,
+        });
+        let mut nodes = Vec::new();
+        let mut leaves = Leaves {
+            tris,
+            order: &[],
+            blocks: Vec::with_capacity(tris.len() / 2),
+            ids: Vec::with_capacity(tris.len() * 2),
+        };
+        if !tris.is_empty() {
+            build(&mut binary, 0, &mut ids, 0, &cent, &lo, &hi);
+            leaves.order = &ids;
+            collapse(&binary, &[0], &mut nodes, &mut leaves);
+        }
+        Bvh {
+            nodes,
+            blocks: leaves.blocks,
+            ids: leaves.ids,
+        }
+    }
+
+    /// True when some triangle other than `skip` blocks the open segment `from → to`.
+    /// The segment's ends are trimmed by `1e-5` of its length.
+    pub fn occluded(&self, from: Vec3A, to: Vec3A, skip: [u32; 2]) -> bool {
+        self.along(from, to, |k, _| {
+            let id = self.ids[k];
+            id != skip[0] && id != skip[1]
+        })
+    }
+
+    /// Calls `f` with the id of every triangle the open segment `from → to` crosses, and
+    /// where (the parameter along the segment, 0..1; ends trimmed as in
+    /// [`Bvh::occluded`]). A segment through an edge shared by two triangles meets both.
+    pub fn each_hit(&self, from: Vec3A, to: Vec3A, mut f: impl FnMut(u32, f32)) {
+        self.along(from, to, |k, t| {
+            f(self.ids[k], t);
+            false
+        });
+    }
+
+    /// Calls `visit(index, t)` for the stored triangles the segment `from → to` (ends
+    /// trimmed by `1e-5` of its length) crosses, until it returns true; whether it did.
+    #[inline(always)]
+    fn along(&self, from: Vec3A, to: Vec3A, visit: impl FnMut(usize, f32) -> bool) -> bool {
+        self.traverse_ray(from, to - from, 1e-5, || 1.0 - 1e-5, visit)
+    }
+
+    /// Depth first through the nodes whose box the ray `o + t·d` enters within
+    /// `(tmin, far())`, the nearer children first, calling `visit(index, t)` for every
+    /// stored triangle in the leaves reached that the ray meets within `(tmin, far())`,
+    /// until it returns true; whether it did. `far` may shrink as triangles are visited
+    /// (a nearest-hit query): boxes entered past it are skipped, and `visit` sees the
+    /// hits of a block of four tested against the `far` before it.
+    #[inline(always)]
+    fn traverse_ray(
+        &self,
+        o: Vec3A,
+        d: Vec3A,
+        tmin: f32,
+        far: impl Fn() -> f32,
+        mut visit: impl FnMut(usize, f32) -> bool,
+    ) -> bool {
+        if self.nodes.is_empty() {
+            return false;
+        }
+        let ray = Ray8::new(o, d.recip());
+        let tri_ray = TriRay {
+            o: o.to_array(),
+            d: d.to_array(),
+        };
+        // Pending children (codes) and where the ray enters them, the nearest on top.
+        let mut stack = [(0u32, 0f32); STACK];
+        let mut spill: Vec<(u32, f32)> = Vec::new();
+        let mut sp = 0usize;
+        let mut node = 0usize;
+        loop {
+            let n = &self.nodes[node];
+            let (mut mask, t) = enter8(n, &ray, tmin, far());
+            // Push the lanes entered, then order the pushed run so the nearest is on top.
+            let base = sp;
+            while mask != 0 {
+                let lane = mask.trailing_zeros() as usize;
+                mask &= mask - 1;
+                let entry = (n.child[lane], t[lane]);
+                if sp < STACK {
+                    stack[sp] = entry;
+                    sp += 1;
+                } else {
+                    // A tree deeper than the stack (a very skewed scene) spills over
+                    // into the heap rather than losing a subtree.
+                    spill.push(entry);
+                }
+            }
+            for i in base + 1..sp {
+                let e = stack[i];
+                let mut j = i;
+                while j > base && stack[j - 1].1 < e.1 {
+                    stack[j] = stack[j - 1];
+                    j -= 1;
+                }
+                stack[j] = e;
+            }
+            // Pop until an inner node to open, visiting the leaves on the way.
+            loop {
+                let (code, enter) = if let Some(top) = spill.pop() {
+                    top
+                } else if sp > 0 {
+                    sp -= 1;
+                    stack[sp]
+                } else {
+                    return false;
+                };
+                if enter > far() * 1.000_001 {
+                    continue;
+                }
+                match Child::triangles(code) {
+                    Some((first, count)) => {
+                        for (j, block) in self.blocks[first..first + count.div_ceil(4)]
+                            .iter()
+                            .enumerate()
+                        {
+                            let (mut hits, t) = hit4(block, &tri_ray, tmin, far());
+                            hits &= (1 << (count - 4 * j).min(4)) - 1;
+                            while hits != 0 {
+                                let lane = hits.trailing_zeros() as usize;
+                                hits &= hits - 1;
+                                if visit(4 * (first + j) + lane, t[lane]) {
+                                    return true;
+                                }
+                            }
+                        }
+                    }
+                    None => {
+                        node = code as usize;
+                        break;
+                    }
+                }
+            }
+        }
+    }
+
+    /// Depth first through the children whose box passes `enter(lo, hi)`, calling `visit`
+    /// with the index of every stored triangle in the leaves reached, until it returns
+    /// true; whether it did.
+    #[inline(always)]
+    fn traverse(
+        &self,
+        mut enter: impl FnMut(Vec3A, Vec3A) -> bool,
+        mut visit: impl FnMut(usize) -> bool,
+    ) -> bool {
+        if self.nodes.is_empty() {
+            return false;
+        }
+        let mut stack: Vec<u32> = Vec::with_capacity(64);
+        let mut node = 0usize;
+        loop {
+            let n = &self.nodes[node];
+            for lane in 0..n.lanes as usize {
+                let lo = Vec3A::new(n.lo[0][lane], n.lo[1][lane], n.lo[2][lane]);
+                let hi = Vec3A::new(n.hi[0][lane], n.hi[1][lane], n.hi[2][lane]);
+                if !enter(lo, hi) {
+                    continue;
+                }
+                match Child::triangles(n.child[lane]) {
+                    Some((first, count)) => {
+                        for k in 4 * first..4 * first + count {
+                            if visit(k) {
+                                return true;
+                            }
+                        }
+                    }
+                    None => stack.push(n.child[lane]),
+                }
+            }
+            match stack.pop() {
+                Some(next) => node = next as usize,
+                None => return false,
+            }
+        }
+    }
+
+    /// Appends to `out` the id of every triangle whose bounding box overlaps the box
+    /// `lo..hi` (boxes touching at a face count).
+    pub fn overlapping(&self, lo: Vec3A, hi: Vec3A, out: &mut Vec<u32>) {
+        self.traverse(
+            |nlo, nhi| nlo.cmple(hi).all() && lo.cmple(nhi).all(),
+            |k| {
+                let [a, b, c] = self.blocks[k / 4].corners(k % 4);
+                if a.min(b).min(c).cmple(hi).all() && lo.cmple(a.max(b).max(c)).all() {
+                    out.push(self.ids[k]);
+                }
+                false
+            },
+        );
+    }
+
+    /// Distance parameter of the nearest hit along `from + t·d`, t in (tmin, tmax), with
+    /// the id of the triangle hit.
+    pub fn nearest(&self, from: Vec3A, d: Vec3A, tmin: f32, tmax: f32) -> Option<(f32, u32)> {
+        let mut best: Option<(f32, u32)> = None;
+        // The far end shrinks to each hit; the box test sees it.
+        let tmax = std::cell::Cell::new(tmax);
+        self.traverse_ray(
+            from,
+            d,
+            tmin,
+            || tmax.get(),
+            |k, t| {
+                if t < tmax.get() {
+                    tmax.set(t);
+                    best = Some((t, self.ids[k]));
+                }
+                false
+            },
+        );
+        best
+    }
+
+    /// As [`Bvh::nearest`], with each triangle ranked by `rank(id)`: triangles of rank 0
+    /// are passed through, and of triangles hit at the same distance (within a relative
+    /// `1e-5`: the two faces of a two-sided surface) the higher rank wins.
+    pub fn nearest_ranked(
+        &self,
+        from: Vec3A,
+        d: Vec3A,
+        tmin: f32,
+        tmax: f32,
+        rank: impl Fn(u32) -> u8,
+    ) -> Option<(f32, u32)> {
+        const TIE: f32 = 1e-5;
+        let mut best: Option<(f32, u32, u8)> = None;
+        let far = std::cell::Cell::new(tmax);
+        let limit = || (far.get() * (1.0 + TIE)).min(tmax);
+        self.traverse_ray(from, d, tmin, limit, |k, t| {
+            if t >= limit() {
+                return false;
+            }
+            let id = self.ids[k];
+            let r = rank(id);
+            if r == 0 {
+                return false;
+            }
+            let take = match best {
+                None => true,
+                Some((bt, _, _)) if t < bt * (1.0 - TIE) => true,
+                // A tie: the higher rank wins, then the nearer.
+                Some((bt, _, br)) => r > br || (r == br && t < bt),
+            };
+            if take {
+                best = Some((t, id, r));
+                far.set(far.get().min(t));
+            }
+            false
+        });
+        best.map(|(t, id, _)| (t, id))
+    }
+}
