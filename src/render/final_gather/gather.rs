@@ -98,12 +98,21 @@ impl Reflected {
         // The reflected radiosity at close hits, reused from ray to ray.
         let mut near_values: Vec<f32> = Vec::new();
         let mut inverse_distances = 0f64;
+        // The azimuth of column j is 2π (j + dv) / side: a rotation by a fixed step from
+        // the first, so no ray computes a sine or cosine.
+        let step = std::f64::consts::TAU / side as f64;
+        let (step_sin, step_cos) = step.sin_cos();
+        let (mut sin_phi, mut cos_phi) = (step * dv).sin_cos();
         for i in 0..count {
+            if i > 0 && i % side == 0 {
+                (cos_phi, sin_phi) = (
+                    cos_phi * step_cos - sin_phi * step_sin,
+                    sin_phi * step_cos + cos_phi * step_sin,
+                );
+            }
             let u1 = ((i % side) as f64 + du) / side as f64;
-            let u2 = ((i / side) as f64 + dv) / side as f64;
             let r = u1.sqrt();
-            let phi = std::f64::consts::TAU * u2;
-            let d = t * (r * phi.cos()) + b * (r * phi.sin()) + n * (1.0 - u1).max(0.0).sqrt();
+            let d = t * (r * cos_phi) + b * (r * sin_phi) + n * (1.0 - u1).max(0.0).sqrt();
             let hit = scene
                 .patches
                 .nearest_weighted(scene.bvh, o, d, Some(own), false);

@@ -178,8 +178,12 @@ pub(super) struct GroupLights<'a> {
 pub(super) struct Scratch {
     /// Per group RGB direct illuminance of the current sample, lux.
     pub(super) lux: Vec<f32>,
-    /// Luminaires that light the point: (group, luminaire, bound on its lux).
-    candidates: Vec<(u32, u32, f64)>,
+    /// Luminaires that light the point: (group, luminaire, bound on its lux, the run of
+    /// `points` that stands for it when near, else empty).
+    candidates: Vec<(u32, u32, f64, (u32, u32))>,
+    /// The opening points of the luminaires near the point, with each point's unoccluded
+    /// illuminance (lux), computed once for both the choice and the shadowed light.
+    points: Vec<(DVec3, f64)>,
     /// Per luminaire, its bound at the point ([`Bounds::lux`]).
     bound: Vec<f32>,
     /// Emitting triangles seen: (group, triangle, form factor, luminous light).
@@ -261,31 +265,51 @@ impl<'a> GroupLights<'a> {
         scratch: &mut Scratch,
         out: &mut [Rgb],
     ) {
-        let cand = &mut scratch.candidates;
+        let (cand, points) = (&mut scratch.candidates, &mut scratch.points);
         cand.clear();
+        points.clear();
         self.bounds.lux(x, n, &mut scratch.bound);
         let mut total = 0.0;
         for (&(k, i), &b) in self.bounds.who.iter().zip(&scratch.bound) {
-            let c = if b < 0.0 {
-                self.groups[k as usize].luminaires[i as usize].illuminance(x, n)
+            let (c, run) = if b < 0.0 {
+                // Near: its exact light over the opening, point by point.
+                let l = &self.groups[k as usize].luminaires[i as usize];
+                let start = points.len() as u32;
+                let mut sum = 0.0;
+                l.for_each_emitter(x, |p, w| {
+                    let e = w * l.illuminance_from(p, x, n);
+                    if e > 0.0 {
+                        points.push((p, e));
+                        sum += e;
+                    }
+                });
+                (sum, (start, points.len() as u32))
             } else {
-                b as f64
+                (b as f64, (0, 0))
             };
             if c > 0.0 {
-                cand.push((k, i, c));
+                cand.push((k, i, c, run));
                 total += c;
             }
         }
         let cut = rays.significant() * total;
         let mut tail = 0.0;
-        let mut add = |k: u32, i: u32, weight: f64| {
+        let mut add = |k: u32, i: u32, run: (u32, u32), weight: f64| {
             let l = &self.groups[k as usize].luminaires[i as usize];
-            let e = shadowed(self.bvh, l, x, n, skip).0 * weight;
-            out[k as usize] += (e * l.color.to_f64()).to_f32();
+            let e = if run.0 == run.1 {
+                shadowed(self.bvh, l, x, n, skip).0
+            } else {
+                points[run.0 as usize..run.1 as usize]
+                    .iter()
+                    .filter(|(p, _)| visible(self.bvh, x, n, *p, skip))
+                    .map(|(_, e)| e)
+                    .sum()
+            };
+            out[k as usize] += (e * weight * l.color.to_f64()).to_f32();
         };
-        for &(k, i, c) in cand.iter() {
+        for &(k, i, c, run) in cand.iter() {
             if c >= cut {
-                add(k, i, 1.0);
+                add(k, i, run, 1.0);
             } else {
                 tail += c;
             }
@@ -300,15 +324,15 @@ impl<'a> GroupLights<'a> {
             let r = rng.next_f64() * tail;
             let mut sum = 0.0;
             let mut drawn = None;
-            for &(k, i, c) in cand.iter().filter(|&&(_, _, c)| c < cut) {
-                drawn = Some((k, i, c));
+            for &(k, i, c, run) in cand.iter().filter(|&&(_, _, c, _)| c < cut) {
+                drawn = Some((k, i, c, run));
                 sum += c;
                 if r < sum {
                     break;
                 }
             }
-            if let Some((k, i, c)) = drawn {
-                add(k, i, tail / (c * draws as f64));
+            if let Some((k, i, c, run)) = drawn {
+                add(k, i, run, tail / (c * draws as f64));
             }
         }
     }
