@@ -2,7 +2,8 @@
 //! - any-hit (`occluded`): segments between random points of random patches, as the form
 //!   factors, links and shadow rays trace them, on the scene BVH ([`relight::bench::ray_throughput`]);
 //! - nearest hit: cosine-weighted rays from random points of random patches, as the final
-//!   gather traces them (the scene BVH, then the patch under the hit).
+//!   gather traces them (the scene BVH, then the grid corners around the hit, where the
+//!   gather reads the radiosity).
 //!
 //! `cargo run --release --example ray_throughput [SCENE_DIR] [RAYS]` (default
 //! `scenes/office-floor`, a million rays). The scene is meshed, not baked.
@@ -31,10 +32,11 @@ fn main() {
     let nearest = relight::bench::nearest_throughput(&mesh, &bvh, &patches, rays);
     println!(
         "{{\"scene\": \"{dir}\", \"triangles\": {}, \"patches\": {}, \
-         \"scene_bvh_build_s\": {scene_build:.3}, \"patch_locator_build_s\": {locator_build:.3}, \"patch_locator_mb\": {:.1}, \
+         \"scene_bvh_build_s\": {scene_build:.3}, \"patch_locator_build_s\": {locator_build:.3}, \"patch_locator_mb\": {:.1}, \"grid_corners\": {}, \
          \"any_hit_mrays_per_core\": {any_hit:.2}, \"nearest_mrays_per_core\": {nearest:.2}}}",
         scene.triangles.len(),
         mesh.len(),
-        patches.bytes() as f64 / 1e6
+        patches.bytes() as f64 / 1e6,
+        patches.corner_count()
     );
 }

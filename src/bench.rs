@@ -65,8 +65,9 @@ pub fn ray_throughput(mesh: &Mesh, bvh: &Bvh, rays: usize) -> f64 {
 
 /// Nearest-hit queries per second on one thread, millions: cosine-weighted rays from
 /// uniformly random points of uniformly random patches, as the final gather traces them:
-/// on `bvh`, the scene BVH, then the patch hit looked up by `patches`
-/// ([`crate::render::final_gather::patch_locator`]).
+/// on `bvh`, the scene BVH, then the four corners around the hit in the side's grid
+/// of `patches` ([`crate::render::final_gather::patch_locator`]), where the gather reads
+/// the radiosity.
 pub fn nearest_throughput(
     mesh: &Mesh,
     bvh: &Bvh,
@@ -90,7 +91,10 @@ pub fn nearest_throughput(
         })
         .collect();
     per_second(&queries, |&(o, d, own)| {
-        patches.nearest(bvh, o, d, Some(own), false).is_some()
+        patches
+            .nearest_side(bvh, o, d, Some(own), false)
+            .and_then(|(t, tri, back)| patches.grid_weights(tri, back, o + d * t as f64))
+            .is_some()
     })
 }
 

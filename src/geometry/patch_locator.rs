@@ -31,6 +31,11 @@ struct Side {
     per_m: f32,
     /// The side's first cell in [`PatchLocator::cell_start`].
     first_cell: u32,
+    /// The side's first grid corner ([`PatchLocator::grid_corners`]); its corners are
+    /// `(cells[0] + 1) × (cells[1] + 1)`, row by row.
+    first_corner: u32,
+    /// The side's mean patch size (√ of its mean patch area), m.
+    patch_size: f32,
 }
 
 impl Side {
@@ -65,6 +70,8 @@ pub struct PatchLocator {
     /// Per patch, its corners' coordinates in its triangle's plane, `[x0, y0, x1, y1, x2,
     /// y2]`, m.
     uv: Vec<[f32; 6]>,
+    /// Corners of all the sides' grids.
+    corners: u32,
 }
 
 /// Bytes per patch a [`PatchLocator`] holds, besides [`LOCATOR_BYTES_PER_TRIANGLE`] per
@@ -107,6 +114,7 @@ impl PatchLocator {
         }
         let mut cell_start = Vec::new();
         let mut entries = Vec::new();
+        let mut corners = 0u32;
         for (s, f) in frames.iter_mut().enumerate() {
             for (k, side) in f.sides.iter_mut().enumerate() {
                 let ids = &by_side[2 * s + k];
@@ -147,7 +155,10 @@ impl PatchLocator {
                     lo,
                     per_m,
                     first_cell: cell_start.len() as u32,
+                    first_corner: corners,
+                    patch_size: (areas[2 * s + k] / n).sqrt() as f32,
                 };
+                corners += (side.cells[0] + 1) * (side.cells[1] + 1);
                 let (gx, gy) = (side.cells[0] as usize, side.cells[1] as usize);
                 let mut cells: Vec<Vec<u32>> = vec![Vec::new(); gx * gy];
                 let base = side.first_cell as usize;
@@ -172,7 +183,85 @@ impl PatchLocator {
             cell_start,
             entries,
             uv,
+            corners,
         }
+    }
+
+    /// Corners of all the sides' grids ([`Self::grid_weights`] names them by index).
+    pub fn corner_count(&self) -> usize {
+        self.corners as usize
+    }
+
+    /// Every side's grid corners in index order: (triangle, back side, the corner's point
+    /// in the triangle's plane).
+    pub fn grid_corners(&self) -> impl Iterator<Item = (u32, bool, DVec3)> + '_ {
+        self.frames.iter().enumerate().flat_map(|(t, f)| {
+            (0..2).flat_map(move |k| {
+                let s = f.sides[k];
+                let (gx, gy) = (s.cells[0], s.cells[1]);
+                let n = if gx == 0 { 0 } else { (gx + 1) * (gy + 1) };
+                let step = if s.per_m > 0.0 {
+                    1.0 / s.per_m as f64
+                } else {
+                    0.0
+                };
+                (0..n).map(move |c| {
+                    let (i, j) = ((c % (gx + 1)) as f64, (c / (gx + 1)) as f64);
+                    let (u, v) = (s.lo[0] as f64 + i * step, s.lo[1] as f64 + j * step);
+                    (t as u32, k == 1, f.origin + f.axes[0] * u + f.axes[1] * v)
+                })
+            })
+        })
+    }
+
+    /// The four grid corners around the point `x` of triangle `tri`'s side `back`, and
+    /// their bilinear weights (clamped to the grid). None when that side has no patches.
+    #[inline]
+    pub fn grid_weights(&self, tri: u32, back: bool, x: DVec3) -> Option<([u32; 4], [f32; 4])> {
+        let f = self.frames.get(tri as usize)?;
+        let s = f.sides[usize::from(back)];
+        if s.cells[0] == 0 {
+            return None;
+        }
+        let (u, v) = f.coords(x);
+        let at = |k: usize, c: f64| {
+            let t = ((c as f32 - s.lo[k]) * s.per_m).max(0.0);
+            let i = (t as u32).min(s.cells[k] - 1);
+            (i, (t - i as f32).min(1.0))
+        };
+        let ((i, fx), (j, fy)) = (at(0, u), at(1, v));
+        let row = s.cells[0] + 1;
+        let c = s.first_corner + j * row + i;
+        Some((
+            [c, c + 1, c + row, c + row + 1],
+            [
+                (1.0 - fx) * (1.0 - fy),
+                fx * (1.0 - fy),
+                (1.0 - fx) * fy,
+                fx * fy,
+            ],
+        ))
+    }
+
+    /// The mean patch size of triangle `tri`'s side `back` (√ of the mean area, m; 0 for
+    /// a side without patches).
+    pub fn patch_size(&self, tri: u32, back: bool) -> f32 {
+        self.frames
+            .get(tri as usize)
+            .map_or(0.0, |f| f.sides[usize::from(back)].patch_size)
+    }
+
+    /// Whether side `back` of triangle `tri` faces away from the direction `d` (its
+    /// front normal has `n·d < 0`): a ray along `d` meets that side's front.
+    pub fn faces(&self, tri: u32, back: bool, d: DVec3) -> bool {
+        self.frames.get(tri as usize).is_some_and(|f| {
+            let dot = f.normal.dot(Vec3A::from(d.as_vec3()));
+            if back {
+                dot > 0.0
+            } else {
+                dot < 0.0
+            }
+        })
     }
 
     /// Bytes this index holds.
@@ -216,6 +305,54 @@ impl PatchLocator {
         } else {
             (best.0, [1.0 / 3.0; 3])
         })
+    }
+
+    /// As [`Self::locate_weighted`], for a point that may lie well beside the triangle
+    /// (a grid corner): an empty cell searches the rings of cells around it, nearest
+    /// first, rather than every patch of the side.
+    pub fn locate_beside(&self, tri: u32, back: bool, x: DVec3) -> Option<(u32, [f32; 3])> {
+        let f = self.frames.get(tri as usize)?;
+        let side = f.sides[usize::from(back)];
+        let [gx, gy] = side.cells.map(|c| c as i64);
+        if gx == 0 {
+            return None;
+        }
+        let (u, v) = f.coords(x);
+        let (u, v) = (u as f32, v as f32);
+        let cell = side.cell(u, v) - side.first_cell as usize;
+        let (cx, cy) = ((cell % gx as usize) as i64, (cell / gx as usize) as i64);
+        let run = |x: i64, y: i64| {
+            let c = side.first_cell as usize + (y * gx + x) as usize;
+            &self.entries[self.cell_start[c] as usize..self.cell_start[c + 1] as usize]
+        };
+        let mut ids = Vec::new();
+        let mut found_at = None;
+        for r in 0..gx.max(gy) {
+            for y in (cy - r).max(0)..=(cy + r).min(gy - 1) {
+                for x in (cx - r).max(0)..=(cx + r).min(gx - 1) {
+                    if (x - cx).abs() == r || (y - cy).abs() == r {
+                        ids.extend_from_slice(run(x, y));
+                    }
+                }
+            }
+            // One ring past the first with patches: a nearer patch may start there.
+            match found_at {
+                Some(r0) if r > r0 => break,
+                None if !ids.is_empty() => found_at = Some(r),
+                _ => {}
+            }
+        }
+        let best = self.best_of(&ids, u, v)?;
+        let w = best.1.map(|w| w.max(0.0));
+        let sum = w[0] + w[1] + w[2];
+        Some((
+            best.0,
+            if sum > 0.0 {
+                w.map(|w| w / sum)
+            } else {
+                [1.0 / 3.0; 3]
+            },
+        ))
     }
 
     /// Of `ids`, the first patch containing (u, v), else the one it lies least outside
@@ -263,6 +400,21 @@ impl PatchLocator {
         own: Option<u32>,
         cull_back: bool,
     ) -> Option<(f32, u32, [f32; 3])> {
+        let (t, s, back) = self.nearest_side(bvh, o, d, own, cull_back)?;
+        self.locate_weighted(s, back, o + d * t as f64)
+            .map(|(j, w)| (t, j, w))
+    }
+
+    /// As [`Self::nearest`], naming the side met instead of its patch: (distance
+    /// parameter, scene triangle, back side).
+    pub fn nearest_side(
+        &self,
+        bvh: &Bvh,
+        o: DVec3,
+        d: DVec3,
+        own: Option<u32>,
+        cull_back: bool,
+    ) -> Option<(f32, u32, bool)> {
         let d32 = Vec3A::from(d.as_vec3());
         let rank = |s: u32| -> u8 {
             if Some(s) == own {
@@ -288,8 +440,7 @@ impl PatchLocator {
         } else {
             !facing_back
         };
-        self.locate_weighted(s, back, o + d * t as f64)
-            .map(|(j, w)| (t, j, w))
+        Some((t, s, back))
     }
 }
 
@@ -409,5 +560,50 @@ mod tests {
             same as f64 > 0.999 * hits as f64,
             "{same} of {hits} the same patch"
         );
+    }
+
+    /// The grids' corners are as many as counted and within the bound the memory budget
+    /// reserves, and the four corners around a point of any patch, weighted bilinearly,
+    /// put back the point: a field sampled at the corners is read back exactly where it
+    /// is linear.
+    #[test]
+    fn grid_corners_around_a_point_put_it_back_and_stay_within_their_bound() {
+        let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/office");
+        let scene = Scene::load(&dir).unwrap();
+        let mesh = Mesh::build(&scene);
+        let loc = PatchLocator::new(&mesh, &scene.triangles);
+        let corners: Vec<(u32, bool, DVec3)> = loc.grid_corners().collect();
+        assert_eq!(corners.len(), loc.corner_count());
+        let bound =
+            crate::render::final_gather::patch_locator_corners_bound(&mesh, scene.triangles.len());
+        assert!(
+            (corners.len() as u64) <= bound && corners.len() < 4 * mesh.len(),
+            "{} corners for {} patches (bound {bound})",
+            corners.len(),
+            mesh.len()
+        );
+        let mut rng = crate::transport::formfactor::Rng::new(5, 6);
+        for _ in 0..20_000 {
+            let p = ((rng.next_f64() * mesh.len() as f64) as usize).min(mesh.len() - 1);
+            let x = crate::transport::formfactor::sample_triangle(
+                &mesh.corners(p),
+                rng.next_f64(),
+                rng.next_f64(),
+            );
+            let tri = mesh.patches[p].source;
+            let f = &loc.frames[tri as usize];
+            let back = mesh.patches[p].normal.dot(f.normal.as_dvec3()) < 0.0;
+            let (c, w) = loc.grid_weights(tri, back, x).unwrap();
+            let at: DVec3 = c
+                .iter()
+                .zip(w)
+                .map(|(&c, w)| {
+                    assert_eq!(corners[c as usize].0, tri);
+                    assert_eq!(corners[c as usize].1, back);
+                    corners[c as usize].2 * w as f64
+                })
+                .sum();
+            assert!((at - x).length() < 1e-4, "{at} against {x}");
+        }
     }
 }

@@ -61,6 +61,18 @@ impl Ready {
         })
     }
 
+    /// The points per group at which a `final` build's gather holds the radiosity
+    /// ([`crate::render::final_gather::gather_points`]).
+    pub fn gather_points(&self) -> u64 {
+        let b = &self.model.baked;
+        crate::render::final_gather::gather_points(
+            self.patch_locator.get(),
+            &b.mesh,
+            b.scene.triangles.len(),
+            self.shading.get().map_or(3 * b.mesh.len(), |s| s.len()),
+        )
+    }
+
     /// Bytes [`Ready::patch_locator`] will allocate, 0 once built.
     pub fn patch_locator_pending_bytes(&self) -> u64 {
         match self.patch_locator.get() {

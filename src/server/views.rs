@@ -267,7 +267,7 @@ pub fn render_estimate(state: &AppState, ready: &Ready, o: &RenderOptions) -> u6
             match lock(&state.views).peek(&view_key(ready, &o.camera)) {
                 Some(v) if v.has_finals() => 0,
                 _ => {
-                    final_gather::estimate_bytes(&o.camera, groups)
+                    final_gather::estimate_bytes(&o.camera, groups, ready.gather_points())
                         + ready.patch_locator_pending_bytes()
                 }
             }

@@ -24,47 +24,63 @@ pub(super) type NearHit<'a> = dyn FnMut(DVec3, u32, &mut Rng, &mut [f32]) + 'a;
 
 /// A gather ray that lands closer than this many times the size (√area) of the patch it
 /// meets reads the light at the point it lands, not the patch's.
-pub(super) const NEAR: f64 = 1.0;
+pub(super) const NEAR: f32 = 1.0;
 
-/// Per shading vertex and group, the reflected radiosity at unit group weight (lm/m²),
-/// `[vertex][group][rgb]`.
+/// The reflected radiosity at unit group weight (lm/m²) that gather rays read, per
+/// corner of the patch lookup's grids ([`PatchLocator::grid_corners`]) and group,
+/// `[corner][group][rgb]`: the Gouraud-interpolated radiosity of the patch under each
+/// corner (of the nearest patch, for a corner beside the triangle), so a ray reads it
+/// bilinearly from the four corners around its hit, with no search for the patch. The
+/// corners are about a mean patch apart.
+///
+/// [`PatchLocator::grid_corners`]: crate::geometry::patch_locator::PatchLocator::grid_corners
 pub(super) struct Reflected {
     groups: usize,
     values: Vec<f32>,
 }
 
+/// Bytes per group a [`Reflected`] holds at each grid corner, and while it is made at
+/// each shading vertex.
+pub(super) const REFLECTED_BYTES_PER_POINT_AND_GROUP: u64 = 12;
+
 impl Reflected {
     pub(super) fn new(scene: &FinalScene<'_>, lights: &GroupLights<'_>) -> Reflected {
-        if let Some(sky) = &scene.sky {
-            let vals = scene.shading.vertex_values(sky.reflected);
-            return Reflected {
-                groups: 1,
-                values: vals.iter().flat_map(|v| v.0).collect(),
-            };
-        }
-        let g = scene.groups.len();
-        let per_group: Vec<Vec<crate::color::Rgb>> = scene
-            .groups
-            .par_iter()
-            .enumerate()
-            .map(|(k, col)| {
-                let mut r = col.b.clone();
-                if lights.explicit(k) {
-                    for (v, e) in r.iter_mut().zip(&col.e) {
-                        *v = (*v - e).max(0.0);
+        // Per group, the reflected radiosity at the shading vertices.
+        let per_group: Vec<Vec<Rgb>> = match &scene.sky {
+            Some(sky) => vec![scene.shading.vertex_values(sky.reflected)],
+            None => scene
+                .groups
+                .par_iter()
+                .enumerate()
+                .map(|(k, col)| {
+                    let mut r = col.b.clone();
+                    if lights.explicit(k) {
+                        for (v, e) in r.iter_mut().zip(&col.e) {
+                            *v = (*v - e).max(0.0);
+                        }
                     }
+                    scene.shading.vertex_values(&r)
+                })
+                .collect(),
+        };
+        let g = per_group.len();
+        let corners: Vec<(u32, bool, DVec3)> = scene.patches.grid_corners().collect();
+        let mut values = vec![0f32; corners.len() * 3 * g];
+        values
+            .par_chunks_mut((3 * g).max(1))
+            .zip(&corners)
+            .for_each(|(out, &(tri, back, x))| {
+                let Some((q, w)) = scene.patches.locate_beside(tri, back, x) else {
+                    return;
+                };
+                let sv = scene.shading.corner[q as usize];
+                for (k, vals) in per_group.iter().enumerate() {
+                    let v = vals[sv[0] as usize] * w[0]
+                        + vals[sv[1] as usize] * w[1]
+                        + vals[sv[2] as usize] * w[2];
+                    out[3 * k..3 * k + 3].copy_from_slice(&v.0);
                 }
-                scene.shading.vertex_values(&r)
-            })
-            .collect();
-        let nv = scene.shading.len();
-        let mut values = vec![0f32; nv * 3 * g];
-        let triples = Rgb::column_mut(&mut values);
-        for (k, vals) in per_group.iter().enumerate() {
-            for (s, &v) in vals.iter().enumerate() {
-                triples[s * g + k] = v;
-            }
-        }
+            });
         Reflected { groups: g, values }
     }
 
@@ -93,7 +109,7 @@ impl Reflected {
         let o = x + n * lift;
         let own = scene.mesh.patches[p as usize].source;
         let (du, dv) = (rng.next_f64(), rng.next_f64());
-        let mesh = scene.mesh;
+        let patches = scene.patches;
         let w = 1.0 / count as f32;
         // The reflected radiosity at close hits, reused from ray to ray.
         let mut near_values: Vec<f32> = Vec::new();
@@ -115,11 +131,11 @@ impl Reflected {
             let d = t * (r * cos_phi) + b * (r * sin_phi) + n * (1.0 - u1).max(0.0).sqrt();
             let hit = scene
                 .patches
-                .nearest_weighted(scene.bvh, o, d, Some(own), false);
+                .nearest_side(scene.bvh, o, d, Some(own), false);
             if let Some((th, _, _)) = hit {
                 inverse_distances += 1.0 / (th as f64).max(1e-9);
             }
-            let Some((th, q, [wa, wb, wc])) = hit else {
+            let Some((th, tri, back)) = hit else {
                 // Out of the scene: the sky (through any glazing), as radiosity π L, or
                 // weighted against the aimed sky rays.
                 if let Some(sky) = &scene.sky {
@@ -135,26 +151,30 @@ impl Reflected {
                 }
                 continue;
             };
-            let patch = &mesh.patches[q as usize];
-            if patch.normal.dot(d) >= 0.0 {
+            if !patches.faces(tri, back, d) {
+                // The back of a one-sided surface: it reflects nothing this way.
                 continue;
             }
             let at = o + d * th as f64;
             if let Some(f) = near.as_mut() {
-                if (th as f64) < NEAR * patch.area.sqrt() {
-                    near_values.clear();
-                    near_values.resize(out.len(), 0.0);
-                    f(at, q, rng, &mut near_values);
-                    for (o, v) in out.iter_mut().zip(&near_values) {
-                        *o += w * v;
+                if th < NEAR * patches.patch_size(tri, back) {
+                    if let Some(q) = patches.locate(tri, back, at) {
+                        near_values.clear();
+                        near_values.resize(out.len(), 0.0);
+                        f(at, q, rng, &mut near_values);
+                        for (o, v) in out.iter_mut().zip(&near_values) {
+                            *o += w * v;
+                        }
                     }
                     continue;
                 }
             }
-            let sv = scene.shading.corner[q as usize];
-            let rows = sv.map(|s| &self.values[3 * g * s as usize..3 * g * (s as usize + 1)]);
+            let Some((c, [wa, wb, wc, wd])) = patches.grid_weights(tri, back, at) else {
+                continue;
+            };
+            let rows = c.map(|c| &self.values[3 * g * c as usize..3 * g * (c as usize + 1)]);
             for (k, o) in out.iter_mut().enumerate() {
-                *o += w * (wa * rows[0][k] + wb * rows[1][k] + wc * rows[2][k]);
+                *o += w * (wa * rows[0][k] + wb * rows[1][k] + wc * rows[2][k] + wd * rows[3][k]);
             }
         }
         (count as f64 / inverse_distances) as f32

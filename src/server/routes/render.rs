@@ -159,7 +159,8 @@ async fn respond(
         bytes += 24 * px + 36 * ready.model.patches() as u64;
         if o.quality == Quality::Final && !o.falsecolor {
             // The daylight's own `final` image, built per sky.
-            bytes += crate::render::final_gather::estimate_bytes(&o.camera, 1);
+            bytes +=
+                crate::render::final_gather::estimate_bytes(&o.camera, 1, ready.gather_points());
         }
     }
     let what = format!(
