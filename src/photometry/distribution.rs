@@ -51,8 +51,8 @@ impl Distribution {
             }
             Distribution::Table(d) => match d.kind {
                 PhotometricType::C => {
-                    let gamma = a.clamp(-1.0, 1.0).acos().to_degrees();
-                    let c = c90.atan2(c0).to_degrees();
+                    let gamma = super::angles::acos_deg(a);
+                    let c = super::angles::atan2_deg(c90, c0);
                     d.candela_at(gamma, c)
                 }
                 PhotometricType::B => {

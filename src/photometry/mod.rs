@@ -17,6 +17,7 @@
 //!   [`Distribution`].
 //! - `cct.rs`: blackbody colours from a colour temperature (K).
 
+mod angles;
 mod cct;
 mod distribution;
 pub mod glare;
