@@ -83,7 +83,14 @@ mod tests {
             // ±180° are the same direction.
             worst = worst.max(e.min((e - 360.0).abs()));
         }
-        for (y, x) in [(0.0, 1.0), (1.0, 0.0), (0.0, -1.0), (-1.0, 0.0), (1.0, 1.0), (-2.0, -2.0)] {
+        for (y, x) in [
+            (0.0, 1.0),
+            (1.0, 0.0),
+            (0.0, -1.0),
+            (-1.0, 0.0),
+            (1.0, 1.0),
+            (-2.0, -2.0),
+        ] {
             let e = (atan2_deg(y, x) - f64::atan2(y, x).to_degrees()).abs();
             worst = worst.max(e.min((e - 360.0).abs()));
         }
