@@ -100,17 +100,18 @@ impl Bvh {
     /// trimmed by `1e-5` of its length) crosses, until it returns true; whether it did.
     #[inline(always)]
     fn along(&self, from: Vec3A, to: Vec3A, visit: impl FnMut(usize, f32) -> bool) -> bool {
-        self.traverse_ray(from, to - from, 1e-5, || 1.0 - 1e-5, visit)
+        self.traverse_ray::<false>(from, to - from, 1e-5, || 1.0 - 1e-5, visit)
     }
 
     /// Depth first through the nodes whose box the ray `o + t·d` enters within
-    /// `(tmin, far())`, the nearer children first, calling `visit(index, t)` for every
+    /// `(tmin, far())`, the nearer children first when `NEAREST_FIRST` (else in the
+    /// order they are stored), calling `visit(index, t)` for every
     /// stored triangle in the leaves reached that the ray meets within `(tmin, far())`,
     /// until it returns true; whether it did. `far` may shrink as triangles are visited
     /// (a nearest-hit query): boxes entered past it are skipped, and `visit` sees the
     /// hits of a block of four tested against the `far` before it.
     #[inline(always)]
-    fn traverse_ray(
+    fn traverse_ray<const NEAREST_FIRST: bool>(
         &self,
         o: Vec3A,
         d: Vec3A,
@@ -134,7 +135,12 @@ impl Bvh {
         loop {
             let n = &self.nodes[node];
             let (mut mask, t) = enter8(n, &ray, tmin, far());
-            // Push the lanes entered, then order the pushed run so the nearest is on top.
+            // Push the lanes entered, then (for a nearest hit) order the pushed run so the
+            // nearest is on top. Any hit ends an occlusion query, so ordering buys it
+            // nothing: on office-floor its shadow rays met 6.8 nodes and blocks each
+            // unordered against 8.6 nearest first (the boxes a ray starts inside, the
+            // surfaces around its origin, come first and seldom block it), and skipped
+            // the sort.
             let base = sp;
             while mask != 0 {
                 let lane = mask.trailing_zeros() as usize;
@@ -149,14 +155,16 @@ impl Bvh {
                     spill.push(entry);
                 }
             }
-            for i in base + 1..sp {
-                let e = stack[i];
-                let mut j = i;
-                while j > base && stack[j - 1].1 < e.1 {
-                    stack[j] = stack[j - 1];
-                    j -= 1;
+            if NEAREST_FIRST {
+                for i in base + 1..sp {
+                    let e = stack[i];
+                    let mut j = i;
+                    while j > base && stack[j - 1].1 < e.1 {
+                        stack[j] = stack[j - 1];
+                        j -= 1;
+                    }
+                    stack[j] = e;
                 }
-                stack[j] = e;
             }
             // Pop until an inner node to open, visiting the leaves on the way.
             loop {
@@ -258,7 +266,7 @@ impl Bvh {
         let mut best: Option<(f32, u32)> = None;
         // The far end shrinks to each hit; the box test sees it.
         let tmax = std::cell::Cell::new(tmax);
-        self.traverse_ray(
+        self.traverse_ray::<true>(
             from,
             d,
             tmin,
@@ -289,7 +297,7 @@ impl Bvh {
         let mut best: Option<(f32, u32, u8)> = None;
         let far = std::cell::Cell::new(tmax);
         let limit = || (far.get() * (1.0 + TIE)).min(tmax);
-        self.traverse_ray(from, d, tmin, limit, |k, t| {
+        self.traverse_ray::<true>(from, d, tmin, limit, |k, t| {
             if t >= limit() {
                 return false;
             }
