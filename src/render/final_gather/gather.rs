@@ -4,8 +4,9 @@
 //! With cosine-weighted directions the irradiance is `E = π · mean(L)`, and a Lambertian
 //! surface's radiance is `L = B/π`, so `E = mean(B)` over the rays. A ray reads, per
 //! group, the radiosity *reflected* where it lands (`B − E` for groups whose emission the
-//! direct part lights, `B` otherwise), Gouraud-interpolated over the hit triangle's
-//! shading vertices, so nothing steps at patch edges. A ray that meets the back of a
+//! direct part lights, `B` otherwise), Gouraud-interpolated over the shading vertices and
+//! read bilinearly from the grid corners around the hit ([`Reflected`]), so nothing steps
+//! at patch edges. A ray that meets the back of a
 //! surface reads nothing (surfaces reflect on their front), and one that leaves the
 //! scene reads nothing. Directions are stratified on a √n × √n grid with a random offset
 //! per point, so neighbouring pixels' errors are independent and the filter removes them.
@@ -22,8 +23,8 @@ use crate::transport::formfactor::Rng;
 /// patch, generator, per group RGB out)`.
 pub(super) type NearHit<'a> = dyn FnMut(DVec3, u32, &mut Rng, &mut [f32]) + 'a;
 
-/// A gather ray that lands closer than this many times the size (√area) of the patch it
-/// meets reads the light at the point it lands, not the patch's.
+/// A gather ray that lands closer than this many times the mean patch size (√ of the mean
+/// area) of the side it meets reads the light at the point it lands, not the patch's.
 pub(super) const NEAR: f32 = 1.0;
 
 /// The reflected radiosity at unit group weight (lm/m²) that gather rays read, per
@@ -87,7 +88,7 @@ impl Reflected {
     /// Adds to `out` (per group RGB) the gathered irradiance (lux) at `x` on patch `p`
     /// (normal `n`), from `rays` cosine-weighted rays; rays that leave the scene read the
     /// sky, weighted against the aimed sky rays of `aim` when given. A ray that lands closer than
-    /// [`NEAR`] × the size of the patch it meets asks `near(point, patch, values)` for the
+    /// [`NEAR`] × the mean patch size of the side it meets asks `near(point, patch, values)` for the
     /// reflected radiosity there instead (per group RGB into `values`), when given: near
     /// a corner the patch's mean is not the light at the point. Returns the harmonic mean
     /// distance of the rays' hits (metres; infinite when every ray left the scene): the
