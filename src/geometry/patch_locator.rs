@@ -57,6 +57,9 @@ struct Frame {
     axes: [DVec3; 2],
     /// The winding normal (not normalised): the front side faces along it.
     normal: Vec3A,
+    /// The triangle in the plane's coordinates: its corners are (0, 0), (b, 0) and
+    /// (cx, cy), cy ≥ 0; `[b, cx, cy]`, m.
+    corners: [f64; 3],
     /// Front (along the normal) and back.
     sides: [Side; 2],
 }
@@ -282,12 +285,26 @@ impl PatchLocator {
     /// (clamped to the patch, summing to 1).
     pub fn locate_weighted(&self, tri: u32, back: bool, x: DVec3) -> Option<(u32, [f32; 3])> {
         let f = self.frames.get(tri as usize)?;
-        let side = f.sides[usize::from(back)];
+        let (u, v) = f.coords(x);
+        self.locate_uv(f.sides[usize::from(back)], u as f32, v as f32)
+    }
+
+    /// As [`Self::locate_weighted`], for a point that may lie well beside the triangle
+    /// (a grid corner): the patch under the triangle's point nearest to it, with that
+    /// point's weights, so a field read there is the one at the triangle's edge and the
+    /// cell searched is never an empty one far from the patches.
+    pub fn locate_beside(&self, tri: u32, back: bool, x: DVec3) -> Option<(u32, [f32; 3])> {
+        let f = self.frames.get(tri as usize)?;
+        let (u, v) = f.coords(x);
+        let (u, v) = f.nearest_in_triangle(u, v);
+        self.locate_uv(f.sides[usize::from(back)], u as f32, v as f32)
+    }
+
+    /// The patch of `side` under the plane point (u, v), with its clamped weights there.
+    fn locate_uv(&self, side: Side, u: f32, v: f32) -> Option<(u32, [f32; 3])> {
         if side.cells[0] == 0 {
             return None;
         }
-        let (u, v) = f.coords(x);
-        let (u, v) = (u as f32, v as f32);
         let cell = side.cell(u, v);
         let run = self.cell_start[cell] as usize..self.cell_start[cell + 1] as usize;
         let best = self.best_of(&self.entries[run], u, v).or_else(|| {
@@ -305,54 +322,6 @@ impl PatchLocator {
         } else {
             (best.0, [1.0 / 3.0; 3])
         })
-    }
-
-    /// As [`Self::locate_weighted`], for a point that may lie well beside the triangle
-    /// (a grid corner): an empty cell searches the rings of cells around it, nearest
-    /// first, rather than every patch of the side.
-    pub fn locate_beside(&self, tri: u32, back: bool, x: DVec3) -> Option<(u32, [f32; 3])> {
-        let f = self.frames.get(tri as usize)?;
-        let side = f.sides[usize::from(back)];
-        let [gx, gy] = side.cells.map(|c| c as i64);
-        if gx == 0 {
-            return None;
-        }
-        let (u, v) = f.coords(x);
-        let (u, v) = (u as f32, v as f32);
-        let cell = side.cell(u, v) - side.first_cell as usize;
-        let (cx, cy) = ((cell % gx as usize) as i64, (cell / gx as usize) as i64);
-        let run = |x: i64, y: i64| {
-            let c = side.first_cell as usize + (y * gx + x) as usize;
-            &self.entries[self.cell_start[c] as usize..self.cell_start[c + 1] as usize]
-        };
-        let mut ids = Vec::new();
-        let mut found_at = None;
-        for r in 0..gx.max(gy) {
-            for y in (cy - r).max(0)..=(cy + r).min(gy - 1) {
-                for x in (cx - r).max(0)..=(cx + r).min(gx - 1) {
-                    if (x - cx).abs() == r || (y - cy).abs() == r {
-                        ids.extend_from_slice(run(x, y));
-                    }
-                }
-            }
-            // One ring past the first with patches: a nearer patch may start there.
-            match found_at {
-                Some(r0) if r > r0 => break,
-                None if !ids.is_empty() => found_at = Some(r),
-                _ => {}
-            }
-        }
-        let best = self.best_of(&ids, u, v)?;
-        let w = best.1.map(|w| w.max(0.0));
-        let sum = w[0] + w[1] + w[2];
-        Some((
-            best.0,
-            if sum > 0.0 {
-                w.map(|w| w / sum)
-            } else {
-                [1.0 / 3.0; 3]
-            },
-        ))
     }
 
     /// Of `ids`, the first patch containing (u, v), else the one it lies least outside
@@ -451,6 +420,35 @@ impl Frame {
         let r = x - self.origin;
         (r.dot(self.axes[0]), r.dot(self.axes[1]))
     }
+
+    /// The point of the triangle nearest to (u, v) (plane coordinates, m): (u, v) itself
+    /// inside, else the nearest point of its nearest edge.
+    fn nearest_in_triangle(&self, u: f64, v: f64) -> (f64, f64) {
+        let [b, cx, cy] = self.corners;
+        let p = [(0.0, 0.0), (b, 0.0), (cx, cy)];
+        // Counter-clockwise (cy ≥ 0): inside is left of every edge.
+        let left = |a: (f64, f64), c: (f64, f64)| (c.0 - a.0) * (v - a.1) - (c.1 - a.1) * (u - a.0);
+        if (0..3).all(|k| left(p[k], p[(k + 1) % 3]) >= 0.0) {
+            return (u, v);
+        }
+        let on_edge = |a: (f64, f64), c: (f64, f64)| {
+            let (dx, dy) = (c.0 - a.0, c.1 - a.1);
+            let len2 = dx * dx + dy * dy;
+            let t = if len2 > 0.0 {
+                (((u - a.0) * dx + (v - a.1) * dy) / len2).clamp(0.0, 1.0)
+            } else {
+                0.0
+            };
+            (a.0 + t * dx, a.1 + t * dy)
+        };
+        (0..3)
+            .map(|k| on_edge(p[k], p[(k + 1) % 3]))
+            .min_by(|q, r| {
+                let d = |q: &(f64, f64)| (q.0 - u).powi(2) + (q.1 - v).powi(2);
+                d(q).total_cmp(&d(r))
+            })
+            .unwrap_or((u, v))
+    }
 }
 
 /// A triangle's frame in its plane (no sides yet). A degenerate triangle gets a zero frame:
@@ -466,6 +464,7 @@ fn frame(p: &[DVec3; 3]) -> Frame {
         origin: p[0],
         axes,
         normal: Vec3A::from(normal.as_vec3()),
+        corners: [e1.dot(axes[0]), e2.dot(axes[0]), e2.dot(axes[1])],
         sides: [Side::default(); 2],
     }
 }
@@ -605,5 +604,55 @@ mod tests {
                 .sum();
             assert!((at - x).length() < 1e-4, "{at} against {x}");
         }
+    }
+
+    /// A grid corner beside its triangle reads the patch under the triangle's point
+    /// nearest to it: the weights put the point there (checked against the nearest point
+    /// found by sampling the triangle densely), so a field read beside a triangle is the
+    /// one at its edge, and the lookup never searches the empty cells between.
+    #[test]
+    fn a_corner_beside_its_triangle_reads_the_triangles_nearest_point() {
+        let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell-box");
+        let scene = Scene::load(&dir).unwrap();
+        let mesh = Mesh::build(&scene);
+        let loc = PatchLocator::new(&mesh, &scene.triangles);
+        let (mut beside, mut inside) = (0, 0);
+        for (k, (tri, back, x)) in loc.grid_corners().enumerate() {
+            if k % 7 != 0 {
+                continue;
+            }
+            let (q, w) = loc.locate_beside(tri, back, x).unwrap();
+            let c = mesh.corners(q as usize);
+            let at = c[0] * w[0] as f64 + c[1] * w[1] as f64 + c[2] * w[2] as f64;
+            // The nearest point of the triangle, from a dense barycentric grid.
+            let p = scene.triangles[tri as usize].p;
+            let n = 400;
+            let mut best = (f64::INFINITY, DVec3::ZERO);
+            for i in 0..=n {
+                for j in 0..=n - i {
+                    let (a, b) = (i as f64 / n as f64, j as f64 / n as f64);
+                    let y = p[0] + (p[1] - p[0]) * a + (p[2] - p[0]) * b;
+                    let d = (y - x).length();
+                    if d < best.0 {
+                        best = (d, y);
+                    }
+                }
+            }
+            let step = (p[1] - p[0]).length().max((p[2] - p[0]).length()) / n as f64;
+            assert!(
+                (at - best.1).length() <= 1.5 * step + 1e-5,
+                "corner {x} of triangle {tri}: read at {at}, nearest {}",
+                best.1
+            );
+            if best.0 > 2.0 * step {
+                beside += 1;
+            } else {
+                inside += 1;
+            }
+        }
+        assert!(
+            beside > 100 && inside > 100,
+            "{beside} beside, {inside} inside"
+        );
     }
 }
