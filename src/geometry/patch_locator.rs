@@ -31,7 +31,7 @@ struct Side {
     per_m: f32,
     /// The side's first cell in [`PatchLocator::cell_start`].
     first_cell: u32,
-    /// The side's first grid corner ([`PatchLocator::grid_corners`]); its corners are
+    /// The side's first grid corner ([`PatchLocator::grid_sides`]); its corners are
     /// `(cells[0] + 1) × (cells[1] + 1)`, row by row.
     first_corner: u32,
     /// The side's mean patch size (√ of its mean patch area), m.
@@ -87,6 +87,13 @@ const CELLS_PER_PATCH: f64 = 1.0;
 /// Most cells of a side's grid per patch (a side whose patches' box is far larger than
 /// their area, a long sliver, gets longer cells).
 const MAX_CELLS_PER_PATCH: usize = 4;
+/// At most the grid corners a [`PatchLocator`] makes for `patches` patches cut from
+/// `triangles` scene triangles: a side's `(gx + 1)(gy + 1)` corners are at most
+/// `2 gx gy + 2`, and its `gx gy` cells at most [`MAX_CELLS_PER_PATCH`] per patch.
+pub fn max_grid_corners(patches: usize, triangles: usize) -> u64 {
+    2 * MAX_CELLS_PER_PATCH as u64 * patches as u64 + 2 * 2 * triangles as u64
+}
+
 /// Bytes per scene triangle a [`PatchLocator`] holds.
 pub const LOCATOR_BYTES_PER_TRIANGLE: u64 = std::mem::size_of::<Frame>() as u64 + 8;
 
@@ -195,26 +202,31 @@ impl PatchLocator {
         self.corners as usize
     }
 
-    /// Every side's grid corners in index order: (triangle, back side, the corner's point
-    /// in the triangle's plane).
-    pub fn grid_corners(&self) -> impl Iterator<Item = (u32, bool, DVec3)> + '_ {
+    /// The sides that have patches, in the order of their grid corners' indices:
+    /// (triangle, back side, its corners).
+    pub fn grid_sides(&self) -> impl Iterator<Item = (u32, bool, usize)> + '_ {
         self.frames.iter().enumerate().flat_map(|(t, f)| {
-            (0..2).flat_map(move |k| {
-                let s = f.sides[k];
-                let (gx, gy) = (s.cells[0], s.cells[1]);
-                let n = if gx == 0 { 0 } else { (gx + 1) * (gy + 1) };
-                let step = if s.per_m > 0.0 {
-                    1.0 / s.per_m as f64
-                } else {
-                    0.0
-                };
-                (0..n).map(move |c| {
-                    let (i, j) = ((c % (gx + 1)) as f64, (c / (gx + 1)) as f64);
-                    let (u, v) = (s.lo[0] as f64 + i * step, s.lo[1] as f64 + j * step);
-                    (t as u32, k == 1, f.origin + f.axes[0] * u + f.axes[1] * v)
-                })
+            (0..2).filter_map(move |k| {
+                let [gx, gy] = f.sides[k].cells;
+                (gx > 0).then(|| (t as u32, k == 1, ((gx + 1) * (gy + 1)) as usize))
             })
         })
+    }
+
+    /// Corner `c` (row by row) of the grid of triangle `tri`'s side `back`: its point in
+    /// the triangle's plane.
+    pub fn grid_corner(&self, tri: u32, back: bool, c: usize) -> DVec3 {
+        let f = &self.frames[tri as usize];
+        let s = f.sides[usize::from(back)];
+        let row = s.cells[0] as usize + 1;
+        let step = if s.per_m > 0.0 {
+            1.0 / s.per_m as f64
+        } else {
+            0.0
+        };
+        let (i, j) = ((c % row) as f64, (c / row) as f64);
+        let (u, v) = (s.lo[0] as f64 + i * step, s.lo[1] as f64 + j * step);
+        f.origin + f.axes[0] * u + f.axes[1] * v
     }
 
     /// The four grid corners around the point `x` of triangle `tri`'s side `back`, and
@@ -488,6 +500,13 @@ fn weights(c: &[f32; 6], u: f32, v: f32) -> [f32; 3] {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Every grid corner in index order: (triangle, back side, point).
+    fn grid_corners(loc: &PatchLocator) -> Vec<(u32, bool, DVec3)> {
+        loc.grid_sides()
+            .flat_map(|(t, back, n)| (0..n).map(move |c| (t, back, loc.grid_corner(t, back, c))))
+            .collect()
+    }
     use crate::scene::Scene;
 
     /// On a bundled scene, the patch found through the scene triangles is the one the
@@ -571,10 +590,9 @@ mod tests {
         let scene = Scene::load(&dir).unwrap();
         let mesh = Mesh::build(&scene);
         let loc = PatchLocator::new(&mesh, &scene.triangles);
-        let corners: Vec<(u32, bool, DVec3)> = loc.grid_corners().collect();
+        let corners = grid_corners(&loc);
         assert_eq!(corners.len(), loc.corner_count());
-        let bound =
-            crate::render::final_gather::patch_locator_corners_bound(&mesh, scene.triangles.len());
+        let bound = max_grid_corners(mesh.len(), scene.triangles.len());
         assert!(
             (corners.len() as u64) <= bound && corners.len() < 4 * mesh.len(),
             "{} corners for {} patches (bound {bound})",
@@ -617,7 +635,7 @@ mod tests {
         let mesh = Mesh::build(&scene);
         let loc = PatchLocator::new(&mesh, &scene.triangles);
         let (mut beside, mut inside) = (0, 0);
-        for (k, (tri, back, x)) in loc.grid_corners().enumerate() {
+        for (k, (tri, back, x)) in grid_corners(&loc).into_iter().enumerate() {
             if k % 7 != 0 {
                 continue;
             }

@@ -10,14 +10,19 @@ pub(super) fn acos_deg(x: f64) -> f64 {
     let a = x.abs();
     let a = if a > 1.0 { 1.0 } else { a };
     // A&S 4.4.46: acos(a) = √(1 − a) · p(a) on [0, 1], |error| ≤ 2·10⁻⁸.
-    let p = -0.001_262_491_1;
-    let p = p * a + 0.006_670_090_1;
-    let p = p * a - 0.017_088_125_6;
-    let p = p * a + 0.030_891_881_0;
-    let p = p * a - 0.050_174_304_6;
-    let p = p * a + 0.088_978_987_4;
-    let p = p * a - 0.214_598_801_6;
-    let p = p * a + 1.570_796_305_0;
+    let p = horner(
+        a,
+        &[
+            -0.001_262_491_1,
+            0.006_670_090_1,
+            -0.017_088_125_6,
+            0.030_891_881_0,
+            -0.050_174_304_6,
+            0.088_978_987_4,
+            -0.214_598_801_6,
+            1.570_796_305_0,
+        ],
+    );
     let r = (1.0 - a).sqrt() * p;
     let r = if x < 0.0 { std::f64::consts::PI - r } else { r };
     r.to_degrees()
@@ -36,15 +41,20 @@ pub(super) fn atan2_deg(y: f64, x: f64) -> f64 {
     }
     let t = lo / hi;
     let t2 = t * t;
-    // A&S 4.4.49: atan(t) = t · p(t²) on [0, 1], |error| ≤ 2·10⁻⁸.
-    let p = 0.002_866_225_7;
-    let p = p * t2 - 0.016_165_736_7;
-    let p = p * t2 + 0.042_909_613_8;
-    let p = p * t2 - 0.075_289_640_0;
-    let p = p * t2 + 0.106_562_639_3;
-    let p = p * t2 - 0.142_088_994_4;
-    let p = p * t2 + 0.199_935_508_5;
-    let p = p * t2 - 0.333_331_452_8;
+    // A&S 4.4.49: atan(t) = t · (1 + t² p(t²)) on [0, 1], |error| ≤ 2·10⁻⁸.
+    let p = horner(
+        t2,
+        &[
+            0.002_866_225_7,
+            -0.016_165_736_7,
+            0.042_909_613_8,
+            -0.075_289_640_0,
+            0.106_562_639_3,
+            -0.142_088_994_4,
+            0.199_935_508_5,
+            -0.333_331_452_8,
+        ],
+    );
     let mut r = t + t * t2 * p;
     if ay > ax {
         r = std::f64::consts::FRAC_PI_2 - r;
@@ -56,6 +66,12 @@ pub(super) fn atan2_deg(y: f64, x: f64) -> f64 {
         r = -r;
     }
     r.to_degrees()
+}
+
+/// The polynomial with coefficients `c` (highest power first) at `x`.
+#[inline(always)]
+fn horner(x: f64, c: &[f64]) -> f64 {
+    c.iter().fold(0.0, |p, &k| p * x + k)
 }
 
 #[cfg(test)]

@@ -28,13 +28,13 @@ pub(super) type NearHit<'a> = dyn FnMut(DVec3, u32, &mut Rng, &mut [f32]) + 'a;
 pub(super) const NEAR: f32 = 1.0;
 
 /// The reflected radiosity at unit group weight (lm/m²) that gather rays read, per
-/// corner of the patch lookup's grids ([`PatchLocator::grid_corners`]) and group,
+/// corner of the patch lookup's grids ([`PatchLocator::grid_sides`]) and group,
 /// `[corner][group][rgb]`: the Gouraud-interpolated radiosity of the patch under each
 /// corner (of the nearest patch, for a corner beside the triangle), so a ray reads it
 /// bilinearly from the four corners around its hit, with no search for the patch. The
 /// corners are about a mean patch apart.
 ///
-/// [`PatchLocator::grid_corners`]: crate::geometry::patch_locator::PatchLocator::grid_corners
+/// [`PatchLocator::grid_sides`]: crate::geometry::patch_locator::PatchLocator::grid_sides
 pub(super) struct Reflected {
     groups: usize,
     values: Vec<f32>,
@@ -65,14 +65,21 @@ impl Reflected {
                 .collect(),
         };
         let g = per_group.len();
-        let corners: Vec<(u32, bool, DVec3)> = scene.patches.grid_corners().collect();
-        let mut values = vec![0f32; corners.len() * 3 * g];
-        values
-            .par_chunks_mut((3 * g).max(1))
-            .zip(&corners)
-            .for_each(|(out, &(tri, back, x))| {
-                let Some((q, w)) = scene.patches.locate_beside(tri, back, x) else {
-                    return;
+        let loc = scene.patches;
+        let mut values = vec![0f32; loc.corner_count() * 3 * g];
+        // Each side's run of corners, filled in parallel.
+        let mut runs = Vec::new();
+        let mut rest = values.as_mut_slice();
+        for (tri, back, n) in loc.grid_sides() {
+            let (run, tail) = std::mem::take(&mut rest).split_at_mut(n * 3 * g);
+            runs.push((tri, back, run));
+            rest = tail;
+        }
+        runs.into_par_iter().for_each(|(tri, back, run)| {
+            for (c, out) in run.chunks_mut((3 * g).max(1)).enumerate() {
+                let x = loc.grid_corner(tri, back, c);
+                let Some((q, w)) = loc.locate_beside(tri, back, x) else {
+                    continue;
                 };
                 let sv = scene.shading.corner[q as usize];
                 for (k, vals) in per_group.iter().enumerate() {
@@ -81,7 +88,8 @@ impl Reflected {
                         + vals[sv[2] as usize] * w[2];
                     out[3 * k..3 * k + 3].copy_from_slice(&v.0);
                 }
-            });
+            }
+        });
         Reflected { groups: g, values }
     }
 

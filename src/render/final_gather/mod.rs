@@ -43,7 +43,7 @@ use super::{Camera, GroupImages, Shading};
 use crate::color::Rgb;
 use crate::geometry::bvh::Bvh;
 use crate::geometry::mesh::Mesh;
-use crate::geometry::patch_locator::PatchLocator;
+use crate::geometry::patch_locator::{max_grid_corners, PatchLocator};
 use crate::model::{Cancel, QueryError};
 use crate::scene::{LightGroup, Triangle};
 use crate::transport::formfactor::Rng;
@@ -171,8 +171,7 @@ pub fn estimate_bytes(cam: &Camera, groups: usize, gather_points: u64) -> u64 {
 
 /// The points per group at which a build's gather holds the radiosity: every grid corner
 /// of `patches` and every shading vertex of `shading`. Without the patch lookup (not
-/// built yet), a bound from the mesh: a side's grid has at most 8 corners per patch and
-/// 2 more ([`patch_locator_corners_bound`]).
+/// built yet), a bound from the mesh ([`max_grid_corners`]).
 pub fn gather_points(
     patches: Option<&PatchLocator>,
     mesh: &Mesh,
@@ -181,16 +180,9 @@ pub fn gather_points(
 ) -> u64 {
     let corners = match patches {
         Some(p) => p.corner_count() as u64,
-        None => patch_locator_corners_bound(mesh, triangles),
+        None => max_grid_corners(mesh.len(), triangles),
     };
     corners + shading as u64
-}
-
-/// At most the grid corners [`patch_locator`] makes for `mesh` and its scene's
-/// `triangles`: a side's `(gx + 1)(gy + 1)` corners are at most `2 gx gy + 2`, and its
-/// `gx gy` cells at most 4 per patch.
-pub fn patch_locator_corners_bound(mesh: &Mesh, triangles: usize) -> u64 {
-    8 * mesh.len() as u64 + 2 * 2 * triangles as u64
 }
 
 /// One pixel's accumulators while tracing.
