@@ -155,7 +155,7 @@ impl Locator {
 }
 
 /// Barycentric coordinates of `p` projected onto the plane of triangle `c`.
-fn barycentric(c: &[DVec3; 3], p: DVec3) -> [f64; 3] {
+pub(super) fn barycentric(c: &[DVec3; 3], p: DVec3) -> [f64; 3] {
     let (e0, e1, d) = (c[1] - c[0], c[2] - c[0], p - c[0]);
     let (d00, d01, d11) = (e0.dot(e0), e0.dot(e1), e1.dot(e1));
     let (d20, d21) = (d.dot(e0), d.dot(e1));

@@ -17,16 +17,17 @@
 //!   and each luminaire's luminous opening ([`openings`]) at its average luminance towards
 //!   the camera, `I/A_proj`.
 //!
-//! The indirect part is denoised by an edge-avoiding à-trous filter ([`filter`]) whose
-//! weights depend on geometry only (normals, positions, surfaces), so every group image
-//! stays linear and relighting commutes with it: a lighting state is still
+//! The indirect part, less the noise-free irradiance the solved radiosity gives at the
+//! pixel's point ([`gather::Reflected::expected`]), is denoised by an edge-avoiding
+//! à-trous filter ([`filter`]) whose weights depend on geometry only (normals,
+//! positions, surfaces), so every group image stays linear and relighting commutes with it: a lighting state is still
 //! `Σ_g w_g ⊙ image_g` ([`GroupImages`]). One set of rays serves every group.
 //!
 //! Memory: the group images (12 bytes per pixel and group) plus, while building, the
-//! direct and indirect accumulators and one filter buffer (36 bytes per pixel and group),
-//! the guides (32 bytes per pixel), and the radiosity the gather reads (12 bytes per
-//! group at every grid corner of the patch lookup and every shading vertex):
-//! [`estimate_bytes`].
+//! direct, indirect, expected and emitted accumulators and one filter buffer (48 bytes
+//! per pixel and group), the guides (32 bytes per pixel), and the light the gather reads
+//! (12 bytes per group at every grid corner of the patch lookup, every patch, and twice
+//! at every shading vertex): [`estimate_bytes`].
 
 mod filter;
 mod gather;
@@ -165,13 +166,14 @@ pub fn patch_locator(mesh: &Mesh, triangles: &[Triangle]) -> PatchLocator {
 pub fn estimate_bytes(cam: &Camera, groups: usize, gather_points: u64) -> u64 {
     let px = cam.width as u64 * cam.height as u64;
     let g = groups.max(1) as u64;
-    px * (60 * g + 13 + std::mem::size_of::<Guide>() as u64)
+    px * (72 * g + 13 + std::mem::size_of::<Guide>() as u64)
         + gather::REFLECTED_BYTES_PER_POINT_AND_GROUP * g * gather_points
 }
 
-/// The points per group at which a build's gather holds the radiosity: every grid corner
-/// of `patches` and every shading vertex of `shading`. Without the patch lookup (not
-/// built yet), a bound from the mesh ([`max_grid_corners`]).
+/// The points per group at which a build's gather holds the radiosity and the direct
+/// light: every grid corner of `patches`, every patch of `mesh`, and every shading
+/// vertex of `shading` twice (the reflected light and the expected irradiance). Without
+/// the patch lookup (not built yet), a bound from the mesh ([`max_grid_corners`]).
 pub fn gather_points(
     patches: Option<&PatchLocator>,
     mesh: &Mesh,
@@ -182,7 +184,7 @@ pub fn gather_points(
         Some(p) => p.corner_count() as u64,
         None => max_grid_corners(mesh.len(), triangles),
     };
-    corners + shading as u64
+    corners + mesh.len() as u64 + 2 * shading as u64
 }
 
 /// One pixel's accumulators while tracing.
@@ -191,6 +193,9 @@ struct PixelSums<'a> {
     direct: &'a mut [f32],
     /// Per group RGB indirect radiance, cd/m² (filtered later).
     indirect: &'a mut [f32],
+    /// Per group RGB indirect radiance the solved radiosity gives (no noise), cd/m²:
+    /// the filter smooths `indirect` less this.
+    expected: &'a mut [f32],
     /// Per group RGB radiance of the emitters seen, cd/m².
     emitted: &'a mut [f32],
     /// Mean reflectance of the pixel's samples.
@@ -223,8 +228,9 @@ pub fn build(
         scene.groups.len()
     };
     let lights = lights::GroupLights::new(scene);
+    let reflected = gather::Reflected::new(scene, &lights);
     let tracer = Tracer {
-        reflected: gather::Reflected::new(scene, &lights),
+        reflected,
         // The luminaires' openings show in the groups' images, not in the daylight's.
         openings: openings::Openings::new(if scene.sky.is_some() {
             &[]
@@ -243,6 +249,7 @@ pub fn build(
     let mut albedo = vec![Rgb::ZERO; w * h];
     let mut guides = vec![Guide::default(); w * h];
     let mut emitted = vec![0f32; w * h * 3 * g];
+    let mut expected = vec![0f32; w * h * 3 * g];
     let mut coverage = vec![Coverage::None; w * h];
     let row = 3 * g * w;
     direct
@@ -251,8 +258,9 @@ pub fn build(
         .zip(emitted.par_chunks_mut(row.max(1)))
         .zip(albedo.par_chunks_mut(w).zip(guides.par_chunks_mut(w)))
         .zip(coverage.par_chunks_mut(w))
+        .zip(expected.par_chunks_mut(row.max(1)))
         .enumerate()
-        .for_each(|(y, ((((dr, ir), er), (al, gd)), cov))| {
+        .for_each(|(y, (((((dr, ir), er), (al, gd)), cov), xr))| {
             if cancel.is_cancelled() {
                 return;
             }
@@ -261,6 +269,7 @@ pub fn build(
                 let sums = PixelSums {
                     direct: &mut dr[px.clone()],
                     indirect: &mut ir[px.clone()],
+                    expected: &mut xr[px.clone()],
                     emitted: &mut er[px],
                     albedo: &mut al[x],
                 };
@@ -270,6 +279,11 @@ pub fn build(
     cancel.check()?;
     tracer.emitter_rims(&coverage, (w, h), &mut emitted);
     let footprint = 2.0 * ((cam.fov_deg as f64).to_radians() * 0.5).tan() / h as f64;
+    // The filter smooths what the gather found beyond what the solution expects.
+    indirect
+        .par_iter_mut()
+        .zip(&expected)
+        .for_each(|(i, x)| *i -= x);
     filter::denoise(
         &mut indirect,
         &albedo,
@@ -278,9 +292,12 @@ pub fn build(
         footprint as f32,
         settings.filter_passes,
     );
-    for ((d, i), e) in direct.iter_mut().zip(&indirect).zip(&emitted) {
-        *d += i + e;
-    }
+    direct
+        .par_iter_mut()
+        .zip(&indirect)
+        .zip(&emitted)
+        .zip(&expected)
+        .for_each(|(((d, i), e), x)| *d += i + e + x);
     Ok(GroupImages::from_parts(cam.width, cam.height, g, direct))
 }
 
@@ -308,6 +325,7 @@ impl Tracer<'_> {
         }
         sums.direct.iter_mut().for_each(|v| *v = 0.0);
         sums.indirect.iter_mut().for_each(|v| *v = 0.0);
+        sums.expected.iter_mut().for_each(|v| *v = 0.0);
         sums.emitted.iter_mut().for_each(|v| *v = 0.0);
         *sums.albedo = Rgb::ZERO;
         let again = self.samples(x, y, k * EDGE_SAMPLES, &mut rng, &mut sums);
@@ -330,9 +348,25 @@ impl Tracer<'_> {
         let mut scratch = lights::Scratch::default();
         let mut dir_s = vec![0f32; 3 * g];
         let mut ind_s = vec![0f32; 3 * g];
+        let mut exp_s = vec![0f32; 3 * g];
         let mut emitted = vec![0f32; 3 * g];
         let mut emitter_samples = 0;
-        for s in 0..k * k {
+        // One grid of gather directions for the whole pixel, a cell of each k × k block
+        // per sample.
+        // The cells go to the samples in a random order: a sample's own rays then cover
+        // the whole hemisphere on average, so the light of a sample that sees another
+        // surface than its pixel's others is unbiased too.
+        let shift = (rng.next_f64(), rng.next_f64());
+        let mut cells: Vec<usize> = (0..k * k).collect();
+        for i in (1..cells.len()).rev() {
+            cells.swap(i, ((rng.next_f64() * (i + 1) as f64) as usize).min(i));
+        }
+        for (s, &cell) in cells.iter().enumerate() {
+            let strata = gather::Strata {
+                shift,
+                interleave: k,
+                cell: (cell % k, cell / k),
+            };
             let (sx, sy) = (
                 ((s % k) as f64 + rng.next_f64()) / k as f64,
                 ((s / k) as f64 + rng.next_f64()) / k as f64,
@@ -340,6 +374,7 @@ impl Tracer<'_> {
             let d = self.rays.dir_at(x as f64 + sx, y as f64 + sy);
             dir_s.iter_mut().for_each(|v| *v = 0.0);
             ind_s.iter_mut().for_each(|v| *v = 0.0);
+            exp_s.iter_mut().for_each(|v| *v = 0.0);
             let hit = self.primary(d);
             emitter_samples += usize::from(self.emitted_along(d, hit, &mut emitted));
             let seen = self.sample(
@@ -347,8 +382,8 @@ impl Tracer<'_> {
                 hit,
                 rng,
                 &mut scratch,
-                (&mut dir_s, &mut ind_s),
-                gather_each,
+                (&mut dir_s, &mut ind_s, &mut exp_s),
+                (gather_each, strata),
             );
             if s == 0 {
                 out.guide = seen.guide;
@@ -360,6 +395,9 @@ impl Tracer<'_> {
                 *a += v / samples;
             }
             for (a, v) in sums.indirect.iter_mut().zip(&ind_s) {
+                *a += v / samples;
+            }
+            for (a, v) in sums.expected.iter_mut().zip(&exp_s) {
                 *a += v / samples;
             }
         }
@@ -464,10 +502,10 @@ impl Tracer<'_> {
         hit: Option<(f32, u32)>,
         rng: &mut Rng,
         scratch: &mut lights::Scratch,
-        out: (&mut [f32], &mut [f32]),
-        gather_rays: usize,
+        out: (&mut [f32], &mut [f32], &mut [f32]),
+        (gather_rays, strata): (usize, gather::Strata),
     ) -> Seen {
-        let (direct, indirect) = out;
+        let (direct, indirect, expected) = out;
         let o = self.rays.origin();
         let t_scene = hit.map_or(f64::INFINITY, |(t, _)| t as f64);
         if self.openings.blocks(o, d, t_scene) {
@@ -505,7 +543,7 @@ impl Tracer<'_> {
             reach = self.reflected.gather(
                 self.scene,
                 (x, n, p),
-                gather_rays,
+                (gather_rays, strata),
                 rng,
                 (Some(&mut near), aim.as_ref()),
                 indirect,
@@ -520,12 +558,21 @@ impl Tracer<'_> {
             let at = (x, n, patch.source);
             sky.aimed(self.scene.bvh, aim, at, cosine, rng, indirect);
         }
-        // Per group: direct += ρ/π · E_direct, indirect ×= ρ/π.
+        if gather_rays > 0 {
+            self.reflected.expected(self.scene, x, p, expected);
+        }
+        // Per group: direct += ρ/π · E_direct, indirect and expected ×= ρ/π.
         let reflect = rho * inv_pi;
         let (direct, indirect) = (Rgb::column_mut(direct), Rgb::column_mut(indirect));
-        for ((d, i), &e) in direct.iter_mut().zip(indirect).zip(Rgb::column(&e_direct)) {
+        for (((d, i), x), &e) in direct
+            .iter_mut()
+            .zip(indirect)
+            .zip(Rgb::column_mut(expected))
+            .zip(Rgb::column(&e_direct))
+        {
             *d += reflect * e;
             *i *= reflect;
+            *x *= reflect;
         }
         scratch.lux = e_direct;
         Seen {
@@ -559,7 +606,7 @@ impl Tracer<'_> {
         self.reflected.gather(
             self.scene,
             (at, patch.normal, q),
-            NEAR_GATHER_RAYS,
+            (NEAR_GATHER_RAYS, gather::Strata::own(rng)),
             rng,
             (None, None),
             &mut lux,
@@ -611,6 +658,7 @@ enum Coverage {
 #[derive(Default)]
 struct Seen {
     albedo: Rgb,
+
     guide: Guide,
 }
 
