@@ -197,14 +197,6 @@ impl PatchLocator {
         }
     }
 
-    /// Whether `patch` lies on the back of the scene triangle it was cut from, as the
-    /// grids file it (the `back` of [`Self::grid_weights`]).
-    pub fn is_back(&self, patch: &crate::geometry::mesh::Patch) -> bool {
-        self.frames
-            .get(patch.source as usize)
-            .is_some_and(|f| patch.normal.dot(f.normal.as_dvec3()) < 0.0)
-    }
-
     /// Corners of all the sides' grids ([`Self::grid_weights`] names them by index).
     pub fn corner_count(&self) -> usize {
         self.corners as usize

@@ -75,6 +75,16 @@ impl Shading {
         &self.corner
     }
 
+    /// A patch around shading vertex `v`, and which of its corners `v` is.
+    pub(super) fn anchor(&self, v: usize) -> (u32, usize) {
+        let p = self.patch[self.start[v] as usize];
+        let k = self.corner[p as usize]
+            .iter()
+            .position(|&c| c as usize == v)
+            .unwrap_or(0);
+        (p, k)
+    }
+
     /// Number of shading vertices.
     pub fn len(&self) -> usize {
         self.start.len() - 1

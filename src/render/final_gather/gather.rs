@@ -35,12 +35,12 @@ pub(super) const NEAR: f32 = 1.0;
 /// bilinearly from the four corners around its hit, with no search for the patch. The
 /// corners are about a mean patch apart.
 ///
-/// Under the groups' lights the direct part is exact at each corner: the corner's direct
-/// light ([`GroupLights::direct`]) times the reflectance, plus the Gouraud-interpolated
-/// rest, the patches' radiosity less their direct light as the corners give its mean
-/// over each patch. A patch blurs a shadow over its area, and the interpolation over a
-/// patch more; read through a gather ray, the blur lit the dim face beside a block's
-/// shadow by 5–8 % on the Cornell box.
+/// Under the groups' lights the direct part comes from the direct light computed exactly
+/// at each shading vertex ([`GroupLights::direct`]), interpolated to the corner, times
+/// the reflectance, plus the Gouraud-interpolated rest: the patches' radiosity less their
+/// direct light as their vertices give it. A patch blurs a shadow over its area and the
+/// interpolation over its neighbours; read through gather rays, that blur lit the dim
+/// face of the Cornell box's short block, beside its shadow, 5–8 % too bright.
 ///
 /// [`PatchLocator::grid_sides`]: crate::geometry::patch_locator::PatchLocator::grid_sides
 pub(super) struct Reflected {
@@ -49,66 +49,61 @@ pub(super) struct Reflected {
     /// Per group, at the shading vertices, the irradiance that the gather at a point
     /// should find from the solved radiosity: the patches' incident illuminance less
     /// their direct light (lux). Interpolated to a pixel's point it is what the filter
-    /// leaves alone ([`Reflected::expected`]); none under a sky.
-    expected: Vec<Vec<Rgb>>,
+    /// leaves alone ([`Reflected::expected`]); `[vertex][group][rgb]`, empty under a sky.
+    expected: Vec<f32>,
 }
 
-/// Shadow rays per source (at most) of the direct light computed exactly at each grid
-/// corner.
+/// Shadow rays per source (at most) of the direct light computed exactly at each
+/// shading vertex.
 const DIRECT_RAYS: u32 = 4;
 
 /// Each grid side's run of `values` (`stride` per corner), for filling in parallel:
-/// (triangle, back, the run's first corner, the run).
+/// (triangle, back, the run).
 fn side_runs<'v>(
     loc: &PatchLocator,
     values: &'v mut [f32],
     stride: usize,
-) -> Vec<(u32, bool, usize, &'v mut [f32])> {
+) -> Vec<(u32, bool, &'v mut [f32])> {
     let mut runs = Vec::new();
     let mut rest = values;
-    let mut first = 0usize;
     for (tri, back, n) in loc.grid_sides() {
         let (run, tail) = std::mem::take(&mut rest).split_at_mut(n * stride);
-        runs.push((tri, back, first, run));
+        runs.push((tri, back, run));
         rest = tail;
-        first += n;
     }
     runs
 }
 
-/// How far a corner's point for its direct light moves towards its patch's centroid, as
-/// a share of the distance.
+/// How far a shading vertex's point for its direct light moves towards the centroid of
+/// a patch around it, as a share of the distance.
 const INSET: f64 = 1e-3;
 
-/// Mixed into the random sequences of the corners' direct light.
-const CORNER_SALT: usize = 0xd1ec7;
+/// Mixed into the random sequences of the vertices' direct light.
+const VERTEX_SALT: usize = 0xd1ec7;
 
-/// Per patch and group, its direct illuminance (lux, RGB; `[patch][group][rgb]`) as the
-/// corners' `direct` (`[corner][group][rgb]`) give it, read bilinearly at the patch's
-/// centroid and halfway from it to each vertex (the patch's mean where the light is
-/// linear): the share of the solved radiosity that [`Reflected`] replaces by the direct
-/// light at its corners.
-fn patch_direct(scene: &FinalScene<'_>, direct: &[f32], g: usize) -> Vec<f32> {
-    let (mesh, loc) = (scene.mesh, scene.patches);
-    let mut out = vec![0f32; mesh.len() * 3 * g];
-    out.par_chunks_mut(3 * g).enumerate().for_each(|(p, acc)| {
-        let patch = &mesh.patches[p];
-        let back = loc.is_back(patch);
-        let at = patch
-            .v
-            .map(|v| (patch.centroid + mesh.vertices[v as usize]) * 0.5);
-        for x in [patch.centroid, at[0], at[1], at[2]] {
-            let Some((c, w)) = loc.grid_weights(patch.source, back, x) else {
-                continue;
-            };
-            for (k, a) in acc.iter_mut().enumerate() {
-                *a += 0.25
-                    * (0..4)
-                        .map(|i| w[i] * direct[3 * g * c[i] as usize + k])
-                        .sum::<f32>();
-            }
-        }
-    });
+/// Per shading vertex and group, the direct illuminance (lux, RGB; `[vertex][group][rgb]`)
+/// at the vertex, computed exactly ([`GroupLights::direct`]) at a point moved [`INSET`]
+/// into a patch around it: vertices lie on the surfaces' edges, where a neighbouring
+/// surface meets them, and a shadow ray from there would graze it.
+fn shading_direct(scene: &FinalScene<'_>, lights: &GroupLights<'_>, g: usize) -> Vec<f32> {
+    let (mesh, shading) = (scene.mesh, scene.shading);
+    let mut out = vec![0f32; shading.len() * 3 * g];
+    out.par_chunks_mut(3 * g)
+        .enumerate()
+        .for_each_init(Scratch::default, |scratch, (v, acc)| {
+            let (p, k) = shading.anchor(v);
+            let patch = &mesh.patches[p as usize];
+            let x = mesh.vertices[patch.v[k] as usize];
+            let at = patch.centroid + (x - patch.centroid) * (1.0 - INSET);
+            let mut rng = Rng::new(v, VERTEX_SALT);
+            lights.direct(
+                (at, patch.normal, p),
+                Rays::Stratified(DIRECT_RAYS),
+                &mut rng,
+                scratch,
+                acc,
+            );
+        });
     out
 }
 
@@ -139,40 +134,29 @@ impl Reflected {
         let g = per_patch.len();
         let loc = scene.patches;
         let mut values = vec![0f32; loc.corner_count() * 3 * g];
-        // Under the groups' lights, the direct light is computed exactly at every corner
-        // (lux, into `values` for now), and its share of the solved radiosity, as the
-        // patches average it, comes out of the patches' values: the patches blur a
-        // shadow over a patch or more, and the rays that read them would carry the blur.
+        // Under the groups' lights, the direct light is computed exactly at every shading
+        // vertex, and its share of the solved radiosity, as the patches average it,
+        // comes out of the patches' values: a patch blurs a shadow over its area and the
+        // interpolation over its neighbours, and the rays that read them would carry
+        // the blur. The corners then add the vertices' direct light back, interpolated.
         let exact_direct = scene.sky.is_none() && g > 0;
         let mut expected = Vec::new();
+        let mut vertex_direct = Vec::new();
         if exact_direct {
-            side_runs(loc, &mut values, 3 * g).into_par_iter().for_each(
-                |(tri, back, first, run)| {
-                    let mut scratch = Scratch::default();
-                    for (c, out) in run.chunks_mut(3 * g).enumerate() {
-                        let x = loc.grid_corner(tri, back, c);
-                        let Some((q, w)) = loc.locate_beside(tri, back, x) else {
-                            continue;
-                        };
-                        let patch = &scene.mesh.patches[q as usize];
-                        let at = (0..3)
-                            .map(|i| scene.mesh.vertices[patch.v[i] as usize] * w[i] as f64)
-                            .sum::<DVec3>();
-                        // Corners lie on the triangles' edges, where a neighbouring
-                        // surface meets them: a shadow ray from there grazes it.
-                        let at = patch.centroid + (at - patch.centroid) * (1.0 - INSET);
-                        let mut rng = Rng::new(first + c, CORNER_SALT);
-                        lights.direct(
-                            (at, patch.normal, q),
-                            Rays::Stratified(DIRECT_RAYS),
-                            &mut rng,
-                            &mut scratch,
-                            out,
-                        );
+            vertex_direct = shading_direct(scene, lights, g);
+            // Each patch's mean of its vertices' (the mean of the light interpolated).
+            let mut direct = vec![0f32; scene.mesh.len() * 3 * g];
+            direct
+                .par_chunks_mut(3 * g)
+                .zip(&scene.shading.corner)
+                .for_each(|(out, sv)| {
+                    for &v in sv {
+                        let row = &vertex_direct[3 * g * v as usize..3 * g * (v as usize + 1)];
+                        for (o, d) in out.iter_mut().zip(row) {
+                            *o += d / 3.0;
+                        }
                     }
-                },
-            );
-            let direct = patch_direct(scene, &values, g);
+                });
             for (k, r) in per_patch.iter_mut().enumerate() {
                 for (p, rgb) in r.chunks_exact_mut(3).enumerate() {
                     let rho = scene.rho[p];
@@ -181,7 +165,7 @@ impl Reflected {
                     }
                 }
             }
-            expected = scene
+            let per_group: Vec<Vec<Rgb>> = scene
                 .groups
                 .par_iter()
                 .enumerate()
@@ -195,6 +179,16 @@ impl Reflected {
                     scene.shading.vertex_values(&h)
                 })
                 .collect();
+            // Vertex by vertex, so a pixel reads each of its three in one place.
+            expected = vec![0f32; scene.shading.len() * 3 * g];
+            expected
+                .par_chunks_mut(3 * g)
+                .enumerate()
+                .for_each(|(v, out)| {
+                    for (k, vals) in per_group.iter().enumerate() {
+                        out[3 * k..3 * k + 3].copy_from_slice(&vals[v].0);
+                    }
+                });
         }
         let per_group: Vec<Vec<Rgb>> = per_patch
             .par_iter()
@@ -203,7 +197,7 @@ impl Reflected {
         drop(per_patch);
         side_runs(loc, &mut values, 3 * g)
             .into_par_iter()
-            .for_each(|(tri, back, _, run)| {
+            .for_each(|(tri, back, run)| {
                 for (c, out) in run.chunks_mut((3 * g).max(1)).enumerate() {
                     let x = loc.grid_corner(tri, back, c);
                     let Some((q, w)) = loc.locate_beside(tri, back, x) else {
@@ -211,14 +205,23 @@ impl Reflected {
                     };
                     let sv = scene.shading.corner[q as usize];
                     let rho = scene.rho[q as usize];
+                    let rows = sv.map(|v| {
+                        vertex_direct
+                            .get(3 * g * v as usize..3 * g * (v as usize + 1))
+                            .unwrap_or(&[])
+                    });
                     for (k, vals) in per_group.iter().enumerate() {
                         let v = vals[sv[0] as usize] * w[0]
                             + vals[sv[1] as usize] * w[1]
                             + vals[sv[2] as usize] * w[2];
                         for i in 0..3 {
-                            let o = &mut out[3 * k + i];
                             // The direct light at the corner, if any, reflected.
-                            *o = (v[i] + rho[i] * *o).max(0.0);
+                            let d = rows
+                                .iter()
+                                .zip(w)
+                                .map(|(r, w)| r.get(3 * k + i).map_or(0.0, |d| w * d))
+                                .sum::<f32>();
+                            out[3 * k + i] = (v[i] + rho[i] * d).max(0.0);
                         }
                     }
                 }
@@ -243,11 +246,11 @@ impl Reflected {
         let l = crate::render::preview::barycentric(&c, x).map(|v| v.clamp(0.0, 1.0) as f32);
         let sum = (l[0] + l[1] + l[2]).max(1e-6);
         let sv = scene.shading.corner[p as usize];
-        for (o, vals) in Rgb::column_mut(out).iter_mut().zip(&self.expected) {
-            *o += (vals[sv[0] as usize] * l[0]
-                + vals[sv[1] as usize] * l[1]
-                + vals[sv[2] as usize] * l[2])
-                / sum;
+        let g3 = 3 * self.groups;
+        let rows = sv.map(|v| &self.expected[g3 * v as usize..g3 * (v as usize + 1)]);
+        let l = l.map(|v| v / sum);
+        for (k, o) in out.iter_mut().enumerate() {
+            *o += l[0] * rows[0][k] + l[1] * rows[1][k] + l[2] * rows[2][k];
         }
     }
 

@@ -26,8 +26,8 @@
 //! Memory: the group images (12 bytes per pixel and group) plus, while building, the
 //! direct, indirect, expected and emitted accumulators and one filter buffer (48 bytes
 //! per pixel and group), the guides (32 bytes per pixel), and the light the gather reads
-//! (12 bytes per group at every grid corner of the patch lookup, every patch, and twice
-//! at every shading vertex): [`estimate_bytes`].
+//! (12 bytes per group at every grid corner of the patch lookup, every patch, and four
+//! times at every shading vertex): [`estimate_bytes`].
 
 mod filter;
 mod gather;
@@ -170,10 +170,11 @@ pub fn estimate_bytes(cam: &Camera, groups: usize, gather_points: u64) -> u64 {
         + gather::REFLECTED_BYTES_PER_POINT_AND_GROUP * g * gather_points
 }
 
-/// The points per group at which a build's gather holds the radiosity and the direct
-/// light: every grid corner of `patches`, every patch of `mesh`, and every shading
-/// vertex of `shading` twice (the reflected light and the expected irradiance). Without
-/// the patch lookup (not built yet), a bound from the mesh ([`max_grid_corners`]).
+/// The points per group at which a build's gather holds light (12 bytes each): every
+/// grid corner of `patches`, every patch of `mesh`, and every shading vertex of `shading`
+/// four times (the direct light, the reflected light, the expected irradiance and its
+/// interleaved copy). Without the patch lookup (not built yet), a bound from the mesh
+/// ([`max_grid_corners`]).
 pub fn gather_points(
     patches: Option<&PatchLocator>,
     mesh: &Mesh,
@@ -184,7 +185,7 @@ pub fn gather_points(
         Some(p) => p.corner_count() as u64,
         None => max_grid_corners(mesh.len(), triangles),
     };
-    corners + mesh.len() as u64 + 2 * shading as u64
+    corners + mesh.len() as u64 + 4 * shading as u64
 }
 
 /// One pixel's accumulators while tracing.
