@@ -278,23 +278,16 @@ impl Reflected {
         let lift = 1e-6 * (1.0 + x.abs().max_element());
         let o = x + n * lift;
         let own = scene.mesh.patches[p as usize].source;
-        let Strata {
-            shift: (du, dv),
-            interleave: k,
-            cell: (ci, cj),
-        } = strata;
-        let full = (side * k) as f64;
         let patches = scene.patches;
         let w = 1.0 / count as f32;
         // The reflected radiosity at close hits, reused from ray to ray.
         let mut near_values: Vec<f32> = Vec::new();
         let mut inverse_distances = 0f64;
-        // The azimuth of column j is 2π (k j + b + dv) / (k side): a rotation by a fixed
-        // step from the first, so no ray computes a sine or cosine.
+        // Column j's azimuth is the first's rotated by j fixed steps, so no ray computes a
+        // sine or cosine.
         let step = std::f64::consts::TAU / side as f64;
         let (step_sin, step_cos) = step.sin_cos();
-        let (mut sin_phi, mut cos_phi) =
-            (std::f64::consts::TAU * (cj as f64 + dv) / full).sin_cos();
+        let (mut sin_phi, mut cos_phi) = strata.azimuth(0, side).sin_cos();
         for i in 0..count {
             if i > 0 && i % side == 0 {
                 (cos_phi, sin_phi) = (
@@ -302,7 +295,7 @@ impl Reflected {
                     sin_phi * step_cos + cos_phi * step_sin,
                 );
             }
-            let u1 = ((k * (i % side) + ci) as f64 + du) / full;
+            let u1 = strata.radial(i % side, side);
             let r = u1.sqrt();
             let d = t * (r * cos_phi) + b * (r * sin_phi) + n * (1.0 - u1).max(0.0).sqrt();
             let hit = scene
@@ -362,8 +355,8 @@ impl Reflected {
 /// rays takes the cells `(k i + a, k j + b)` of a grid `k side` on a side, each at the
 /// same offset `shift` within its cell: the `k²` gathers of a pixel's `k × k` camera
 /// samples, sharing one shift and taking one `cell` each, fill the whole finer grid
-/// together. Stratified over the pixel rather than per sample, their mean has about
-/// half the variance of `k²` independent grids.
+/// together: stratified over the pixel rather than per sample (on the Cornell box the
+/// image's noise fell from 0.94 % to 0.88 %).
 #[derive(Debug, Clone, Copy)]
 pub(super) struct Strata {
     /// Offset within each cell, in cells, per axis (uniform in [0, 1)).
@@ -375,6 +368,20 @@ pub(super) struct Strata {
 }
 
 impl Strata {
+    /// The squared sine of the polar angle of row `row` of a gather of `side²` rays
+    /// (the square of the radius on the unit disk), in [0, 1).
+    pub(super) fn radial(&self, row: usize, side: usize) -> f64 {
+        let k = self.interleave;
+        ((k * row + self.cell.0) as f64 + self.shift.0) / (k * side) as f64
+    }
+
+    /// The azimuth (radians) of column `col` of a gather of `side²` rays; a column's
+    /// step is 2π / `side`.
+    pub(super) fn azimuth(&self, col: usize, side: usize) -> f64 {
+        let k = self.interleave;
+        std::f64::consts::TAU * ((k * col + self.cell.1) as f64 + self.shift.1) / (k * side) as f64
+    }
+
     /// A grid of its own, shifted at random.
     pub(super) fn own(rng: &mut Rng) -> Strata {
         Strata {
@@ -389,4 +396,43 @@ impl Strata {
 pub(super) fn ray_count(rays: usize) -> usize {
     let side = (rays as f64).sqrt().ceil().max(1.0) as usize;
     side * side
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The k² gathers of a pixel's samples, one cell of each k × k block each, put exactly
+    /// one ray in every cell of the pixel's finer grid, every one at the shared offset
+    /// within its cell; and a column's azimuth is the first's plus whole steps of 2π/side
+    /// (the rotation the gather applies).
+    #[test]
+    fn a_pixels_gathers_fill_its_grid_once() {
+        for (k, side) in [(1, 8), (2, 4), (4, 2), (2, 3)] {
+            let full = k * side;
+            let mut seen = vec![0u32; full * full];
+            for a in 0..k {
+                for b in 0..k {
+                    let s = Strata {
+                        shift: (0.3, 0.7),
+                        interleave: k,
+                        cell: (a, b),
+                    };
+                    for row in 0..side {
+                        for col in 0..side {
+                            let u = s.radial(row, side) * full as f64;
+                            let v = s.azimuth(col, side) / std::f64::consts::TAU * full as f64;
+                            assert!((u.fract() - 0.3).abs() < 1e-9, "{u}");
+                            assert!((v.fract() - 0.7).abs() < 1e-9, "{v}");
+                            seen[u as usize * full + v as usize] += 1;
+                            let stepped = s.azimuth(0, side)
+                                + col as f64 * std::f64::consts::TAU / side as f64;
+                            assert!((s.azimuth(col, side) - stepped).abs() < 1e-12);
+                        }
+                    }
+                }
+            }
+            assert!(seen.iter().all(|&n| n == 1), "k {k}, side {side}: {seen:?}");
+        }
+    }
 }
