@@ -166,7 +166,7 @@ pub fn patch_locator(mesh: &Mesh, triangles: &[Triangle]) -> PatchLocator {
 pub fn estimate_bytes(cam: &Camera, groups: usize, gather_points: u64) -> u64 {
     let px = cam.width as u64 * cam.height as u64;
     let g = groups.max(1) as u64;
-    px * (72 * g + 13 + std::mem::size_of::<Guide>() as u64)
+    px * (72 * g + 13 + 2 * std::mem::size_of::<Guide>() as u64)
         + gather::REFLECTED_BYTES_PER_POINT_AND_GROUP * g * gather_points
 }
 
@@ -252,6 +252,22 @@ pub fn build(
     let mut emitted = vec![0f32; w * h * 3 * g];
     let mut expected = vec![0f32; w * h * 3 * g];
     let mut coverage = vec![Coverage::None; w * h];
+    // What the rays through the pixels' corners see: a pixel whose four corners see
+    // different surfaces gets more samples.
+    let lattice: Vec<Guide> = (0..(w + 1) * (h + 1))
+        .into_par_iter()
+        .with_min_len(256)
+        .map(|i| tracer.guide_at((i % (w + 1)) as f64, (i / (w + 1)) as f64))
+        .collect();
+    let split = |x: usize, y: usize| {
+        let c = [
+            &lattice[y * (w + 1) + x],
+            &lattice[y * (w + 1) + x + 1],
+            &lattice[(y + 1) * (w + 1) + x],
+            &lattice[(y + 1) * (w + 1) + x + 1],
+        ];
+        c[1..].iter().any(|q| !q.alike(c[0]))
+    };
     let row = 3 * g * w;
     direct
         .par_chunks_mut(row.max(1))
@@ -274,7 +290,7 @@ pub fn build(
                     emitted: &mut er[px],
                     albedo: &mut al[x],
                 };
-                (gd[x], cov[x]) = tracer.pixel(x, y, sums);
+                (gd[x], cov[x]) = tracer.pixel(x, y, split(x, y), sums);
             }
         });
     cancel.check()?;
@@ -310,27 +326,45 @@ const EMITTER_GRID: usize = 32;
 
 impl Tracer<'_> {
     /// Traces pixel (x, y) into `sums`; the guide of its first sample, and whether a
-    /// sample met an emitter. A pixel whose samples see different surfaces (an edge or a
-    /// silhouette) is traced again with [`EDGE_SAMPLES`]× the samples per side, sharing
-    /// the same gather rays among them: where a pixel is split between surfaces, its few
-    /// samples decide the split, and that error is larger than the gather's.
-    fn pixel(&self, x: usize, y: usize, mut sums: PixelSums<'_>) -> (Guide, Coverage) {
+    /// sample met an emitter. A pixel that is `split` between surfaces (its corners see
+    /// different ones: an edge or a silhouette) gets [`EDGE_SAMPLES`]× the samples per
+    /// side, sharing the same gather rays among them: there its few samples would decide
+    /// the split, and that error is larger than the gather's. The corners decide, not the
+    /// pixel's own random samples: a pixel traced again when its samples disagreed, and
+    /// kept when they agreed, leans towards the surface that covers more of it.
+    fn pixel(&self, x: usize, y: usize, split: bool, mut sums: PixelSums<'_>) -> (Guide, Coverage) {
         let k = self.settings.samples_per_side.max(1) as usize;
         let mut rng = Rng::new(
             y * self.rays.width() + x,
             0x5eed ^ self.settings.seed as usize,
         );
-        let first = self.samples(x, y, k, &mut rng, &mut sums);
-        if !first.split || k * EDGE_SAMPLES > MAX_SAMPLES_PER_SIDE {
-            return (first.guide, first.emitters);
+        let k = if split && k * EDGE_SAMPLES <= MAX_SAMPLES_PER_SIDE {
+            k * EDGE_SAMPLES
+        } else {
+            k
+        };
+        let traced = self.samples(x, y, k, &mut rng, &mut sums);
+        (traced.guide, traced.emitters)
+    }
+
+    /// The filter guide of what the camera ray through image point (x, y) (in pixels)
+    /// sees.
+    fn guide_at(&self, x: f64, y: f64) -> Guide {
+        let d = self.rays.dir_at(x, y);
+        let hit = self.primary(d);
+        let o = self.rays.origin();
+        let t_scene = hit.map_or(f64::INFINITY, |(t, _)| t as f64);
+        let Some((t, p)) = hit.filter(|_| !self.openings.blocks(o, d, t_scene)) else {
+            return Guide::default();
+        };
+        let patch = &self.scene.mesh.patches[p as usize];
+        Guide {
+            position: (o + d * t as f64).as_vec3().to_array(),
+            normal: patch.normal.as_vec3().to_array(),
+            surface: patch.surface,
+            depth: t,
+            reach: f32::INFINITY,
         }
-        sums.direct.iter_mut().for_each(|v| *v = 0.0);
-        sums.indirect.iter_mut().for_each(|v| *v = 0.0);
-        sums.expected.iter_mut().for_each(|v| *v = 0.0);
-        sums.emitted.iter_mut().for_each(|v| *v = 0.0);
-        *sums.albedo = Rgb::ZERO;
-        let again = self.samples(x, y, k * EDGE_SAMPLES, &mut rng, &mut sums);
-        (again.guide, again.emitters)
     }
 
     /// Traces `k × k` jittered samples of pixel (x, y) into `sums` (which start at zero).
@@ -388,8 +422,6 @@ impl Tracer<'_> {
             );
             if s == 0 {
                 out.guide = seen.guide;
-            } else {
-                out.split |= !seen.guide.alike(&out.guide);
             }
             *sums.albedo += seen.albedo / samples;
             for (a, v) in sums.direct.iter_mut().zip(&dir_s) {
@@ -629,19 +661,17 @@ impl Tracer<'_> {
 /// Rays of the small gather at a point a gather ray landed on close by.
 const NEAR_GATHER_RAYS: usize = 9;
 
-/// Samples per side of a pixel whose first samples saw different surfaces, as a multiple
-/// of [`FinalSettings::samples_per_side`].
+/// Samples per side of a pixel whose corners see different surfaces, as a multiple of
+/// [`FinalSettings::samples_per_side`].
 const EDGE_SAMPLES: usize = 2;
 
 /// Most samples per side of a pixel.
 const MAX_SAMPLES_PER_SIDE: usize = 16;
 
-/// What a pixel's samples saw: the first sample's guide, whether the samples saw
-/// different surfaces, and how many met an emitter.
+/// What a pixel's samples saw: the first sample's guide, and how many met an emitter.
 #[derive(Default)]
 struct Samples {
     guide: Guide,
-    split: bool,
     emitters: Coverage,
 }
 
