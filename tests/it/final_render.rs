@@ -126,6 +126,99 @@ fn a_point_downlights_shadow_edge_lies_on_the_geometric_umbra() {
     assert!((got / want - 1.0).abs() < 0.01, "{got} vs {want}");
 }
 
+/// Two coplanar floors, dark and bright, meet along a line that crosses a pixel column
+/// 0.3 of a pixel in: the column's pixels show 0.3 of the dark floor's light and 0.7 of
+/// the bright one's, on average over the rows. When a pixel's own 2 × 2 samples decided
+/// whether it got more samples, keeping them when they all saw the bright floor (16 % of
+/// the time here) and tracing again otherwise, the column read 6.9 % too bright.
+#[test]
+fn an_edge_pixel_is_not_pulled_towards_the_surface_that_covers_more_of_it() {
+    let _gate = common::shared();
+    let (w, fov, height, light_y) = (128u32, 40.0f32, 5.0, 2.5);
+    let tan = (fov as f64 / 2.0).to_radians().tan();
+    // Image column c starts at world x = (c / (w/2) − 1) · tan · height.
+    let world_x = |c: f64| (c / (w as f64 / 2.0) - 1.0) * tan * height;
+    let (column, share) = (80usize, 0.3);
+    let edge = world_x(column as f64 + share);
+    let obj = quad(
+        "dark",
+        "dark",
+        [
+            [-3., 0., -3.],
+            [edge, 0., -3.],
+            [edge, 0., 3.],
+            [-3., 0., 3.],
+        ],
+        [0., 1., 0.],
+    ) + &quad(
+        "bright",
+        "bright",
+        [[edge, 0., -3.], [3., 0., -3.], [3., 0., 3.], [edge, 0., 3.]],
+        [0., 1., 0.],
+    );
+    let (dark, bright) = (0.1, 0.8);
+    let mtl = format!(
+        "newmtl dark\nKd {dark} {dark} {dark}\nnewmtl bright\nKd {bright} {bright} {bright}\n"
+    );
+    let toml = format!(
+        "transfer = \"columns\"\n[mesh]\nmax_edge = 0.5\n[[luminaires]]\nid = \"down\"\n\
+         position = [0, {light_y}, 0]\nlumens = 1000\n"
+    );
+    let s = write_scene(&obj, &mtl, Some(&toml));
+    let m = model(s.path());
+    let cam = looking_down(height as f32, fov, w);
+    let img = finals(&m, &cam).linear(&[Rgb::ONE]);
+    // The floor's radiance at image point (x, y) for reflectance ρ: ρ I cos θ / (π d²).
+    let radiance = |x: f64, y: f64, rho: f64| {
+        let (fx, fz) = (world_x(x), world_x(y));
+        let d2 = fx * fx + fz * fz + light_y * light_y;
+        let i = 1000.0 / (4.0 * std::f64::consts::PI);
+        rho * i * (light_y / d2.sqrt()) / d2 / std::f64::consts::PI
+    };
+    let mean = |c: usize| {
+        let rows = 8..w as usize - 8;
+        let n = rows.len() as f64;
+        let (got, want) = rows.fold((0.0, [0.0; 3]), |(g, wnt), y| {
+            let yc = y as f64 + 0.5;
+            (
+                g + img[y * w as usize + c][1] as f64,
+                [
+                    wnt[0] + radiance(c as f64 + 0.5, yc, dark),
+                    wnt[1] + radiance(c as f64 + 0.5, yc, bright),
+                    // The split pixel: each floor's part at its own centre.
+                    wnt[2]
+                        + share * radiance(c as f64 + share / 2.0, yc, dark)
+                        + (1.0 - share) * radiance(c as f64 + (1.0 + share) / 2.0, yc, bright),
+                ],
+            )
+        });
+        (got / n, want.map(|v| v / n))
+    };
+    let (got_dark, want) = mean(column - 4);
+    assert!(
+        (got_dark / want[0] - 1.0).abs() < 0.01,
+        "dark {got_dark} vs {}",
+        want[0]
+    );
+    let (got_bright, want) = mean(column + 4);
+    assert!(
+        (got_bright / want[1] - 1.0).abs() < 0.01,
+        "bright {got_bright} vs {}",
+        want[1]
+    );
+    let (got, want) = mean(column);
+    eprintln!(
+        "edge column: {got} against {} ({:+.2} %)",
+        want[2],
+        100.0 * (got / want[2] - 1.0)
+    );
+    assert!(
+        (got / want[2] - 1.0).abs() < 0.02,
+        "edge {got} vs {}",
+        want[2]
+    );
+}
+
 /// A square area light over a square occluder: along the floor, the penumbra follows the
 /// visible part of the light's configuration factor (the light minus the occluder's
 /// shadow volume, both rectangles in the light's plane), within 2 % of the unoccluded
