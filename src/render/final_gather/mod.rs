@@ -24,10 +24,11 @@
 //! `Σ_g w_g ⊙ image_g` ([`GroupImages`]). One set of rays serves every group.
 //!
 //! Memory: the group images (12 bytes per pixel and group) plus, while building, the
-//! direct, indirect, expected and emitted accumulators and one filter buffer (48 bytes
-//! per pixel and group), the guides (32 bytes per pixel), and the light the gather reads
-//! (12 bytes per group at every grid corner of the patch lookup, every patch, and four
-//! times at every shading vertex): [`estimate_bytes`].
+//! direct, indirect, expected and emitted accumulators and one filter buffer (60 bytes
+//! per pixel and group), two filter guides per pixel (36 bytes each: the pixel's and its
+//! corner ray's), and the light the gather reads (12 bytes per group at every grid
+//! corner of the patch lookup, every patch, and four times at every shading vertex):
+//! [`estimate_bytes`].
 
 mod filter;
 mod gather;
