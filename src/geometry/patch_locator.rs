@@ -580,16 +580,24 @@ mod tests {
         );
     }
 
+    /// A bundled scene, its mesh and their patch lookup.
+    fn bundled(name: &str) -> (Scene, Mesh, PatchLocator) {
+        let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("scenes")
+            .join(name);
+        let scene = Scene::load(&dir).unwrap();
+        let mesh = Mesh::build(&scene);
+        let loc = PatchLocator::new(&mesh, &scene.triangles);
+        (scene, mesh, loc)
+    }
+
     /// The grids' corners are as many as counted and within the bound the memory budget
     /// reserves, and the four corners around a point of any patch, weighted bilinearly,
     /// put back the point: a field sampled at the corners is read back exactly where it
     /// is linear.
     #[test]
     fn grid_corners_around_a_point_put_it_back_and_stay_within_their_bound() {
-        let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/office");
-        let scene = Scene::load(&dir).unwrap();
-        let mesh = Mesh::build(&scene);
-        let loc = PatchLocator::new(&mesh, &scene.triangles);
+        let (scene, mesh, loc) = bundled("office");
         let corners = grid_corners(&loc);
         assert_eq!(corners.len(), loc.corner_count());
         let bound = max_grid_corners(mesh.len(), scene.triangles.len());
@@ -630,10 +638,7 @@ mod tests {
     /// one at its edge, and the lookup never searches the empty cells between.
     #[test]
     fn a_corner_beside_its_triangle_reads_the_triangles_nearest_point() {
-        let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell-box");
-        let scene = Scene::load(&dir).unwrap();
-        let mesh = Mesh::build(&scene);
-        let loc = PatchLocator::new(&mesh, &scene.triangles);
+        let (scene, mesh, loc) = bundled("cornell-box");
         let (mut beside, mut inside) = (0, 0);
         for (k, (tri, back, x)) in grid_corners(&loc).into_iter().enumerate() {
             if k % 7 != 0 {

@@ -205,24 +205,22 @@ impl Reflected {
                     };
                     let sv = scene.shading.corner[q as usize];
                     let rho = scene.rho[q as usize];
-                    let rows = sv.map(|v| {
-                        vertex_direct
-                            .get(3 * g * v as usize..3 * g * (v as usize + 1))
-                            .unwrap_or(&[])
-                    });
                     for (k, vals) in per_group.iter().enumerate() {
                         let v = vals[sv[0] as usize] * w[0]
                             + vals[sv[1] as usize] * w[1]
                             + vals[sv[2] as usize] * w[2];
-                        for i in 0..3 {
-                            // The direct light at the corner, if any, reflected.
-                            let d = rows
-                                .iter()
-                                .zip(w)
-                                .map(|(r, w)| r.get(3 * k + i).map_or(0.0, |d| w * d))
-                                .sum::<f32>();
-                            out[3 * k + i] = (v[i] + rho[i] * d).max(0.0);
-                        }
+                        out[3 * k..3 * k + 3].copy_from_slice(&v.0);
+                    }
+                    for (i, o) in out.iter_mut().enumerate() {
+                        // The vertices' direct light at the corner, if any, reflected.
+                        let d: f32 = if exact_direct {
+                            (0..3)
+                                .map(|j| w[j] * vertex_direct[3 * g * sv[j] as usize + i])
+                                .sum()
+                        } else {
+                            0.0
+                        };
+                        *o = (*o + rho[i % 3] * d).max(0.0);
                     }
                 }
             });

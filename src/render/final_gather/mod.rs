@@ -30,13 +30,18 @@
 //! corner of the patch lookup, every patch, and four times at every shading vertex):
 //! [`estimate_bytes`].
 
+mod emitted;
 mod filter;
 mod gather;
 mod lights;
 mod openings;
+mod settings;
 mod sky;
 
+pub use settings::{FinalSettings, GATHER_REFERENCE_PIXELS};
 pub use sky::FinalSky;
+
+use emitted::Coverage;
 
 use glam::DVec3;
 use rayon::prelude::*;
@@ -52,78 +57,6 @@ use crate::transport::formfactor::Rng;
 use crate::transport::transfer::GroupColumns;
 
 use filter::Guide;
-
-/// How much work a `final` image gets.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct FinalSettings {
-    /// Jittered primary samples per pixel side (k² per pixel), for antialiasing.
-    pub samples_per_side: u32,
-    /// Gather rays per pixel, shared among its samples, for images of up to
-    /// [`GATHER_REFERENCE_PIXELS`]; larger ones get fewer per pixel when `scale_gather`
-    /// ([`FinalSettings::for_pixels`]).
-    pub gather_rays: u32,
-    /// Shadow rays per pixel sample for the dominant emitting triangle (fewer for
-    /// triangles that give less light, at least 1).
-    pub emitter_rays: u32,
-    /// À-trous passes over the indirect light (0: unfiltered).
-    pub filter_passes: u32,
-    /// Mixed into every pixel's random sequence: two seeds give two independent images,
-    /// whose difference measures the noise (benches).
-    pub seed: u32,
-    /// Whether images larger than [`GATHER_REFERENCE_PIXELS`] get fewer gather rays per
-    /// pixel (false when `RELIGHT_FINAL_GATHER` fixes them).
-    pub scale_gather: bool,
-}
-
-/// The image size (pixels, 512²) up to which a pixel gets [`FinalSettings::gather_rays`]
-/// gather rays. A larger image gets about as many per unit of image area instead
-/// (down to a quarter per pixel), and the filter one more pass where that halves them
-/// or more, so its indirect light is about as smooth as at this size: the gather's
-/// noise is in the scene, not in the pixels, and one more à-trous pass doubles the
-/// filter's reach. On the Cornell box at 1024² (16 rays per pixel, 3 passes) the
-/// image, box-filtered to 256², is closer to the 262,144-spp path tracing (1.01 %) than
-/// the 512² one with 64 rays (1.12 %).
-pub const GATHER_REFERENCE_PIXELS: u64 = 512 * 512;
-
-impl FinalSettings {
-    /// The settings for an image of `pixels`: fewer gather rays per pixel past
-    /// [`GATHER_REFERENCE_PIXELS`] (a whole square grid per camera sample, at least a
-    /// quarter of `gather_rays`), with one more filter pass where they are halved or more.
-    pub fn for_pixels(&self, pixels: u64) -> FinalSettings {
-        if !self.scale_gather || pixels <= GATHER_REFERENCE_PIXELS {
-            return *self;
-        }
-        let full = self.gather_rays as u64;
-        let want = (full * GATHER_REFERENCE_PIXELS / pixels).max(full / 4);
-        let k2 = (self.samples_per_side.max(1) as u64).pow(2);
-        let side = ((want / k2) as f64).sqrt().floor().max(1.0) as u64;
-        let rays = (side * side * k2).min(full);
-        FinalSettings {
-            gather_rays: rays as u32,
-            filter_passes: self.filter_passes + u32::from(2 * rays <= full),
-            ..*self
-        }
-    }
-}
-
-impl Default for FinalSettings {
-    fn default() -> Self {
-        let env = |k: &str, d: u32| {
-            std::env::var(k)
-                .ok()
-                .and_then(|v| v.parse().ok())
-                .unwrap_or(d)
-        };
-        FinalSettings {
-            scale_gather: std::env::var_os("RELIGHT_FINAL_GATHER").is_none(),
-            samples_per_side: env("RELIGHT_FINAL_SPS", 2),
-            gather_rays: env("RELIGHT_FINAL_GATHER", 64),
-            emitter_rays: env("RELIGHT_FINAL_EMITTER", 16),
-            filter_passes: env("RELIGHT_FINAL_FILTER", 2),
-            seed: env("RELIGHT_FINAL_SEED", 0),
-        }
-    }
-}
 
 /// What a `final` image reads of a baked scene.
 pub struct FinalScene<'a> {
@@ -319,12 +252,6 @@ pub fn build(
     Ok(GroupImages::from_parts(cam.width, cam.height, g, direct))
 }
 
-/// Primary rays per side of the grid that measures what a pixel sees of emitters where an
-/// emitter's edge crosses it: some of its samples met an emitter and some did not, or none
-/// did and a neighbour's did. The edge is antialiased to 1/1024 of the pixel, since a
-/// sliver of a bright emitter still shows.
-const EMITTER_GRID: usize = 32;
-
 impl Tracer<'_> {
     /// Traces pixel (x, y) into `sums`; the guide of its first sample, and whether a
     /// sample met an emitter. A pixel that is `split` between surfaces (its corners see
@@ -450,82 +377,10 @@ impl Tracer<'_> {
         out
     }
 
-    /// Adds what pixel (x, y) sees emitted, measured on an [`EMITTER_GRID`]² grid of
-    /// primary rays (per group radiance, cd/m²).
-    fn emitted_in_pixel(&self, x: usize, y: usize, out: &mut [f32]) {
-        let mut emitted = vec![0f32; out.len()];
-        let n = EMITTER_GRID;
-        for i in 0..n * n {
-            let (sx, sy) = (
-                ((i % n) as f64 + 0.5) / n as f64,
-                ((i / n) as f64 + 0.5) / n as f64,
-            );
-            let d = self.rays.dir_at(x as f64 + sx, y as f64 + sy);
-            self.emitted_along(d, self.primary(d), &mut emitted);
-        }
-        let m = (n * n) as f32;
-        for (a, v) in out.iter_mut().zip(&emitted) {
-            *a += v / m;
-        }
-    }
-
-    /// The pixels whose samples all met an emitter or all missed, beside one whose samples
-    /// did otherwise: an emitter's edge may cover a sliver of them that their few samples
-    /// missed, or leave a sliver uncovered that they all missed, so their coverage is
-    /// measured on the fine grid too ([`Self::emitted_in_pixel`]), replacing the samples'.
-    fn emitter_rims(&self, cov: &[Coverage], (w, h): (usize, usize), emitted: &mut [f32]) {
-        let differs = |x: usize, y: usize| {
-            let c = cov[y * w + x];
-            (y.saturating_sub(1)..=(y + 1).min(h - 1)).any(|yy| {
-                (x.saturating_sub(1)..=(x + 1).min(w - 1)).any(|xx| cov[yy * w + xx] != c)
-            })
-        };
-        let stride = 3 * self.groups;
-        emitted
-            .par_chunks_mut((stride * w).max(1))
-            .enumerate()
-            .for_each(|(y, row)| {
-                for x in 0..w {
-                    if cov[y * w + x] != Coverage::Measured && differs(x, y) {
-                        let px = &mut row[stride * x..stride * (x + 1)];
-                        px.iter_mut().for_each(|v| *v = 0.0);
-                        self.emitted_in_pixel(x, y, px);
-                    }
-                }
-            });
-    }
-
     /// The nearest patch whose front the camera ray along `d` meets.
     fn primary(&self, d: DVec3) -> Option<(f32, u32)> {
         let o = self.rays.origin();
         self.scene.patches.nearest(self.scene.bvh, o, d, None, true)
-    }
-
-    /// Adds what the camera ray along `d` (meeting `hit`) sees emitted (per group radiance, cd/m²): an
-    /// emissive surface's `E/π` or a luminaire's opening; whether it saw any.
-    fn emitted_along(&self, d: DVec3, hit: Option<(f32, u32)>, out: &mut [f32]) -> bool {
-        let t_scene = hit.map_or(f64::INFINITY, |(t, _)| t as f64);
-        if self.openings.seen(self.rays.origin(), d, t_scene, out) {
-            return true;
-        }
-        let Some((_, p)) = hit else {
-            if let Some(sky) = &self.scene.sky {
-                let l = sky.outside(self.rays.origin(), d, true);
-                Rgb::column_mut(out)[0] += Rgb::splat(l);
-                return l > 0.0;
-            }
-            return false;
-        };
-        if self.scene.sky.is_some() {
-            return false;
-        }
-        let mut any = false;
-        for (o, col) in Rgb::column_mut(out).iter_mut().zip(self.scene.groups) {
-            let e = Rgb::column(&col.e)[p as usize];
-            *o += e * std::f32::consts::FRAC_1_PI;
-            any |= e.iter().any(|&v| v > 0.0);
-        }
-        any
     }
 
     /// One camera ray along `d`, which meets `hit`: adds the light its surface reflects per group, direct
@@ -676,57 +531,10 @@ struct Samples {
     emitters: Coverage,
 }
 
-/// How a pixel's emitters were measured: none of its samples met one, some did (so its
-/// coverage was measured on the fine grid), or all did.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
-enum Coverage {
-    #[default]
-    None,
-    Measured,
-    All,
-}
-
 /// What a camera sample saw: its reflectance and its filter guide.
 #[derive(Default)]
 struct Seen {
     albedo: Rgb,
 
     guide: Guide,
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    /// Past 512², a pixel gets about as many gather rays per unit of image area as at
-    /// 512² (a whole grid per camera sample, at least a quarter of the rays), and the
-    /// filter one more pass where they are halved or more; a fixed ray count stays.
-    #[test]
-    fn gather_rays_per_pixel_fall_with_the_image_size() {
-        let base = FinalSettings {
-            samples_per_side: 2,
-            gather_rays: 64,
-            emitter_rays: 16,
-            filter_passes: 2,
-            seed: 0,
-            scale_gather: true,
-        };
-        let at = |w: u64, h: u64| {
-            let s = base.for_pixels(w * h);
-            (s.gather_rays, s.filter_passes)
-        };
-        assert_eq!(at(512, 512), (64, 2));
-        assert_eq!(at(256, 256), (64, 2));
-        // 512² · 64 / (640 · 480) = 54.6: 36 per pixel (9 per sample), still 2 passes.
-        assert_eq!(at(640, 480), (36, 2));
-        // 21.3 per pixel: 16 (4 per sample), one more pass.
-        assert_eq!(at(1024, 768), (16, 3));
-        // 16: never below a quarter.
-        assert_eq!(at(1024, 1024), (16, 3));
-        let fixed = FinalSettings {
-            scale_gather: false,
-            ..base
-        };
-        assert_eq!(fixed.for_pixels(1024 * 1024), fixed);
-    }
 }
