@@ -1,6 +1,7 @@
 //! Ray throughput of one core on a scene's BVHs, millions of rays per second:
-//! - any-hit (`occluded`): segments between random points of random patches, as the form
-//!   factors, links and shadow rays trace them, on the scene BVH ([`relight::bench::ray_throughput`]);
+//! - any-hit (`occluded`): segments between random points of random patches that face each
+//!   other, as the form factors, links and shadow rays trace them, on the scene BVH
+//!   ([`relight::bench::ray_throughput`]); and between any two such points;
 //! - nearest hit: cosine-weighted rays from random points of random patches, as the final
 //!   gather traces them (the scene BVH, then the grid corners around the hit, where the
 //!   gather reads the radiosity).
@@ -9,6 +10,7 @@
 //! `scenes/office-floor`, a million rays). The scene is meshed, not baked.
 
 use relight::bake::scene_bvh;
+use relight::bench::Segments;
 use relight::geometry::mesh::Mesh;
 use relight::render::final_gather::patch_locator;
 use relight::scene::Scene;
@@ -25,7 +27,8 @@ fn main() {
     let t = std::time::Instant::now();
     let bvh = scene_bvh(&scene);
     let scene_build = t.elapsed().as_secs_f64();
-    let any_hit = relight::bench::ray_throughput(&mesh, &bvh, rays);
+    let any_hit = relight::bench::ray_throughput(&mesh, &bvh, rays, Segments::Facing);
+    let any_pair = relight::bench::ray_throughput(&mesh, &bvh, rays, Segments::Any);
     let t = std::time::Instant::now();
     let patches = patch_locator(&mesh, &scene.triangles);
     let locator_build = t.elapsed().as_secs_f64();
@@ -33,7 +36,7 @@ fn main() {
     println!(
         "{{\"scene\": \"{dir}\", \"triangles\": {}, \"patches\": {}, \
          \"scene_bvh_build_s\": {scene_build:.3}, \"patch_locator_build_s\": {locator_build:.3}, \"patch_locator_mb\": {:.1}, \"grid_corners\": {}, \
-         \"any_hit_mrays_per_core\": {any_hit:.2}, \"nearest_mrays_per_core\": {nearest:.2}}}",
+         \"any_hit_mrays_per_core\": {any_hit:.2}, \"any_hit_any_pair_mrays_per_core\": {any_pair:.2}, \"nearest_mrays_per_core\": {nearest:.2}}}",
         scene.triangles.len(),
         mesh.len(),
         patches.bytes() as f64 / 1e6,
