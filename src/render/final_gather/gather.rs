@@ -144,24 +144,19 @@ impl Reflected {
         let mut vertex_direct = Vec::new();
         if exact_direct {
             vertex_direct = shading_direct(scene, lights, g);
-            // Each patch's mean of its vertices' (the mean of the light interpolated).
-            let mut direct = vec![0f32; scene.mesh.len() * 3 * g];
-            direct
-                .par_chunks_mut(3 * g)
-                .zip(&scene.shading.corner)
-                .for_each(|(out, sv)| {
-                    for &v in sv {
-                        let row = &vertex_direct[3 * g * v as usize..3 * g * (v as usize + 1)];
-                        for (o, d) in out.iter_mut().zip(row) {
-                            *o += d / 3.0;
-                        }
-                    }
-                });
+            // Patch p's direct light in group k, channel c: the mean of its vertices'
+            // (the mean of the light interpolated).
+            let vertex_direct = &vertex_direct;
+            let direct = move |p: usize, k: usize, c: usize| {
+                scene.shading.corner[p].iter().fold(0.0, |a, &v| {
+                    a + vertex_direct[3 * g * v as usize + 3 * k + c] / 3.0
+                })
+            };
             for (k, r) in per_patch.iter_mut().enumerate() {
                 for (p, rgb) in r.chunks_exact_mut(3).enumerate() {
                     let rho = scene.rho[p];
-                    for c in 0..3 {
-                        rgb[c] -= rho[c] * direct[3 * g * p + 3 * k + c];
+                    for (c, v) in rgb.iter_mut().enumerate() {
+                        *v -= rho[c] * direct(p, k, c);
                     }
                 }
             }
@@ -172,8 +167,8 @@ impl Reflected {
                 .map(|(k, col)| {
                     let mut h = col.h.clone();
                     for (p, rgb) in h.chunks_exact_mut(3).enumerate() {
-                        for c in 0..3 {
-                            rgb[c] = (rgb[c] - direct[3 * g * p + 3 * k + c]).max(0.0);
+                        for (c, v) in rgb.iter_mut().enumerate() {
+                            *v = (*v - direct(p, k, c)).max(0.0);
                         }
                     }
                     scene.shading.vertex_values(&h)
