@@ -247,6 +247,7 @@ fn final_scene<'a>(
         patches,
         bvh: &b.bvh,
         triangles: &b.scene.triangles,
+        materials: &b.scene.materials,
         rho: &b.transfer.rho,
         groups: &b.transfer.groups,
         lights: &b.scene.lights,

@@ -25,6 +25,28 @@ pub struct Material {
     /// Luminous exitance per channel, lm/m² (front side).
     pub ke: Rgb,
     pub two_sided: bool,
+    /// A specular lobe on top of the diffuse reflectance (glTF materials with a
+    /// roughness below 1 or a metallic part), shown in `final` images only: the
+    /// radiosity solution is diffuse. None for OBJ materials.
+    pub gloss: Option<Gloss>,
+}
+
+/// A microfacet specular lobe: GGX normals with Smith's height-correlated masking and
+/// Schlick's Fresnel, as glTF's metallic-roughness model defines it.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Gloss {
+    /// Specular reflectance at normal incidence per channel, in [0, 1]: 0.04 for a
+    /// dielectric, the base colour for a metal (glTF's `F0`).
+    pub f0: Rgb,
+    /// GGX width α (the square of glTF's perceptual roughness), in
+    /// [[`Gloss::MIN_ALPHA`], 1].
+    pub alpha: f32,
+}
+
+impl Gloss {
+    /// The narrowest lobe (α; perceptual roughness 0.03): a perfect mirror would show a
+    /// point luminaire's highlight as a single point, below every pixel's size.
+    pub const MIN_ALPHA: f32 = 1e-3;
 }
 
 /// The materials of a scene and their index by name.
@@ -200,6 +222,7 @@ impl MaterialTable {
                 kd: Rgb::splat(0.5),
                 ke: Rgb::ZERO,
                 two_sided: cfg.material.get(name).is_some_and(|o| o.two_sided),
+                gloss: None,
             });
             missing.push((name.clone(), *line));
         }
@@ -256,6 +279,7 @@ impl MaterialTable {
             name: m.name,
             kd: m.kd,
             ke: m.ke,
+            gloss: None,
         });
         Ok(())
     }
@@ -297,6 +321,7 @@ impl MaterialTable {
                     kd: Rgb::splat(0.5),
                     ke: Rgb::ZERO,
                     two_sided: false,
+                    gloss: None,
                 });
                 (self.materials.len() - 1) as u32
             })

@@ -41,7 +41,7 @@ pub use cameras::CameraDef;
 pub(crate) use files::read_regular_file;
 pub use grids::{Grid, Requirements};
 pub use lights::LightGroup;
-pub use materials::Material;
+pub use materials::{Gloss, Material};
 pub use mtl::{parse_mtl_str, MtlLibrary, MtlMaterial};
 pub use obj::{parse_obj_str, ObjPart, ObjScan};
 pub(crate) use triangles::is_two_sided;

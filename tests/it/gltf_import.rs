@@ -321,6 +321,28 @@ fn base_colour_metallic_textures_and_emission_set_reflectance_and_exitance() {
         wood.iter().zip(want).all(|(a, b)| (a - b).abs() < 1e-4),
         "{wood:?} vs {want:?}"
     );
+    // The specular lobe: F0 = 0.04 (1 − metallic) + base × metallic, α = roughness²
+    // (default 1); a fully rough dielectric has none.
+    let gloss_of = |surface: &str| {
+        let k = s.surface_index(surface).unwrap() as u32;
+        let t = s.triangles.iter().find(|t| t.surface == k).unwrap();
+        s.materials[t.material as usize].gloss
+    };
+    assert_eq!(gloss_of("s0"), None);
+    let half = gloss_of("s1").unwrap();
+    assert!(
+        half.f0
+            .iter()
+            .zip([0.02 + 0.4, 0.02 + 0.2, 0.02 + 0.1])
+            .all(|(a, b)| (a - b).abs() < 1e-6)
+            && half.alpha == 1.0,
+        "{half:?}"
+    );
+    let metal = gloss_of("s2").unwrap();
+    assert!(
+        metal.f0.iter().all(|a| (a - 0.9).abs() < 1e-6) && metal.alpha == 1.0,
+        "{metal:?}"
+    );
     // A base colour of 1 (the default) is scaled to 0.95 with a warning.
     assert_eq!(kd_of(&s, "s4"), [0.95; 3]);
     assert!(

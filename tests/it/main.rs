@@ -15,6 +15,7 @@ mod final_render;
 mod fuzz;
 mod fuzz_requests;
 mod glare;
+mod glossy;
 mod gltf_import;
 mod grids;
 mod hardening;

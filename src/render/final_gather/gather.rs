@@ -102,6 +102,7 @@ fn shading_direct(scene: &FinalScene<'_>, lights: &GroupLights<'_>, g: usize) ->
                 &mut rng,
                 scratch,
                 acc,
+                None,
             );
         });
     out
@@ -264,7 +265,6 @@ impl Reflected {
         (mut near, aim): (Option<&mut NearHit<'_>>, Option<&super::sky::SkyAim>),
         out: &mut [f32],
     ) -> f32 {
-        let g = self.groups;
         let count = ray_count(rays);
         let side = count.isqrt();
         let (t, b) = crate::geometry::frame(n);
@@ -331,15 +331,101 @@ impl Reflected {
                     continue;
                 }
             }
-            let Some((c, [wa, wb, wc, wd])) = patches.grid_weights(tri, back, at) else {
-                continue;
-            };
-            let rows = c.map(|c| &self.values[3 * g * c as usize..3 * g * (c as usize + 1)]);
-            for (k, o) in out.iter_mut().enumerate() {
-                *o += w * (wa * rows[0][k] + wb * rows[1][k] + wc * rows[2][k] + wd * rows[3][k]);
-            }
+            self.add_at(patches, (tri, back, at), w, out);
         }
         (count as f64 / inverse_distances) as f32
+    }
+
+    /// Adds to `out` (per group RGB) `w` × the reflected radiosity at `at` on side `back`
+    /// of scene triangle `tri`, read bilinearly from the grid corners around it.
+    #[inline]
+    fn add_at(
+        &self,
+        patches: &PatchLocator,
+        (tri, back, at): (u32, bool, DVec3),
+        w: f32,
+        out: &mut [f32],
+    ) {
+        let g = self.groups;
+        let Some((c, [wa, wb, wc, wd])) = patches.grid_weights(tri, back, at) else {
+            return;
+        };
+        let rows = c.map(|c| &self.values[3 * g * c as usize..3 * g * (c as usize + 1)]);
+        for (k, o) in out.iter_mut().enumerate() {
+            *o += w * (wa * rows[0][k] + wb * rows[1][k] + wc * rows[2][k] + wd * rows[3][k]);
+        }
+    }
+
+    /// Adds to `out` (per group RGB, cd/m²) the light the specular `lobe` at `x` on
+    /// patch `p` (normal `n`) reflects towards the viewer, from `rays` rays drawn from
+    /// the lobe on a jittered √rays × √rays grid ([`super::specular`]). A ray reads the
+    /// reflected radiosity where it lands over π, plus the emitting surface's luminance
+    /// `E/π` for the groups whose emission the direct part lights (the table holds `B`
+    /// whole for the others), or the sky's luminance where it leaves the scene.
+    pub(super) fn specular(
+        &self,
+        scene: &FinalScene<'_>,
+        lights: &GroupLights<'_>,
+        (x, n, p): (DVec3, DVec3, u32),
+        (lobe, rays, sampled): (&super::specular::Lobe, usize, &[super::lights::Sampled]),
+        rng: &mut Rng,
+        out: &mut [f32],
+    ) {
+        let count = ray_count(rays);
+        let side = count.isqrt();
+        let lift = 1e-6 * (1.0 + x.abs().max_element());
+        let o = x + n * lift;
+        let own = scene.mesh.patches[p as usize].source;
+        let patches = scene.patches;
+        let inv_pi = std::f32::consts::FRAC_1_PI;
+        let mut read = vec![0f32; out.len()];
+        for i in 0..count {
+            let u = (
+                ((i / side) as f64 + rng.next_f64()) / side as f64,
+                ((i % side) as f64 + rng.next_f64()) / side as f64,
+            );
+            let Some((d, weight)) = lobe.sample(u) else {
+                continue;
+            };
+            let weight = weight * (1.0 / count as f32);
+            let hit = patches.nearest_side(scene.bvh, o, d, Some(own), false);
+            read.iter_mut().for_each(|v| *v = 0.0);
+            match hit {
+                None => {
+                    if let Some(sky) = &scene.sky {
+                        read[..3]
+                            .iter_mut()
+                            .for_each(|v| *v = sky.outside(o, d, false));
+                    }
+                }
+                Some((th, tri, back)) => {
+                    if !patches.faces(tri, back, d) {
+                        continue;
+                    }
+                    let at = o + d * th as f64;
+                    self.add_at(patches, (tri, back, at), inv_pi, &mut read);
+                    // An emitter's own luminance, for the groups whose table leaves it out.
+                    let group = scene.triangles.get(tri as usize).and_then(|t| t.group);
+                    if let (Some(k), false, None) = (group, back, &scene.sky) {
+                        let k = k as usize;
+                        if k < self.groups && lights.explicit(k) {
+                            if let Some(q) = patches.locate(tri, back, at) {
+                                // Weighed against the light samples the triangle got.
+                                let mis =
+                                    sampled.iter().find(|s| s.source == tri).map_or(1.0, |s| {
+                                        s.ray_weight(d, th as f64, lobe.pdf(d), count)
+                                    });
+                                let e = Rgb::column(&scene.groups[k].e)[q as usize];
+                                Rgb::column_mut(&mut read)[k] += e * (inv_pi * mis as f32);
+                            }
+                        }
+                    }
+                }
+            }
+            for (o, r) in Rgb::column_mut(out).iter_mut().zip(Rgb::column(&read)) {
+                *o += weight * *r;
+            }
+        }
     }
 }
 

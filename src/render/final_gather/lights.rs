@@ -22,6 +22,7 @@ use std::collections::BTreeMap;
 
 use glam::DVec3;
 
+use super::specular::Lobe;
 use super::FinalScene;
 use crate::color::{Rgb, Rgb64};
 use crate::geometry::bvh::Bvh;
@@ -79,6 +80,10 @@ pub(super) const MAX_EMITTER_TRIANGLES: usize = 1024;
 
 /// One emitting input triangle of a group.
 struct Emitter {
+    /// Its index among the scene's triangles.
+    source: u32,
+    /// Area, m².
+    area: f64,
     corners: [DVec3; 3],
     centroid: DVec3,
     normal: DVec3,
@@ -188,7 +193,41 @@ pub(super) struct Scratch {
     bound: Vec<f32>,
     /// Emitting triangles seen: (group, triangle, form factor, luminous light).
     emitters: Vec<(u32, u32, f64, f64)>,
+    /// The emitting triangles a specular lobe's light samples went to at the current
+    /// point ([`GroupLights::specular_emitters`]).
+    pub(super) sampled: Vec<Sampled>,
 }
+
+/// An emitting triangle that a specular lobe's light samples went to: the reflection
+/// rays that meet it weigh their share against these ([`Sampled::ray_weight`]).
+#[derive(Debug, Clone, Copy)]
+pub(super) struct Sampled {
+    /// Its index among the scene's triangles.
+    pub(super) source: u32,
+    /// Light samples it got.
+    samples: u32,
+    /// Area, m².
+    area: f64,
+    /// Front normal.
+    normal: DVec3,
+}
+
+impl Sampled {
+    /// The balance-heuristic weight of a reflection ray drawn with density `pdf`
+    /// (1/sr) among `rays` that meets this triangle at distance `r` along `d`.
+    pub(super) fn ray_weight(&self, d: DVec3, r: f64, pdf: f64, rays: usize) -> f64 {
+        let cos = -self.normal.dot(d);
+        if cos <= 0.0 {
+            return 1.0;
+        }
+        let light = self.samples as f64 * r * r / (self.area * cos);
+        let brdf = rays as f64 * pdf;
+        brdf / (brdf + light)
+    }
+}
+
+/// Light samples per emitting triangle for a specular lobe (a 2 × 2 jittered grid).
+const SPECULAR_LIGHT_SAMPLES: u32 = 4;
 
 impl<'a> GroupLights<'a> {
     pub(super) fn new(scene: &'a FinalScene<'a>) -> GroupLights<'a> {
@@ -233,7 +272,9 @@ impl<'a> GroupLights<'a> {
     }
 
     /// Adds to `out` (per group RGB, lux) the direct illuminance at `x` on patch `p`
-    /// (normal `n`), with shadow rays as `rays` says.
+    /// (normal `n`), with shadow rays as `rays` says; and with a specular `lobe`, to
+    /// `highlights` (per group RGB, cd/m²) the point luminaires' light it reflects
+    /// ([`super::specular`]).
     pub(super) fn direct(
         &self,
         (x, n, p): (DVec3, DVec3, u32),
@@ -241,11 +282,13 @@ impl<'a> GroupLights<'a> {
         rng: &mut Rng,
         scratch: &mut Scratch,
         out: &mut [f32],
+        specular: Option<(&Lobe, &mut [f32])>,
     ) {
         // Below, the third member is the scene triangle the shadow rays skip.
         let at = (x, n, self.mesh.patches[p as usize].source);
         let out = Rgb::column_mut(out);
-        self.luminaires(at, rays, rng, scratch, out);
+        let specular = specular.map(|(lobe, h)| (lobe, Rgb::column_mut(h)));
+        self.luminaires(at, rays, rng, scratch, out, specular);
         self.emitters(at, rays, rng, scratch, out);
     }
 
@@ -264,6 +307,7 @@ impl<'a> GroupLights<'a> {
         rng: &mut Rng,
         scratch: &mut Scratch,
         out: &mut [Rgb],
+        mut specular: Option<(&Lobe, &mut [Rgb])>,
     ) {
         let (cand, points) = (&mut scratch.candidates, &mut scratch.points);
         cand.clear();
@@ -305,7 +349,14 @@ impl<'a> GroupLights<'a> {
                     .map(|(_, e)| e)
                     .sum()
             };
-            out[k as usize] += (e * weight * l.color.to_f64()).to_f32();
+            let lux = (e * weight * l.color.to_f64()).to_f32();
+            out[k as usize] += lux;
+            if let Some((lobe, highlights)) = specular.as_mut() {
+                // The opening's half angle, halved again for the half vector.
+                let to = l.position - x;
+                let spread = 0.25 * l.opening.largest_dimension() / to.length().max(1e-9);
+                highlights[k as usize] += lux * lobe.brdf(to, spread);
+            }
         };
         for &(k, i, c, run) in cand.iter() {
             if c >= cut {
@@ -353,20 +404,8 @@ impl<'a> GroupLights<'a> {
         out: &mut [Rgb],
     ) {
         let (x, n, _) = at;
-        // The triangles whose front x sees: (group, triangle, form factor, light).
         let cand = &mut scratch.emitters;
-        cand.clear();
-        for (k, g) in self.groups.iter().enumerate() {
-            for (i, e) in g.emitters.iter().enumerate() {
-                if e.normal.dot(x - e.centroid) <= 0.0 {
-                    continue;
-                }
-                let ff = point_to_polygon(x, n, &e.corners);
-                if ff > 0.0 {
-                    cand.push((k as u32, i as u32, ff, ff * e.luminous));
-                }
-            }
-        }
+        self.candidates(x, n, cand);
         let total: f64 = cand.iter().map(|c| c.3).sum();
         if total <= 0.0 {
             return;
@@ -407,6 +446,94 @@ impl<'a> GroupLights<'a> {
                 let f = ff * self.seen(e, at, 1, rng) * tail / part / draws as f64;
                 out[k as usize] += f as f32 * e.exitance;
             }
+        }
+    }
+
+    /// Into `cand`, the emitting triangles whose front `x` (normal `n`) sees: (group,
+    /// triangle, form factor, luminous light).
+    fn candidates(&self, x: DVec3, n: DVec3, cand: &mut Vec<(u32, u32, f64, f64)>) {
+        cand.clear();
+        for (k, g) in self.groups.iter().enumerate() {
+            for (i, e) in g.emitters.iter().enumerate() {
+                if e.normal.dot(x - e.centroid) <= 0.0 {
+                    continue;
+                }
+                let ff = point_to_polygon(x, n, &e.corners);
+                if ff > 0.0 {
+                    cand.push((k as u32, i as u32, ff, ff * e.luminous));
+                }
+            }
+        }
+    }
+
+    /// Adds to `out` (per group RGB, cd/m²) the light of the emitting triangles that
+    /// the specular `lobe` at `x` on patch `p` (normal `n`) reflects, from
+    /// [`SPECULAR_LIGHT_SAMPLES`] shadow rays to points on each triangle that gives at
+    /// least [`SIGNIFICANT`] of the point's diffuse light, weighted by the balance
+    /// heuristic against the `rays` reflection rays drawn from the lobe (a lobe too
+    /// narrow to be filtered takes no light samples). The triangles
+    /// sampled are left in `scratch.sampled`; the reflection rays that meet them take
+    /// the complementary weight ([`Sampled::ray_weight`]), the others' light in full.
+    pub(super) fn specular_emitters(
+        &self,
+        (x, n, p): (DVec3, DVec3, u32),
+        (lobe, rays): (&Lobe, usize),
+        rng: &mut Rng,
+        scratch: &mut Scratch,
+        out: &mut [f32],
+    ) {
+        let skip = self.mesh.patches[p as usize].source;
+        scratch.sampled.clear();
+        if !lobe.filtered() {
+            // A near mirror: its reflection rays alone find the emitters, all but
+            // without noise; a light sample landing in its narrow peak would add one.
+            return;
+        }
+        let cand = &mut scratch.emitters;
+        self.candidates(x, n, cand);
+        let total: f64 = cand.iter().map(|c| c.3).sum();
+        if total <= 0.0 {
+            return;
+        }
+        let out = Rgb::column_mut(out);
+        let side = (SPECULAR_LIGHT_SAMPLES as f64).sqrt().ceil() as u32;
+        let m = side * side;
+        for &(k, i, _, part) in cand.iter() {
+            if part < SIGNIFICANT * total {
+                continue;
+            }
+            let e = &self.groups[k as usize].emitters[i as usize];
+            let sampled = Sampled {
+                source: e.source,
+                samples: m,
+                area: e.area,
+                normal: e.normal,
+            };
+            scratch.sampled.push(sampled);
+            let mut sum = Rgb::ZERO;
+            for a in 0..side {
+                for b in 0..side {
+                    let u = (a as f64 + rng.next_f64()) / side as f64;
+                    let v = (b as f64 + rng.next_f64()) / side as f64;
+                    let y = sample_triangle(&e.corners, u, v);
+                    let to = y - x;
+                    let r = to.length();
+                    let d = to / r;
+                    let (cos_x, cos_y) = (n.dot(d), -e.normal.dot(d));
+                    if !(cos_x > 0.0 && cos_y > 0.0) {
+                        continue;
+                    }
+                    let f = lobe.brdf(d, 0.0);
+                    if f.luminance() <= 0.0 || !visible(self.bvh, x, n, y, skip) {
+                        continue;
+                    }
+                    // Density per solid angle of a uniform point on the triangle.
+                    let light = r * r / (e.area * cos_y);
+                    let w = 1.0 - sampled.ray_weight(d, r, lobe.pdf(d), rays);
+                    sum += f * (cos_x / light * w / m as f64) as f32;
+                }
+            }
+            out[k as usize] += sum * e.exitance * std::f32::consts::FRAC_1_PI;
         }
     }
 
@@ -492,6 +619,8 @@ fn emitters_of(scene: &FinalScene<'_>, k: usize, e: &[f32]) -> Vec<Emitter> {
             }
             let exitance = (sum / area).to_f32();
             Some(Emitter {
+                source,
+                area: t.area(),
                 corners: t.p,
                 centroid: (t.p[0] + t.p[1] + t.p[2]) / 3.0,
                 normal,

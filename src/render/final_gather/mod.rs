@@ -15,7 +15,9 @@
 //!   part carries it, so no light is counted twice;
 //! - **what the camera sees of the emitters**: emissive surfaces at their luminance `E/π`,
 //!   and each luminaire's luminous opening ([`openings`]) at its average luminance towards
-//!   the camera, `I/A_proj`.
+//!   the camera, `I/A_proj`;
+//! - **glossy reflection** ([`specular`]), on glTF materials with a specular lobe: the
+//!   luminaires' and the sun's highlights, and reflection rays that read the solution.
 //!
 //! The indirect part, less the noise-free irradiance the solved radiosity gives at the
 //! pixel's point ([`gather::Reflected::expected`]), is denoised by an edge-avoiding
@@ -37,6 +39,7 @@ mod lights;
 mod openings;
 mod settings;
 mod sky;
+mod specular;
 
 pub use settings::{FinalSettings, GATHER_REFERENCE_PIXELS};
 pub use sky::FinalSky;
@@ -52,7 +55,7 @@ use crate::geometry::bvh::Bvh;
 use crate::geometry::mesh::Mesh;
 use crate::geometry::patch_locator::{max_grid_corners, PatchLocator};
 use crate::model::{Cancel, QueryError};
-use crate::scene::{LightGroup, Triangle};
+use crate::scene::{LightGroup, Material, Triangle};
 use crate::transport::formfactor::Rng;
 use crate::transport::transfer::GroupColumns;
 
@@ -69,6 +72,8 @@ pub struct FinalScene<'a> {
     pub bvh: &'a Bvh,
     /// The scene's input triangles (the emitters' exact shapes).
     pub triangles: &'a [Triangle],
+    /// The scene's materials, by the triangles' `material` (their specular lobes).
+    pub materials: &'a [Material],
     /// Per patch reflectance.
     pub rho: &'a [Rgb],
     /// Per light group, its solved columns at unit weight.
@@ -306,6 +311,14 @@ impl Tracer<'_> {
     ) -> Samples {
         let samples = (k * k) as f32;
         let gather_each = (self.settings.gather_rays as usize).div_ceil(k * k);
+        // At least a 2 × 2 grid per sample: a split pixel's many samples each see their
+        // own point, and a single ray per sample left edges speckled.
+        let specular = self.settings.specular_rays as usize;
+        let specular_each = if specular == 0 {
+            0
+        } else {
+            specular.div_ceil(k * k).max(4)
+        };
         let mut out = Samples::default();
         let g = self.groups;
         let mut scratch = lights::Scratch::default();
@@ -346,7 +359,7 @@ impl Tracer<'_> {
                 rng,
                 &mut scratch,
                 (&mut dir_s, &mut ind_s, &mut exp_s),
-                (gather_each, strata),
+                (gather_each, strata, specular_each),
             );
             if s == 0 {
                 out.guide = seen.guide;
@@ -392,7 +405,7 @@ impl Tracer<'_> {
         rng: &mut Rng,
         scratch: &mut lights::Scratch,
         out: (&mut [f32], &mut [f32], &mut [f32]),
-        (gather_rays, strata): (usize, gather::Strata),
+        (gather_rays, strata, specular_rays): (usize, gather::Strata, usize),
     ) -> Seen {
         let (direct, indirect, expected) = out;
         let o = self.rays.origin();
@@ -412,17 +425,30 @@ impl Tracer<'_> {
         let mut e_direct = std::mem::take(&mut scratch.lux);
         e_direct.clear();
         e_direct.resize(3 * self.groups, 0.0);
+        // A glossy surface's specular lobe towards the camera: its highlights and
+        // reflections go straight into the unfiltered direct part, as radiance.
+        let lobe = self
+            .scene
+            .triangles
+            .get(patch.source as usize)
+            .and_then(|t| self.scene.materials.get(t.material as usize)?.gloss)
+            .filter(|_| specular_rays > 0)
+            .and_then(|g| specular::Lobe::new(&g, n, d));
         self.lights.direct(
             (x, n, p),
             lights::Rays::Stratified(self.settings.emitter_rays),
             rng,
             scratch,
             &mut e_direct,
+            lobe.as_ref().map(|l| (l, &mut *direct)),
         );
         if let Some(sky) = &self.scene.sky {
-            e_direct[..3]
-                .iter_mut()
-                .for_each(|v| *v += sky.sun_lux(self.scene.bvh, (x, n, patch.source)));
+            let sun = sky.sun_lux(self.scene.bvh, (x, n, patch.source));
+            e_direct[..3].iter_mut().for_each(|v| *v += sun);
+            if let (Some(lobe), Some(s), true) = (&lobe, &sky.sun, sun > 0.0) {
+                let spread = 0.25 * crate::daylight::sky_luminance::SUN_DIAMETER_DEG.to_radians();
+                Rgb::column_mut(direct)[0] += sun * lobe.brdf(s.direction, spread);
+            }
         }
         let mut reach = f32::INFINITY;
         let aim = self.scene.sky.as_ref().and_then(|s| s.aim(p));
@@ -450,12 +476,16 @@ impl Tracer<'_> {
         if gather_rays > 0 {
             self.reflected.expected(self.scene, x, p, expected);
         }
-        // Per group: direct += ρ/π · E_direct, indirect and expected ×= ρ/π.
+        // Per group: direct += ρ/π · E_direct, indirect and expected ×= ρ/π; under a
+        // specular lobe, the diffuse part keeps the share the lobe leaves it.
+        let rho = match &lobe {
+            Some(l) => rho * l.diffuse_share(),
+            None => rho,
+        };
         let reflect = rho * inv_pi;
-        let (direct, indirect) = (Rgb::column_mut(direct), Rgb::column_mut(indirect));
-        for (((d, i), x), &e) in direct
+        for (((d, i), x), &e) in Rgb::column_mut(direct)
             .iter_mut()
-            .zip(indirect)
+            .zip(Rgb::column_mut(indirect))
             .zip(Rgb::column_mut(expected))
             .zip(Rgb::column(&e_direct))
         {
@@ -464,8 +494,27 @@ impl Tracer<'_> {
             *x *= reflect;
         }
         scratch.lux = e_direct;
+        // The glossy lobe's sampled light: its reflections and its share of the emitting
+        // surfaces. A wide lobe's goes through the filter with the gathered light (its
+        // draws scatter over the room), demodulated by the lobe's Fresnel reflectance
+        // beside ρ; a near mirror's draws all but agree, and stay sharp.
+        let mut albedo = rho;
+        if let Some(lobe) = &lobe {
+            // A whole grid of rays, which the light samples' weights count.
+            let (at, rays) = ((x, n, p), (lobe, gather::ray_count(specular_rays)));
+            let out = if lobe.filtered() {
+                albedo += lobe.reflectance();
+                &mut *indirect
+            } else {
+                &mut *direct
+            };
+            self.lights.specular_emitters(at, rays, rng, scratch, out);
+            let rays = (rays.0, rays.1, &scratch.sampled[..]);
+            self.reflected
+                .specular(self.scene, &self.lights, at, rays, rng, out);
+        }
         Seen {
-            albedo: rho,
+            albedo,
             guide: Guide {
                 position: x.as_vec3().to_array(),
                 normal: n.as_vec3().to_array(),
@@ -491,6 +540,7 @@ impl Tracer<'_> {
             rng,
             &mut scratch,
             &mut lux,
+            None,
         );
         self.reflected.gather(
             self.scene,

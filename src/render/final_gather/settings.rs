@@ -13,6 +13,9 @@ pub struct FinalSettings {
     /// Shadow rays per pixel sample for the dominant emitting triangle (fewer for
     /// triangles that give less light, at least 1).
     pub emitter_rays: u32,
+    /// Rays per pixel drawn from the specular lobe of a glossy surface, shared among its
+    /// samples (0: no glossy reflections nor highlights).
+    pub specular_rays: u32,
     /// À-trous passes over the indirect light (0: unfiltered).
     pub filter_passes: u32,
     /// Mixed into every pixel's random sequence: two seeds give two independent images,
@@ -67,6 +70,7 @@ impl Default for FinalSettings {
             samples_per_side: env("RELIGHT_FINAL_SPS", 2),
             gather_rays: env("RELIGHT_FINAL_GATHER", 64),
             emitter_rays: env("RELIGHT_FINAL_EMITTER", 16),
+            specular_rays: env("RELIGHT_FINAL_SPECULAR", 16),
             filter_passes: env("RELIGHT_FINAL_FILTER", 2),
             seed: env("RELIGHT_FINAL_SEED", 0),
         }
@@ -86,6 +90,7 @@ mod tests {
             samples_per_side: 2,
             gather_rays: 64,
             emitter_rays: 16,
+            specular_rays: 16,
             filter_passes: 2,
             seed: 0,
             scale_gather: true,

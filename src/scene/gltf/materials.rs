@@ -8,7 +8,7 @@ use super::buffers::{percent_decode, view_bytes};
 use super::{invalid, Buffers, Reader, Unique};
 use crate::color::Rgb;
 use crate::input_limits::{MAX_EXITANCE, MAX_KD, MAX_MATERIALS, MAX_TEXTURES, MAX_TEXTURE_BYTES};
-use crate::scene::materials::{Material, MaterialTable};
+use crate::scene::materials::{Gloss, Material, MaterialTable};
 use crate::scene::{files, mtl, texture, SceneError};
 
 /// Where material textures come from: the buffers, and the files read (a texture file is
@@ -39,7 +39,7 @@ impl Reader<'_> {
         for m in doc.materials() {
             let i = m.index().unwrap_or(0);
             let name = names.take(m.name(), || format!("material{i}"));
-            let kd = self.reflectance(&m, &name, textures)?;
+            let (kd, gloss) = self.reflectance(&m, &name, textures)?;
             let ke = self.emission(&m, &name, textures)?;
             let two_sided =
                 m.double_sided() || self.cfg.material.get(&name).is_some_and(|o| o.two_sided);
@@ -49,6 +49,7 @@ impl Reader<'_> {
                     kd,
                     ke,
                     two_sided,
+                    gloss,
                 },
                 self.shown,
             )?);
@@ -57,27 +58,43 @@ impl Reader<'_> {
     }
 
     /// The diffuse reflectance of material `m` (named `name`): `(1 − metallic) × base
-    /// colour ×` its texture's mean, scaled below 1 (or refused, strict).
+    /// colour ×` its texture's mean, scaled below 1 (or refused, strict); and its
+    /// specular lobe ([`gloss`]).
     fn reflectance(
         &mut self,
         m: &gltf::Material<'_>,
         name: &str,
         textures: &mut Textures<'_>,
-    ) -> Result<Rgb, SceneError> {
+    ) -> Result<(Rgb, Option<Gloss>), SceneError> {
         let pbr = m.pbr_metallic_roughness();
         let base = pbr.base_color_factor();
-        let metallic = pbr.metallic_factor().clamp(0.0, 1.0);
-        let mut kd = (1.0 - metallic) * Rgb::new(base[0], base[1], base[2]);
-        kd = self.tinted(kd, pbr.base_color_texture(), name, textures)?;
-        if kd.iter().any(|x| !x.is_finite() || *x < 0.0) {
+        let metallic = pbr.metallic_factor();
+        let roughness = pbr.roughness_factor();
+        if !metallic.is_finite() || !roughness.is_finite() {
             return Err(self.err(format!(
-                "material '{name}': base colour {kd:?} must be finite and ≥ 0"
+                "material '{name}': metallicFactor {metallic} and roughnessFactor \
+                 {roughness} must be finite"
             )));
         }
-        if metallic >= 1.0 && base[..3].iter().any(|&b| b > 0.0) {
+        let metallic = metallic.clamp(0.0, 1.0);
+        let base = self.tinted(
+            Rgb::new(base[0], base[1], base[2]),
+            pbr.base_color_texture(),
+            name,
+            textures,
+        )?;
+        if base.iter().any(|x| !x.is_finite() || *x < 0.0) {
+            return Err(self.err(format!(
+                "material '{name}': base colour {base:?} must be finite and ≥ 0"
+            )));
+        }
+        let mut kd = (1.0 - metallic) * base;
+        let gloss = gloss(base, metallic, roughness);
+        if metallic >= 1.0 && base.iter().any(|&b| b > 0.0) {
             self.warnings.push(format!(
                 "{}: material '{name}' is fully metallic (metallicFactor 1, the glTF \
-                 default): it reflects no diffuse light",
+                 default): it reflects no diffuse light, and its specular reflection \
+                 shows in final images only",
                 self.shown.display()
             ));
         }
@@ -98,7 +115,7 @@ impl Reader<'_> {
             ));
             kd = k;
         }
-        Ok(kd)
+        Ok((kd, gloss))
     }
 
     /// The exitance of material `m` (named `name`), lm/m²: `π × emissiveFactor ×
@@ -224,4 +241,21 @@ impl MaterialTable {
         self.materials.push(m);
         Ok(i)
     }
+}
+
+/// glTF's specular lobe for a material of (texture-tinted) `base` colour, `metallic` and
+/// perceptual `roughness` factors: `F0 = 0.04 (1 − metallic) + base × metallic`, GGX
+/// `α = roughness²` (at least [`Gloss::MIN_ALPHA`]). None for a fully rough dielectric
+/// (roughness 1, metallic 0), which relight keeps Lambertian. The
+/// `metallicRoughnessTexture` is not read: the factors set the lobe.
+pub(super) fn gloss(base: Rgb, metallic: f32, roughness: f32) -> Option<Gloss> {
+    let (metallic, roughness) = (metallic.clamp(0.0, 1.0), roughness.clamp(0.0, 1.0));
+    if roughness >= 1.0 && metallic <= 0.0 {
+        return None;
+    }
+    let f0 = Rgb::splat(0.04 * (1.0 - metallic)) + metallic * base;
+    Some(Gloss {
+        f0: Rgb(f0.0.map(|c| c.clamp(0.0, 1.0))),
+        alpha: (roughness * roughness).max(Gloss::MIN_ALPHA),
+    })
 }

@@ -1,0 +1,186 @@
+//! Glossy highlights in `final` images (render/final_gather/specular): glTF materials with
+//! a roughness below 1 or a metallic part reflect specularly at the camera's bounce. The
+//! truths here are closed forms written out independently of the library: a mirror's
+//! Schlick reflectance of an emitting wall, and glTF's specular BRDF (in the form the
+//! glTF specification gives it) under a point light.
+
+use glam::{DVec3, Vec3};
+use relight::bake::{load_or_bake, BakeOptions, CachePolicy};
+use relight::color::Rgb;
+use relight::model::{Cancel, Model};
+use relight::render::final_gather::patch_locator;
+use relight::render::pipeline::final_images;
+use relight::render::{Camera, GroupImages, Shading};
+use serde_json::json;
+
+use crate::common;
+use crate::gltf_import::Doc;
+
+/// A quad as two triangles (corners in order, front by the right-hand rule).
+fn quad(d: &mut Doc, c: [[f32; 3]; 4]) -> (usize, usize) {
+    (d.positions(&c), d.indices(&[0, 1, 2, 0, 2, 3]))
+}
+
+/// A 10 m square floor at y = 0, facing up.
+const FLOOR: [[f32; 3]; 4] = [[-5., 0., -5.], [-5., 0., 5.], [5., 0., 5.], [5., 0., -5.]];
+
+/// Bakes the GLB `doc` (with `toml` as its scene.toml) and builds its `final` images.
+fn finals(glb: &[u8], toml: &str, cam: &Camera) -> GroupImages {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("scene.glb"), glb).unwrap();
+    std::fs::write(dir.path().join("scene.toml"), toml).unwrap();
+    let b = load_or_bake(
+        dir.path(),
+        CachePolicy::Off,
+        &BakeOptions::default(),
+        &|_, _| {},
+    )
+    .unwrap();
+    let m = Model::new(b);
+    let shading = Shading::new(&m.baked.mesh);
+    let patches = patch_locator(&m.baked.mesh, &m.baked.scene.triangles);
+    final_images(&m, &shading, &patches, cam, &Cancel::default()).unwrap()
+}
+
+/// Schlick's Fresnel, as glTF writes it.
+fn schlick(f0: f64, cos: f64) -> f64 {
+    f0 + (1.0 - f0) * (1.0 - cos).powi(5)
+}
+
+/// A polished metal floor (F0 0.5, roughness 0) before a black wall that glows at
+/// 10 cd/m²: where the camera sees the wall in the floor, a pixel shows the wall's
+/// luminance times the Fresnel reflectance at the viewing angle, and nothing else (no
+/// surface reflects diffusely). The metal is black in the radiosity solution: before the
+/// specular lobe, this pixel was 0.
+#[test]
+fn a_mirror_floor_shows_a_glowing_wall_at_its_fresnel_reflectance() {
+    let _gate = common::shared();
+    let mut d = Doc::default();
+    let floor = quad(&mut d, FLOOR);
+    let wall = quad(
+        &mut d,
+        [[-5., 0., -5.], [5., 0., -5.], [5., 5., -5.], [-5., 5., -5.]],
+    );
+    let mesh = |(p, i): (usize, usize), m: usize| json!({"primitives": [{"attributes": {"POSITION": p}, "indices": i, "material": m}]});
+    let glb = d.glb(json!({
+        "extensionsUsed": ["KHR_materials_emissive_strength"],
+        "materials": [
+            {"name": "mirror", "pbrMetallicRoughness": {"baseColorFactor": [0.5, 0.5, 0.5, 1], "metallicFactor": 1, "roughnessFactor": 0}},
+            {"name": "glow", "emissiveFactor": [1, 1, 1], "pbrMetallicRoughness": {"baseColorFactor": [0, 0, 0, 1], "metallicFactor": 0},
+             "extensions": {"KHR_materials_emissive_strength": {"emissiveStrength": 10}}}
+        ],
+        "meshes": [mesh(floor, 0), mesh(wall, 1)],
+        "nodes": [{"name": "floor", "mesh": 0}, {"name": "wall", "mesh": 1}]
+    }));
+    let cam = Camera {
+        position: Vec3::new(0.0, 1.0, 4.0),
+        target: Vec3::ZERO,
+        up: Vec3::Y,
+        fov_deg: 8.0,
+        width: 24,
+        height: 24,
+    };
+    let img = finals(&glb, "[mesh]\nmax_edge = 1.0\n", &cam).linear(&[Rgb::ONE]);
+    // The centre of the image sees the floor at the origin, 1 m below and 4 m ahead.
+    let cos = 1.0 / 17f64.sqrt();
+    let want = 10.0 * schlick(0.5, cos);
+    for (x, y) in [(11, 11), (12, 11), (11, 12), (12, 12)] {
+        let got = img[y * 24 + x][1] as f64;
+        eprintln!("mirror pixel ({x}, {y}): {got:.4} cd/m², closed form {want:.4}");
+        assert!((got / want - 1.0).abs() < 0.01, "{got} vs {want}");
+    }
+}
+
+/// glTF's specular BRDF, `F · V · D`, with the height-correlated visibility term as the
+/// glTF specification writes it (α = roughness²).
+fn gltf_specular(f0: f64, alpha: f64, n: DVec3, v: DVec3, l: DVec3) -> f64 {
+    let h = (v + l).normalize();
+    let (nl, nv, nh, vh) = (n.dot(l), n.dot(v), n.dot(h), v.dot(h));
+    let a2 = alpha * alpha;
+    let vis =
+        0.5 / (nl * (nv * nv * (1.0 - a2) + a2).sqrt() + nv * (nl * nl * (1.0 - a2) + a2).sqrt());
+    let dd = nh * nh * (a2 - 1.0) + 1.0;
+    let dist = a2 / (std::f64::consts::PI * dd * dd);
+    schlick(f0, vh) * vis * dist
+}
+
+/// A black glossy floor (a dielectric, F0 0.04, roughness 0.5) under a 100 cd point
+/// light: seen from above, every pixel shows the light's highlight, `BRDF × I cos θ / d²`,
+/// as glTF's BRDF gives it (the floor reflects nothing diffusely).
+#[test]
+fn a_glossy_floor_shows_a_point_lights_highlight_as_gltf_defines_it() {
+    let _gate = common::shared();
+    let mut d = Doc::default();
+    let (p, i) = quad(&mut d, FLOOR);
+    let light = DVec3::new(0.6, 2.0, 0.0);
+    let glb = d.glb(json!({
+        "extensionsUsed": ["KHR_lights_punctual"],
+        "extensions": {"KHR_lights_punctual": {"lights": [
+            {"name": "bulb", "type": "point", "intensity": 100}
+        ]}},
+        "materials": [
+            {"name": "lacquer", "pbrMetallicRoughness": {"baseColorFactor": [0, 0, 0, 1], "metallicFactor": 0, "roughnessFactor": 0.5}}
+        ],
+        "meshes": [{"primitives": [{"attributes": {"POSITION": p}, "indices": i, "material": 0}]}],
+        "nodes": [
+            {"name": "floor", "mesh": 0},
+            {"name": "bulb", "translation": light.as_vec3().to_array(), "extensions": {"KHR_lights_punctual": {"light": 0}}}
+        ]
+    }));
+    let (side, fov, height) = (64usize, 40.0f64, 5.0f64);
+    let cam = Camera {
+        position: Vec3::new(0.0, height as f32, 0.0),
+        target: Vec3::ZERO,
+        up: Vec3::new(0.0, 0.0, -1.0),
+        fov_deg: fov as f32,
+        width: side as u32,
+        height: side as u32,
+    };
+    let img = finals(&glb, "[mesh]\nmax_edge = 1.0\n", &cam).linear(&[Rgb::ONE]);
+    // Image x runs along +x and image y along +z; (k + f) is a point within pixel k.
+    let tan = (fov / 2.0).to_radians().tan();
+    let at = |k: f64| (k / (side as f64 / 2.0) - 1.0) * tan * height;
+    let eye = DVec3::new(0.0, height, 0.0);
+    let radiance = |p: DVec3| {
+        let (v, to) = ((eye - p).normalize(), light - p);
+        let l = to.normalize();
+        gltf_specular(0.04, 0.25, DVec3::Y, v, l) * 100.0 * l.y / to.length_squared()
+    };
+    // The closed form's mean over a pixel (8 × 8 points), as its jittered samples see it.
+    let pixel = |x: usize, y: usize| {
+        let mut sum = 0.0;
+        for i in 0..64 {
+            let (fx, fy) = ((i % 8) as f64 + 0.5, (i / 8) as f64 + 0.5);
+            sum += radiance(DVec3::new(
+                at(x as f64 + fx / 8.0),
+                0.0,
+                at(y as f64 + fy / 8.0),
+            ));
+        }
+        sum / 64.0
+    };
+    // Runs of 4 pixels along a row (each pixel's 4 jittered samples spread the values).
+    let row = side / 2 + 5;
+    let (mut checked, mut worst) = (0, 0f64);
+    for x0 in (0..side - 4).step_by(4) {
+        // Skip the pixels that see the light's own opening, between the eye and the floor.
+        let shadow = light.x * height / (height - light.y);
+        if (at(x0 as f64 + 2.0) - shadow).abs() < 0.6 {
+            continue;
+        }
+        let got: f64 = (x0..x0 + 4).map(|x| img[row * side + x][1] as f64).sum();
+        let want: f64 = (x0..x0 + 4).map(|x| pixel(x, row)).sum();
+        assert!(
+            (got / want - 1.0).abs() < 0.01,
+            "pixels {x0}..{}: {got} vs {want} cd/m²",
+            x0 + 4
+        );
+        checked += 1;
+        worst = worst.max((got / want - 1.0).abs());
+    }
+    eprintln!(
+        "highlight: {checked} runs of 4 pixels, worst off by {:.2} %",
+        100.0 * worst
+    );
+    assert!(checked >= 10, "{checked} runs checked");
+}
