@@ -564,8 +564,12 @@ impl Tracer<'_> {
     }
 }
 
-/// Rays of the small gather at a point a gather ray landed on close by.
-const NEAR_GATHER_RAYS: usize = 9;
+/// Rays of the small gather at a point a gather ray landed on close by (3 % of the
+/// Cornell box's gather rays). 4 instead of 9 built its 512² view 5 % faster with the
+/// same error over six seeds (0.874 % against 0.873 % of the 262,144-spp reference) and
+/// left the panel floor's three views unchanged (1.43 %, 0.80 %, 0.82 %); 1 ray added
+/// noise (0.878 %).
+const NEAR_GATHER_RAYS: usize = 4;
 
 /// Samples per side of a pixel whose corners see different surfaces, as a multiple of
 /// [`FinalSettings::samples_per_side`].
