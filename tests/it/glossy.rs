@@ -2,7 +2,7 @@
 //! a roughness below 1 or a metallic part reflect specularly at the camera's bounce. The
 //! truths here are closed forms written out independently of the library: a mirror's
 //! Schlick reflectance of an emitting wall, and glTF's specular BRDF (in the form the
-//! glTF specification gives it) under a point light.
+//! glTF specification gives it) under a point light, a uniform sky and the sun.
 
 use glam::{DVec3, Vec3};
 use relight::bake::{load_or_bake, BakeOptions, CachePolicy};
@@ -183,4 +183,127 @@ fn a_glossy_floor_shows_a_point_lights_highlight_as_gltf_defines_it() {
         100.0 * worst
     );
     assert!(checked >= 10, "{checked} runs checked");
+}
+
+/// glTF's specular albedo towards `v`: the BRDF × cos θ integrated over the hemisphere
+/// on a midpoint grid of polar angle and azimuth.
+fn gltf_albedo(f0: f64, alpha: f64, v: DVec3) -> f64 {
+    let (nt, np) = (400, 400);
+    let (half, tau) = (std::f64::consts::FRAC_PI_2, std::f64::consts::TAU);
+    let mut sum = 0.0;
+    for i in 0..nt {
+        let theta = (i as f64 + 0.5) / nt as f64 * half;
+        for j in 0..np {
+            let phi = (j as f64 + 0.5) / np as f64 * tau;
+            let l = DVec3::new(
+                theta.sin() * phi.cos(),
+                theta.cos(),
+                theta.sin() * phi.sin(),
+            );
+            let dw = theta.sin() * (half / nt as f64) * (tau / np as f64);
+            sum += gltf_specular(f0, alpha, DVec3::Y, v, l) * theta.cos() * dw;
+        }
+    }
+    sum
+}
+
+/// Under a sky, a black glossy floor (F0 0.04, roughness 0.3) in the open reflects the
+/// sky and the sun: under a uniform sky of luminance L every pixel shows L × the lobe's
+/// albedo towards the camera, and with the sun straight overhead the pixels below the
+/// camera show glTF's BRDF × the sun's illuminance.
+#[test]
+fn a_glossy_floor_reflects_the_sky_and_the_sun() {
+    let _gate = common::shared();
+    use relight::model::sky_state::SkySpec;
+    use relight::render::pipeline::final_daylight_image;
+    let mut d = Doc::default();
+    let (p, i) = quad(&mut d, FLOOR);
+    let glb = d.glb(json!({
+        "materials": [
+            {"name": "lacquer", "pbrMetallicRoughness": {"baseColorFactor": [0, 0, 0, 1], "metallicFactor": 0, "roughnessFactor": 0.3}}
+        ],
+        "meshes": [{"primitives": [{"attributes": {"POSITION": p}, "indices": i, "material": 0}]}],
+        "nodes": [{"name": "floor", "mesh": 0}]
+    }));
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("scene.glb"), &glb).unwrap();
+    std::fs::write(
+        dir.path().join("scene.toml"),
+        "[site]\nlatitude = 49.5\nlongitude = 8.5\ntimezone = 1\n[mesh]\nmax_edge = 1.0\n",
+    )
+    .unwrap();
+    let b = load_or_bake(
+        dir.path(),
+        CachePolicy::Off,
+        &BakeOptions::default(),
+        &|_, _| {},
+    )
+    .unwrap();
+    let m = Model::new(b);
+    let (side, fov, height) = (32usize, 40.0f64, 3.0f64);
+    let cam = Camera {
+        position: Vec3::new(0.0, height as f32, 0.0),
+        target: Vec3::ZERO,
+        up: Vec3::new(0.0, 0.0, -1.0),
+        fov_deg: fov as f32,
+        width: side as u32,
+        height: side as u32,
+    };
+    let shading = Shading::new(&m.baked.mesh);
+    let patches = patch_locator(&m.baked.mesh, &m.baked.scene.triangles);
+    let image = |sky: serde_json::Value| {
+        let spec: SkySpec = serde_json::from_value(sky).unwrap();
+        let state = spec.resolve(m.site().unwrap()).unwrap();
+        final_daylight_image(&m, &shading, &patches, &cam, &state, &Cancel::default())
+            .unwrap()
+            .linear(&[Rgb::ONE])
+    };
+    let tan = (fov / 2.0).to_radians().tan();
+    let at = |k: f64| (k / (side as f64 / 2.0) - 1.0) * tan * height;
+    let eye = DVec3::new(0.0, height, 0.0);
+    let view = |x: f64, z: f64| (eye - DVec3::new(x, 0.0, z)).normalize();
+    // A uniform sky of 10,000 lx on the horizontal: L = 10,000/π cd/m².
+    let uniform = image(json!({"type": "uniform", "horizontal_illuminance": 10000}));
+    let l_sky = 10_000.0 / std::f64::consts::PI;
+    let mut worst = 0f64;
+    for (x, y) in [(16, 16), (4, 20), (28, 6), (10, 30)] {
+        let v = view(at(x as f64 + 0.5), at(y as f64 + 0.5));
+        let want = l_sky * gltf_albedo(0.04, 0.09, v);
+        let got = uniform[y * side + x][1] as f64;
+        assert!(
+            (got / want - 1.0).abs() < 0.01,
+            "pixel ({x}, {y}): {got} vs {want} cd/m²"
+        );
+        worst = worst.max((got / want - 1.0).abs());
+    }
+    eprintln!(
+        "uniform sky in a glossy floor: worst pixel off by {:.2} %",
+        100.0 * worst
+    );
+    // The sun overhead at 50,000 lx (a clear sky of 1 lx beside it).
+    let sunny = image(json!({"type": "cie_clear", "horizontal_illuminance": 1,
+        "direct_normal_illuminance": 50000, "sun": {"altitude": 90, "azimuth": 180}}));
+    // Blocks of 6 × 6 pixels (each pixel's four jittered samples spread its value).
+    let mut worst = 0f64;
+    for (x0, y0) in [(10, 10), (16, 10), (10, 16), (16, 16), (4, 13)] {
+        let (mut got, mut want) = (0.0, 0.0);
+        for (x, y) in (0..36).map(|k| (x0 + k % 6, y0 + k / 6)) {
+            got += sunny[y * side + x][1] as f64;
+            // The closed form's mean over the pixel (8 × 8 points).
+            for k in 0..64 {
+                let (fx, fz) = ((k % 8) as f64 + 0.5, (k / 8) as f64 + 0.5);
+                let v = view(at(x as f64 + fx / 8.0), at(y as f64 + fz / 8.0));
+                want += gltf_specular(0.04, 0.09, DVec3::Y, v, DVec3::Y) * 50_000.0 / 64.0;
+            }
+        }
+        assert!(
+            (got / want - 1.0).abs() < 0.01,
+            "pixels from ({x0}, {y0}): {got} vs {want} cd/m²"
+        );
+        worst = worst.max((got / want - 1.0).abs());
+    }
+    eprintln!(
+        "the sun in a glossy floor: worst block off by {:.2} %",
+        100.0 * worst
+    );
 }
