@@ -425,8 +425,9 @@ impl Tracer<'_> {
         let mut e_direct = std::mem::take(&mut scratch.lux);
         e_direct.clear();
         e_direct.resize(3 * self.groups, 0.0);
-        // A glossy surface's specular lobe towards the camera: its highlights and
-        // reflections go straight into the unfiltered direct part, as radiance.
+        // A glossy surface's specular lobe towards the camera: the point sources'
+        // highlights (exact, no noise) go straight into the unfiltered direct part, as
+        // radiance; its sampled light below.
         let lobe = self
             .scene
             .triangles
