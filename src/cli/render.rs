@@ -37,7 +37,8 @@ pub struct RenderArgs {
     #[arg(long)]
     falsecolor: bool,
     /// fast (the solved patches, blended) or final (direct light traced per pixel, a
-    /// final gather and the luminaires in view; seconds per image).
+    /// final gather, the luminaires in view and glossy glTF materials; seconds per
+    /// image).
     #[arg(long, default_value = "fast")]
     quality: String,
     #[command(flatten)]

@@ -28,8 +28,9 @@ pub enum Quality {
     /// The solved patches, Gouraud-blended per pixel: a new camera costs milliseconds.
     #[default]
     Fast,
-    /// Direct light traced per pixel, a final gather from the solved radiosity and the
-    /// luminaires in view ([`super::final_gather`]): a new camera costs seconds, a new
+    /// Direct light traced per pixel, a final gather from the solved radiosity, the
+    /// luminaires in view and glossy reflection on glTF materials
+    /// ([`super::final_gather`]): a new camera costs seconds, a new
     /// lighting state of light groups as little as with `Fast`.
     Final,
 }
