@@ -36,8 +36,11 @@ pub struct Material {
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct Gloss {
     /// Specular reflectance at normal incidence per channel, in [0, 1]: 0.04 for a
-    /// dielectric, the base colour for a metal (glTF's `F0`).
+    /// dielectric of index 1.5, the base colour for a metal (glTF's `F0`).
     pub f0: Rgb,
+    /// Specular reflectance at grazing incidence per channel, in [0, 1]: 1, or a
+    /// dielectric's `KHR_materials_specular` factor (glTF's `F90`).
+    pub f90: Rgb,
     /// GGX width α (the square of glTF's perceptual roughness), in
     /// [[`Gloss::MIN_ALPHA`], 1].
     pub alpha: f32,

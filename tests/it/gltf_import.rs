@@ -380,6 +380,68 @@ fn base_colour_metallic_textures_and_emission_set_reflectance_and_exitance() {
     assert!(e.contains("'white'") && e.contains("strict = true"), "{e}");
 }
 
+/// `KHR_materials_ior` and `KHR_materials_specular` set a dielectric's Fresnel as the
+/// extensions define it: F0 = ((ior − 1)/(ior + 1))² × specularColorFactor (at most 1)
+/// × specularFactor, F90 = specularFactor; a metal's stays its base colour. An index
+/// below 1 is refused with the material's name.
+#[test]
+fn ior_and_specular_extensions_set_a_dielectrics_fresnel() {
+    let _gate = common::shared();
+    let mut d = Doc::default();
+    let bytes = material_scene(
+        json!([
+            {"name": "water", "pbrMetallicRoughness": {"baseColorFactor": [0.2, 0.3, 0.4, 1], "metallicFactor": 0, "roughnessFactor": 0.2},
+             "extensions": {"KHR_materials_ior": {"ior": 1.33}}},
+            {"name": "satin", "pbrMetallicRoughness": {"baseColorFactor": [0.5, 0.5, 0.5, 1], "metallicFactor": 0, "roughnessFactor": 0.5},
+             "extensions": {"KHR_materials_specular": {"specularFactor": 0.5, "specularColorFactor": [1, 0.5, 0.25]}}},
+            {"name": "gold", "pbrMetallicRoughness": {"baseColorFactor": [1, 0.8, 0.3, 1], "metallicFactor": 1, "roughnessFactor": 0.3},
+             "extensions": {"KHR_materials_specular": {"specularFactor": 0.5}}},
+            {"name": "matte", "pbrMetallicRoughness": {"metallicFactor": 0, "roughnessFactor": 0.4},
+             "extensions": {"KHR_materials_specular": {"specularFactor": 0}}}
+        ]),
+        &mut d,
+        json!({"extensionsUsed": ["KHR_materials_ior", "KHR_materials_specular"]}),
+    );
+    let dir = folder(&[("m.glb", &bytes)]);
+    let s = load(dir.path());
+    let gloss = |surface: &str| {
+        let k = s.surface_index(surface).unwrap() as u32;
+        let t = s.triangles.iter().find(|t| t.surface == k).unwrap();
+        s.materials[t.material as usize].gloss
+    };
+    let near =
+        |a: relight::color::Rgb, b: [f32; 3]| a.iter().zip(b).all(|(x, y)| (x - y).abs() < 1e-6);
+    let water = gloss("s0").unwrap();
+    let f = (0.33f32 / 2.33).powi(2);
+    assert!(
+        near(water.f0, [f; 3]) && near(water.f90, [1.0; 3]),
+        "{water:?}"
+    );
+    assert!((water.alpha - 0.04).abs() < 1e-6, "{water:?}");
+    let satin = gloss("s1").unwrap();
+    assert!(
+        near(satin.f0, [0.02, 0.01, 0.005]) && near(satin.f90, [0.5; 3]),
+        "{satin:?}"
+    );
+    let gold = gloss("s2").unwrap();
+    assert!(
+        near(gold.f0, [1.0, 0.8, 0.3]) && near(gold.f90, [1.0; 3]),
+        "{gold:?}"
+    );
+    // A dielectric with no specular reflection stays Lambertian.
+    assert_eq!(gloss("s3"), None);
+
+    let bytes = material_scene(
+        json!([{"name": "odd", "pbrMetallicRoughness": {"metallicFactor": 0},
+                "extensions": {"KHR_materials_ior": {"ior": 0.5}}}]),
+        &mut Doc::default(),
+        json!({"extensionsUsed": ["KHR_materials_ior"]}),
+    );
+    let dir = folder(&[("m.glb", &bytes)]);
+    let e = load_err(dir.path());
+    assert!(e.contains("'odd'") && e.contains("ior 0.5"), "{e}");
+}
+
 #[test]
 fn punctual_lights_become_luminaires_grouped_by_definition() {
     let _gate = common::shared();

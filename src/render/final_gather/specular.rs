@@ -39,6 +39,7 @@ use crate::scene::Gloss;
 /// The specular lobe at one point seen from one direction.
 pub(super) struct Lobe {
     f0: Rgb,
+    f90: Rgb,
     alpha: f64,
     /// The local frame: tangent, bitangent, normal.
     frame: [DVec3; 3],
@@ -55,6 +56,7 @@ impl Lobe {
         let local = DVec3::new(v.dot(t), v.dot(b), v.dot(n));
         (local.z > 1e-6).then(|| Lobe {
             f0: gloss.f0,
+            f90: gloss.f90,
             alpha: (gloss.alpha as f64).clamp(Gloss::MIN_ALPHA as f64, 1.0),
             frame: [t, b, n],
             v: local,
@@ -82,10 +84,11 @@ impl Lobe {
         )
     }
 
-    /// Schlick's Fresnel at `cos` between the viewer and the microfacet normal.
+    /// Schlick's Fresnel at `cos` between the viewer and the microfacet normal,
+    /// `F0 + (F90 − F0)(1 − cos)⁵`.
     fn fresnel(&self, cos: f64) -> Rgb {
         let k = (1.0 - cos.clamp(0.0, 1.0)).powi(5) as f32;
-        self.f0 + (Rgb::splat(1.0) - self.f0) * k
+        self.f0 + (self.f90 - self.f0) * k
     }
 
     /// The BRDF (1/sr) from direction `l` (towards the light, world) to the viewer, with
@@ -132,8 +135,8 @@ impl Lobe {
     /// reflection keeps is the rest ([`Lobe::diffuse_share`]).
     pub(super) fn albedo(&self) -> Rgb {
         let [e, ep] = albedo_terms(self.v.z, self.alpha);
-        // Schlick's F = F0 + (1 − F0)(1 − v·h)⁵, so the albedo is linear in F0.
-        self.f0 * e as f32 + (Rgb::splat(1.0) - self.f0) * ep as f32
+        // Schlick's F = F0 (1 − (1 − v·h)⁵) + F90 (1 − v·h)⁵: the albedo is linear in both.
+        self.f0 * (e - ep) as f32 + self.f90 * ep as f32
     }
 
     /// The share of the diffuse reflection under the lobe: `1 − albedo`, glTF's layering
@@ -251,6 +254,7 @@ mod tests {
     fn lobe(alpha: f32, f0: f32, view_deg: f64) -> Lobe {
         let g = Gloss {
             f0: Rgb::splat(f0),
+            f90: Rgb::ONE,
             alpha,
         };
         let t = view_deg.to_radians();
@@ -390,6 +394,46 @@ mod tests {
         }
     }
 
+    /// With `KHR_materials_specular`'s F90 below 1, the albedo (from the table, linear
+    /// in F0 and F90) still matches the grid integral of the BRDF.
+    #[test]
+    fn the_albedo_follows_f0_and_f90() {
+        let g = Gloss {
+            f0: Rgb::new(0.02, 0.3, 0.9),
+            f90: Rgb::new(0.5, 0.5, 1.0),
+            alpha: 0.2,
+        };
+        let t = 60f64.to_radians();
+        let l = Lobe::new(&g, DVec3::Z, -DVec3::new(t.sin(), 0.0, t.cos())).unwrap();
+        let (nt, np) = (600, 600);
+        let mut grid = [0.0f64; 3];
+        for i in 0..nt {
+            let theta = (i as f64 + 0.5) / nt as f64 * std::f64::consts::FRAC_PI_2;
+            for j in 0..np {
+                let phi = (j as f64 + 0.5) / np as f64 * std::f64::consts::TAU;
+                let w = DVec3::new(
+                    theta.sin() * phi.cos(),
+                    theta.sin() * phi.sin(),
+                    theta.cos(),
+                );
+                let dw = theta.sin()
+                    * (std::f64::consts::FRAC_PI_2 / nt as f64)
+                    * (std::f64::consts::TAU / np as f64);
+                let f = l.brdf(w, 0.0);
+                for c in 0..3 {
+                    grid[c] += f[c] as f64 * theta.cos() * dw;
+                }
+            }
+        }
+        let table = l.albedo();
+        for c in 0..3 {
+            assert!(
+                (table[c] as f64 - grid[c]).abs() < 0.02 * grid[c] + 5e-4,
+                "channel {c}: table {table:?}, grid {grid:?}"
+            );
+        }
+    }
+
     /// A narrow lobe with F0 = 1 is a mirror: every drawn direction is the view's
     /// reflection, at full weight.
     #[test]
@@ -426,6 +470,7 @@ mod tests {
             let (v, l) = (dir(), dir());
             let g = Gloss {
                 f0: Rgb::new(0.9, 0.6, 0.04),
+                f90: Rgb::ONE,
                 alpha: 0.3,
             };
             let forward = Lobe::new(&g, DVec3::Z, -v).unwrap().brdf(l, 0.02);

@@ -89,7 +89,8 @@ impl Reader<'_> {
             )));
         }
         let mut kd = (1.0 - metallic) * base;
-        let gloss = gloss(base, metallic, roughness);
+        let dielectric = self.dielectric(m, name)?;
+        let gloss = gloss(base, metallic, roughness, dielectric);
         if metallic >= 1.0 && base.iter().any(|&b| b > 0.0) {
             self.warnings.push(format!(
                 "{}: material '{name}' is fully metallic (metallicFactor 1, the glTF \
@@ -243,19 +244,87 @@ impl MaterialTable {
     }
 }
 
+/// A dielectric's Fresnel reflectance at normal and grazing incidence, per channel.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(super) struct Dielectric {
+    pub(super) f0: Rgb,
+    pub(super) f90: Rgb,
+}
+
+impl Default for Dielectric {
+    /// Index 1.5, no `KHR_materials_specular`: F0 0.04, F90 1.
+    fn default() -> Self {
+        Dielectric {
+            f0: Rgb::splat(0.04),
+            f90: Rgb::splat(1.0),
+        }
+    }
+}
+
+impl Reader<'_> {
+    /// Material `m`'s dielectric Fresnel from `KHR_materials_ior` (F0 =
+    /// ((ior − 1)/(ior + 1))², ior 0 meaning F0 = 1) and `KHR_materials_specular` (F0 ×
+    /// `specularColorFactor`, at most 1, then both F0 and F90 × `specularFactor`), as the
+    /// extensions define them. Their textures are not read.
+    fn dielectric(&self, m: &gltf::Material<'_>, name: &str) -> Result<Dielectric, SceneError> {
+        let ior = m.ior().unwrap_or(1.5);
+        let f0 = if ior == 0.0 {
+            1.0
+        } else if ior.is_finite() && ior >= 1.0 {
+            ((ior - 1.0) / (ior + 1.0)).powi(2)
+        } else {
+            return Err(self.err(format!(
+                "material '{name}': KHR_materials_ior ior {ior} must be at least 1 (or 0)"
+            )));
+        };
+        let Some(spec) = m.specular() else {
+            return Ok(Dielectric {
+                f0: Rgb::splat(f0),
+                f90: Rgb::splat(1.0),
+            });
+        };
+        let (weight, colour) = (spec.specular_factor(), spec.specular_color_factor());
+        if !weight.is_finite() || !(0.0..=1.0).contains(&weight) {
+            return Err(self.err(format!(
+                "material '{name}': KHR_materials_specular specularFactor {weight} must be \
+                 in [0, 1]"
+            )));
+        }
+        if colour.iter().any(|c| !c.is_finite() || *c < 0.0) {
+            return Err(self.err(format!(
+                "material '{name}': KHR_materials_specular specularColorFactor {colour:?} \
+                 must be finite and ≥ 0"
+            )));
+        }
+        Ok(Dielectric {
+            f0: Rgb(colour.map(|c| (f0 * c).min(1.0) * weight)),
+            f90: Rgb::splat(weight),
+        })
+    }
+}
+
 /// glTF's specular lobe for a material of (texture-tinted) `base` colour, `metallic` and
-/// perceptual `roughness` factors: `F0 = 0.04 (1 − metallic) + base × metallic`, GGX
+/// perceptual `roughness` factors over a `dielectric` Fresnel: `F0 = dielectric F0 ×
+/// (1 − metallic) + base × metallic`, `F90` alike with 1 for the metal, GGX
 /// `α = roughness²` (at least [`Gloss::MIN_ALPHA`]). None for a fully rough dielectric
-/// (roughness 1, metallic 0), which relight keeps Lambertian. The
-/// `metallicRoughnessTexture` is not read: the factors set the lobe.
-pub(super) fn gloss(base: Rgb, metallic: f32, roughness: f32) -> Option<Gloss> {
+/// (roughness 1, metallic 0), which relight keeps Lambertian, and for a dielectric that
+/// reflects nothing specularly (`specularFactor` 0). The `metallicRoughnessTexture` is
+/// not read: the factors set the lobe.
+pub(super) fn gloss(
+    base: Rgb,
+    metallic: f32,
+    roughness: f32,
+    dielectric: Dielectric,
+) -> Option<Gloss> {
     let (metallic, roughness) = (metallic.clamp(0.0, 1.0), roughness.clamp(0.0, 1.0));
-    if roughness >= 1.0 && metallic <= 0.0 {
+    let dull = dielectric.f90.iter().all(|&c| c <= 0.0);
+    if metallic <= 0.0 && (roughness >= 1.0 || dull) {
         return None;
     }
-    let f0 = Rgb::splat(0.04 * (1.0 - metallic)) + metallic * base;
+    let clamp = |c: Rgb| Rgb(c.0.map(|x| x.clamp(0.0, 1.0)));
     Some(Gloss {
-        f0: Rgb(f0.0.map(|c| c.clamp(0.0, 1.0))),
+        f0: clamp(dielectric.f0 * (1.0 - metallic) + metallic * base),
+        f90: clamp(dielectric.f90 * (1.0 - metallic) + Rgb::splat(metallic)),
         alpha: (roughness * roughness).max(Gloss::MIN_ALPHA),
     })
 }

@@ -56,9 +56,11 @@ pub(crate) use lights::add_gltf_luminaires;
 
 /// Extensions a file may require. Others (Draco or meshopt compression, quantized
 /// attributes, KTX2 textures, …) are refused by name. Unrequired extensions are ignored.
-const READ_EXTENSIONS: [&str; 4] = [
+const READ_EXTENSIONS: [&str; 6] = [
     "KHR_lights_punctual",
     "KHR_materials_emissive_strength",
+    "KHR_materials_ior",
+    "KHR_materials_specular",
     "KHR_materials_unlit",
     "KHR_texture_transform",
 ];
