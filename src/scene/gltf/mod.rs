@@ -12,10 +12,12 @@
 //! - **Surfaces**: one per node, named after the node (else its mesh, else `node<i>`),
 //!   made unique with `-2`, `-3`, … suffixes.
 //! - **Reflectance** (diffuse, per channel): `(1 − metallicFactor) × baseColorFactor.rgb ×`
-//!   the mean linear colour of `baseColorTexture` (alpha-weighted). glTF's metallic
-//!   surfaces reflect specularly, which radiosity does not model, so a metal reflects no
-//!   diffuse light. Alpha and transmission are not modelled (surfaces are opaque). A
+//!   the mean linear colour of `baseColorTexture` (alpha-weighted). The radiosity
+//!   solution is diffuse, so a metal reflects no diffuse light. Alpha and transmission are not modelled (surfaces are opaque). A
 //!   channel of 1 or more is scaled to [`MAX_KD`] with a warning (`strict`: an error).
+//! - **Gloss** (`final` images only): a material with `roughnessFactor` < 1 or a metallic
+//!   part gets glTF's GGX specular lobe ([`Gloss`](crate::scene::Gloss)), its dielectric
+//!   Fresnel from `KHR_materials_ior` and `KHR_materials_specular` (factors only).
 //! - **Emission**: `emissiveFactor × KHR_materials_emissive_strength ×` the mean of
 //!   `emissiveTexture` is read as luminance in cd/m²; the exitance of a Lambertian emitter
 //!   is π times that, in lm/m².
