@@ -24,22 +24,66 @@ fn quad(d: &mut Doc, c: [[f32; 3]; 4]) -> (usize, usize) {
 /// A 10 m square floor at y = 0, facing up.
 const FLOOR: [[f32; 3]; 4] = [[-5., 0., -5.], [-5., 0., 5.], [5., 0., 5.], [5., 0., -5.]];
 
-/// Bakes the GLB `doc` (with `toml` as its scene.toml) and builds its `final` images.
-fn finals(glb: &[u8], toml: &str, cam: &Camera) -> GroupImages {
+/// Loads and bakes the GLB `glb` with `toml` as its scene.toml.
+fn model(glb: &[u8], toml: &str) -> Model {
     let dir = tempfile::tempdir().unwrap();
     std::fs::write(dir.path().join("scene.glb"), glb).unwrap();
     std::fs::write(dir.path().join("scene.toml"), toml).unwrap();
-    let b = load_or_bake(
-        dir.path(),
-        CachePolicy::Off,
-        &BakeOptions::default(),
-        &|_, _| {},
-    )
-    .unwrap();
-    let m = Model::new(b);
+    let opts = BakeOptions::default();
+    Model::new(load_or_bake(dir.path(), CachePolicy::Off, &opts, &|_, _| {}).unwrap())
+}
+
+/// Bakes the GLB `glb` (with `toml` as its scene.toml) and builds its `final` images.
+fn finals(glb: &[u8], toml: &str, cam: &Camera) -> GroupImages {
+    let m = model(glb, toml);
     let shading = Shading::new(&m.baked.mesh);
     let patches = patch_locator(&m.baked.mesh, &m.baked.scene.triangles);
     final_images(&m, &shading, &patches, cam, &Cancel::default()).unwrap()
+}
+
+/// A square camera `height` above the origin looking straight down at the floor, image
+/// x along +x and image y along +z.
+struct Above {
+    side: usize,
+    fov_deg: f64,
+    height: f64,
+}
+
+impl Above {
+    fn camera(&self) -> Camera {
+        Camera {
+            position: Vec3::new(0.0, self.height as f32, 0.0),
+            target: Vec3::ZERO,
+            up: Vec3::new(0.0, 0.0, -1.0),
+            fov_deg: self.fov_deg as f32,
+            width: self.side as u32,
+            height: self.side as u32,
+        }
+    }
+
+    fn eye(&self) -> DVec3 {
+        DVec3::new(0.0, self.height, 0.0)
+    }
+
+    /// The floor coordinate (x, or z) seen at image coordinate `k` (pixel k spans k..k + 1).
+    fn at(&self, k: f64) -> f64 {
+        let tan = (self.fov_deg / 2.0).to_radians().tan();
+        (k / (self.side as f64 / 2.0) - 1.0) * tan * self.height
+    }
+
+    /// The mean of `f` over the floor that pixel (x, y) sees (8 × 8 points), as its
+    /// jittered samples see it.
+    fn pixel_mean(&self, x: usize, y: usize, f: impl Fn(DVec3) -> f64) -> f64 {
+        let point = |i: usize| {
+            let (fx, fz) = ((i % 8) as f64 + 0.5, (i / 8) as f64 + 0.5);
+            DVec3::new(
+                self.at(x as f64 + fx / 8.0),
+                0.0,
+                self.at(y as f64 + fz / 8.0),
+            )
+        };
+        (0..64).map(|i| f(point(i))).sum::<f64>() / 64.0
+    }
 }
 
 /// Schlick's Fresnel, as glTF writes it.
@@ -127,49 +171,31 @@ fn a_glossy_floor_shows_a_point_lights_highlight_as_gltf_defines_it() {
             {"name": "bulb", "translation": light.as_vec3().to_array(), "extensions": {"KHR_lights_punctual": {"light": 0}}}
         ]
     }));
-    let (side, fov, height) = (64usize, 40.0f64, 5.0f64);
-    let cam = Camera {
-        position: Vec3::new(0.0, height as f32, 0.0),
-        target: Vec3::ZERO,
-        up: Vec3::new(0.0, 0.0, -1.0),
-        fov_deg: fov as f32,
-        width: side as u32,
-        height: side as u32,
+    let view = Above {
+        side: 64,
+        fov_deg: 40.0,
+        height: 5.0,
     };
-    let img = finals(&glb, "[mesh]\nmax_edge = 1.0\n", &cam).linear(&[Rgb::ONE]);
-    // Image x runs along +x and image y along +z; (k + f) is a point within pixel k.
-    let tan = (fov / 2.0).to_radians().tan();
-    let at = |k: f64| (k / (side as f64 / 2.0) - 1.0) * tan * height;
-    let eye = DVec3::new(0.0, height, 0.0);
+    let (side, eye) = (view.side, view.eye());
+    let img = finals(&glb, "[mesh]\nmax_edge = 1.0\n", &view.camera()).linear(&[Rgb::ONE]);
     let radiance = |p: DVec3| {
         let (v, to) = ((eye - p).normalize(), light - p);
         let l = to.normalize();
         gltf_specular(0.04, 0.25, DVec3::Y, v, l) * 100.0 * l.y / to.length_squared()
-    };
-    // The closed form's mean over a pixel (8 × 8 points), as its jittered samples see it.
-    let pixel = |x: usize, y: usize| {
-        let mut sum = 0.0;
-        for i in 0..64 {
-            let (fx, fy) = ((i % 8) as f64 + 0.5, (i / 8) as f64 + 0.5);
-            sum += radiance(DVec3::new(
-                at(x as f64 + fx / 8.0),
-                0.0,
-                at(y as f64 + fy / 8.0),
-            ));
-        }
-        sum / 64.0
     };
     // Runs of 4 pixels along a row (each pixel's 4 jittered samples spread the values).
     let row = side / 2 + 5;
     let (mut checked, mut worst) = (0, 0f64);
     for x0 in (0..side - 4).step_by(4) {
         // Skip the pixels that see the light's own opening, between the eye and the floor.
-        let shadow = light.x * height / (height - light.y);
-        if (at(x0 as f64 + 2.0) - shadow).abs() < 0.6 {
+        let shadow = light.x * view.height / (view.height - light.y);
+        if (view.at(x0 as f64 + 2.0) - shadow).abs() < 0.6 {
             continue;
         }
         let got: f64 = (x0..x0 + 4).map(|x| img[row * side + x][1] as f64).sum();
-        let want: f64 = (x0..x0 + 4).map(|x| pixel(x, row)).sum();
+        let want: f64 = (x0..x0 + 4)
+            .map(|x| view.pixel_mean(x, row, radiance))
+            .sum();
         assert!(
             (got / want - 1.0).abs() < 0.01,
             "pixels {x0}..{}: {got} vs {want} cd/m²",
@@ -225,30 +251,16 @@ fn a_glossy_floor_reflects_the_sky_and_the_sun() {
         "meshes": [{"primitives": [{"attributes": {"POSITION": p}, "indices": i, "material": 0}]}],
         "nodes": [{"name": "floor", "mesh": 0}]
     }));
-    let dir = tempfile::tempdir().unwrap();
-    std::fs::write(dir.path().join("scene.glb"), &glb).unwrap();
-    std::fs::write(
-        dir.path().join("scene.toml"),
+    let m = model(
+        &glb,
         "[site]\nlatitude = 49.5\nlongitude = 8.5\ntimezone = 1\n[mesh]\nmax_edge = 1.0\n",
-    )
-    .unwrap();
-    let b = load_or_bake(
-        dir.path(),
-        CachePolicy::Off,
-        &BakeOptions::default(),
-        &|_, _| {},
-    )
-    .unwrap();
-    let m = Model::new(b);
-    let (side, fov, height) = (32usize, 40.0f64, 3.0f64);
-    let cam = Camera {
-        position: Vec3::new(0.0, height as f32, 0.0),
-        target: Vec3::ZERO,
-        up: Vec3::new(0.0, 0.0, -1.0),
-        fov_deg: fov as f32,
-        width: side as u32,
-        height: side as u32,
+    );
+    let above = Above {
+        side: 32,
+        fov_deg: 40.0,
+        height: 3.0,
     };
+    let (side, cam) = (above.side, above.camera());
     let shading = Shading::new(&m.baked.mesh);
     let patches = patch_locator(&m.baked.mesh, &m.baked.scene.triangles);
     let image = |sky: serde_json::Value| {
@@ -258,16 +270,17 @@ fn a_glossy_floor_reflects_the_sky_and_the_sun() {
             .unwrap()
             .linear(&[Rgb::ONE])
     };
-    let tan = (fov / 2.0).to_radians().tan();
-    let at = |k: f64| (k / (side as f64 / 2.0) - 1.0) * tan * height;
-    let eye = DVec3::new(0.0, height, 0.0);
-    let view = |x: f64, z: f64| (eye - DVec3::new(x, 0.0, z)).normalize();
+    let view = |p: DVec3| (above.eye() - p).normalize();
     // A uniform sky of 10,000 lx on the horizontal: L = 10,000/π cd/m².
     let uniform = image(json!({"type": "uniform", "horizontal_illuminance": 10000}));
     let l_sky = 10_000.0 / std::f64::consts::PI;
     let mut worst = 0f64;
     for (x, y) in [(16, 16), (4, 20), (28, 6), (10, 30)] {
-        let v = view(at(x as f64 + 0.5), at(y as f64 + 0.5));
+        let v = view(DVec3::new(
+            above.at(x as f64 + 0.5),
+            0.0,
+            above.at(y as f64 + 0.5),
+        ));
         let want = l_sky * gltf_albedo(0.04, 0.09, v);
         let got = uniform[y * side + x][1] as f64;
         assert!(
@@ -289,12 +302,9 @@ fn a_glossy_floor_reflects_the_sky_and_the_sun() {
         let (mut got, mut want) = (0.0, 0.0);
         for (x, y) in (0..36).map(|k| (x0 + k % 6, y0 + k / 6)) {
             got += sunny[y * side + x][1] as f64;
-            // The closed form's mean over the pixel (8 × 8 points).
-            for k in 0..64 {
-                let (fx, fz) = ((k % 8) as f64 + 0.5, (k / 8) as f64 + 0.5);
-                let v = view(at(x as f64 + fx / 8.0), at(y as f64 + fz / 8.0));
-                want += gltf_specular(0.04, 0.09, DVec3::Y, v, DVec3::Y) * 50_000.0 / 64.0;
-            }
+            want += above.pixel_mean(x, y, |p| {
+                gltf_specular(0.04, 0.09, DVec3::Y, view(p), DVec3::Y) * 50_000.0
+            });
         }
         assert!(
             (got / want - 1.0).abs() < 0.01,

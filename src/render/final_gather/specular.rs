@@ -262,6 +262,24 @@ mod tests {
         Lobe::new(&g, DVec3::Z, d).unwrap()
     }
 
+    /// Calls `f(ω, dω)` at the midpoints of an `n × n` grid of polar angle and azimuth
+    /// over the upper hemisphere (z up), for integrals over solid angle.
+    fn hemisphere(n: usize, mut f: impl FnMut(DVec3, f64)) {
+        let (half, tau) = (std::f64::consts::FRAC_PI_2, std::f64::consts::TAU);
+        for i in 0..n {
+            let theta = (i as f64 + 0.5) / n as f64 * half;
+            for j in 0..n {
+                let phi = (j as f64 + 0.5) / n as f64 * tau;
+                let w = DVec3::new(
+                    theta.sin() * phi.cos(),
+                    theta.sin() * phi.sin(),
+                    theta.cos(),
+                );
+                f(w, theta.sin() * (half / n as f64) * (tau / n as f64));
+            }
+        }
+    }
+
     /// The sampled directions' mean weight is the lobe's directional albedo: the
     /// integral of BRDF × cos over the hemisphere, computed independently here on a fine
     /// midpoint grid of the BRDF itself. This holds the sampler's density to the BRDF.
@@ -269,23 +287,8 @@ mod tests {
     fn sampled_weights_integrate_the_brdf() {
         for (alpha, view) in [(0.09, 0.0), (0.25, 40.0), (0.5, 70.0), (1.0, 20.0)] {
             let l = lobe(alpha, 0.04, view);
-            let (nt, np) = (800, 800);
             let mut grid = 0.0;
-            for i in 0..nt {
-                let theta = (i as f64 + 0.5) / nt as f64 * std::f64::consts::FRAC_PI_2;
-                for j in 0..np {
-                    let phi = (j as f64 + 0.5) / np as f64 * std::f64::consts::TAU;
-                    let w = DVec3::new(
-                        theta.sin() * phi.cos(),
-                        theta.sin() * phi.sin(),
-                        theta.cos(),
-                    );
-                    let dw = theta.sin()
-                        * (std::f64::consts::FRAC_PI_2 / nt as f64)
-                        * (std::f64::consts::TAU / np as f64);
-                    grid += l.brdf(w, 0.0)[0] as f64 * theta.cos() * dw;
-                }
-            }
+            hemisphere(800, |w, dw| grid += l.brdf(w, 0.0)[0] as f64 * w.z * dw);
             let mut rng = Rng::new(1, 2);
             let n = 400_000;
             let sampled: f64 = (0..n)
@@ -306,31 +309,14 @@ mod tests {
         }
     }
 
-    /// The density integrates to the share of draws that stay above the surface, and
-    /// its mean over the drawn directions matches a histogram's: checked on the same
-    /// midpoint grid, and by weighting draws by 1/pdf (an estimate of the solid angle
-    /// the draws reach, 2π at most).
+    /// The density integrates (on a midpoint grid) to the share of draws that stay above
+    /// the surface.
     #[test]
     fn the_density_is_the_samplers() {
         for (alpha, view) in [(0.09, 10.0), (0.3, 60.0), (0.8, 30.0)] {
             let l = lobe(alpha, 0.04, view);
-            let (nt, np) = (800, 800);
             let mut integral = 0.0;
-            for i in 0..nt {
-                let theta = (i as f64 + 0.5) / nt as f64 * std::f64::consts::FRAC_PI_2;
-                for j in 0..np {
-                    let phi = (j as f64 + 0.5) / np as f64 * std::f64::consts::TAU;
-                    let w = DVec3::new(
-                        theta.sin() * phi.cos(),
-                        theta.sin() * phi.sin(),
-                        theta.cos(),
-                    );
-                    let dw = theta.sin()
-                        * (std::f64::consts::FRAC_PI_2 / nt as f64)
-                        * (std::f64::consts::TAU / np as f64);
-                    integral += l.pdf(w) * dw;
-                }
-            }
+            hemisphere(800, |w, dw| integral += l.pdf(w) * dw);
             let mut rng = Rng::new(7, 8);
             let n = 200_000;
             let above = (0..n)
@@ -362,20 +348,7 @@ mod tests {
                 i * bins + j
             };
             let mut expected = vec![0f64; bins * bins];
-            let (nt, np) = (bins * sub, bins * sub);
-            for i in 0..nt {
-                let theta = (i as f64 + 0.5) / nt as f64 * half;
-                for j in 0..np {
-                    let phi = (j as f64 + 0.5) / np as f64 * tau;
-                    let w = DVec3::new(
-                        theta.sin() * phi.cos(),
-                        theta.sin() * phi.sin(),
-                        theta.cos(),
-                    );
-                    let dw = theta.sin() * (half / nt as f64) * (tau / np as f64);
-                    expected[bin(w)] += l.pdf(w) * dw;
-                }
-            }
+            hemisphere(bins * sub, |w, dw| expected[bin(w)] += l.pdf(w) * dw);
             let n = 400_000usize;
             let mut counts = vec![0f64; bins * bins];
             let mut rng = Rng::new(9, 10);
@@ -405,26 +378,13 @@ mod tests {
         };
         let t = 60f64.to_radians();
         let l = Lobe::new(&g, DVec3::Z, -DVec3::new(t.sin(), 0.0, t.cos())).unwrap();
-        let (nt, np) = (600, 600);
         let mut grid = [0.0f64; 3];
-        for i in 0..nt {
-            let theta = (i as f64 + 0.5) / nt as f64 * std::f64::consts::FRAC_PI_2;
-            for j in 0..np {
-                let phi = (j as f64 + 0.5) / np as f64 * std::f64::consts::TAU;
-                let w = DVec3::new(
-                    theta.sin() * phi.cos(),
-                    theta.sin() * phi.sin(),
-                    theta.cos(),
-                );
-                let dw = theta.sin()
-                    * (std::f64::consts::FRAC_PI_2 / nt as f64)
-                    * (std::f64::consts::TAU / np as f64);
-                let f = l.brdf(w, 0.0);
-                for c in 0..3 {
-                    grid[c] += f[c] as f64 * theta.cos() * dw;
-                }
+        hemisphere(600, |w, dw| {
+            let f = l.brdf(w, 0.0);
+            for (g, f) in grid.iter_mut().zip(f.iter()) {
+                *g += *f as f64 * w.z * dw;
             }
-        }
+        });
         let table = l.albedo();
         for c in 0..3 {
             assert!(
