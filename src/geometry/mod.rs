@@ -7,6 +7,7 @@ pub mod glazing;
 pub mod mesh;
 pub mod obstructed;
 pub mod patch_locator;
+pub mod shaft;
 
 use glam::DVec3;
 

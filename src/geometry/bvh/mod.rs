@@ -23,6 +23,7 @@ use std::mem::MaybeUninit;
 
 use glam::Vec3A;
 
+use super::shaft::Shaft;
 use build::{build, collapse, Leaves, Node};
 use lanes::{enter8, hit4, Child, Ray8, Tri4, TriRay, Wide, WIDTH};
 
@@ -279,6 +280,56 @@ impl Bvh {
                 false
             },
         );
+    }
+
+    /// True when no triangle other than `skip` can meet `shaft` ([`Shaft`]): every
+    /// shadow ray the shaft stands for is then free. False when some triangle may meet it
+    /// (the caller traces its rays).
+    pub fn clear_of(&self, shaft: &Shaft, skip: [u32; 2]) -> bool {
+        if self.nodes.is_empty() {
+            return true;
+        }
+        // Left uninitialised as in `traverse_ray`: entries below `sp` are written.
+        let mut stack = [const { MaybeUninit::<u32>::uninit() }; STACK];
+        let mut spill: Vec<u32> = Vec::new();
+        let mut sp = 0usize;
+        let mut node = 0usize;
+        loop {
+            let n = &self.nodes[node];
+            let mut mask = !shaft.boxes_outside(&n.lo, &n.hi) & ((1u32 << n.lanes) - 1);
+            while mask != 0 {
+                let lane = mask.trailing_zeros() as usize;
+                mask &= mask - 1;
+                let code = n.child[lane];
+                match Child::triangles(code) {
+                    Some((first, count)) => {
+                        for k in 4 * first..4 * first + count {
+                            let id = self.ids[k];
+                            if id != skip[0]
+                                && id != skip[1]
+                                && !shaft.triangle_outside(&self.blocks[k / 4].corners(k % 4))
+                            {
+                                return false;
+                            }
+                        }
+                    }
+                    None if sp < STACK => {
+                        stack[sp].write(code);
+                        sp += 1;
+                    }
+                    None => spill.push(code),
+                }
+            }
+            node = if let Some(next) = spill.pop() {
+                next as usize
+            } else if sp > 0 {
+                sp -= 1;
+                // SAFETY: entries below the old `sp` are written.
+                unsafe { stack[sp].assume_init() as usize }
+            } else {
+                return true;
+            };
+        }
     }
 
     /// Distance parameter of the nearest hit along `from + t·d`, t in (tmin, tmax), with

@@ -13,7 +13,8 @@
 //!   least [`SIGNIFICANT`] of its unoccluded light gives its exitance times the exact
 //!   unoccluded point-to-triangle form factor, times the visible share of that factor,
 //!   from stratified shadow rays weighted by the factor's kernel (more rays for brighter
-//!   triangles). The rest, the tail, is estimated without bias by one triangle drawn in
+//!   triangles). Where the shaft from the point to the triangle's coplanar set is clear
+//!   of every other triangle ([`Shaft`]), the share is exactly 1 and no ray is traced. The rest, the tail, is estimated without bias by one triangle drawn in
 //!   proportion to its light, with one ray.
 //!   A group with more than [`MAX_EMITTER_TRIANGLES`] emitting triangles leaves its
 //!   emission to the gather instead ([`GroupLights::explicit`]).
@@ -27,6 +28,7 @@ use super::FinalScene;
 use crate::color::{Rgb, Rgb64};
 use crate::geometry::bvh::Bvh;
 use crate::geometry::mesh::Mesh;
+use crate::geometry::shaft::{coplanar_sets, Shaft};
 use crate::photometry::Luminaire;
 use crate::transport::direct::{shadowed, visible};
 use crate::transport::formfactor::{point_to_polygon, sample_triangle, Rng};
@@ -75,6 +77,10 @@ impl Rays {
     }
 }
 
+/// Shadow rays to an emitting triangle from which its shaft is tested first
+/// ([`Shaft`]): a clear shaft takes the place of the rays.
+const SHAFT_MIN_RAYS: u32 = 2;
+
 /// Emitting triangles per group handled exactly; a group with more is gathered.
 pub(super) const MAX_EMITTER_TRIANGLES: usize = 1024;
 
@@ -91,6 +97,8 @@ struct Emitter {
     exitance: Rgb,
     /// Its luminous value.
     luminous: f64,
+    /// Its set of coplanar neighbours in [`Sources::sets`].
+    set: u32,
 }
 
 /// Bands of the cosine to a luminaire's aim in its [`Bound`].
@@ -163,6 +171,9 @@ impl Bounds {
 struct Sources<'a> {
     luminaires: &'a [Luminaire],
     emitters: Vec<Emitter>,
+    /// The convex hulls of its emitting triangles' coplanar sets ([`coplanar_sets`]),
+    /// each with its front normal: one shaft per set.
+    sets: Vec<(Vec<DVec3>, DVec3)>,
     /// Whether its emitting surfaces are handled here (else by the gather).
     explicit: bool,
 }
@@ -193,6 +204,9 @@ pub(super) struct Scratch {
     bound: Vec<f32>,
     /// Emitting triangles seen: (group, triangle, form factor, luminous light).
     emitters: Vec<(u32, u32, f64, f64)>,
+    /// The coplanar sets whose shaft was tested at the current point: (group, set,
+    /// whether it was clear).
+    shafts: Vec<(u32, u32, bool)>,
     /// The emitting triangles a specular lobe's light samples went to at the current
     /// point ([`GroupLights::specular_emitters`]).
     pub(super) sampled: Vec<Sampled>,
@@ -242,11 +256,26 @@ impl<'a> GroupLights<'a> {
             .zip(scene.groups)
             .enumerate()
             .map(|(k, (light, col))| {
-                let emitters = emitters_of(scene, k, &col.e);
+                let mut emitters = emitters_of(scene, k, &col.e);
                 let explicit = emitters.len() <= MAX_EMITTER_TRIANGLES;
+                if !explicit {
+                    emitters.clear();
+                }
+                let tris: Vec<[DVec3; 3]> = emitters.iter().map(|e| e.corners).collect();
+                let normals: Vec<DVec3> = emitters.iter().map(|e| e.normal).collect();
+                let (set, hulls) = coplanar_sets(&tris, &normals);
+                for (e, s) in emitters.iter_mut().zip(set) {
+                    e.set = s;
+                }
+                let mut sets: Vec<(Vec<DVec3>, DVec3)> =
+                    hulls.into_iter().map(|h| (h, DVec3::ZERO)).collect();
+                for e in &emitters {
+                    sets[e.set as usize].1 = e.normal;
+                }
                 Sources {
                     luminaires: &light.luminaires,
-                    emitters: if explicit { emitters } else { Vec::new() },
+                    emitters,
+                    sets,
                     explicit,
                 }
             })
@@ -405,6 +434,8 @@ impl<'a> GroupLights<'a> {
     ) {
         let (x, n, _) = at;
         let cand = &mut scratch.emitters;
+        let shafts = &mut scratch.shafts;
+        shafts.clear();
         self.candidates(x, n, cand);
         let total: f64 = cand.iter().map(|c| c.3).sum();
         if total <= 0.0 {
@@ -422,7 +453,12 @@ impl<'a> GroupLights<'a> {
             }
             let e = &self.groups[k as usize].emitters[i as usize];
             let m = ((part / total * budget).ceil() as u32).clamp(1, rays);
-            out[k as usize] += (ff * self.seen(e, at, m, rng)) as f32 * e.exitance;
+            let seen = if m >= SHAFT_MIN_RAYS && self.shaft_clear(k, e.set, at, shafts) {
+                1.0
+            } else {
+                self.seen(e, at, m, rng)
+            };
+            out[k as usize] += (ff * seen) as f32 * e.exitance;
         }
         if tail <= 0.0 {
             return;
@@ -537,6 +573,28 @@ impl<'a> GroupLights<'a> {
         }
     }
 
+    /// Whether the shaft from `x` to group `k`'s coplanar set `set` is clear
+    /// ([`Bvh::clear_of`]): every shadow ray to its triangles is then free. Each set's
+    /// answer is kept in `memo` for the point.
+    fn shaft_clear(
+        &self,
+        k: u32,
+        set: u32,
+        (x, n, skip): (DVec3, DVec3, u32),
+        memo: &mut Vec<(u32, u32, bool)>,
+    ) -> bool {
+        if let Some(&(_, _, clear)) = memo.iter().find(|m| m.0 == k && m.1 == set) {
+            return clear;
+        }
+        let (hull, normal) = &self.groups[k as usize].sets[set as usize];
+        // The lift `visible` gives its rays.
+        let lift = 1e-6 * (1.0 + x.abs().max_element());
+        let clear = Shaft::new(x + n * lift, n, lift, hull, *normal)
+            .is_some_and(|shaft| self.bvh.clear_of(&shaft, [skip, u32::MAX]));
+        memo.push((k, set, clear));
+        clear
+    }
+
     /// The visible share of emitter `e`'s form factor at `x`: about `k` stratified points
     /// on the triangle (a `⌈√k⌉²` grid, jittered), each weighted by the form factor's
     /// kernel `cos θ cos θ' / r²`, so a hidden near corner of a large emitter counts for
@@ -626,6 +684,7 @@ fn emitters_of(scene: &FinalScene<'_>, k: usize, e: &[f32]) -> Vec<Emitter> {
                 normal,
                 exitance,
                 luminous: exitance.luminance().max(1e-12) as f64,
+                set: 0,
             })
         })
         .collect()
