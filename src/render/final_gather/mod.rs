@@ -84,6 +84,17 @@ pub struct FinalScene<'a> {
     pub sky: Option<FinalSky<'a>>,
 }
 
+/// Pixels per side of a block whose gathers share one grid of directions, each pixel's
+/// rays in its own sub-cell of every cell: the block's pixels then sample the hemisphere
+/// together on a grid `BLOCK` times finer per axis, and the filter, which averages
+/// neighbours, sees their errors cancel. On the Cornell box at 512² (64 rays per pixel,
+/// six seeds against the 262,144-spp path tracing) the noise fell from 0.79 % to 0.69 %
+/// (0.70 % with blocks of 2), the bias unchanged (0.37 %).
+const BLOCK: usize = 4;
+
+/// Mixed into the random sequences of the blocks' shared grids.
+const BLOCK_SALT: usize = 0xb10c;
+
 /// Most pixels a `final` image may have (1024 × 1024): its cost grows with the pixels
 /// times the rays per pixel, and a request must finish within the server's timeout.
 pub const MAX_FINAL_PIXELS: u64 = 1 << 20;
@@ -327,12 +338,25 @@ impl Tracer<'_> {
         let mut exp_s = vec![0f32; 3 * g];
         let mut emitted = vec![0f32; 3 * g];
         let mut emitter_samples = 0;
-        // One grid of gather directions for the whole pixel, a cell of each k × k block
-        // per sample.
+        // One grid of gather directions for a block of BLOCK × BLOCK pixels: each pixel
+        // takes one sub-cell (the same in every cell of its own grid, drawn without
+        // replacement within the block, so every pixel's rays are unbiased), and each of
+        // its samples one cell of each k × k block of that grid.
         // The cells go to the samples in a random order: a sample's own rays then cover
         // the whole hemisphere on average, so the light of a sample that sees another
         // surface than its pixel's others is unbiased too.
-        let shift = (rng.next_f64(), rng.next_f64());
+        let mut block_rng = Rng::new(
+            (y / BLOCK) * self.rays.width().div_ceil(BLOCK) + x / BLOCK,
+            BLOCK_SALT ^ self.settings.seed as usize,
+        );
+        let shift = (block_rng.next_f64(), block_rng.next_f64());
+        let mut subs = [0usize; BLOCK * BLOCK];
+        subs.iter_mut().enumerate().for_each(|(i, s)| *s = i);
+        for i in (1..subs.len()).rev() {
+            subs.swap(i, ((block_rng.next_f64() * (i + 1) as f64) as usize).min(i));
+        }
+        let sub = subs[(y % BLOCK) * BLOCK + x % BLOCK];
+        let (bx, by) = (sub % BLOCK, sub / BLOCK);
         let mut cells: Vec<usize> = (0..k * k).collect();
         for i in (1..cells.len()).rev() {
             cells.swap(i, ((rng.next_f64() * (i + 1) as f64) as usize).min(i));
@@ -340,8 +364,8 @@ impl Tracer<'_> {
         for (s, &cell) in cells.iter().enumerate() {
             let strata = gather::Strata {
                 shift,
-                interleave: k,
-                cell: (cell % k, cell / k),
+                interleave: k * BLOCK,
+                cell: ((cell % k) * BLOCK + bx, (cell / k) * BLOCK + by),
             };
             let (sx, sy) = (
                 ((s % k) as f64 + rng.next_f64()) / k as f64,
@@ -502,7 +526,7 @@ impl Tracer<'_> {
         let mut albedo = rho;
         if let Some(lobe) = &lobe {
             // A whole grid of rays, which the light samples' weights count.
-            let (at, rays) = ((x, n, p), (lobe, gather::ray_count(specular_rays)));
+            let (at, rays) = ((x, n, p), (lobe, gather::square_count(specular_rays)));
             let out = if lobe.filtered() {
                 albedo += lobe.reflectance();
                 &mut *indirect
@@ -566,11 +590,11 @@ impl Tracer<'_> {
 }
 
 /// Rays of the small gather at a point a gather ray landed on close by (3 % of the
-/// Cornell box's gather rays). 4 instead of 9 built its 512² view 5 % faster with the
-/// same error over six seeds (0.874 % against 0.873 % of the 262,144-spp reference) and
-/// left the panel floor's three views unchanged (1.43 %, 0.80 %, 0.82 %); 1 ray added
-/// noise (0.878 %).
-const NEAR_GATHER_RAYS: usize = 4;
+/// Cornell box's gather rays). 2 instead of 4 built its 512² view 3 % faster with the
+/// same error over six seeds (0.840 % against 0.838 % of the 262,144-spp reference) and
+/// left the panel floor's three views unchanged (1.43 %, 0.80 %, 0.82 %); 9 gave no
+/// better (0.873 % against 0.874 % for 4, before the blocks' shared grids).
+const NEAR_GATHER_RAYS: usize = 2;
 
 /// Samples per side of a pixel whose corners see different surfaces, as a multiple of
 /// [`FinalSettings::samples_per_side`].

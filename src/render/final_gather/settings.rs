@@ -47,8 +47,9 @@ impl FinalSettings {
         let full = self.gather_rays as u64;
         let want = (full * GATHER_REFERENCE_PIXELS / pixels).max(full / 4);
         let k2 = (self.samples_per_side.max(1) as u64).pow(2);
-        let side = ((want / k2) as f64).sqrt().floor().max(1.0) as u64;
-        let rays = (side * side * k2).min(full);
+        // A whole grid per camera sample.
+        let each = (want / k2).max(1) as usize;
+        let rays = (super::gather::ray_count(each) as u64 * k2).min(full);
         FinalSettings {
             gather_rays: rays as u32,
             filter_passes: self.filter_passes + u32::from(2 * rays <= full),
@@ -68,7 +69,7 @@ impl Default for FinalSettings {
         FinalSettings {
             scale_gather: std::env::var_os("RELIGHT_FINAL_GATHER").is_none(),
             samples_per_side: env("RELIGHT_FINAL_SPS", 2),
-            gather_rays: env("RELIGHT_FINAL_GATHER", 64),
+            gather_rays: env("RELIGHT_FINAL_GATHER", 48),
             emitter_rays: env("RELIGHT_FINAL_EMITTER", 16),
             specular_rays: env("RELIGHT_FINAL_SPECULAR", 16),
             filter_passes: env("RELIGHT_FINAL_FILTER", 2),
@@ -88,7 +89,7 @@ mod tests {
     fn gather_rays_per_pixel_fall_with_the_image_size() {
         let base = FinalSettings {
             samples_per_side: 2,
-            gather_rays: 64,
+            gather_rays: 48,
             emitter_rays: 16,
             specular_rays: 16,
             filter_passes: 2,
@@ -99,14 +100,15 @@ mod tests {
             let s = base.for_pixels(w * h);
             (s.gather_rays, s.filter_passes)
         };
-        assert_eq!(at(512, 512), (64, 2));
-        assert_eq!(at(256, 256), (64, 2));
-        // 512² · 64 / (640 · 480) = 54.6: 36 per pixel (9 per sample), still 2 passes.
-        assert_eq!(at(640, 480), (36, 2));
-        // 21.3 per pixel: 16 (4 per sample), one more pass.
+        assert_eq!(at(512, 512), (48, 2));
+        assert_eq!(at(256, 256), (48, 2));
+        // 512² · 48 / (800 · 600) = 26.2: 6 per sample, a 2 × 3 grid each (24), which
+        // halves them: one more pass.
+        assert_eq!(at(800, 600), (24, 3));
+        // 16 per pixel: a 2 × 2 grid per sample, one more pass.
         assert_eq!(at(1024, 768), (16, 3));
-        // 16: never below a quarter.
-        assert_eq!(at(1024, 1024), (16, 3));
+        // 12: never below a quarter (a 1 × 3 grid per sample).
+        assert_eq!(at(1024, 1024), (12, 3));
         let fixed = FinalSettings {
             scale_gather: false,
             ..base
