@@ -194,6 +194,8 @@ pub(super) struct GroupLights<'a> {
 pub(super) struct Scratch {
     /// Per group RGB direct illuminance of the current sample, lux.
     pub(super) lux: Vec<f32>,
+    /// The same at a point a gather ray landed on close by.
+    pub(super) near: Vec<f32>,
     /// Luminaires that light the point: (group, luminaire, bound on its lux, the run of
     /// `points` that stands for it when near, else empty).
     candidates: Vec<(u32, u32, f64, (u32, u32))>,

@@ -84,6 +84,20 @@ pub struct FinalScene<'a> {
     pub sky: Option<FinalSky<'a>>,
 }
 
+/// A row's buffers for its pixels' samples, reused from pixel to pixel.
+#[derive(Default)]
+struct Buffers {
+    scratch: lights::Scratch,
+    /// Per group RGB: one sample's direct, indirect and expected light, and the emission
+    /// the camera sees.
+    dir_s: Vec<f32>,
+    ind_s: Vec<f32>,
+    exp_s: Vec<f32>,
+    emitted: Vec<f32>,
+    /// The order in which a pixel's samples take the cells of its grid.
+    cells: Vec<usize>,
+}
+
 /// Pixels per side of a block whose gathers share one grid of directions, each pixel's
 /// rays in its own sub-cell of every cell: the block's pixels then sample the hemisphere
 /// together on a grid `BLOCK` times finer per axis, and the filter, which averages
@@ -231,6 +245,7 @@ pub fn build(
             if cancel.is_cancelled() {
                 return;
             }
+            let mut buffers = Buffers::default();
             for x in 0..w {
                 let px = 3 * g * x..3 * g * (x + 1);
                 let sums = PixelSums {
@@ -240,7 +255,7 @@ pub fn build(
                     emitted: &mut er[px],
                     albedo: &mut al[x],
                 };
-                (gd[x], cov[x]) = tracer.pixel(x, y, split(x, y), sums);
+                (gd[x], cov[x]) = tracer.pixel(x, y, split(x, y), sums, &mut buffers);
             }
         });
     cancel.check()?;
@@ -276,7 +291,14 @@ impl Tracer<'_> {
     /// the split, and that error is larger than the gather's. The corners decide, not the
     /// pixel's own random samples: a pixel traced again when its samples disagreed, and
     /// kept when they agreed, leans towards the surface that covers more of it.
-    fn pixel(&self, x: usize, y: usize, split: bool, mut sums: PixelSums<'_>) -> (Guide, Coverage) {
+    fn pixel(
+        &self,
+        x: usize,
+        y: usize,
+        split: bool,
+        mut sums: PixelSums<'_>,
+        buffers: &mut Buffers,
+    ) -> (Guide, Coverage) {
         let k = self.settings.samples_per_side.max(1) as usize;
         let mut rng = Rng::new(
             y * self.rays.width() + x,
@@ -287,7 +309,7 @@ impl Tracer<'_> {
         } else {
             k
         };
-        let traced = self.samples(x, y, k, &mut rng, &mut sums);
+        let traced = self.samples(x, y, k, &mut rng, &mut sums, buffers);
         (traced.guide, traced.emitters)
     }
 
@@ -319,6 +341,7 @@ impl Tracer<'_> {
         k: usize,
         rng: &mut Rng,
         sums: &mut PixelSums<'_>,
+        buffers: &mut Buffers,
     ) -> Samples {
         let samples = (k * k) as f32;
         let gather_each = (self.settings.gather_rays as usize).div_ceil(k * k);
@@ -332,11 +355,18 @@ impl Tracer<'_> {
         };
         let mut out = Samples::default();
         let g = self.groups;
-        let mut scratch = lights::Scratch::default();
-        let mut dir_s = vec![0f32; 3 * g];
-        let mut ind_s = vec![0f32; 3 * g];
-        let mut exp_s = vec![0f32; 3 * g];
-        let mut emitted = vec![0f32; 3 * g];
+        let Buffers {
+            scratch,
+            dir_s,
+            ind_s,
+            exp_s,
+            emitted,
+            cells,
+        } = buffers;
+        for v in [&mut *dir_s, &mut *ind_s, &mut *exp_s, &mut *emitted] {
+            v.clear();
+            v.resize(3 * g, 0.0);
+        }
         let mut emitter_samples = 0;
         // One grid of gather directions for a block of BLOCK × BLOCK pixels: each pixel
         // takes one sub-cell (the same in every cell of its own grid, drawn without
@@ -357,7 +387,8 @@ impl Tracer<'_> {
         }
         let sub = subs[(y % BLOCK) * BLOCK + x % BLOCK];
         let (bx, by) = (sub % BLOCK, sub / BLOCK);
-        let mut cells: Vec<usize> = (0..k * k).collect();
+        cells.clear();
+        cells.extend(0..k * k);
         for i in (1..cells.len()).rev() {
             cells.swap(i, ((rng.next_f64() * (i + 1) as f64) as usize).min(i));
         }
@@ -376,26 +407,26 @@ impl Tracer<'_> {
             ind_s.iter_mut().for_each(|v| *v = 0.0);
             exp_s.iter_mut().for_each(|v| *v = 0.0);
             let hit = self.primary(d);
-            emitter_samples += usize::from(self.emitted_along(d, hit, &mut emitted));
+            emitter_samples += usize::from(self.emitted_along(d, hit, emitted));
             let seen = self.sample(
                 d,
                 hit,
                 rng,
-                &mut scratch,
-                (&mut dir_s, &mut ind_s, &mut exp_s),
+                scratch,
+                (dir_s, ind_s, exp_s),
                 (gather_each, strata, specular_each),
             );
             if s == 0 {
                 out.guide = seen.guide;
             }
             *sums.albedo += seen.albedo / samples;
-            for (a, v) in sums.direct.iter_mut().zip(&dir_s) {
+            for (a, v) in sums.direct.iter_mut().zip(dir_s.iter()) {
                 *a += v / samples;
             }
-            for (a, v) in sums.indirect.iter_mut().zip(&ind_s) {
+            for (a, v) in sums.indirect.iter_mut().zip(ind_s.iter()) {
                 *a += v / samples;
             }
-            for (a, v) in sums.expected.iter_mut().zip(&exp_s) {
+            for (a, v) in sums.expected.iter_mut().zip(exp_s.iter()) {
                 *a += v / samples;
             }
         }
@@ -406,7 +437,7 @@ impl Tracer<'_> {
             self.emitted_in_pixel(x, y, sums.emitted);
             Coverage::Measured
         } else {
-            for (a, v) in sums.emitted.iter_mut().zip(&emitted) {
+            for (a, v) in sums.emitted.iter_mut().zip(emitted.iter()) {
                 *a += v / samples;
             }
             Coverage::All
@@ -478,8 +509,10 @@ impl Tracer<'_> {
         let mut reach = f32::INFINITY;
         let aim = self.scene.sky.as_ref().and_then(|s| s.aim(p));
         if gather_rays > 0 {
-            let mut near =
-                |at: DVec3, q: u32, rng: &mut Rng, v: &mut [f32]| self.reflected_at(at, q, rng, v);
+            // The direct light's buffers are free until the specular lobe's light below.
+            let mut near = |at: DVec3, q: u32, rng: &mut Rng, v: &mut [f32]| {
+                self.reflected_at(at, q, rng, scratch, v)
+            };
             reach = self.reflected.gather(
                 self.scene,
                 (x, n, p),
@@ -555,15 +588,23 @@ impl Tracer<'_> {
     /// The radiosity reflected at point `at` of patch `q`, per group (lm/m², emission
     /// left out as in the gather's table): `ρ (direct + gathered)`, with a small gather
     /// that reads the patches.
-    fn reflected_at(&self, at: DVec3, q: u32, rng: &mut Rng, out: &mut [f32]) {
+    fn reflected_at(
+        &self,
+        at: DVec3,
+        q: u32,
+        rng: &mut Rng,
+        scratch: &mut lights::Scratch,
+        out: &mut [f32],
+    ) {
         let patch = &self.scene.mesh.patches[q as usize];
-        let mut scratch = lights::Scratch::default();
-        let mut lux = vec![0f32; out.len()];
+        let mut lux = std::mem::take(&mut scratch.near);
+        lux.clear();
+        lux.resize(out.len(), 0.0);
         self.lights.direct(
             (at, patch.normal, q),
             lights::Rays::OneDrawn,
             rng,
-            &mut scratch,
+            scratch,
             &mut lux,
             None,
         );
@@ -576,16 +617,17 @@ impl Tracer<'_> {
             &mut lux,
         );
         let rho = self.scene.rho[q as usize];
-        let (out, lux) = (Rgb::column_mut(out), Rgb::column(&lux));
+        let (out, light) = (Rgb::column_mut(out), Rgb::column(&lux));
         if let Some(sky) = &self.scene.sky {
             let sun = sky.sun_lux(self.scene.bvh, (at, patch.normal, patch.source));
-            out[0] = rho * (lux[0] + Rgb::splat(sun));
-            return;
+            out[0] = rho * (light[0] + Rgb::splat(sun));
+        } else {
+            for (k, col) in self.scene.groups.iter().enumerate() {
+                let own = if self.lights.explicit(k) { 0.0 } else { 1.0 };
+                out[k] = rho * light[k] + own * Rgb::column(&col.e)[q as usize];
+            }
         }
-        for (k, col) in self.scene.groups.iter().enumerate() {
-            let own = if self.lights.explicit(k) { 0.0 } else { 1.0 };
-            out[k] = rho * lux[k] + own * Rgb::column(&col.e)[q as usize];
-        }
+        scratch.near = lux;
     }
 }
 
