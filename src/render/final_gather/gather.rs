@@ -8,8 +8,10 @@
 //! read bilinearly from the grid corners around the hit ([`Reflected`]), so nothing steps
 //! at patch edges. A ray that meets the back of a
 //! surface reads nothing (surfaces reflect on their front), and one that leaves the
-//! scene reads nothing. Directions are stratified on a √n × √n grid with a random offset
-//! per point, so neighbouring pixels' errors are independent and the filter removes them.
+//! scene reads nothing. Directions are stratified on a grid of polar bands by azimuths
+//! with a random offset shared by a block of pixels, each pixel's rays in its own
+//! sub-cell ([`Strata`]), so neighbouring pixels' errors cancel and the filter removes
+//! them.
 
 use glam::DVec3;
 use rayon::prelude::*;
