@@ -26,7 +26,7 @@ use glam::{DVec3, Vec3A};
 pub const TRIM: f64 = 1e-5;
 
 /// Most corners of the emitting polygon a [`Shaft`] reaches to.
-pub const MAX_CORNERS: usize = 8;
+pub const MAX_CORNERS: usize = 16;
 
 /// The trimmed shaft from a point to a convex planar polygon: the planes that hold it
 /// (the receiver's, the emitter's and one per side), its corners, and its bounding box.
