@@ -271,16 +271,12 @@ fn hull_in_plane(points: &[DVec3], n: DVec3) -> Option<Vec<DVec3>> {
     let cross = |o: &(f64, f64, DVec3), a: &(f64, f64, DVec3), c: &(f64, f64, DVec3)| {
         (a.0 - o.0) * (c.1 - o.1) - (a.1 - o.1) * (c.0 - o.0)
     };
-    // Andrew's monotone chain.
     let mut hull: Vec<(f64, f64, DVec3)> = Vec::with_capacity(2 * p.len());
-    for pass in 0..2 {
+    // Andrew's monotone chain: the lower half left to right, the upper right to left.
+    let backwards: Vec<(f64, f64, DVec3)> = p.iter().rev().copied().collect();
+    for half in [&p, &backwards] {
         let start = hull.len();
-        let it: Box<dyn Iterator<Item = &(f64, f64, DVec3)>> = if pass == 0 {
-            Box::new(p.iter())
-        } else {
-            Box::new(p.iter().rev())
-        };
-        for q in it {
+        for q in half {
             while hull.len() >= start + 2
                 && cross(&hull[hull.len() - 2], &hull[hull.len() - 1], q) <= 0.0
             {
