@@ -16,6 +16,7 @@
 
 mod build;
 mod lanes;
+mod order;
 #[cfg(test)]
 mod tests;
 
@@ -47,6 +48,13 @@ impl Bvh {
     /// # Panics
     /// With more than 2²⁷ (134 million) triangles; scenes are limited far below that.
     pub fn new(tris: &[[Vec3A; 3]]) -> Bvh {
+        let mut bvh = Bvh::unordered(tris);
+        bvh.order_for_occlusion(tris);
+        bvh
+    }
+
+    /// The tree in the build's order (see [`Bvh::order_for_occlusion`]).
+    fn unordered(tris: &[[Vec3A; 3]]) -> Bvh {
         assert!(
             tris.len() <= Child::MAX_TRIANGLES,
             "a BVH holds at most 2^27 triangles"
@@ -102,38 +110,120 @@ impl Bvh {
 
     /// Calls `visit(index, t)` for the stored triangles the segment `from → to` (ends
     /// trimmed by `1e-5` of its length) crosses, until it returns true; whether it did.
+    ///
+    /// Depth first through the boxes the segment enters, in the order they are stored:
+    /// any hit ends an occlusion query, so ordering buys it nothing. On office-floor its
+    /// shadow rays met 6.8 nodes and blocks each unordered against 8.6 nearest first (the
+    /// boxes a ray starts inside, the surfaces around its origin, come first and seldom
+    /// block it), and the walk skips the sort and keeps no entry distances.
     #[inline(always)]
-    fn along(&self, from: Vec3A, to: Vec3A, visit: impl FnMut(usize, f32) -> bool) -> bool {
-        self.traverse_ray::<false>(from, to - from, 1e-5, || 1.0 - 1e-5, visit)
+    fn along(&self, from: Vec3A, to: Vec3A, mut visit: impl FnMut(usize, f32) -> bool) -> bool {
+        if self.nodes.is_empty() {
+            return false;
+        }
+        let (o, d) = (from, to - from);
+        let (tmin, tmax) = (1e-5, 1.0 - 1e-5);
+        let ray = Ray8::new(o, d.recip());
+        let tri_ray = TriRay {
+            o: o.to_array(),
+            d: d.to_array(),
+        };
+        // Pending children's codes. Left uninitialised: entries below `sp` are written.
+        let mut stack = [const { MaybeUninit::<u32>::uninit() }; STACK];
+        let mut spill: Vec<u32> = Vec::new();
+        let mut sp = 0usize;
+        let mut code = 0u32;
+        loop {
+            match Child::triangles(code) {
+                Some(leaf) => {
+                    if self.visit_leaf(leaf, &tri_ray, tmin, &|| tmax, &mut visit) {
+                        return true;
+                    }
+                }
+                None => {
+                    let n = &self.nodes[code as usize];
+                    let (mut mask, _) = enter8(n, &ray, tmin, tmax);
+                    if sp + WIDTH <= STACK {
+                        while mask != 0 {
+                            let lane = mask.trailing_zeros() as usize;
+                            mask &= mask - 1;
+                            stack[sp].write(n.child[lane & (WIDTH - 1)]);
+                            sp += 1;
+                        }
+                    } else {
+                        while mask != 0 {
+                            let lane = mask.trailing_zeros() as usize;
+                            mask &= mask - 1;
+                            // A tree deeper than the stack (a very skewed scene) spills
+                            // over into the heap rather than losing a subtree.
+                            spill.push(n.child[lane & (WIDTH - 1)]);
+                        }
+                    }
+                }
+            }
+            code = if sp > 0 {
+                sp -= 1;
+                // SAFETY: entries below the old `sp` are written.
+                unsafe { stack[sp].assume_init() }
+            } else if let Some(next) = spill.pop() {
+                next
+            } else {
+                return false;
+            };
+        }
+    }
+
+    /// Calls `visit(index, t)` for the triangles of the leaf `first, count` that the ray
+    /// meets within `(tmin, far())`, until it returns true; whether it did. The padding
+    /// lanes of its last block hold degenerate triangles, which no ray meets.
+    #[inline(always)]
+    fn visit_leaf(
+        &self,
+        (first, count): (usize, usize),
+        ray: &TriRay,
+        tmin: f32,
+        far: &impl Fn() -> f32,
+        visit: &mut impl FnMut(usize, f32) -> bool,
+    ) -> bool {
+        let blocks = &self.blocks[first..first + count.div_ceil(4)];
+        for (j, block) in blocks.iter().enumerate() {
+            let (mut hits, t) = hit4(block, ray, tmin, far());
+            while hits != 0 {
+                let lane = hits.trailing_zeros() as usize;
+                hits &= hits - 1;
+                if visit(4 * (first + j) + lane, t[lane]) {
+                    return true;
+                }
+            }
+        }
+        false
     }
 
     /// Depth first through the nodes whose box the ray `o + t·d` enters within
-    /// `(tmin, far())`, the nearer children first when `NEAREST_FIRST` (else in the
-    /// order they are stored), calling `visit(index, t)` for every
-    /// stored triangle in the leaves reached that the ray meets within `(tmin, far())`,
-    /// until it returns true; whether it did. With `NEAREST_FIRST`, `far` may shrink as
-    /// triangles are visited (a nearest-hit query): boxes entered past it are skipped,
-    /// and `visit` sees the hits of a block of four tested against the `far` before it.
-    /// Without it, `far` must return the same value throughout.
+    /// `(tmin, far())`, the nearer children first, calling `visit(index, t)` for every
+    /// stored triangle in the leaves reached that the ray meets within `(tmin, far())`.
+    /// `far` may shrink as triangles are visited (a nearest-hit query): boxes entered
+    /// past it are skipped, and `visit` sees the hits of a block of four tested against
+    /// the `far` before it.
     #[inline(always)]
-    fn traverse_ray<const NEAREST_FIRST: bool>(
+    fn nearest_first(
         &self,
         o: Vec3A,
         d: Vec3A,
         tmin: f32,
         far: impl Fn() -> f32,
-        mut visit: impl FnMut(usize, f32) -> bool,
-    ) -> bool {
+        mut visit: impl FnMut(usize, f32),
+    ) {
         if self.nodes.is_empty() {
-            return false;
+            return;
         }
         let ray = Ray8::new(o, d.recip());
         let tri_ray = TriRay {
             o: o.to_array(),
             d: d.to_array(),
         };
-        // Pending children (codes) and where the ray enters them, the nearest on top of a
-        // nearest-first walk. Left uninitialised: zeroing 2 KB per query was a tenth of
+        // Pending children (codes) and where the ray enters them, the nearest on top.
+        // Left uninitialised: zeroing 2 KB per query was a tenth of
         // an occlusion test's time. Entries below `sp` are written.
         let mut stack = [const { MaybeUninit::<(u32, f32)>::uninit() }; STACK];
         let mut spill: Vec<(u32, f32)> = Vec::new();
@@ -142,12 +232,7 @@ impl Bvh {
         loop {
             let n = &self.nodes[node];
             let (mut mask, t) = enter8(n, &ray, tmin, far());
-            // Push the lanes entered, then (for a nearest hit) order the pushed run so the
-            // nearest is on top. Any hit ends an occlusion query, so ordering buys it
-            // nothing: on office-floor its shadow rays met 6.8 nodes and blocks each
-            // unordered against 8.6 nearest first (the boxes a ray starts inside, the
-            // surfaces around its origin, come first and seldom block it), and skipped
-            // the sort.
+            // Push the lanes entered, then order the pushed run so the nearest is on top.
             let base = sp;
             if sp + WIDTH <= STACK {
                 while mask != 0 {
@@ -171,18 +256,16 @@ impl Bvh {
                     }
                 }
             }
-            if NEAREST_FIRST {
-                for i in base + 1..sp {
-                    // SAFETY: entries below `sp` are written.
-                    let e = unsafe { stack[i].assume_init() };
-                    let mut j = i;
-                    // SAFETY: as above, `j - 1 < i < sp`.
-                    while j > base && unsafe { stack[j - 1].assume_init() }.1 < e.1 {
-                        stack[j] = stack[j - 1];
-                        j -= 1;
-                    }
-                    stack[j].write(e);
+            for i in base + 1..sp {
+                // SAFETY: entries below `sp` are written.
+                let e = unsafe { stack[i].assume_init() };
+                let mut j = i;
+                // SAFETY: as above, `j - 1 < i < sp`.
+                while j > base && unsafe { stack[j - 1].assume_init() }.1 < e.1 {
+                    stack[j] = stack[j - 1];
+                    j -= 1;
                 }
+                stack[j].write(e);
             }
             // Pop until an inner node to open, visiting the leaves on the way.
             loop {
@@ -193,30 +276,18 @@ impl Bvh {
                     // SAFETY: entries below the old `sp` are written.
                     unsafe { stack[sp].assume_init() }
                 } else {
-                    return false;
+                    return;
                 };
-                // A nearest-hit walk's far end may have shrunk since this box was pushed;
-                // an unordered walk's does not (see the doc above), and `enter8` already
-                // held the box to it.
-                if NEAREST_FIRST && enter > far() * 1.000_001 {
+                // The far end may have shrunk since this box was pushed.
+                if enter > far() * 1.000_001 {
                     continue;
                 }
                 match Child::triangles(code) {
-                    Some((first, count)) => {
-                        for (j, block) in self.blocks[first..first + count.div_ceil(4)]
-                            .iter()
-                            .enumerate()
-                        {
-                            let (mut hits, t) = hit4(block, &tri_ray, tmin, far());
-                            hits &= (1 << (count - 4 * j).min(4)) - 1;
-                            while hits != 0 {
-                                let lane = hits.trailing_zeros() as usize;
-                                hits &= hits - 1;
-                                if visit(4 * (first + j) + lane, t[lane]) {
-                                    return true;
-                                }
-                            }
-                        }
+                    Some(leaf) => {
+                        self.visit_leaf(leaf, &tri_ray, tmin, &far, &mut |k, t| {
+                            visit(k, t);
+                            false
+                        });
                     }
                     None => {
                         node = code as usize;
@@ -289,7 +360,7 @@ impl Bvh {
         if self.nodes.is_empty() {
             return true;
         }
-        // Left uninitialised as in `traverse_ray`: entries below `sp` are written.
+        // Left uninitialised as in `along`: entries below `sp` are written.
         let mut stack = [const { MaybeUninit::<u32>::uninit() }; STACK];
         let mut spill: Vec<u32> = Vec::new();
         let mut sp = 0usize;
@@ -338,7 +409,7 @@ impl Bvh {
         let mut best: Option<(f32, u32)> = None;
         // The far end shrinks to each hit; the box test sees it.
         let tmax = std::cell::Cell::new(tmax);
-        self.traverse_ray::<true>(
+        self.nearest_first(
             from,
             d,
             tmin,
@@ -348,7 +419,6 @@ impl Bvh {
                     tmax.set(t);
                     best = Some((t, self.ids[k]));
                 }
-                false
             },
         );
         best
@@ -369,14 +439,14 @@ impl Bvh {
         let mut best: Option<(f32, u32, u8)> = None;
         let far = std::cell::Cell::new(tmax);
         let limit = || (far.get() * (1.0 + TIE)).min(tmax);
-        self.traverse_ray::<true>(from, d, tmin, limit, |k, t| {
+        self.nearest_first(from, d, tmin, limit, |k, t| {
             if t >= limit() {
-                return false;
+                return;
             }
             let id = self.ids[k];
             let r = rank(id);
             if r == 0 {
-                return false;
+                return;
             }
             let take = match best {
                 None => true,
@@ -388,7 +458,6 @@ impl Bvh {
                 best = Some((t, id, r));
                 far.set(far.get().min(t));
             }
-            false
         });
         best.map(|(t, id, _)| (t, id))
     }
