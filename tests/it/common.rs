@@ -253,16 +253,52 @@ pub fn free_port() -> u16 {
 /// The bundled Cornell box at its default meshing, baked once for the tests that compare
 /// it with the path-traced reference.
 pub fn cornell_baked() -> &'static relight::bake::Baked {
-    static BAKED: std::sync::OnceLock<relight::bake::Baked> = std::sync::OnceLock::new();
-    BAKED.get_or_init(|| {
-        relight::bake::load_or_bake(
-            &scenes_dir().join("cornell-box"),
-            relight::bake::CachePolicy::Off,
-            &relight::bake::BakeOptions::default(),
-            &|_, _| {},
+    &cornell_model().baked
+}
+
+/// [`cornell_baked`] as a model (the scene has no grids, so the bake is unchanged).
+pub fn cornell_model() -> &'static relight::model::Model {
+    static MODEL: std::sync::OnceLock<relight::model::Model> = std::sync::OnceLock::new();
+    MODEL.get_or_init(|| {
+        relight::model::Model::new(
+            relight::bake::load_or_bake(
+                &scenes_dir().join("cornell-box"),
+                relight::bake::CachePolicy::Off,
+                &relight::bake::BakeOptions::default(),
+                &|_, _| {},
+            )
+            .expect("the Cornell box bakes"),
         )
-        .expect("the Cornell box bakes")
     })
+}
+
+/// The Cornell box's path-traced reference image in tests/data (256², 4,096 samples per
+/// pixel, white light; linear radiance), top row first.
+pub fn cornell_reference() -> Vec<[f32; 3]> {
+    let bytes = std::fs::read(
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/cornell_ref_white.pfm"),
+    )
+    .expect("the reference image");
+    // A PFM: three header lines, then little-endian f32 RGB, bottom row first.
+    let header_end = bytes
+        .iter()
+        .enumerate()
+        .filter(|(_, &c)| c == b'\n')
+        .nth(2)
+        .expect("a PFM header")
+        .0
+        + 1;
+    let data: Vec<f32> = bytes[header_end..]
+        .chunks_exact(4)
+        .map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]]))
+        .collect();
+    assert_eq!(data.len(), 256 * 256 * 3);
+    (0..256 * 256)
+        .map(|i| {
+            let k = ((255 - i / 256) * 256 + i % 256) * 3;
+            [data[k], data[k + 1], data[k + 2]]
+        })
+        .collect()
 }
 
 /// The configuration factor of an a × b rectangle parallel to a receiving point at

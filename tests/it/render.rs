@@ -152,28 +152,11 @@ fn cornell_box_image_matches_the_path_traced_reference() {
             }
         }
     }
-    // The reference PFM: little-endian f32 RGB, bottom row first.
-    let bytes = std::fs::read(
-        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/cornell_ref_white.pfm"),
-    )
-    .unwrap();
-    let header_end = bytes
-        .iter()
-        .enumerate()
-        .filter(|(_, &c)| c == b'\n')
-        .nth(2)
-        .unwrap()
-        .0
-        + 1;
-    let data: Vec<f32> = bytes[header_end..]
-        .chunks_exact(4)
-        .map(|c| f32::from_le_bytes(c.try_into().unwrap()))
-        .collect();
-    assert_eq!(data.len(), 256 * 256 * 3);
+    let reference = common::cornell_reference();
     let (mut num, mut den) = (0f64, 0f64);
     for y in 0..256 {
         for x in 0..256 {
-            let r = &data[((255 - y) * 256 + x) * 3..][..3];
+            let r = &reference[y * 256 + x];
             if r.iter().any(|&v| v > 1.0) {
                 continue; // the light itself
             }
@@ -190,7 +173,7 @@ fn cornell_box_image_matches_the_path_traced_reference() {
     for y in 0..256 {
         for x in 0..256 {
             let p = view.center_patch[(2 * y) * 512 + 2 * x];
-            let r = &data[((255 - y) * 256 + x) * 3..][..3];
+            let r = &reference[y * 256 + x];
             if p == u32::MAX || r.iter().any(|&v| v > 1.0) {
                 continue;
             }
