@@ -162,6 +162,15 @@ pub(super) struct TriRay {
     pub(super) d: [f32; 3],
 }
 
+impl TriRay {
+    pub(super) fn new(o: Vec3A, d: Vec3A) -> TriRay {
+        TriRay {
+            o: o.to_array(),
+            d: d.to_array(),
+        }
+    }
+}
+
 /// Barycentric slack of the triangle test: rays through a shared edge meet both sides.
 pub(super) const EDGE: f32 = 1e-6;
 

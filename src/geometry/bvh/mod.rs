@@ -38,6 +38,10 @@ pub struct Bvh {
     ids: Vec<u32>,
 }
 
+/// The share of a segment's length trimmed at each end by [`Bvh::occluded`] and
+/// [`Bvh::each_hit`].
+const TRIM: f32 = 1e-5;
+
 /// Entries of a walk's stack kept on the thread's stack; deeper trees spill to the heap.
 /// The unit tests keep fewer, so their trees of a few thousand triangles spill too.
 const STACK: usize = if cfg!(test) { 16 } else { 256 };
@@ -122,12 +126,9 @@ impl Bvh {
             return false;
         }
         let (o, d) = (from, to - from);
-        let (tmin, tmax) = (1e-5, 1.0 - 1e-5);
+        let (tmin, tmax) = (TRIM, 1.0 - TRIM);
         let ray = Ray8::new(o, d.recip());
-        let tri_ray = TriRay {
-            o: o.to_array(),
-            d: d.to_array(),
-        };
+        let tri_ray = TriRay::new(o, d);
         // Pending children's codes. Left uninitialised: entries below `sp` are written.
         let mut stack = [const { MaybeUninit::<u32>::uninit() }; STACK];
         let mut spill: Vec<u32> = Vec::new();
@@ -218,10 +219,7 @@ impl Bvh {
             return;
         }
         let ray = Ray8::new(o, d.recip());
-        let tri_ray = TriRay {
-            o: o.to_array(),
-            d: d.to_array(),
-        };
+        let tri_ray = TriRay::new(o, d);
         // Pending children (codes) and where the ray enters them, the nearest on top.
         // Left uninitialised: zeroing 2 KB per query was a tenth of
         // an occlusion test's time. Entries below `sp` are written.

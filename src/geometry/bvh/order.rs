@@ -17,8 +17,8 @@
 
 use glam::Vec3A;
 
-use super::lanes::{hit4, Child, Ray8, TriRay, WIDTH};
-use super::Bvh;
+use super::lanes::{Child, Ray8, TriRay, WIDTH};
+use super::{Bvh, TRIM};
 
 /// Sample segments per tree, at most, and per triangle.
 const SAMPLES: usize = 16_384;
@@ -56,10 +56,7 @@ impl Bvh {
         for (from, to, skip) in sample_segments(tris, SEED) {
             let (o, d) = (from, to - from);
             let ray = Ray8::new(o, d.recip());
-            let tri_ray = TriRay {
-                o: o.to_array(),
-                d: d.to_array(),
-            };
+            let tri_ray = TriRay::new(o, d);
             self.probe(0, 0, &ray, &tri_ray, skip, &mut stats);
         }
         for (node, lanes) in self.nodes.iter_mut().zip(&stats) {
@@ -101,7 +98,7 @@ impl Bvh {
         skip: [u32; 2],
         stats: &mut [[Lane; WIDTH]],
     ) -> (bool, f32) {
-        let (tmin, tmax) = (1e-5, 1.0 - 1e-5);
+        let (tmin, tmax) = (TRIM, 1.0 - TRIM);
         let n = &self.nodes[node];
         let (mut mask, _) = super::lanes::enter8(n, ray, tmin, tmax);
         let (mut met, mut cost) = (false, NODE_COST);
@@ -110,19 +107,13 @@ impl Bvh {
             mask &= mask - 1;
             let code = n.child[lane];
             let (m, c) = match Child::triangles(code) {
-                Some((first, count)) => {
-                    let blocks = &self.blocks[first..first + count.div_ceil(4)];
-                    let mut m = false;
-                    for (j, block) in blocks.iter().enumerate() {
-                        let (mut hits, _) = hit4(block, tri_ray, tmin, tmax);
-                        while hits != 0 {
-                            let l = hits.trailing_zeros() as usize;
-                            hits &= hits - 1;
-                            let id = self.ids[4 * (first + j) + l];
-                            m |= id != skip[0] && id != skip[1];
-                        }
-                    }
-                    (m, BLOCK_COST * blocks.len() as f32)
+                Some(leaf @ (_, count)) => {
+                    // Whether a triangle other than the skipped ones meets the segment.
+                    let m = self.visit_leaf(leaf, tri_ray, tmin, &|| tmax, &mut |k, _| {
+                        let id = self.ids[k];
+                        id != skip[0] && id != skip[1]
+                    });
+                    (m, BLOCK_COST * count.div_ceil(4) as f32)
                 }
                 None if depth < MAX_DEPTH => {
                     self.probe(code as usize, depth + 1, ray, tri_ray, skip, stats)
@@ -198,6 +189,7 @@ fn sample_segments(tris: &[[Vec3A; 3]], seed: u64) -> Vec<(Vec3A, Vec3A, [u32; 2
 
 #[cfg(test)]
 mod tests {
+    use super::super::lanes::hit4;
     use super::*;
 
     /// Work of `bvh.occluded(from, to, skip)` as its walk does it (the stack pops the
@@ -205,10 +197,7 @@ mod tests {
     fn occlusion_work(bvh: &Bvh, from: Vec3A, to: Vec3A, skip: [u32; 2]) -> (f32, bool) {
         let (o, d) = (from, to - from);
         let ray = Ray8::new(o, d.recip());
-        let tri_ray = TriRay {
-            o: o.to_array(),
-            d: d.to_array(),
-        };
+        let tri_ray = TriRay::new(o, d);
         let (mut work, mut stack) = (0.0, vec![0u32]);
         while let Some(code) = stack.pop() {
             match Child::triangles(code) {
@@ -218,7 +207,7 @@ mod tests {
                         .enumerate()
                     {
                         work += BLOCK_COST;
-                        let (mut hits, _) = hit4(block, &tri_ray, 1e-5, 1.0 - 1e-5);
+                        let (mut hits, _) = hit4(block, &tri_ray, TRIM, 1.0 - TRIM);
                         while hits != 0 {
                             let l = hits.trailing_zeros() as usize;
                             hits &= hits - 1;
@@ -232,7 +221,7 @@ mod tests {
                 None => {
                     work += NODE_COST;
                     let n = &bvh.nodes[code as usize];
-                    let (mut mask, _) = super::super::lanes::enter8(n, &ray, 1e-5, 1.0 - 1e-5);
+                    let (mut mask, _) = super::super::lanes::enter8(n, &ray, TRIM, 1.0 - TRIM);
                     while mask != 0 {
                         stack.push(n.child[mask.trailing_zeros() as usize]);
                         mask &= mask - 1;

@@ -105,10 +105,7 @@ fn soup(r: &mut impl FnMut() -> f32, n: usize) -> Vec<[Vec3A; 3]> {
 fn hit_t(t: &[Vec3A; 3], o: Vec3A, d: Vec3A, tmin: f32, tmax: f32) -> Option<f32> {
     let mut block = Tri4::default();
     block.set(0, t);
-    let ray = TriRay {
-        o: o.to_array(),
-        d: d.to_array(),
-    };
+    let ray = TriRay::new(o, d);
     hit_lane(&block, 0, &ray, tmin, tmax)
 }
 
