@@ -4,7 +4,7 @@
 // the build* and setup* functions fill them in for each scene.
 
 import { cameraFromLookAt, target } from "./viewer.js";
-import { $, luminance, srgbToLinear, linearToSrgbHex, fmtLux } from "./util.js";
+import { $, luminance, srgbToLinear, linearToSrgbHex, fmtLux, fmtRatio } from "./util.js";
 import { state, changed, defaultsFor, presetCamera } from "./state.js";
 import { postJson, problem } from "./api.js";
 import { viewer } from "./views/gl.js";
@@ -156,7 +156,7 @@ async function runOptimizer() {
   const t = v.targets[0];
   out.textContent = `${Math.round(v.lumens).toLocaleString()} lm` +
     (v.power.luminaire_watts != null ? `, ${v.power.luminaire_watts.toFixed(1)} W` : "") +
-    ` → ${grid}: Eavg ${fmtLux(t.achieved.avg)} lx, U₀ ${t.achieved.u0.toFixed(2)} (solved in ${v.solve_ms.toFixed(1)} ms)`;
+    ` → ${grid}: Eavg ${fmtLux(t.achieved.avg)} lx, U₀ ${fmtRatio(t.achieved.u0)} (solved in ${v.solve_ms.toFixed(1)} ms)`;
 }
 
 // ------------------------------------------------------------------ listeners

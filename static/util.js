@@ -37,3 +37,9 @@ export function fmtLux(v) {
   if (v >= 100) return v.toFixed(0);
   return `${+v.toPrecision(2)}`;
 }
+
+/** A uniformity ratio (U₀, Emin/Emax) to two decimals; "–" for an unlit grid's, which
+ *  the server reports as null (a ratio of zeros has no value). */
+export function fmtRatio(x) {
+  return x == null ? "–" : x.toFixed(2);
+}

@@ -87,13 +87,16 @@ fn print_grid(id: &str, g: &GridAnswer) {
         g.count
     );
     outln!(
-        "  Eavg {:.2}  Emin {:.2}  Emax {:.2}  U0 {:.3}  Emin/Emax {:.3}",
+        "  Eavg {:.2}  Emin {:.2}  Emax {:.2}  U0 {}  Emin/Emax {}",
         g.avg,
         g.min,
         g.max,
-        g.u0,
-        g.min_max
+        ratio(g.u0),
+        ratio(g.min_max)
     );
+    if let Some(note) = g.note {
+        outln!("  ({note})");
+    }
     let cols = g.layout.map_or(10, |[c, _]| c.max(1));
     for row in g.values.chunks(cols) {
         let cells: Vec<String> = row
@@ -145,4 +148,9 @@ fn print_report(model: &Model, report: &Report) {
         p.emitted[0], p.emitted[1], p.emitted[2], p.absorbed[0], p.absorbed[1], p.absorbed[2],
         p.escaped[0], p.escaped[1], p.escaped[2]
     );
+}
+
+/// A uniformity ratio to three decimals, or "n/a" for an unlit grid's.
+fn ratio(x: Option<f64>) -> String {
+    x.map_or_else(|| "n/a".to_string(), |x| format!("{x:.3}"))
 }

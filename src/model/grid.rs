@@ -36,11 +36,22 @@ pub struct GridStats {
     pub avg: f64,
     pub min: f64,
     pub max: f64,
-    /// Uniformity U₀ = Emin / Eavg.
-    pub u0: f64,
-    /// Emin / Emax.
-    pub min_max: f64,
+    /// Uniformity U₀ = Emin / Eavg; None when the grid is unlit (see [`GridStats::note`]).
+    pub u0: Option<f64>,
+    /// Emin / Emax; None when the grid is unlit.
+    pub min_max: Option<f64>,
+    /// Why `u0` and `min_max` are None: every measured point is at 0 lx (or none is
+    /// measured), and a ratio of zeros has no value.
+    pub note: Option<&'static str>,
 }
+
+/// The note of a grid whose measured points are all at 0 lx.
+pub const UNLIT_NOTE: &str =
+    "every measured point is at 0 lx: U0 and Emin/Emax are undefined for an unlit grid";
+
+/// The note of a grid with no measured point.
+pub const UNMEASURED_NOTE: &str =
+    "no point is measured (all are excluded): U0 and Emin/Emax are undefined";
 
 impl GridResponse {
     /// Every grid of the scene with its per-group responses, as baked into the transfer
@@ -128,12 +139,18 @@ pub fn stats(values: Vec<f32>, excluded: &[bool]) -> GridStats {
     let min = measured().fold(f64::INFINITY, f64::min);
     let max = measured().fold(0f64, f64::max);
     let min = if min.is_finite() { min } else { 0.0 };
+    let lit = avg > 0.0 && max > 0.0;
     GridStats {
         avg,
         min,
         max,
-        u0: if avg > 0.0 { min / avg } else { 0.0 },
-        min_max: if max > 0.0 { min / max } else { 0.0 },
+        u0: lit.then(|| min / avg),
+        min_max: lit.then(|| min / max),
+        note: match (count, lit) {
+            (0, _) => Some(UNMEASURED_NOTE),
+            (_, false) => Some(UNLIT_NOTE),
+            _ => None,
+        },
         excluded: values.len() - count,
         values: values
             .iter()
@@ -154,35 +171,38 @@ mod tests {
             &[false, false, true, false],
         );
         assert_eq!((s.avg, s.min, s.max), (200.0, 100.0, 300.0));
-        assert_eq!(s.u0, 0.5);
-        assert_eq!(s.min_max, 100.0 / 300.0);
+        assert_eq!(s.u0, Some(0.5));
+        assert_eq!(s.min_max, Some(100.0 / 300.0));
+        assert_eq!(s.note, None);
         assert_eq!(s.excluded, 1);
         assert_eq!(s.values, vec![Some(100.0), Some(200.0), None, Some(300.0)]);
         // The excluded point, brightest or darkest, changes nothing.
         let t = stats(vec![100.0, 200.0, 0.0, 300.0], &[false, false, true, false]);
-        assert_eq!((t.avg, t.min, t.u0), (200.0, 100.0, 0.5));
+        assert_eq!((t.avg, t.min, t.u0), (200.0, 100.0, Some(0.5)));
     }
 
     #[test]
     fn points_without_an_exclusion_flag_are_measured() {
         let s = stats(vec![10.0, 30.0, 20.0], &[true]);
         assert_eq!((s.avg, s.min, s.max, s.excluded), (25.0, 20.0, 30.0, 1));
-        assert_eq!(s.u0, 0.8);
+        assert_eq!(s.u0, Some(0.8));
     }
 
     #[test]
-    fn a_dark_or_empty_grid_has_zero_uniformity() {
+    fn an_unlit_grid_reported_zero_uniformity_instead_of_none() {
         let s = stats(vec![0.0, 0.0], &[]);
-        assert_eq!(
-            (s.avg, s.min, s.max, s.u0, s.min_max),
-            (0.0, 0.0, 0.0, 0.0, 0.0)
-        );
+        assert_eq!((s.avg, s.min, s.max), (0.0, 0.0, 0.0));
+        assert_eq!((s.u0, s.min_max, s.note), (None, None, Some(UNLIT_NOTE)));
         let s = stats(vec![5.0, 6.0], &[true, true]);
+        assert_eq!((s.avg, s.min, s.max), (0.0, 0.0, 0.0));
         assert_eq!(
-            (s.avg, s.min, s.max, s.u0, s.min_max),
-            (0.0, 0.0, 0.0, 0.0, 0.0)
+            (s.u0, s.min_max, s.note),
+            (None, None, Some(UNMEASURED_NOTE))
         );
         assert_eq!(s.excluded, 2);
         assert_eq!(s.values, vec![None, None]);
+        // A dark point on a lit grid is a real zero.
+        let s = stats(vec![0.0, 10.0], &[]);
+        assert_eq!((s.u0, s.min_max, s.note), (Some(0.0), Some(0.0), None));
     }
 }

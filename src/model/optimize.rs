@@ -331,8 +331,9 @@ pub struct Achieved {
     pub avg: f64,
     /// Emin, lx.
     pub min: f64,
-    /// U₀ = Emin / Eavg.
-    pub u0: f64,
+    /// U₀ = Emin / Eavg; null when the grid is unlit (every point at 0 lx).
+    #[cfg_attr(feature = "server", schema(required = true))]
+    pub u0: Option<f64>,
     /// The highest UGR of the grid's task observers, when a ceiling was asked; null
     /// otherwise or when no luminaire is in view.
     #[cfg_attr(feature = "server", schema(required = true))]
@@ -565,11 +566,11 @@ fn target_answer(
 ) -> TargetAnswer {
     let (avg, min, u0) = grids
         .get(&t.grid)
-        .map_or((0.0, 0.0, 0.0), |s| (s.avg, s.min, s.u0));
+        .map_or((0.0, 0.0, None), |s| (s.avg, s.min, s.u0));
     let tol = 1e-6;
     let met = t.eavg_min.is_none_or(|e| avg >= e * (1.0 - tol))
         && t.emin_min.is_none_or(|e| min >= e * (1.0 - tol))
-        && t.u0_min.is_none_or(|u| u0 >= u - tol)
+        && t.u0_min.is_none_or(|u| u0.is_some_and(|u0| u0 >= u - tol))
         && t.ugr_max.is_none_or(|u| ugr.is_none_or(|g| g <= u + 1e-3));
     TargetAnswer {
         grid: t.grid.clone(),

@@ -48,10 +48,16 @@ pub struct GridAnswer {
     pub min: f64,
     /// Emax, lx.
     pub max: f64,
-    /// Emin / Eavg.
-    pub u0: f64,
-    /// Emin / Emax.
-    pub min_max: f64,
+    /// Emin / Eavg; null when every measured point is at 0 lx (see `note`).
+    #[cfg_attr(feature = "server", schema(required = true))]
+    pub u0: Option<f64>,
+    /// Emin / Emax; null when every measured point is at 0 lx.
+    #[cfg_attr(feature = "server", schema(required = true))]
+    pub min_max: Option<f64>,
+    /// Why `u0` and `min_max` are null (an unlit grid, or no measured point); absent
+    /// otherwise.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub note: Option<&'static str>,
     /// Luminous illuminance at each point, lx, in grid order; null for a point left out
     /// of the statistics (inside an object or under a surface at close range).
     #[cfg_attr(feature = "server", schema(value_type = Vec<Option<f64>>))]
@@ -473,7 +479,7 @@ impl Model {
             };
             let achieved = Achieved {
                 em: m.filter(|_| measured).map(|m| m.avg),
-                u0: m.filter(|_| measured).map(|m| m.u0),
+                u0: m.filter(|_| measured).and_then(|m| m.u0),
                 observers,
                 ra: match w {
                     Some(w) => compliance::lit_ra(&self.baked.scene, w),
@@ -609,6 +615,7 @@ pub(crate) fn grid_answer(g: &crate::scene::Grid, s: GridStats) -> GridAnswer {
         max: s.max,
         u0: s.u0,
         min_max: s.min_max,
+        note: s.note,
         values: s.values,
         excluded: s.excluded,
         kind: g.kind,

@@ -159,6 +159,10 @@ pub struct Scene {
     pub grids: Vec<Grid>,
     pub mesh: MeshSettings,
     pub transfer: TransferChoice,
+    /// Hierarchical mode: every light group right on its own, also where its light reaches
+    /// a room only through an opening (scene.toml `per_group_accuracy`; see
+    /// [`crate::transport::hierarchy::importance`]). Costs bake time.
+    pub per_group_accuracy: bool,
     /// Where the scene stands, for daylight (`[site]`); None: no daylight.
     pub site: Option<crate::daylight::Site>,
     /// Non-fatal problems (skipped degenerate triangles, defaulted materials).
@@ -244,6 +248,7 @@ impl Scene {
             grids,
             mesh,
             transfer: cfg.transfer.unwrap_or_default(),
+            per_group_accuracy: cfg.per_group_accuracy,
             site: cfg.site.as_ref().and_then(|s| s.site().ok()),
             warnings,
             maintenance_factor: cfg.maintenance_factor.unwrap_or(1.0),

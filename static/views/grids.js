@@ -2,7 +2,7 @@
 // flight, gridFlight), and the grid points drawn over the 3D view, coloured on the
 // false-colour scale, with lux values where labels do not overlap (drawOverlay).
 
-import { $, fmtLux } from "../util.js";
+import { $, fmtLux, fmtRatio } from "../util.js";
 import { state, lightingJson } from "../state.js";
 import { postJson, problem, singleFlight } from "../api.js";
 import { viewer } from "./gl.js";
@@ -54,7 +54,7 @@ function mfText(f) {
  *  requirements). */
 function gridRow(g, s, initial, c) {
   const tr = document.createElement("tr");
-  for (const t of [g.name, fmtLux(s.avg), fmtLux(s.min), fmtLux(s.max), s.u0.toFixed(2)]) {
+  for (const t of [g.name, fmtLux(s.avg), fmtLux(s.min), fmtLux(s.max), fmtRatio(s.u0)]) {
     const td = document.createElement("td");
     td.textContent = t;
     tr.append(td);
@@ -72,7 +72,8 @@ function gridRow(g, s, initial, c) {
     : "";
   const zone = s.kind ? `EN 12464-1 ${s.kind} area, ` : "";
   const init = initial && initial !== s ? `; initial Eavg ${fmtLux(initial.avg)} lx` : "";
-  tr.title = `${zone}${g.count} points${left}; Emin/Emax ${s.min_max.toFixed(2)} (lux)${init}`;
+  const note = s.note ? `; ${s.note}` : "";
+  tr.title = `${zone}${g.count} points${left}; Emin/Emax ${fmtRatio(s.min_max)} (lux)${init}${note}`;
   return tr;
 }
 

@@ -432,6 +432,36 @@ async fn the_page_relights_live_in_headless_chromium() {
         .collect();
     assert!(pcts.iter().any(|&p| p < 100.0), "levels applied: {pcts:?}");
 
+    // ---- Every light off: the unlit grids show no uniformity ("–"), not 0.00, and their
+    // rows say why.
+    let all_on = |on: bool| {
+        format!(
+            "window.relight.state.lights.window_row.on === {on} \
+             && window.relight.state.lights.corridor_row.on === {on} \
+             && window.relight.stats.gridVersion === window.relight.state.version"
+        )
+    };
+    for id in ["window_row", "corridor_row"] {
+        s.click(&format!(".light[data-id='{id}'] .on")).await;
+    }
+    s.wait_for(&all_on(false), "the grids with every light off")
+        .await;
+    let rows = s
+        .js(
+            "return [...document.querySelectorAll('#grid-stats tbody tr')]
+                 .map(r => [r.children[4].textContent, r.title]);",
+        )
+        .await;
+    for row in rows.as_array().unwrap() {
+        assert_eq!(row[0], "–", "{rows}");
+        assert!(row[1].as_str().unwrap().contains("0 lx"), "{rows}");
+    }
+    for id in ["window_row", "corridor_row"] {
+        s.click(&format!(".light[data-id='{id}'] .on")).await;
+    }
+    s.wait_for(&all_on(true), "the grids with the lights on again")
+        .await;
+
     // ---- Daylight on the office: a clear sky with the sun, the time slider, the URL, and
     // the annual metrics of the desk from the Mannheim weather file in its folder.
     assert_eq!(

@@ -283,8 +283,11 @@ pub fn merge(
     }
     let direct = crate::transport::direct::group_direct(&p.scene, &p.mesh, &p.bvh);
     let (plan, _) = hierarchy_plan(&p, &direct);
+    let rho = crate::transport::transfer::patch_rho(&p.scene, &p.mesh);
+    let sky = super::sky_direct(&p.scene, &p.mesh, &p.bvh);
+    let pass = super::dark_room_pass(&p, &rho, &direct, sky.as_ref(), opts);
     let (h, escape) = plan
-        .assemble(parts, opts.hier)
+        .assemble(parts, opts.hier, Some(&pass))
         .map_err(|m| shard_error(&id, format!("the shards do not fit together: {m}")))?;
     let stats = BakeStats {
         patches: p.mesh.len(),
@@ -295,6 +298,7 @@ pub fn merge(
         p,
         Coupling::Links(Box::new(h), escape),
         &direct,
+        sky,
         CachePolicy::ReadWrite(cache),
         stats,
         progress,

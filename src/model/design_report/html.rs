@@ -347,7 +347,8 @@ fn grid_section(h: &mut String, g: &GridReport, i: usize) {
         h,
         &key("u0"),
         "U₀ = Emin / Ēm",
-        &format!("{:.2}", m.u0),
+        &m.u0
+            .map_or_else(|| "– (unlit)".to_string(), |u| format!("{u:.2}")),
         check(g, "u0"),
     );
     stat_row(h, &key("eavg"), "Eavg (initial)", &lx(init.avg), None);

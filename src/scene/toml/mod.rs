@@ -31,6 +31,10 @@ pub struct SceneToml {
     pub(crate) scale: Option<f64>,
     /// "auto" (default), "factored" or "columns".
     pub(crate) transfer: Option<TransferChoice>,
+    /// Hierarchical mode: refine the links again after a first solve, so that each light
+    /// group alone is right in rooms it lights only through openings (default false).
+    #[serde(default)]
+    pub(crate) per_group_accuracy: bool,
     /// Refuse what a lenient load fixes with a warning: a `Kd` of 1 or more, a missing MTL
     /// file or texture, an unknown material (default false).
     #[serde(default)]

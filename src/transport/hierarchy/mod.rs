@@ -6,12 +6,15 @@
 //! - [`refine`]: links from receiver nodes to source nodes, refined by an error oracle
 //!   (the spread of the factor over sample pairs, visibility included) until below ε.
 //! - [`closure`]: each patch's factor sum checked against rays and rescaled.
+//! - [`importance`]: the dark-room pass: after a first solve, links refined again where
+//!   their error is large next to what their receiver gathers in some light group.
 //! - [`Hierarchy::solve`]: gather, push and pull (Jacobi) to a stated tolerance.
 //!
 //! Storage is compact: per link a u32 source, an f32 factor and a u8 visibility, grouped
 //! by receiver (CSR offsets); per internal node its two children; per patch σ.
 
 pub mod closure;
+pub mod importance;
 pub mod refine;
 pub mod tree;
 
@@ -319,6 +322,9 @@ pub struct Plan {
     tree: Tree,
     geo: Vec<crate::transport::formfactor::PatchGeo>,
     glow: Vec<f32>,
+    /// Per-group accuracy (scene.toml `per_group_accuracy`): unbiased link values, hidden
+    /// links kept as zero links, and the dark-room pass at assembly ([`importance`]).
+    per_group: bool,
 }
 
 impl Plan {
@@ -327,7 +333,15 @@ impl Plan {
             tree: Tree::build(mesh),
             geo: patch_geometry(mesh),
             glow: glow(mesh, rho, sources),
+            per_group: false,
         }
+    }
+
+    /// The plan with per-group accuracy on or off (off by default): see
+    /// [`importance`]. Every part of a sharded bake must be planned alike.
+    pub fn per_group_accuracy(mut self, on: bool) -> Plan {
+        self.per_group = on;
+        self
     }
 
     /// Every plane's subtree root (the units parts are made of).
@@ -395,28 +409,52 @@ impl Plan {
     /// The hierarchy from parts that cover every plane exactly once, and every patch's
     /// escape fraction; an error names what is missing or repeated. Links are sorted by
     /// (receiver, source), so the result does not depend on how the planes were grouped.
+    /// With `dark` and per-group accuracy, the assembled links go through the dark-room
+    /// pass ([`importance`]).
     pub fn assemble(
         self,
         parts: Vec<Part>,
         opts: HierarchyOptions,
+        dark: Option<&DarkRoomPass<'_>>,
     ) -> Result<(Hierarchy, Vec<f32>), String> {
-        let tree = self.tree;
-        check_cover(&tree, &parts)?;
-        let joined = Joined::new(&tree, parts)?;
-        let mut h = Hierarchy::from_sorted_links(&tree, &joined.links);
-        let leaf_links = joined
-            .links
+        check_cover(&self.tree, &parts)?;
+        let joined = Joined::new(&self.tree, parts)?;
+        let mut refine_s = joined.refine_s;
+        let mut links = joined.links;
+        let (mut h, mut escape) = self.close(&links, &joined.hits, opts);
+        if let Some(pass) = dark.filter(|_| self.per_group) {
+            let t0 = Instant::now();
+            if let Some(imp) = self.importance(&h, pass) {
+                drop(h);
+                links = refine::refine_again(&self, pass.bvh, opts, pass.ff, &imp, links);
+                drop(imp);
+                links.par_sort_unstable_by_key(|l| (l.r, l.s, l.k.to_bits(), l.vis));
+                (h, escape) = self.close(&links, &joined.hits, opts);
+            }
+            refine_s += t0.elapsed().as_secs_f64();
+        }
+        h.stats.refine_s = refine_s;
+        h.stats.closure_s = joined.closure_s;
+        Ok((h, escape))
+    }
+
+    /// The hierarchy of `links` (sorted by receiver) with its closure from the rays' hit
+    /// fractions `hits`, and every patch's escape fraction. Stats without timings.
+    fn close(
+        &self,
+        links: &[refine::Link],
+        hits: &[f64],
+        opts: HierarchyOptions,
+    ) -> (Hierarchy, Vec<f32>) {
+        let tree = &self.tree;
+        let mut h = Hierarchy::from_sorted_links(tree, links);
+        let leaf_links = links
             .iter()
-            .filter(|l| (l.r as usize) < tree.n && (l.s as usize) < tree.n)
+            .filter(|l| l.k != 0.0 && (l.r as usize) < tree.n && (l.s as usize) < tree.n)
             .count() as u64;
-        drop(joined.links);
         let sums = h.factor_sums();
-        let (sigma, escape) = closure::combine(&sums, &joined.hits, opts.closure_rays);
-        let gaps: Vec<f64> = sums
-            .iter()
-            .zip(&joined.hits)
-            .map(|(s, h)| (s - h).abs())
-            .collect();
+        let (sigma, escape) = closure::combine(&sums, hits, opts.closure_rays);
+        let gaps: Vec<f64> = sums.iter().zip(hits).map(|(s, h)| (s - h).abs()).collect();
         h.stats = HierarchyStats {
             nodes: tree.nodes() as u64,
             links: h.src.len() as u64,
@@ -428,12 +466,67 @@ impl Plan {
                 .map(|&x| x as f64)
                 .fold(f64::INFINITY, f64::min),
             sigma_max: sigma.iter().map(|&x| x as f64).fold(0.0, f64::max),
-            refine_s: joined.refine_s,
-            closure_s: joined.closure_s,
+            refine_s: 0.0,
+            closure_s: 0.0,
         };
         h.sigma = sigma;
-        Ok((h, escape))
+        (h, escape)
     }
+
+    /// Each light column's brightness per node from a solve over the links `h`
+    /// ([`importance::Importance`]); None without columns.
+    fn importance(&self, h: &Hierarchy, pass: &DarkRoomPass<'_>) -> Option<importance::Importance> {
+        let g = pass.sources.len();
+        let n = self.tree.n;
+        if g == 0 || pass.rho.len() != n || pass.sources.iter().any(|s| s.len() != 3 * n) {
+            return None;
+        }
+        let c = 3 * g;
+        let mut src = vec![0f32; n * c];
+        for (gi, col) in pass.sources.iter().enumerate() {
+            for (i, v) in col.chunks_exact(3).enumerate() {
+                src[i * c + 3 * gi..i * c + 3 * gi + 3].copy_from_slice(v);
+            }
+        }
+        let sol = h.solve(pass.rho, &src, c, DARK_PASS_TOL, DARK_PASS_SWEEPS, &|_| {});
+        drop(src);
+        let mean3 = |x: &[f32]| (x[0] + x[1] + x[2]) / 3.0;
+        let mut b = vec![0f32; n * g];
+        let mut e = vec![0f32; n * g];
+        for i in 0..n {
+            for gi in 0..g {
+                let k = i * c + 3 * gi;
+                let d = pass
+                    .direct
+                    .get(gi)
+                    .and_then(|d| d.as_deref())
+                    .and_then(|d| d.get(3 * i..3 * i + 3))
+                    .map_or(0.0, mean3);
+                b[i * g + gi] = mean3(&sol.b[k..k + 3]);
+                e[i * g + gi] = mean3(&sol.h[k..k + 3]) + d;
+            }
+        }
+        Some(importance::Importance::new(&self.tree, &b, &e, g))
+    }
+}
+
+/// Tolerance and most sweeps of the dark-room pass's solve: it only ranks the patches'
+/// brightness, so it stops well before the transfer's own solve.
+const DARK_PASS_TOL: f64 = 1e-5;
+const DARK_PASS_SWEEPS: usize = 200;
+
+/// What the dark-room pass ([`importance`]) reads besides the links: the scene's BVH
+/// and form-factor options (to refine), and the light columns the transfer solves.
+pub struct DarkRoomPass<'a> {
+    pub bvh: &'a Bvh,
+    pub ff: FormFactorOptions,
+    /// Per patch, the reflectance.
+    pub rho: &'a [Rgb],
+    /// Per light column (each group at intensity 1; daylight), its source `E + ρD`
+    /// (lm/m², n × 3 interleaved).
+    pub sources: Vec<Vec<f32>>,
+    /// Per light column, its direct illuminance (lux, n × 3); None without.
+    pub direct: Vec<Option<Vec<f32>>>,
 }
 
 /// Checks that `parts` cover every plane root of `tree` exactly once.
@@ -506,10 +599,12 @@ impl Joined {
 impl Hierarchy {
     /// The hierarchy of `tree` with `links` sorted by receiver (CSR), before closure (σ
     /// 1, no stats).
+    /// Zero links (hidden ones the refinement keeps for the dark-room pass) are left out.
     fn from_sorted_links(tree: &Tree, links: &[refine::Link]) -> Hierarchy {
         let nodes = tree.nodes();
         let mut offsets = vec![0u32; nodes + 1];
-        for l in links {
+        let kept = || links.iter().filter(|l| l.k != 0.0);
+        for l in kept() {
             offsets[l.r as usize + 1] += 1;
         }
         for k in 0..nodes {
@@ -519,9 +614,9 @@ impl Hierarchy {
             n: tree.n,
             children: tree.children.clone(),
             offsets,
-            src: links.iter().map(|l| l.s).collect(),
-            k: links.iter().map(|l| l.k).collect(),
-            vis: links.iter().map(|l| l.vis).collect(),
+            src: kept().map(|l| l.s).collect(),
+            k: kept().map(|l| l.k).collect(),
+            vis: kept().map(|l| l.vis).collect(),
             sigma: vec![1.0; tree.n],
             area: tree.area.iter().map(|&a| a as f32).collect(),
             stats: HierarchyStats::default(),

@@ -27,7 +27,7 @@ use crate::transport::hierarchy::Hierarchy;
 use crate::transport::solve::{self, ChannelLu};
 
 mod build;
-pub use build::{all_sources, group_emission, patch_rho, solve_refined};
+pub use build::{all_sources, group_emission, group_sources, patch_rho, solve_refined};
 
 /// Relative tolerance of the iterative column solver.
 pub const COLUMN_TOL: f64 = 1e-7;

@@ -272,3 +272,28 @@ fn scene_maintenance_factors_and_requirements_out_of_range_name_the_key() {
     assert_eq!(scene.lights[0].maintenance_factor, 0.7);
     assert_eq!(scene.lights[0].ra, Some(90.0));
 }
+
+/// An unlit grid (every light off) reported U₀ and Emin/Emax as 0: a ratio of zeros has
+/// no value. Both are null now, initial and maintained, with a note that says why; a lit
+/// grid has no note.
+#[tokio::test]
+async fn an_unlit_grid_reported_zero_uniformity() {
+    let _gate = common::shared();
+    let dark = ask(json!({"lights": {"window_row": 0, "corridor_row": 0},
+                          "grids": ["workplane"]}))
+    .await;
+    for g in [
+        &dark["grids"]["workplane"],
+        &dark["maintained"]["grids"]["workplane"],
+    ] {
+        assert_eq!(g["avg"], json!(0.0), "{g}");
+        assert!(g["u0"].is_null() && g["min_max"].is_null(), "{g}");
+        assert!(g["note"].as_str().unwrap().contains("0 lx"), "{g}");
+    }
+    let lit = ask(json!({"grids": ["workplane"]})).await;
+    let g = &lit["grids"]["workplane"];
+    assert!(
+        g["u0"].as_f64().unwrap() > 0.0 && g.get("note").is_none(),
+        "{g}"
+    );
+}

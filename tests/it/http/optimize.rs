@@ -19,7 +19,7 @@ async fn optimize_finds_the_least_flux_levels_that_meet_the_targets() {
     let desk = r.model.grids.iter().find(|g| g.grid.id == "desk").unwrap();
     let meets = |x: f64, y: f64| {
         let s = desk.stats(&[Rgb::splat(x as f32), Rgb::splat(y as f32)]);
-        s.avg >= 500.0 * (1.0 - 1e-4) && s.u0 >= 0.6 - 1e-4
+        s.avg >= 500.0 * (1.0 - 1e-4) && s.u0.is_some_and(|u| u >= 0.6 - 1e-4)
     };
     assert!(meets(a, b), "levels {a} {b}");
     // Brute force over a 1 % grid of levels: nothing feasible uses less flux (both rows

@@ -287,14 +287,29 @@ fn answer_schemas_describe_the_model_types() {
         avg: 1.0,
         min: 0.5,
         max: 1.5,
-        u0: 0.5,
-        min_max: 0.33,
+        u0: Some(0.5),
+        min_max: Some(0.33),
+        note: None,
         values: vec![Some(0.5), Some(1.5), None],
         excluded: 1,
         kind: Some(crate::scene::grids::GridKind::Task),
         spacing: Some(0.2),
     };
     check("GridStats", &grid);
+    // An unlit grid: no uniformity, and a note that says why.
+    check(
+        "GridStats",
+        &GridAnswer {
+            avg: 0.0,
+            min: 0.0,
+            max: 0.0,
+            u0: None,
+            min_max: None,
+            note: Some(crate::model::grid::UNLIT_NOTE),
+            values: vec![Some(0.0), Some(0.0), None],
+            ..grid.clone()
+        },
+    );
     check(
         "GridStats",
         GridAnswer {
@@ -371,7 +386,7 @@ fn answer_schemas_describe_the_model_types() {
             achieved: Achieved {
                 avg: 500.0,
                 min: 300.0,
-                u0: 0.6,
+                u0: Some(0.6),
                 ugr: Some(18.5),
             },
             met: true,
