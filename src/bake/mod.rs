@@ -335,9 +335,12 @@ pub fn load_or_bake(
             let all = plan.plane_roots().to_vec();
             let part = plan.part(&all, &p.bvh, &front, opts.hier, opts.ff, &ff_progress);
             let rho = crate::transport::transfer::patch_rho(&p.scene, &p.mesh);
-            let pass = dark_room_pass(&p, &rho, &direct, sky.as_ref(), opts);
+            let pass = p
+                .scene
+                .per_group_accuracy
+                .then(|| dark_room_pass(&p, &rho, &direct, sky.as_ref(), opts));
             let (h, escape) = plan
-                .assemble(vec![part], opts.hier, Some(&pass))
+                .assemble(vec![part], opts.hier, pass.as_ref())
                 .expect("one part over every plane covers the scene");
             Coupling::Links(Box::new(h), escape)
         }

@@ -28,6 +28,7 @@ use crate::color::Rgb;
 use crate::geometry::bvh::Bvh;
 use crate::geometry::mesh::Mesh;
 use crate::transport::formfactor::{patch_geometry, FormFactorOptions};
+pub use importance::DarkRoomPass;
 pub use refine::HierarchyOptions;
 use tree::Tree;
 
@@ -424,7 +425,7 @@ impl Plan {
         let (mut h, mut escape) = self.close(&links, &joined.hits, opts);
         if let Some(pass) = dark.filter(|_| self.per_group) {
             let t0 = Instant::now();
-            if let Some(imp) = self.importance(&h, pass) {
+            if let Some(imp) = importance::Importance::solve(&self.tree, &h, pass) {
                 drop(h);
                 links = refine::refine_again(&self, pass.bvh, opts, pass.ff, &imp, links);
                 drop(imp);
@@ -472,61 +473,6 @@ impl Plan {
         h.sigma = sigma;
         (h, escape)
     }
-
-    /// Each light column's brightness per node from a solve over the links `h`
-    /// ([`importance::Importance`]); None without columns.
-    fn importance(&self, h: &Hierarchy, pass: &DarkRoomPass<'_>) -> Option<importance::Importance> {
-        let g = pass.sources.len();
-        let n = self.tree.n;
-        if g == 0 || pass.rho.len() != n || pass.sources.iter().any(|s| s.len() != 3 * n) {
-            return None;
-        }
-        let c = 3 * g;
-        let mut src = vec![0f32; n * c];
-        for (gi, col) in pass.sources.iter().enumerate() {
-            for (i, v) in col.chunks_exact(3).enumerate() {
-                src[i * c + 3 * gi..i * c + 3 * gi + 3].copy_from_slice(v);
-            }
-        }
-        let sol = h.solve(pass.rho, &src, c, DARK_PASS_TOL, DARK_PASS_SWEEPS, &|_| {});
-        drop(src);
-        let mean3 = |x: &[f32]| (x[0] + x[1] + x[2]) / 3.0;
-        let mut b = vec![0f32; n * g];
-        let mut e = vec![0f32; n * g];
-        for i in 0..n {
-            for gi in 0..g {
-                let k = i * c + 3 * gi;
-                let d = pass
-                    .direct
-                    .get(gi)
-                    .and_then(|d| d.as_deref())
-                    .and_then(|d| d.get(3 * i..3 * i + 3))
-                    .map_or(0.0, mean3);
-                b[i * g + gi] = mean3(&sol.b[k..k + 3]);
-                e[i * g + gi] = mean3(&sol.h[k..k + 3]) + d;
-            }
-        }
-        Some(importance::Importance::new(&self.tree, &b, &e, g))
-    }
-}
-
-/// Tolerance and most sweeps of the dark-room pass's solve: it only ranks the patches'
-/// brightness, so it stops well before the transfer's own solve.
-const DARK_PASS_TOL: f64 = 1e-5;
-const DARK_PASS_SWEEPS: usize = 200;
-
-/// What the dark-room pass ([`importance`]) reads besides the links: the scene's BVH
-/// and form-factor options (to refine), and the light columns the transfer solves.
-pub struct DarkRoomPass<'a> {
-    pub bvh: &'a Bvh,
-    pub ff: FormFactorOptions,
-    /// Per patch, the reflectance.
-    pub rho: &'a [Rgb],
-    /// Per light column (each group at intensity 1; daylight), its source `E + ρD`
-    /// (lm/m², n × 3 interleaved).
-    pub sources: Vec<Vec<f32>>,
-    /// Per light column, its direct illuminance (lux, n × 3); None without.
-    pub direct: Vec<Option<Vec<f32>>>,
 }
 
 /// Checks that `parts` cover every plane root of `tree` exactly once.
