@@ -15,6 +15,9 @@ pub const MAX_OBJ_BYTES: u64 = 256 << 20;
 pub const MAX_TEXT_BYTES: u64 = 16 << 20;
 /// Largest glTF file (`.gltf` or `.glb`), and largest total of its buffers, bytes (512 MiB).
 pub const MAX_GLTF_BYTES: u64 = 512 << 20;
+/// Most bytes the compressed buffer views of a glTF file (`EXT_meshopt_compression`) may
+/// decode to, over all the views geometry reads (512 MiB): checked before each is allocated.
+pub const MAX_GLTF_DECODED_BYTES: u64 = 512 << 20;
 /// Deepest glTF node tree (levels below a root node).
 pub const MAX_GLTF_DEPTH: usize = 256;
 /// Most nodes in the node tree of the glTF scene that is read. The hierarchy must be

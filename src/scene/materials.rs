@@ -58,6 +58,10 @@ pub(crate) struct MaterialTable {
     pub(crate) materials: Vec<Material>,
     /// Material name → index into `materials`.
     pub(crate) index: HashMap<String, u32>,
+    /// The glazing transmittance (0..1) the model file gives a material, by index: glTF
+    /// `KHR_materials_transmission` and `alphaMode` BLEND (see `scene::gltf`).
+    /// `[material.NAME]` in `scene.toml` overrides it.
+    pub(crate) glass: HashMap<u32, f64>,
     /// Textures read so far.
     textures: usize,
 }

@@ -348,7 +348,7 @@ fn build_geometry(
         &parts, scale, cfg, &mut table, model_name, &toml.path, warnings,
     )?;
     drop(parts);
-    let glazing = geometry.split_glazing(cfg, &table.materials, &toml.path, model_name)?;
+    let glazing = geometry.split_glazing(cfg, &table, &toml.path, model_name, warnings)?;
     Ok((geometry, glazing, table))
 }
 

@@ -162,37 +162,68 @@ impl Geometry {
 
 impl Geometry {
     /// Takes the glazing out of the triangles: those whose surface (first) or material
-    /// has a `transmittance` in `scene.toml`. Glazing is not meshed; a surface left with
-    /// no triangle is dropped. Glazing that emits, a transmittance outside 0..1, or a
-    /// scene of glazing alone is an error.
+    /// has a `transmittance` in `scene.toml`, or whose material the model file makes
+    /// see-through (`table.glass`), unless `scene.toml` marks the surface or material
+    /// `opaque`. Glazing is not meshed; a surface left with no triangle is dropped.
+    /// Glazing that emits, a transmittance outside 0..1, or a scene of glazing alone is an
+    /// error; a see-through material of the model file that emits stays opaque, with a
+    /// warning.
     pub(crate) fn split_glazing(
         &mut self,
         cfg: &SceneToml,
-        materials: &[Material],
+        table: &MaterialTable,
         toml_path: &Path,
         obj_name: &Path,
+        warnings: &mut Vec<String>,
     ) -> Result<Vec<Pane>, SceneError> {
         let bad = |message: String| SceneError::Invalid {
             path: toml_path.to_path_buf(),
             message,
         };
         check_transmittances(cfg).map_err(bad)?;
-        let of_surface: Vec<Option<f64>> = self
+        let materials = &table.materials;
+        let of_surface: Vec<Option<Option<f64>>> = self
             .surfaces
             .iter()
-            .map(|s| cfg.surface.get(&s.name).and_then(|o| o.transmittance))
+            .map(|s| {
+                let o = cfg.surface.get(&s.name)?;
+                if o.opaque {
+                    Some(None)
+                } else {
+                    o.transmittance.map(Some)
+                }
+            })
             .collect();
         let of_material: Vec<Option<f64>> = materials
             .iter()
-            .map(|m| cfg.material.get(&m.name).and_then(|o| o.transmittance))
+            .enumerate()
+            .map(|(i, m)| match cfg.material.get(&m.name) {
+                Some(o) if o.opaque => None,
+                Some(o) if o.transmittance.is_some() => o.transmittance,
+                _ => {
+                    let t = table.glass.get(&(i as u32)).copied()?;
+                    if m.ke.iter().any(|&k| k > 0.0) {
+                        warnings.push(format!(
+                            "material '{}' is see-through in the model file but emits: it \
+                             stays an opaque emitter",
+                            m.name
+                        ));
+                        return None;
+                    }
+                    Some(t)
+                }
+            })
             .collect();
-        if of_surface.iter().chain(&of_material).all(Option::is_none) {
+        if of_surface.iter().all(|o| !matches!(o, Some(Some(_))))
+            && of_material.iter().all(Option::is_none)
+        {
             return Ok(Vec::new());
         }
         let mut panes = Vec::new();
         let mut kept = Vec::with_capacity(self.triangles.len());
         for t in self.triangles.drain(..) {
-            let glazing = of_surface[t.surface as usize].or(of_material[t.material as usize]);
+            let glazing =
+                of_surface[t.surface as usize].unwrap_or(of_material[t.material as usize]);
             match glazing {
                 Some(tr) => {
                     let m = &materials[t.material as usize];

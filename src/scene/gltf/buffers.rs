@@ -1,14 +1,25 @@
 //! glTF buffers: the GLB binary chunk, base64 data URIs and files in the scene folder,
-//! and bounds-checked views of their bytes.
+//! the views meshopt decodes ([`super::meshopt`]), and bounds-checked views of their bytes.
 
+use std::collections::{HashMap, HashSet};
 use std::path::PathBuf;
 
 use base64::Engine as _;
 
-use super::{Buffers, Reader};
-use crate::input_limits::MAX_GLTF_BYTES;
+use super::meshopt::{self, Compressed};
+use super::Reader;
+use crate::input_limits::{MAX_GLTF_BYTES, MAX_GLTF_DECODED_BYTES};
 use crate::scene::files;
 use crate::scene::SceneError;
+
+/// The bytes a file's accessors read: each buffer's, exactly its declared length (empty
+/// for a compression fallback buffer), and the decoded bytes of the compressed views
+/// that geometry reads, by view index.
+#[derive(Default)]
+pub(super) struct Buffers {
+    data: Vec<Vec<u8>>,
+    decoded: HashMap<usize, Vec<u8>>,
+}
 
 impl Reader<'_> {
     /// The bytes of every buffer: the GLB binary chunk, a data URI, or a file in the folder.
@@ -21,6 +32,11 @@ impl Reader<'_> {
         let mut out = Vec::new();
         for b in gltf.document.buffers() {
             let what = format!("buffers[{}]", b.index());
+            if meshopt::is_fallback(&b) {
+                // Its views are decoded from other buffers: its own bytes are not read.
+                out.push(Vec::new());
+                continue;
+            }
             let mut data = match b.source() {
                 gltf::buffer::Source::Bin => gltf
                     .blob
@@ -46,6 +62,57 @@ impl Reader<'_> {
                 )));
             }
             out.push(data);
+        }
+        let decoded = self.decode_views(&gltf.document, &out)?;
+        Ok(Buffers { data: out, decoded })
+    }
+
+    /// Decodes the compressed views that geometry reads (POSITION and indices of every
+    /// primitive), each checked against [`MAX_GLTF_DECODED_BYTES`] over all views before
+    /// it is allocated.
+    fn decode_views(
+        &self,
+        doc: &gltf::Document,
+        data: &[Vec<u8>],
+    ) -> Result<HashMap<usize, Vec<u8>>, SceneError> {
+        let mut wanted = HashSet::new();
+        for mesh in doc.meshes() {
+            for prim in mesh.primitives() {
+                let pos = prim.get(&gltf::Semantic::Positions);
+                for acc in pos.into_iter().chain(prim.indices()) {
+                    if let Some(v) = acc.view() {
+                        if meshopt::extension(&v).is_some() {
+                            wanted.insert(v.index());
+                        }
+                    }
+                }
+            }
+        }
+        let mut wanted: Vec<usize> = wanted.into_iter().collect();
+        wanted.sort_unstable();
+        let views: Vec<gltf::buffer::View<'_>> = doc.views().collect();
+        let mut total = 0usize;
+        let mut out = HashMap::new();
+        for i in wanted {
+            let what = format!("bufferViews[{i}] (meshopt compression)");
+            let Some(ext) = views.get(i).and_then(meshopt::extension) else {
+                continue;
+            };
+            let c = Compressed::parse(ext).map_err(|m| self.err(format!("{what}: {m}")))?;
+            total = c
+                .decoded_len()
+                .and_then(|n| total.checked_add(n))
+                .filter(|&t| t as u64 <= MAX_GLTF_DECODED_BYTES)
+                .ok_or_else(|| {
+                    self.err(format!(
+                        "{what}: the decoded views would hold more than {}",
+                        files::human_bytes(MAX_GLTF_DECODED_BYTES)
+                    ))
+                })?;
+            let bytes = c
+                .decode(data)
+                .map_err(|m| self.err(format!("{what}: {m}")))?;
+            out.insert(i, bytes);
         }
         Ok(out)
     }
@@ -101,12 +168,15 @@ pub(super) fn percent_decode(uri: &str) -> Option<String> {
     String::from_utf8(out).ok()
 }
 
-/// The bytes of a buffer view, if it lies inside its buffer.
+/// The bytes of a buffer view (decoded, when compressed), if it lies inside its buffer.
 pub(super) fn view_bytes<'b>(
     view: &gltf::buffer::View<'_>,
     buffers: &'b Buffers,
 ) -> Option<&'b [u8]> {
-    let data = buffers.get(view.buffer().index())?;
+    if let Some(d) = buffers.decoded.get(&view.index()) {
+        return Some(d);
+    }
+    let data = buffers.data.get(view.buffer().index())?;
     let end = view.offset().checked_add(view.length())?;
     data.get(view.offset()..end)
 }

@@ -39,11 +39,12 @@ impl Reader<'_> {
         for m in doc.materials() {
             let i = m.index().unwrap_or(0);
             let name = names.take(m.name(), || format!("material{i}"));
-            let (kd, gloss) = self.reflectance(&m, &name, textures)?;
+            let (kd, gloss, base) = self.reflectance(&m, &name, textures)?;
             let ke = self.emission(&m, &name, textures)?;
+            let glass = self.transmittance(&m, &name, base)?;
             let two_sided =
                 m.double_sided() || self.cfg.material.get(&name).is_some_and(|o| o.two_sided);
-            out.push(table.push(
+            let index = table.push(
                 Material {
                     name,
                     kd,
@@ -52,20 +53,24 @@ impl Reader<'_> {
                     gloss,
                 },
                 self.shown,
-            )?);
+            )?;
+            if let Some(t) = glass {
+                table.glass.insert(index, t);
+            }
+            out.push(index);
         }
         Ok((table, out))
     }
 
     /// The diffuse reflectance of material `m` (named `name`): `(1 − metallic) × base
     /// colour ×` its texture's mean, scaled below 1 (or refused, strict); and its
-    /// specular lobe ([`gloss`]).
+    /// specular lobe ([`gloss`]); and the texture-tinted base colour.
     fn reflectance(
         &mut self,
         m: &gltf::Material<'_>,
         name: &str,
         textures: &mut Textures<'_>,
-    ) -> Result<(Rgb, Option<Gloss>), SceneError> {
+    ) -> Result<(Rgb, Option<Gloss>, Rgb), SceneError> {
         let pbr = m.pbr_metallic_roughness();
         let base = pbr.base_color_factor();
         let metallic = pbr.metallic_factor();
@@ -116,7 +121,39 @@ impl Reader<'_> {
             ));
             kd = k;
         }
-        Ok((kd, gloss))
+        Ok((kd, gloss, base))
+    }
+
+    /// The glazing transmittance of material `m` (named `name`, of texture-tinted `base`
+    /// colour), if the file makes it see-through: `(1 − α) + α · t · Y(base)`, where α is
+    /// the base colour factor's alpha under `alphaMode` BLEND (under MASK 0 when it is
+    /// below `alphaCutoff`, else 1; 1 for OPAQUE), t the
+    /// `KHR_materials_transmission` factor (0 without it) and Y the base colour's
+    /// luminance (thin-walled glass tints what it transmits by its base colour). The
+    /// alpha of the base colour texture and the transmission texture are not read. None
+    /// for an opaque material (α = 1 and t = 0).
+    fn transmittance(
+        &self,
+        m: &gltf::Material<'_>,
+        name: &str,
+        base: Rgb,
+    ) -> Result<Option<f64>, SceneError> {
+        let factor = m.pbr_metallic_roughness().base_color_factor()[3];
+        let alpha = match m.alpha_mode() {
+            gltf::material::AlphaMode::Blend => factor,
+            gltf::material::AlphaMode::Mask if factor < m.alpha_cutoff().unwrap_or(0.5) => 0.0,
+            _ => 1.0,
+        };
+        let t = m.transmission().map_or(0.0, |x| x.transmission_factor());
+        if !alpha.is_finite() || !t.is_finite() {
+            return Err(self.err(format!(
+                "material '{name}': alpha {alpha} and transmissionFactor {t} must be finite"
+            )));
+        }
+        let (alpha, t) = (alpha.clamp(0.0, 1.0) as f64, t.clamp(0.0, 1.0) as f64);
+        let y = (base.luminance() as f64).clamp(0.0, 1.0);
+        let tr = (1.0 - alpha) + alpha * t * y;
+        Ok((alpha < 1.0 || t > 0.0).then_some(tr.clamp(0.0, 1.0)))
     }
 
     /// The exitance of material `m` (named `name`), lm/m²: `π × emissiveFactor ×

@@ -10,11 +10,19 @@
 //!   apply). A node with a negative-determinant transform has its triangles' winding
 //!   flipped, so fronts stay fronts.
 //! - **Surfaces**: one per node, named after the node (else its mesh, else `node<i>`),
-//!   made unique with `-2`, `-3`, … suffixes.
+//!   made unique with `-2`, `-3`, … suffixes; a node whose mesh's primitives use several
+//!   materials gives one surface per material, `node / material`.
 //! - **Reflectance** (diffuse, per channel): `(1 − metallicFactor) × baseColorFactor.rgb ×`
 //!   the mean linear colour of `baseColorTexture` (alpha-weighted). The radiosity
-//!   solution is diffuse, so a metal reflects no diffuse light. Alpha and transmission are not modelled (surfaces are opaque). A
-//!   channel of 1 or more is scaled to [`MAX_KD`] with a warning (`strict`: an error).
+//!   solution is diffuse, so a metal reflects no diffuse light. A channel of 1 or more is
+//!   scaled to [`MAX_KD`] with a warning (`strict`: an error).
+//! - **Glass**: `alphaMode` BLEND (or MASK below the cutoff) and
+//!   `KHR_materials_transmission` make a material glazing, its transmittance
+//!   `(1 − α) + α · t · Y(base)` (see `materials.rs`); `scene.toml` may override it or
+//!   keep the material `opaque`.
+//! - **Compression**: `EXT_meshopt_compression` views are decoded ([`meshopt`]) and
+//!   `KHR_mesh_quantization` positions read as integers and dequantized by the node
+//!   transforms.
 //! - **Gloss** (`final` images only): a material with `roughnessFactor` < 1 or a metallic
 //!   part gets glTF's GGX specular lobe ([`Gloss`](crate::scene::Gloss)), its dielectric
 //!   Fresnel from `KHR_materials_ior` and `KHR_materials_specular` (factors only).
@@ -50,15 +58,20 @@ use crate::photometry::Luminaire;
 mod buffers;
 mod lights;
 mod materials;
+mod meshopt;
 mod primitives;
 mod tree;
 mod walk;
 
 pub(crate) use lights::add_gltf_luminaires;
 
-/// Extensions a file may require. Others (Draco or meshopt compression, quantized
-/// attributes, KTX2 textures, …) are refused by name. Unrequired extensions are ignored.
-const READ_EXTENSIONS: [&str; 6] = [
+/// Extensions a file may require. Others (Draco compression, KTX2 textures, …) are
+/// refused by name. Unrequired extensions are ignored.
+const READ_EXTENSIONS: [&str; 10] = [
+    "EXT_meshopt_compression",
+    "KHR_meshopt_compression",
+    "KHR_mesh_quantization",
+    "KHR_materials_transmission",
     "KHR_lights_punctual",
     "KHR_materials_emissive_strength",
     "KHR_materials_ior",
@@ -117,8 +130,7 @@ struct Reader<'a> {
     warnings: &'a mut Vec<String>,
 }
 
-/// Raw buffer contents, one per glTF buffer, each exactly its declared length.
-type Buffers = Vec<Vec<u8>>;
+use buffers::Buffers;
 
 impl<'a> Reader<'a> {
     fn new(
@@ -146,7 +158,7 @@ impl<'a> Reader<'a> {
         let unchecked = gltf::Gltf::from_slice_without_validation(bytes).map_err(bad)?;
         // gltf-json's validation indexes `accessors` with a primitive's POSITION before it
         // checks the index: check it here first.
-        let root = unchecked.document.into_json();
+        let mut root = unchecked.document.into_json();
         if let Some(ext) = root
             .extensions_required
             .iter()
@@ -158,6 +170,9 @@ impl<'a> Reader<'a> {
                 READ_EXTENSIONS.join(", ")
             )));
         }
+        // Every required extension is read here; gltf-json would refuse the ones it does
+        // not know itself (compression, quantization).
+        root.extensions_required.clear();
         for (m, mesh) in root.meshes.iter().enumerate() {
             for (k, prim) in mesh.primitives.iter().enumerate() {
                 if let Some((_, a)) = prim

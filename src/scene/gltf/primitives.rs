@@ -51,7 +51,9 @@ impl Reader<'_> {
         Ok(Some((positions, tris)))
     }
 
-    /// The POSITION attribute of primitive `prim` (named `what` in errors).
+    /// The POSITION attribute of primitive `prim` (named `what` in errors): floats, or
+    /// the integers of `KHR_mesh_quantization` (normalized or not), as floats. The node
+    /// transform then dequantizes them, as the extension intends.
     fn positions(
         &self,
         prim: &gltf::Primitive<'_>,
@@ -61,22 +63,27 @@ impl Reader<'_> {
         let pos = prim
             .get(&gltf::Semantic::Positions)
             .ok_or_else(|| self.err(format!("{what}: no POSITION attribute")))?;
-        if pos.data_type() != gltf::accessor::DataType::F32
-            || pos.dimensions() != gltf::accessor::Dimensions::Vec3
-            || pos.normalized()
-        {
-            return Err(self.err(format!(
-                "{what}: POSITION must be float VEC3 (quantized positions are not read)"
-            )));
+        use gltf::accessor::DataType;
+        if pos.dimensions() != gltf::accessor::Dimensions::Vec3 {
+            return Err(self.err(format!("{what}: POSITION must be VEC3")));
         }
-        let raw = accessor_bytes(&pos, buffers, 12, MAX_OBJ_VERTICES)
+        let (ty, norm) = (pos.data_type(), pos.normalized());
+        let size = match ty {
+            DataType::F32 if !norm => 4,
+            DataType::I8 | DataType::U8 => 1,
+            DataType::I16 | DataType::U16 => 2,
+            _ => {
+                return Err(self.err(format!(
+                    "{what}: POSITION of type {ty:?}{} is not read (float, or \
+                     KHR_mesh_quantization's 8- and 16-bit integers)",
+                    if norm { " (normalized)" } else { "" }
+                )))
+            }
+        };
+        let raw = accessor_bytes(&pos, buffers, 3 * size, MAX_OBJ_VERTICES)
             .map_err(|m| self.err(format!("{what}: POSITION {m}")))?;
         Ok(raw
-            .map(|b| {
-                std::array::from_fn(|k| {
-                    f32::from_le_bytes(b[4 * k..4 * k + 4].try_into().unwrap_or([0; 4]))
-                })
-            })
+            .map(|b| std::array::from_fn(|k| component(&b[size * k..size * (k + 1)], ty, norm)))
             .collect())
     }
 
@@ -115,5 +122,42 @@ impl Reader<'_> {
             return Err(self.err(format!("{what}: index {bad} out of range ({n} vertices)")));
         }
         Ok(list)
+    }
+}
+
+/// One vertex component of `ty` as a float: normalized integers map to [0, 1] (unsigned)
+/// or [−1, 1] (signed, `max(c / (2ⁿ⁻¹ − 1), −1)`), as glTF defines them.
+fn component(b: &[u8], ty: gltf::accessor::DataType, normalized: bool) -> f32 {
+    use gltf::accessor::DataType;
+    let (v, scale) = match ty {
+        DataType::I8 => (b[0] as i8 as f32, 127.0),
+        DataType::U8 => (b[0] as f32, 255.0),
+        DataType::I16 => (i16::from_le_bytes([b[0], b[1]]) as f32, 32767.0),
+        DataType::U16 => (u16::from_le_bytes([b[0], b[1]]) as f32, 65535.0),
+        _ => return f32::from_le_bytes([b[0], b[1], b[2], b[3]]),
+    };
+    if normalized {
+        (v / scale).max(-1.0)
+    } else {
+        v
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::component;
+    use gltf::accessor::DataType;
+
+    #[test]
+    fn quantized_components_dequantize_as_gltf_defines() {
+        assert_eq!(component(&[0x80], DataType::I8, true), -1.0);
+        assert_eq!(component(&[0x81], DataType::I8, true), -1.0);
+        assert_eq!(component(&[127], DataType::I8, true), 1.0);
+        assert_eq!(component(&[0x81], DataType::I8, false), -127.0);
+        assert_eq!(component(&[255], DataType::U8, true), 1.0);
+        assert_eq!(component(&[0xff, 0x7f], DataType::I16, true), 1.0);
+        assert_eq!(component(&[0x00, 0x80], DataType::I16, false), -32768.0);
+        assert_eq!(component(&[0xff, 0xff], DataType::U16, false), 65535.0);
+        assert_eq!(component(&1.5f32.to_le_bytes(), DataType::F32, false), 1.5);
     }
 }

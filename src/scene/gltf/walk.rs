@@ -10,6 +10,7 @@ use glam::{DMat4, DVec3};
 use super::primitives::Triangles;
 use super::{tree, Buffers, GltfModel, Reader, Unique};
 use crate::input_limits::{MAX_COORD_M, MAX_OBJ_TRIANGLES, MAX_OBJ_VERTICES};
+use crate::scene::materials::MaterialTable;
 use crate::scene::obj::ObjPart;
 use crate::scene::SceneError;
 
@@ -91,10 +92,12 @@ impl Reader<'_> {
         inst: &mut Instances<'_>,
         out: &mut GltfModel,
     ) -> Result<(), SceneError> {
-        let name = inst.surfaces.take(node.name().or(mesh.name()), || {
+        let base = inst.surfaces.take(node.name().or(mesh.name()), || {
             format!("node{}", node.index())
         });
+        let names = surface_names(&base, mesh, inst, &out.table);
         for prim in mesh.primitives() {
+            let name = &names[&prim.material().index()];
             let tris = match inst.decoded.entry((mesh.index(), prim.index())) {
                 Entry::Occupied(e) => e.into_mut(),
                 Entry::Vacant(e) => e.insert(self.primitive(&prim, mesh, inst.buffers)?),
@@ -111,12 +114,44 @@ impl Reader<'_> {
                      triangles over all mesh instances"
                 )));
             }
-            let part = self.part(&name, world, positions, indices, &prim, inst.mats)?;
+            let part = self.part(name, world, positions, indices, &prim, inst.mats)?;
             out.parts.push(part);
         }
         Ok(())
     }
+}
 
+/// The surface name of each material among `mesh`'s primitives (by glTF material index,
+/// None for the default material): the node's `base` name when they all share one
+/// material, else `base / material` for each, so that floor, walls and furniture that an
+/// exporter put into one mesh stay apart.
+fn surface_names(
+    base: &str,
+    mesh: &gltf::Mesh<'_>,
+    inst: &mut Instances<'_>,
+    table: &MaterialTable,
+) -> HashMap<Option<usize>, String> {
+    let mut used: Vec<Option<usize>> = mesh.primitives().map(|p| p.material().index()).collect();
+    used.sort_unstable();
+    used.dedup();
+    if used.len() == 1 {
+        return used.into_iter().map(|m| (m, base.to_string())).collect();
+    }
+    used.into_iter()
+        .map(|m| {
+            let material = m
+                .and_then(|i| inst.mats.get(i))
+                .and_then(|&k| table.materials.get(k as usize))
+                .map_or("default", |mat| mat.name.as_str());
+            let name = inst
+                .surfaces
+                .take(Some(&format!("{base} / {material}")), || base.to_string());
+            (m, name)
+        })
+        .collect()
+}
+
+impl Reader<'_> {
     /// Warns of the primitives (points, lines) and lights (directional) the walk skipped.
     fn warn_skipped(&mut self, skipped_modes: usize, skipped_directional: usize) {
         if skipped_modes > 0 {

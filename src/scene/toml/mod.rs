@@ -119,6 +119,10 @@ pub(crate) struct FaceOptions {
     /// Glazing: the share of daylight that passes straight through, 0..1 (see
     /// [`crate::geometry::glazing`]).
     pub(crate) transmittance: Option<f64>,
+    /// Keeps a surface or material that the model file makes see-through (glTF
+    /// transmission or alpha blending) an opaque, meshed one.
+    #[serde(default)]
+    pub(crate) opaque: bool,
 }
 
 #[derive(Debug, Clone, Deserialize)]
