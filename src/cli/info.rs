@@ -1,5 +1,6 @@
 //! `relight info`: the scenes under a folder with their patch counts, surfaces, light
-//! groups and cameras (meshes each scene; bakes nothing).
+//! groups and cameras, their bounds in metres and the units of their files, and their
+//! warnings (meshes each scene; bakes nothing).
 
 use std::path::Path;
 
@@ -35,6 +36,22 @@ pub fn run(root: &Path) -> Result<()> {
                     groups.join(", "),
                     cams.join(", ")
                 );
+                let (lo, hi) = s.bounds();
+                let xyz = |v: glam::DVec3| format!("[{:.3}, {:.3}, {:.3}]", v.x, v.y, v.z);
+                let size = hi - lo;
+                outln!(
+                    "{:<16} bounds (m) min {} max {}  size {:.3} x {:.3} x {:.3} m  units {}",
+                    "",
+                    xyz(lo),
+                    xyz(hi),
+                    size.x,
+                    size.y,
+                    size.z,
+                    units_label(&s)
+                );
+                for w in &s.warnings {
+                    outln!("{:<16} warning: {w}", "");
+                }
             }
             Err(e) => outln!(
                 "{:<16} FAILED: {e}",
@@ -43,4 +60,13 @@ pub fn run(root: &Path) -> Result<()> {
         }
     }
     Ok(())
+}
+
+/// The scene's file unit and its size in metres (`mm (0.001 m)`), `m` alone for metres.
+fn units_label(s: &relight::scene::Scene) -> String {
+    if s.scale == 1.0 || s.units == format!("{} m", s.scale) {
+        s.units.clone()
+    } else {
+        format!("{} ({} m)", s.units, s.scale)
+    }
 }

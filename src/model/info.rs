@@ -47,14 +47,31 @@ pub struct SiteInfo {
     pub weather_files: Vec<String>,
 }
 
-/// The scene's axis-aligned bounds, m.
+/// The scene's axis-aligned bounds, in metres (the model's coordinates after `units` or
+/// `scale` of `scene.toml`): the box of its triangles.
 #[derive(Debug, Clone, Serialize)]
 #[cfg_attr(feature = "server", derive(utoipa::ToSchema))]
 pub struct Bounds {
+    /// The lowest corner [x, y, z], m.
     #[cfg_attr(feature = "server", schema(value_type = crate::schema::Rgb))]
     pub min: [f64; 3],
+    /// The highest corner [x, y, z], m.
     #[cfg_attr(feature = "server", schema(value_type = crate::schema::Rgb))]
     pub max: [f64; 3],
+    /// The size along x, y and z (`max` − `min`), m.
+    #[cfg_attr(feature = "server", schema(value_type = crate::schema::Rgb))]
+    pub size: [f64; 3],
+}
+
+impl Bounds {
+    /// The bounds from their corners, in metres.
+    pub fn new(min: glam::DVec3, max: glam::DVec3) -> Bounds {
+        Bounds {
+            min: min.to_array(),
+            max: max.to_array(),
+            size: (max - min).to_array(),
+        }
+    }
 }
 
 /// The kind of a luminaire's intensity distribution.
@@ -201,13 +218,10 @@ impl Model {
         }
     }
 
-    /// The scene's bounds.
+    /// The scene's bounds, m.
     pub fn bounds(&self) -> Bounds {
         let (lo, hi) = self.baked.scene.bounds();
-        Bounds {
-            min: lo.to_array(),
-            max: hi.to_array(),
-        }
+        Bounds::new(lo, hi)
     }
 
     /// Every point luminaire, by group in scene order.

@@ -3,6 +3,8 @@
 //! input as a [`SceneError`] that names the file and line (or the object).
 //!
 //! Units: positions are converted to metres on load (`units`/`scale` in `scene.toml`).
+//! A model whose size makes no sense in metres, when `scene.toml` gives neither, loads
+//! with a warning that suggests the setting ([`extent`]).
 //! `Kd` is diffuse reflectance in [0, 1) per channel; `Ke` is luminous exitance in lm/m²
 //! per channel (see [`crate::color`]).
 //!
@@ -18,6 +20,7 @@
 
 pub mod archive;
 mod cameras;
+mod extent;
 mod files;
 mod gltf;
 pub mod grids;
@@ -201,6 +204,10 @@ impl Scene {
             surf_index,
             mut triangles,
         } = geometry;
+        if cfg.units.is_none() && cfg.scale.is_none() {
+            let (lo, hi) = bounds_of(&triangles);
+            warnings.extend(extent::units_hint(&model_name, (hi - lo).max_element()));
+        }
         let MaterialTable {
             materials,
             index: mat_index,
@@ -255,17 +262,9 @@ impl Scene {
         })
     }
 
-    /// Scene bounds in metres (min, max).
+    /// Scene bounds in metres (min, max): the axis-aligned box of its triangles.
     pub fn bounds(&self) -> (DVec3, DVec3) {
-        let mut lo = DVec3::splat(f64::INFINITY);
-        let mut hi = DVec3::splat(f64::NEG_INFINITY);
-        for t in &self.triangles {
-            for p in t.p {
-                lo = lo.min(p);
-                hi = hi.max(p);
-            }
-        }
-        (lo, hi)
+        bounds_of(&self.triangles)
     }
 
     /// Index of the light group with this id.
@@ -277,6 +276,19 @@ impl Scene {
     pub fn surface_index(&self, name: &str) -> Option<usize> {
         self.surfaces.iter().position(|s| s.name == name)
     }
+}
+
+/// The axis-aligned box of `triangles` (min, max), in their units.
+fn bounds_of(triangles: &[Triangle]) -> (DVec3, DVec3) {
+    let mut lo = DVec3::splat(f64::INFINITY);
+    let mut hi = DVec3::splat(f64::NEG_INFINITY);
+    for t in triangles {
+        for p in t.p {
+            lo = lo.min(p);
+            hi = hi.max(p);
+        }
+    }
+    (lo, hi)
 }
 
 /// What the scene's model file gives: its name in messages, the materials, one part per

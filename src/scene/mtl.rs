@@ -3,12 +3,13 @@
 //! - `newmtl NAME` starts a material; a name may not be empty or defined twice.
 //! - `Kd r g b` (diffuse reflectance, each in [0, 1)) and `Ke r g b` (luminous exitance,
 //!   lm/m², each in [0, [`MAX_EXITANCE`]]) are parsed strictly: three numbers (or one,
-//!   meaning grey, as the MTL specification allows), finite in `f32`, in range, at most
-//!   once per material. A trailing `# comment` is allowed. One exception, as exporters
-//!   write `Kd 1 1 1` all the time: a `Kd` with a channel of 1 or more is scaled so its
-//!   largest channel is [`MAX_KD`] (keeping its colour), with a warning; with `strict`
-//!   it is an error.
-//! - `map_Kd [options] FILE` records the texture (the last word of the line) for the
+//!   meaning grey, as the MTL specification allows), finite in `f32`, in range. A trailing
+//!   `# comment` is allowed. Two exceptions, as exporters write them: a `Kd` with a channel
+//!   of 1 or more is scaled so its largest channel is [`MAX_KD`] (keeping its colour),
+//!   with a warning; a key given twice in one material (`Kd`, `Ke` or `map_Kd`) is taken
+//!   last, as tobj, Assimp and Blender take it, with a warning naming the file, line,
+//!   material and key. With `strict` each is an error.
+//! - `map_Kd [options] FILE` records the texture (the rest of the line) for the
 //!   material table, which averages it into `Kd`.
 //! - Numeric statements relight does not use (`Ka`, `Ks`, `Tf`, `Ns`, `Ni`, `d`, `Tr`,
 //!   `illum`, the PBR extensions `Pr`, `Pm`, …) must still read as numbers, so that a
@@ -85,7 +86,7 @@ pub fn parse_mtl_str(path: &str, text: &str) -> Result<MtlLibrary, SceneError> {
 }
 
 /// Parses an MTL file. With `strict`, what a lenient read fixes with a warning (a `Kd`
-/// of 1 or more) is an error.
+/// of 1 or more, a key given twice in one material) is an error.
 pub(crate) fn parse_mtl(path: &Path, text: &str, strict: bool) -> Result<MtlLibrary, SceneError> {
     let mut p = MtlParser {
         path,
@@ -120,13 +121,31 @@ pub(crate) fn parse_mtl(path: &Path, text: &str, strict: bool) -> Result<MtlLibr
                     ),
                 ));
             }
-            "map_Kd" => p.map_kd(line, words),
+            "map_Kd" => p.map_kd(line, words)?,
             k if NUMERIC.contains(&k) => check_numeric(k, words).map_err(|m| p.syntax(line, m))?,
             k if IGNORED.contains(&k) || k.starts_with("map_") => {}
             k => p.unknown.note(k, line),
         }
     }
     Ok(p.finish())
+}
+
+/// The statements a material gives at most once without a warning.
+#[derive(Debug, Clone, Copy)]
+enum Key {
+    Kd = 0,
+    Ke = 1,
+    MapKd = 2,
+}
+
+impl Key {
+    fn name(self) -> &'static str {
+        match self {
+            Key::Kd => "Kd",
+            Key::Ke => "Ke",
+            Key::MapKd => "map_Kd",
+        }
+    }
 }
 
 /// The state of one MTL file's reading.
@@ -136,8 +155,8 @@ struct MtlParser<'a> {
     /// Errors instead of the lenient fixes.
     strict: bool,
     lib: MtlLibrary,
-    /// Per material: whether Kd / Ke were given.
-    given: Vec<[bool; 2]>,
+    /// Per material: the line of its `Kd`, `Ke` and `map_Kd` (in [`Key`] order), if given.
+    given: Vec<[Option<usize>; 3]>,
     /// Line of each material's `newmtl`.
     lines_of: HashMap<String, usize>,
     /// The unknown statements.
@@ -177,7 +196,37 @@ impl MtlParser<'_> {
             line,
             map_kd: None,
         });
-        self.given.push([false; 2]);
+        self.given.push([None; 3]);
+        Ok(())
+    }
+
+    /// Notes that the current material (index `at`) gives `key` on `line`. A key it gave
+    /// before is taken last with a warning; with `strict` it is an error.
+    fn once(&mut self, at: usize, key: Key, line: usize) -> Result<(), SceneError> {
+        let (Some(slots), Some(cur)) = (self.given.get_mut(at), self.lib.materials.get(at)) else {
+            return Ok(());
+        };
+        let slot = &mut slots[key as usize];
+        let prev = slot.replace(line);
+        let Some(prev) = prev else { return Ok(()) };
+        let name = key.name();
+        if self.strict {
+            return Err(SceneError::BadMaterial {
+                path: self.path.to_path_buf(),
+                line,
+                material: cur.name.clone(),
+                message: format!(
+                    "{name} is given twice (first on line {prev}; strict = true, a lenient \
+                     load takes the last)"
+                ),
+            });
+        }
+        self.lib.warnings.push(format!(
+            "{}:{line}: material '{}': {name} is given twice (first on line {prev}): the \
+             last is used",
+            self.path.display(),
+            cur.name
+        ));
         Ok(())
     }
 
@@ -189,12 +238,16 @@ impl MtlParser<'_> {
         words: SplitWhitespace<'_>,
     ) -> Result<(), SceneError> {
         let path = self.path;
-        let (Some(cur), Some(seen)) = (self.lib.materials.last_mut(), self.given.last_mut()) else {
+        let Some(at) = self.lib.materials.len().checked_sub(1) else {
             return Err(SceneError::Syntax {
                 path: path.to_path_buf(),
                 line,
                 message: format!("{key} before any newmtl"),
             });
+        };
+        self.once(at, if key == "Ke" { Key::Ke } else { Key::Kd }, line)?;
+        let Some(cur) = self.lib.materials.get_mut(at) else {
+            return Ok(());
         };
         let bad = |message: String| SceneError::BadMaterial {
             path: path.to_path_buf(),
@@ -202,11 +255,6 @@ impl MtlParser<'_> {
             material: cur.name.clone(),
             message,
         };
-        let slot = usize::from(key == "Ke");
-        if seen[slot] {
-            return Err(bad(format!("{key} is given twice")));
-        }
-        seen[slot] = true;
         let v = color_values(key, words).map_err(bad)?;
         if key == "Kd" {
             let out_of_range = |strict: bool| {
@@ -254,17 +302,23 @@ impl MtlParser<'_> {
 
     /// `map_Kd [options] FILE` of the current material: the options are skipped with
     /// their arguments, and the rest of the line is the file name (it may hold spaces).
-    fn map_kd(&mut self, line: usize, words: SplitWhitespace<'_>) {
+    fn map_kd(&mut self, line: usize, words: SplitWhitespace<'_>) -> Result<(), SceneError> {
         let words: Vec<&str> = words.take_while(|w| !w.starts_with('#')).collect();
-        let file = map_file_name(&words);
-        match (self.lib.materials.last_mut(), file) {
-            (Some(cur), Some(f)) => cur.map_kd = Some((f, line)),
-            (None, Some(_)) => self.lib.warnings.push(format!(
+        let Some(file) = map_file_name(&words) else {
+            return Ok(());
+        };
+        let Some(at) = self.lib.materials.len().checked_sub(1) else {
+            self.lib.warnings.push(format!(
                 "{}:{line}: map_Kd before any newmtl ignored",
                 self.path.display()
-            )),
-            (_, None) => {}
+            ));
+            return Ok(());
+        };
+        self.once(at, Key::MapKd, line)?;
+        if let Some(cur) = self.lib.materials.get_mut(at) {
+            cur.map_kd = Some((file, line));
         }
+        Ok(())
     }
 
     /// The library, with one warning summing up the unknown statements.

@@ -331,3 +331,78 @@ fn map_kd_file_names_with_spaces_lost_their_first_word() {
     assert_eq!(material(&scene, "grey").kd, [0.5, 0.0, 0.0]);
     assert!(scene.warnings.is_empty(), "{:?}", scene.warnings);
 }
+
+#[test]
+fn a_key_given_twice_in_a_material_was_refused() {
+    // Exporters repeat keys (`Kd` twice in 'mesh29_SG'); tobj, Assimp and Blender take the
+    // last. relight does too, with a warning naming the file, line, material and key.
+    let _gate = common::shared();
+    let mtl = "newmtl grey\nKd 0.1 0.1 0.1\nKe 0 0 0\nKd 0.6 0.5 0.4\nKe 0 0 0\n";
+    let s = load(TRI, mtl, None);
+    assert_eq!(material(&s, "grey").kd, [0.6, 0.5, 0.4]);
+    assert!(
+        warned(
+            &s,
+            &[
+                "scene.mtl:4",
+                "material 'grey'",
+                "Kd is given twice",
+                "first on line 2"
+            ]
+        ),
+        "{:?}",
+        s.warnings
+    );
+    assert!(
+        warned(&s, &["scene.mtl:5", "material 'grey'", "Ke is given twice"]),
+        "{:?}",
+        s.warnings
+    );
+    // The last value counts also for emission, and a scaled first Kd does not linger.
+    let obj = format!("{TRI}o lamp\nusemtl glow\nv 0 1 0\nv 0 1 1\nv 1 1 0\nf 4 5 6\n");
+    let mtl = "newmtl grey\nKd 1 1 1\nKd 0.2 0.2 0.2\nnewmtl glow\nKe 5 5 5\nKe 7 7 7\n";
+    let s = load(&obj, mtl, None);
+    assert_eq!(material(&s, "grey").kd, [0.2; 3]);
+    assert_eq!(material(&s, "glow").ke, [7.0; 3]);
+    // A bad repeated value is still an error at its own line.
+    let e = load_err(TRI, "newmtl grey\nKd 0.5 0.5 0.5\nKd -1 0 0\n", None);
+    assert!(e.contains("scene.mtl:3") && e.contains("[0, 1)"), "{e}");
+    // strict = true refuses the repeat, naming the line, the material and the key.
+    let e = load_err(
+        TRI,
+        "newmtl grey\nKd 0.1 0.1 0.1\nKd 0.6 0.5 0.4\n",
+        Some(STRICT),
+    );
+    assert!(
+        e.contains("scene.mtl:3")
+            && e.contains("'grey'")
+            && e.contains("Kd is given twice (first on line 2")
+            && e.contains("strict = true"),
+        "{e}"
+    );
+    // map_Kd too: the last texture is the one averaged in.
+    let mtl = "newmtl grey\nKd 0.5 0.5 0.5\nmap_Kd red.png\nmap_Kd green.png\n";
+    let s = write_scene(TRI, mtl, None);
+    png(&s.path().join("red.png"), [255, 0, 0, 255]);
+    png(&s.path().join("green.png"), [0, 255, 0, 255]);
+    let scene = Scene::load(s.path()).unwrap();
+    assert_eq!(material(&scene, "grey").kd, [0.0, 0.5, 0.0]);
+    assert!(
+        warned(&scene, &["scene.mtl:4", "'grey'", "map_Kd is given twice"]),
+        "{:?}",
+        scene.warnings
+    );
+    std::fs::write(s.path().join("scene.toml"), STRICT).unwrap();
+    let e = Scene::load(s.path()).expect_err("strict").to_string();
+    assert!(
+        e.contains("scene.mtl:4") && e.contains("map_Kd is given twice"),
+        "{e}"
+    );
+    // Keys of different materials are no repeat.
+    let s = load(
+        TRI,
+        "newmtl grey\nKd 0.5 0.5 0.5\nnewmtl other\nKd 0.2 0.2 0.2\n",
+        None,
+    );
+    assert!(s.warnings.is_empty(), "{:?}", s.warnings);
+}

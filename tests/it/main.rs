@@ -30,3 +30,4 @@ mod scene_errors;
 mod shards;
 mod solver;
 mod ugr_table;
+mod units;

@@ -234,3 +234,42 @@ async fn small_scenes_waited_behind_large_ones_baked_in_name_order() {
             > 4 * slot("b-small").ready().unwrap().model.patches()
     );
 }
+
+#[tokio::test]
+async fn scene_details_give_the_bounds_in_metres_and_the_units_hint() {
+    let _gate = common::shared();
+    let dir = tempfile::tempdir().unwrap();
+    // One 6 × 3 × 4 m room written in millimetres twice: with `units = "mm"`, and without.
+    let room = common::box_faces("room", "wall", [0., 0., 0.], [6000., 3000., 4000.], true);
+    for (id, toml) in [
+        ("set", "units = \"mm\"\n[mesh]\ntarget_patches = 60\n"),
+        ("bare", "[mesh]\ntarget_patches = 60\n"),
+    ] {
+        let d = dir.path().join(id);
+        std::fs::create_dir(&d).unwrap();
+        std::fs::write(d.join("r.obj"), format!("mtllib r.mtl\n{room}")).unwrap();
+        std::fs::write(d.join("r.mtl"), "newmtl wall\nKd 0.5 0.5 0.5\n").unwrap();
+        std::fs::write(d.join("scene.toml"), toml).unwrap();
+    }
+    let s = AppState::new(config(dir.path().into(), dir.path().join("cache"))).unwrap();
+    s.bake_all();
+    let (st, v) = get(router(s.clone()), "/api/scenes/set").await;
+    assert_eq!(st, StatusCode::OK, "{v}");
+    let close =
+        |a: &Value, b: [f64; 3]| (0..3).all(|k| (a[k].as_f64().unwrap() - b[k]).abs() < 1e-9);
+    let b = &v["bounds"];
+    assert!(close(&b["min"], [0.0; 3]), "{b}");
+    assert!(close(&b["max"], [6.0, 3.0, 4.0]), "{b}");
+    assert!(close(&b["size"], [6.0, 3.0, 4.0]), "{b}");
+    assert_eq!(v["units"]["source_units"], "mm");
+    assert_eq!(v["warnings"], serde_json::json!([]));
+    // Without units the file is read in metres, and the answer says what to set.
+    let (st, v) = get(router(s), "/api/scenes/bare").await;
+    assert_eq!(st, StatusCode::OK, "{v}");
+    assert!(close(&v["bounds"]["size"], [6000.0, 3000.0, 4000.0]), "{v}");
+    let warned = v["warnings"].as_array().unwrap().iter().any(|w| {
+        let w = w.as_str().unwrap();
+        w.contains("bare/r.obj") && w.contains("6000 m across") && w.contains("units = \"mm\"")
+    });
+    assert!(warned, "{}", v["warnings"]);
+}
