@@ -396,3 +396,50 @@ fn malformed_compressed_views_are_refused_naming_the_view() {
     let e = load_err(folder(&[("room.glb", &super::glb(&doc, bin))]).path());
     assert!(e.contains("filter 'WAVELET'"), "{e}");
 }
+
+/// Each material's total area (m²) and the triangle count of a scene.
+fn material_areas(s: &Scene) -> (std::collections::BTreeMap<String, f64>, usize) {
+    let mut out = std::collections::BTreeMap::new();
+    for t in &s.triangles {
+        let a = (t.p[1] - t.p[0]).cross(t.p[2] - t.p[0]).length() / 2.0;
+        *out.entry(s.materials[t.material as usize].name.clone())
+            .or_insert(0.0) += a;
+    }
+    (out, s.triangles.len())
+}
+
+#[test]
+fn the_gallery_packed_by_gltfpack_loads_as_the_plain_gallery() {
+    // tests/data/gltfpack/gallery-packed.glb is scenes/gallery written by gltfpack 1.3
+    // (`gltfpack -i gallery.gltf -o gallery-packed.glb -c -kn -km`): meshopt-compressed
+    // views, 14-bit integer positions (KHR_mesh_quantization) dequantized by the nodes.
+    let repo = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
+    let plain = load(&repo.join("scenes/gallery"));
+    let packed_dir = folder(&[(
+        "gallery.glb",
+        &std::fs::read(repo.join("tests/data/gltfpack/gallery-packed.glb")).unwrap(),
+    )]);
+    // gltfpack drops the lights' names: their groups take the ids `light0`, `light1`.
+    let toml = std::fs::read_to_string(repo.join("scenes/gallery/scene.toml"))
+        .unwrap()
+        .replace("id = \"spots\"", "id = \"light0\"")
+        .replace("id = \"lamp\"", "id = \"light1\"");
+    std::fs::write(packed_dir.path().join("scene.toml"), toml).unwrap();
+    let packed = load(packed_dir.path());
+    let (want, n) = material_areas(&plain);
+    let (got, m) = material_areas(&packed);
+    assert_eq!(m, n);
+    assert_eq!(
+        got.keys().collect::<Vec<_>>(),
+        want.keys().collect::<Vec<_>>()
+    );
+    for (k, a) in &want {
+        // 14 bits over the gallery's 6 m: a step of 0.37 mm on each coordinate.
+        assert!((got[k] - a).abs() <= 1e-3 * a, "{k}: {} vs {a} m²", got[k]);
+    }
+    let groups = |s: &Scene| s.lights.iter().map(|g| g.name.clone()).collect::<Vec<_>>();
+    assert_eq!(groups(&packed), groups(&plain));
+    let (lo, hi) = plain.bounds();
+    let (plo, phi) = packed.bounds();
+    assert!((plo - lo).abs().max_element() < 1e-3 && (phi - hi).abs().max_element() < 1e-3);
+}
