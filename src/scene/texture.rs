@@ -1,6 +1,6 @@
 //! Textures averaged into reflectance: `map_Kd` of an MTL material.
 //!
-//! A PNG or JPEG texture is decoded within [`MAX_TEXTURE_PIXELS`] and
+//! A PNG, JPEG or WebP texture is decoded within [`MAX_TEXTURE_PIXELS`] and
 //! [`MAX_TEXTURE_SIDE`], its sRGB-encoded channels are converted to linear values, and the
 //! mean is taken weighted by alpha (a fully transparent texel does not count; a texture
 //! that is transparent everywhere counts every texel equally). Radiosity needs one
@@ -16,9 +16,13 @@ pub(crate) fn mean_linear_rgb(bytes: &[u8]) -> Result<Rgb, String> {
         .with_guessed_format()
         .map_err(|e| e.to_string())?;
     match reader.format() {
-        Some(image::ImageFormat::Png | image::ImageFormat::Jpeg) => {}
-        Some(f) => return Err(format!("{f:?} textures are not supported (PNG or JPEG)")),
-        None => return Err("not a PNG or JPEG image".into()),
+        Some(image::ImageFormat::Png | image::ImageFormat::Jpeg | image::ImageFormat::WebP) => {}
+        Some(f) => {
+            return Err(format!(
+                "{f:?} textures are not supported (PNG, JPEG or WebP)"
+            ))
+        }
+        None => return Err("not a PNG, JPEG or WebP image".into()),
     }
     let (w, h) = reader.into_dimensions().map_err(|e| e.to_string())?;
     if w == 0 || h == 0 {

@@ -11,9 +11,10 @@ use crate::input_limits::{MAX_EXITANCE, MAX_KD, MAX_MATERIALS, MAX_TEXTURES, MAX
 use crate::scene::materials::{Gloss, Material, MaterialTable};
 use crate::scene::{files, mtl, texture, SceneError};
 
-/// Where material textures come from: the buffers, and the files read (a texture file is
-/// added); `count` textures read so far.
+/// Where material textures come from: the document's images, the buffers, and the files
+/// read (a texture file is added); `count` textures read so far.
 struct Textures<'b> {
+    doc: &'b gltf::Document,
     buffers: &'b Buffers,
     count: usize,
     files: &'b mut Vec<PathBuf>,
@@ -29,6 +30,7 @@ impl Reader<'_> {
         files: &mut Vec<PathBuf>,
     ) -> Result<(MaterialTable, Vec<u32>), SceneError> {
         let textures = &mut Textures {
+            doc,
             buffers,
             count: 0,
             files,
@@ -214,7 +216,9 @@ impl Reader<'_> {
         if textures.count > MAX_TEXTURES {
             return Err(self.err(format!("more than {MAX_TEXTURES} textures")));
         }
-        let img = tex.source();
+        let Some(img) = self.texture_image(&tex, material, textures.doc)? else {
+            return Ok(None);
+        };
         let what = format!("images[{}]", img.index());
         let bytes = match img.source() {
             gltf::image::Source::View { view, .. } if view.length() as u64 > MAX_TEXTURE_BYTES => {
@@ -262,6 +266,47 @@ impl Reader<'_> {
                 Ok(None)
             }
         }
+    }
+}
+
+impl Reader<'_> {
+    /// The image a texture reads: its `EXT_texture_webp` image, else its own `source`.
+    /// A texture whose only image is KTX2 (`KHR_texture_basisu`) or AVIF
+    /// (`EXT_texture_avif`), which relight does not decode, is None with a warning (its
+    /// material's factor is used alone), or an error with `strict`.
+    fn texture_image<'d>(
+        &mut self,
+        tex: &gltf::Texture<'d>,
+        material: &str,
+        doc: &'d gltf::Document,
+    ) -> Result<Option<gltf::Image<'d>>, SceneError> {
+        let webp = tex
+            .extension_value("EXT_texture_webp")
+            .and_then(|v| v.get("source"))
+            .and_then(serde_json::Value::as_u64)
+            .and_then(|i| doc.images().nth(usize::try_from(i).ok()?));
+        if let Some(img) = webp.or_else(|| tex.source()) {
+            return Ok(Some(img));
+        }
+        let kind = ["KHR_texture_basisu", "EXT_texture_avif"]
+            .into_iter()
+            .find(|e| tex.extension_value(e).is_some());
+        let why = match kind {
+            Some(e) => format!("its only image is {e}, which relight does not decode"),
+            None => "it names no image".to_string(),
+        };
+        if self.cfg.strict {
+            return Err(self.err(format!(
+                "textures[{}] of material '{material}': {why} (strict = true)",
+                tex.index()
+            )));
+        }
+        self.warnings.push(format!(
+            "{}: textures[{}] of material '{material}': {why}: its factor is used alone",
+            self.shown.display(),
+            tex.index()
+        ));
+        Ok(None)
     }
 }
 

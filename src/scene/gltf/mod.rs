@@ -65,9 +65,13 @@ mod walk;
 
 pub(crate) use lights::add_gltf_luminaires;
 
-/// Extensions a file may require. Others (Draco compression, KTX2 textures, …) are
-/// refused by name. Unrequired extensions are ignored.
-const READ_EXTENSIONS: [&str; 10] = [
+/// Extensions a file may require. Others (Draco compression, …) are refused by name.
+/// Unrequired extensions are ignored. KTX2 and AVIF textures are skipped with a warning
+/// (the material's factor alone sets its colour); WebP textures are read.
+const READ_EXTENSIONS: [&str; 13] = [
+    "EXT_texture_webp",
+    "KHR_texture_basisu",
+    "EXT_texture_avif",
     "EXT_meshopt_compression",
     "KHR_meshopt_compression",
     "KHR_mesh_quantization",

@@ -10,7 +10,7 @@ use relight::model::{Cancel, Model};
 use relight::scene::Scene;
 use serde_json::{json, Value};
 
-use super::{folder, load, load_err, warned, Doc};
+use super::{folder, kd_of, load, load_err, material_scene, png, warned, Doc};
 use crate::common;
 
 /// The 4 × 3 × 4 m room of [`room_quads`] as (material, corners) quads.
@@ -442,4 +442,74 @@ fn the_gallery_packed_by_gltfpack_loads_as_the_plain_gallery() {
     let (lo, hi) = plain.bounds();
     let (plo, phi) = packed.bounds();
     assert!((plo - lo).abs().max_element() < 1e-3 && (phi - hi).abs().max_element() < 1e-3);
+}
+
+/// A 4 × 4 lossless WebP of one colour.
+fn webp(rgba: [u8; 4]) -> Vec<u8> {
+    let mut out = Vec::new();
+    let img = image::RgbaImage::from_pixel(4, 4, image::Rgba(rgba));
+    image::codecs::webp::WebPEncoder::new_lossless(&mut out)
+        .encode(img.as_raw(), 4, 4, image::ExtendedColorType::Rgba8)
+        .unwrap();
+    out
+}
+
+#[test]
+fn webp_textures_are_read_and_ktx2_ones_leave_the_factor_with_a_warning() {
+    // Three materials over one colour: a PNG texture, the same colour as a WebP texture
+    // (EXT_texture_webp, no PNG fallback), and a KTX2 texture (KHR_texture_basisu), which
+    // relight does not decode.
+    let mut d = Doc::default();
+    let colour = [200, 100, 50, 255];
+    let (a, b) = (d.view(&png(colour)), d.view(&webp(colour)));
+    let c = d.view(b"\xabKTX 20\xbb\r\n\x1a\n not decoded");
+    let base = |t: usize| {
+        json!({"pbrMetallicRoughness": {"baseColorFactor": [0.5, 1, 1, 1],
+        "metallicFactor": 0, "baseColorTexture": {"index": t}}})
+    };
+    let mut mats = vec![base(0), base(1), base(2)];
+    for (m, name) in mats.iter_mut().zip(["png", "webp", "ktx2"]) {
+        m["name"] = json!(name);
+    }
+    let used = ["EXT_texture_webp", "KHR_texture_basisu"];
+    let glb = material_scene(
+        json!(mats),
+        &mut d,
+        json!({"images": [{"bufferView": a, "mimeType": "image/png"},
+                          {"bufferView": b, "mimeType": "image/webp"},
+                          {"bufferView": c, "mimeType": "image/ktx2"}],
+               "textures": [{"source": 0},
+                            {"extensions": {"EXT_texture_webp": {"source": 1}}},
+                            {"extensions": {"KHR_texture_basisu": {"source": 2}}}],
+               "extensionsUsed": used, "extensionsRequired": used}),
+    );
+    let dir = folder(&[("m.glb", &glb)]);
+    let s = load(dir.path());
+    let (png_kd, webp_kd, ktx_kd) = (kd_of(&s, "s0"), kd_of(&s, "s1"), kd_of(&s, "s2"));
+    assert_eq!(webp_kd, png_kd);
+    assert!(
+        (png_kd[0] - 0.5 * super::linear(200)).abs() < 1e-6,
+        "{png_kd:?}"
+    );
+    // The factor alone, its channel of 1 scaled to 0.95 with its colour kept.
+    let want = [0.475, 0.95, 0.95];
+    assert!(
+        (0..3).all(|k| (ktx_kd[k] - want[k]).abs() < 1e-6),
+        "{ktx_kd:?}"
+    );
+    assert!(
+        warned(
+            &s,
+            &["'ktx2'", "KHR_texture_basisu", "factor is used alone"]
+        ),
+        "{:?}",
+        s.warnings
+    );
+    // strict = true refuses it, naming the texture.
+    std::fs::write(dir.path().join("scene.toml"), "strict = true\n").unwrap();
+    let e = load_err(dir.path());
+    assert!(
+        e.contains("textures[2]") && e.contains("KHR_texture_basisu"),
+        "{e}"
+    );
 }
