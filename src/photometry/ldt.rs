@@ -173,8 +173,9 @@ fn parse(text: &str, lamp_set: Option<usize>) -> Result<CandelaTable, ParseError
         horizontal,
         candela,
         lamp_lumens: Some(set.flux),
-        input_watts: set.watts,
+        input_watts: (set.watts > 0.0).then_some(set.watts),
         opening: LuminousOpening::from_ldt(length / 1000.0, width / 1000.0, heights),
+        tilt: None,
     })
 }
 
@@ -330,7 +331,7 @@ mod tests {
             }
         );
         assert_eq!(t.lamp_lumens, Some(2000.0));
-        assert_eq!(t.input_watts, 24.0);
+        assert_eq!(t.input_watts, Some(24.0));
     }
 
     #[test]

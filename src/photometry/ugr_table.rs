@@ -448,7 +448,8 @@ mod tests {
                 .map(|g| i0 * f64::from(g).to_radians().cos().max(0.0))
                 .collect()],
             lamp_lumens: lamp,
-            input_watts: 0.0,
+            input_watts: None,
+            tilt: None,
         }
     }
 
@@ -480,7 +481,8 @@ mod tests {
             horizontal,
             candela,
             lamp_lumens: Some(3000.0),
-            input_watts: 0.0,
+            input_watts: None,
+            tilt: None,
         }
     }
 
