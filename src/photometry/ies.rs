@@ -132,7 +132,10 @@ enum Version {
 impl Version {
     /// The version of the first non-blank line `first` (a byte-order mark ignored).
     fn of(first: &str) -> Version {
-        let tag = first.trim_start_matches('\u{feff}').trim().to_ascii_uppercase();
+        let tag = first
+            .trim_start_matches('\u{feff}')
+            .trim()
+            .to_ascii_uppercase();
         match tag.as_str() {
             "IESNA91" | "IESNA:LM-63-1991" => Version::Lm1991,
             "IESNA:LM-63-1995" => Version::Lm1995,
@@ -241,11 +244,7 @@ fn read_tilt<'a, I: Iterator<Item = (usize, &'a str)>>(
         2 => LampGeometry::HorizontalStays,
         _ => LampGeometry::HorizontalTilts,
     };
-    let (_, n) = nums.count(
-        "TILT number of angle/factor pairs",
-        0.0,
-        MAX_IES_TILT_PAIRS as f64,
-    )?;
+    let (_, n) = nums.count("TILT pair count", 0.0, MAX_IES_TILT_PAIRS as f64)?;
     let angles = (0..n)
         .map(|_| nums.field("TILT angles", -180.0, 180.0))
         .collect::<Result<Vec<_>, _>>()?;
@@ -514,7 +513,7 @@ TILT=NONE
             ("4\n2\n0 90\n1 0.5", 4, "geometry"),
             ("1.5\n2\n0 90\n1 0.5", 4, "whole"),
             ("1\n2.5\n0 90\n1 0.5", 5, "whole"),
-            ("1\n20000\n0 90\n1 0.5", 5, "pairs"),
+            ("1\n20000\n0 90\n1 0.5", 5, "pair count"),
             ("1\n3\n0 90\n45\n1 0.5 1", 7, "increase"),
             ("1\n2\n0 270\n1 0.5", 6, "TILT angles"),
             ("1\n2\n0 90\n1 x", 7, "'x'"),

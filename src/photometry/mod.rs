@@ -516,22 +516,55 @@ mod tests {
         };
         // Lamp vertical: the aim's angle from straight down, folded past 90° (the table
         // stops at 90°: base up reads as base down).
-        for (deg, factor) in [(0.0, 1.0), (30.0, 0.8), (45.0, 0.65), (60.0, 0.5), (120.0, 0.5)] {
+        for (deg, factor) in [
+            (0.0, 1.0),
+            (30.0, 0.8),
+            (45.0, 0.65),
+            (60.0, 0.5),
+            (120.0, 0.5),
+        ] {
             let l = tilted(tilt(LampGeometry::Vertical), at(deg), DVec3::Z, None);
-            assert!((l.tilt_factor - factor).abs() < 1e-9, "{deg}°: {}", l.tilt_factor);
+            assert!(
+                (l.tilt_factor - factor).abs() < 1e-9,
+                "{deg}°: {}",
+                l.tilt_factor
+            );
             assert!((l.intensity(DVec3::X) - 1000.0 * factor).abs() < 1e-6);
             assert!((l.lumens / flux - factor).abs() < 1e-3, "{}", l.lumens);
             assert_eq!(l.watts, Some(250.0));
         }
         // Lamp horizontal and staying so: the same angle.
-        let l = tilted(tilt(LampGeometry::HorizontalStays), at(60.0), DVec3::Z, None);
+        let l = tilted(
+            tilt(LampGeometry::HorizontalStays),
+            at(60.0),
+            DVec3::Z,
+            None,
+        );
         assert!((l.tilt_factor - 0.5).abs() < 1e-9);
         // Lamp horizontal along c0, tilting with the luminaire: aimed 60° within its
         // C0–C180 plane the lamp tilts 60°; turned 60° about c0 it stays level.
-        let along = tilted(tilt(LampGeometry::HorizontalTilts), at(60.0), at(150.0), None);
-        assert!((along.tilt_factor - 0.5).abs() < 1e-9, "{}", along.tilt_factor);
-        let across = tilted(tilt(LampGeometry::HorizontalTilts), at(60.0), DVec3::Z, None);
-        assert!((across.tilt_factor - 1.0).abs() < 1e-9, "{}", across.tilt_factor);
+        let along = tilted(
+            tilt(LampGeometry::HorizontalTilts),
+            at(60.0),
+            at(150.0),
+            None,
+        );
+        assert!(
+            (along.tilt_factor - 0.5).abs() < 1e-9,
+            "{}",
+            along.tilt_factor
+        );
+        let across = tilted(
+            tilt(LampGeometry::HorizontalTilts),
+            at(60.0),
+            DVec3::Z,
+            None,
+        );
+        assert!(
+            (across.tilt_factor - 1.0).abs() < 1e-9,
+            "{}",
+            across.tilt_factor
+        );
         // A given wattage wins over the file's.
         let l = tilted(tilt(LampGeometry::Vertical), at(0.0), DVec3::Z, Some(400.0));
         assert_eq!(l.watts, Some(400.0));
