@@ -115,7 +115,8 @@ pub struct LuminaireInfo {
     pub aim: [f64; 3],
     /// Luminous flux, lm.
     pub lumens: f64,
-    /// Electrical power, W; null when not given.
+    /// Electrical power, W: `scene.toml`'s `watts` (or lumens over `efficacy`), else the
+    /// photometric file's input watts or lamp-set wattage; null when none gives it.
     #[cfg_attr(feature = "server", schema(required = true))]
     pub watts: Option<f64>,
     #[cfg_attr(feature = "server", schema(inline))]

@@ -79,7 +79,7 @@ pub struct GridAnswer {
 pub struct LuminairePower {
     /// lm.
     pub luminaire_lumens: f64,
-    /// W, dimming assumed proportional; null when a luminaire gives no wattage.
+    /// W, dimming assumed proportional; null when a lit luminaire gives no wattage.
     #[cfg_attr(feature = "server", schema(required = true))]
     pub luminaire_watts: Option<f64>,
 }
@@ -310,7 +310,8 @@ impl Model {
     }
 
     /// Flux (lm) and power (W) of the point luminaires for group weights. Watts scale
-    /// with the luminous level of each group (dimming assumed proportional).
+    /// with the luminous level of each group (dimming assumed proportional); a group that
+    /// is off counts 0 W even when its luminaires give no wattage.
     pub fn luminaire_power(&self, w: &[Rgb]) -> LuminairePower {
         let mut lumens = 0.0;
         let mut watts = 0.0;
@@ -322,6 +323,10 @@ impl Model {
             }
             let lm = (wt.to_f64() * g.flux).luminance();
             lumens += lm;
+            if lm == 0.0 {
+                // Off: no power, known or not.
+                continue;
+            }
             match info.watts {
                 Some(full) if info.lumens > 0.0 => watts += full * lm / g.flux.luminance(),
                 _ => watts_known = false,

@@ -173,8 +173,9 @@ fn parse(text: &str, lamp_set: Option<usize>) -> Result<CandelaTable, ParseError
         horizontal,
         candela,
         lamp_lumens: Some(set.flux),
-        input_watts: set.watts,
+        input_watts: (set.watts > 0.0).then_some(set.watts),
         opening: LuminousOpening::from_ldt(length / 1000.0, width / 1000.0, heights),
+        tilt: None,
     })
 }
 
@@ -330,7 +331,7 @@ mod tests {
             }
         );
         assert_eq!(t.lamp_lumens, Some(2000.0));
-        assert_eq!(t.input_watts, 24.0);
+        assert_eq!(t.input_watts, Some(24.0));
     }
 
     #[test]
@@ -346,5 +347,30 @@ mod tests {
         assert!(e.1.contains("lamp set 2"), "{e:?}");
         let e = parse(&ldt(2, 3, &[[1.0; 3], [1.0; 3]]), None).unwrap_err();
         assert!(e.1.contains("even"), "{e:?}");
+    }
+
+    /// Lamp sets are alternatives (say two drive currents): the chosen set's total flux
+    /// scales the table and its wattage with ballast is the luminaire's; a wattage of 0 is
+    /// unknown.
+    #[test]
+    fn the_chosen_lamp_set_gives_the_watts() {
+        let one = ldt(1, 1, &[[400.0, 300.0, 0.0]]);
+        let two = one.replace(
+            "1\n1\nLED\n2000\n4000K\n80\n24\n",
+            "2\n1\nLED 110\n2000\n4000K\n80\n24\n1\nLED 120\n3000\n4000K\n80\n37,5\n",
+        );
+        let first = parse(&two, None).unwrap();
+        assert_eq!(
+            (first.lamp_lumens, first.input_watts),
+            (Some(2000.0), Some(24.0))
+        );
+        let second = parse(&two, Some(2)).unwrap();
+        assert_eq!(
+            (second.lamp_lumens, second.input_watts),
+            (Some(3000.0), Some(37.5))
+        );
+        assert_eq!(second.candela_at(0.0, 0.0), 1200.0);
+        let unknown = parse(&one.replace("80\n24\n", "80\n0\n"), None).unwrap();
+        assert_eq!(unknown.input_watts, None);
     }
 }

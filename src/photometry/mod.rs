@@ -38,7 +38,7 @@ pub(crate) use ies::parse_ies_file;
 pub use ldt::parse_ldt;
 pub(crate) use ldt::parse_ldt_file;
 pub use opening::LuminousOpening;
-pub use table::{CandelaTable, PhotometricFormat, PhotometricType};
+pub use table::{CandelaTable, LampGeometry, PhotometricFormat, PhotometricType, Tilt};
 
 /// A photometric file that cannot be read: the file (as the caller names it) and, where one
 /// applies, its 1-based line.
@@ -91,12 +91,15 @@ pub struct Luminaire {
     pub opening: LuminousOpening,
     /// Candela per unit of `distribution.shape`.
     scale: f64,
-    /// Total luminous flux, lm.
+    /// Total luminous flux, lm (with the tilt factor of the file's tilt data).
     pub lumens: f64,
     /// Linear RGB colour with luminance 1 (so lumens stay lumens).
     pub color: Rgb,
     /// Electrical power, W, when known.
     pub watts: Option<f64>,
+    /// The multiplying factor of the photometric file's tilt data for this luminaire's
+    /// aim ([`Tilt::factor`]); 1 without tilt data.
+    pub tilt_factor: f64,
 }
 
 /// What a luminaire is built from.
@@ -111,9 +114,12 @@ pub struct LuminaireSpec<'a> {
     /// when aiming along X).
     pub c0: Option<DVec3>,
     pub distribution: Distribution,
-    /// Total flux, lm; None takes it from an absolute or rated candela table.
+    /// Total flux, lm, at the tilt of the measurement; None takes it from an absolute or
+    /// rated candela table. A table's tilt data scales it for the aim.
     pub lumens: Option<f64>,
     pub color: Rgb,
+    /// Electrical power, W; None takes the table's input watts (None when the file
+    /// gives none, and for isotropic and spot luminaires).
     pub watts: Option<f64>,
 }
 
@@ -177,10 +183,17 @@ impl Luminaire {
         if y.is_nan() || y <= 0.0 || color.iter().any(|c| !c.is_finite() || *c < 0.0) {
             return Err("color must be non-negative with a positive luminance".into());
         }
-        let opening = match &distribution {
-            Distribution::Table(t) => t.opening,
-            _ => LuminousOpening::Point,
+        let (opening, tilt_factor, file_watts) = match &distribution {
+            Distribution::Table(t) => (
+                t.opening,
+                t.tilt.as_ref().map_or(1.0, |tilt| tilt.factor(aim, c0)),
+                t.input_watts,
+            ),
+            _ => (LuminousOpening::Point, 1.0, None),
         };
+        // The candela values hold for the lamp at the tilt of the measurement; the tilt
+        // data scales every one of them for the luminaire's aim.
+        let lumens = lumens * tilt_factor;
         Ok(Luminaire {
             id: id.to_string(),
             position,
@@ -191,7 +204,8 @@ impl Luminaire {
             scale: lumens / integral,
             lumens,
             color: color / y,
-            watts,
+            watts: watts.or(file_watts),
+            tilt_factor,
         })
     }
 
@@ -353,7 +367,8 @@ mod tests {
                 .map(|g| 1000.0 * (g as f64).to_radians().cos())
                 .collect()],
             lamp_lumens: None,
-            input_watts: 0.0,
+            input_watts: None,
+            tilt: None,
         }));
         let phi = d.integral();
         assert!(
@@ -457,5 +472,101 @@ mod tests {
                 assert!(*s >= 0.95 * p - 1e-3 * top, "seen {s} of a peak {p}");
             }
         }
+    }
+
+    /// A luminaire of a uniform 1000 cd table with `tilt`, aimed along `aim` with `c0`.
+    fn tilted(tilt: Tilt, aim: DVec3, c0: DVec3, watts: Option<f64>) -> Luminaire {
+        let table = CandelaTable {
+            format: PhotometricFormat::Ies,
+            opening: LuminousOpening::Point,
+            kind: PhotometricType::C,
+            vertical: vec![0.0, 180.0],
+            horizontal: vec![0.0],
+            candela: vec![vec![1000.0, 1000.0]],
+            lamp_lumens: None,
+            input_watts: Some(250.0),
+            tilt: Some(tilt),
+        };
+        Luminaire::new(LuminaireSpec {
+            id: "t",
+            position: DVec3::ZERO,
+            aim,
+            c0: Some(c0),
+            distribution: Distribution::Table(Box::new(table)),
+            lumens: None,
+            color: Rgb::ONE,
+            watts,
+        })
+        .unwrap()
+    }
+
+    /// The tilt factor for the aim scales every intensity and the flux; the file's watts
+    /// are the default power, a given one wins.
+    #[test]
+    fn tilt_data_scale_the_luminaire_for_its_aim() {
+        let tilt = |geometry| Tilt {
+            geometry,
+            angles: vec![0.0, 30.0, 60.0, 90.0],
+            factors: vec![1.0, 0.8, 0.5, 0.4],
+        };
+        let flux = 4.0 * std::f64::consts::PI * 1000.0;
+        let at = |deg: f64| {
+            let (s, c) = deg.to_radians().sin_cos();
+            DVec3::new(s, -c, 0.0)
+        };
+        // Lamp vertical: the aim's angle from straight down, folded past 90° (the table
+        // stops at 90°: base up reads as base down).
+        for (deg, factor) in [
+            (0.0, 1.0),
+            (30.0, 0.8),
+            (45.0, 0.65),
+            (60.0, 0.5),
+            (120.0, 0.5),
+        ] {
+            let l = tilted(tilt(LampGeometry::Vertical), at(deg), DVec3::Z, None);
+            assert!(
+                (l.tilt_factor - factor).abs() < 1e-9,
+                "{deg}°: {}",
+                l.tilt_factor
+            );
+            assert!((l.intensity(DVec3::X) - 1000.0 * factor).abs() < 1e-6);
+            assert!((l.lumens / flux - factor).abs() < 1e-3, "{}", l.lumens);
+            assert_eq!(l.watts, Some(250.0));
+        }
+        // Lamp horizontal and staying so: the same angle.
+        let l = tilted(
+            tilt(LampGeometry::HorizontalStays),
+            at(60.0),
+            DVec3::Z,
+            None,
+        );
+        assert!((l.tilt_factor - 0.5).abs() < 1e-9);
+        // Lamp horizontal along c0, tilting with the luminaire: aimed 60° within its
+        // C0–C180 plane the lamp tilts 60°; turned 60° about c0 it stays level.
+        let along = tilted(
+            tilt(LampGeometry::HorizontalTilts),
+            at(60.0),
+            at(150.0),
+            None,
+        );
+        assert!(
+            (along.tilt_factor - 0.5).abs() < 1e-9,
+            "{}",
+            along.tilt_factor
+        );
+        let across = tilted(
+            tilt(LampGeometry::HorizontalTilts),
+            at(60.0),
+            DVec3::Z,
+            None,
+        );
+        assert!(
+            (across.tilt_factor - 1.0).abs() < 1e-9,
+            "{}",
+            across.tilt_factor
+        );
+        // A given wattage wins over the file's.
+        let l = tilted(tilt(LampGeometry::Vertical), at(0.0), DVec3::Z, Some(400.0));
+        assert_eq!(l.watts, Some(400.0));
     }
 }

@@ -78,10 +78,94 @@ pub struct CandelaTable {
     /// Rated lamp lumens (IES: lamps × lumens per lamp; EULUMDAT: the lamp set's total
     /// flux); None for absolute photometry.
     pub lamp_lumens: Option<f64>,
-    /// Input watts from the file (EULUMDAT: the lamp set's wattage with ballast), W.
-    pub input_watts: f64,
+    /// The luminaire's electrical power as the file gives it, W: an IES file's input
+    /// watts, an EULUMDAT lamp set's wattage including ballast. None when the file gives
+    /// 0 (unknown).
+    pub input_watts: Option<f64>,
     /// The luminous opening, metres, in the luminaire frame.
     pub opening: LuminousOpening,
+    /// An IES file's `TILT=INCLUDE` data: how the lamp's output changes as the luminaire
+    /// tilts. None for `TILT=NONE` and EULUMDAT files.
+    pub tilt: Option<Tilt>,
+}
+
+/// How the lamp sits in the luminaire, as an IES file's tilt data names it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum LampGeometry {
+    /// 1: the lamp is vertical (base up or base down) when the luminaire is aimed straight
+    /// down, and tilts as the luminaire tilts.
+    Vertical,
+    /// 2: the lamp is horizontal and stays horizontal as the luminaire tilts (it turns
+    /// about its own axis).
+    HorizontalStays,
+    /// 3: the lamp is horizontal and tilts with the luminaire.
+    HorizontalTilts,
+}
+
+/// An IES file's tilt data (`TILT=INCLUDE`): multiplying factors for all candela values
+/// at tilt angles (degrees) of the luminaire, for the lamp geometry the file names.
+///
+/// The candela values are those of the lamp at the tilt of the measurement (the
+/// luminaire aimed straight down; the factor there is usually 1). [`Tilt::factor`]
+/// gives the factor for a luminaire as the scene mounts it:
+///
+/// - **Geometry 1** (lamp vertical) and **2** (lamp horizontal, staying horizontal): the
+///   angle is the luminaire's tilt, the angle between its photometric axis (`aim`) and
+///   straight down, 0°–180°. When the table stops at or below 90°, a tilt past 90° is
+///   read as 180° minus it (a lamp base up and base down alike).
+/// - **Geometry 3** (lamp horizontal, tilting with the luminaire): the lamp is taken to lie
+///   along the C0–C180 axis (`c0`, the luminaire's length axis); the angle is that axis'
+///   elevation above the horizontal, 0°–90°. Aiming the luminaire within its C0–C180
+///   plane tilts the lamp by the whole aim tilt; turning it about the C0–C180 axis leaves
+///   the lamp horizontal. The files do not say along which luminaire axis the lamp lies.
+///
+/// Between the tabulated angles the factor is interpolated linearly; beyond them it is
+/// the factor at the nearest end.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Tilt {
+    pub geometry: LampGeometry,
+    /// Tilt angles, degrees, strictly increasing, within 0..=180.
+    pub angles: Vec<f64>,
+    /// Multiplying factor at each angle (≥ 0).
+    pub factors: Vec<f64>,
+}
+
+impl Tilt {
+    /// The multiplying factor for a luminaire aimed along unit `aim` with unit `c0` (world
+    /// frame, +Y up).
+    pub fn factor(&self, aim: glam::DVec3, c0: glam::DVec3) -> f64 {
+        self.factor_at(self.angle(aim, c0))
+    }
+
+    /// The tilt angle (degrees) the table is read at for a luminaire aimed along unit
+    /// `aim` with unit `c0` (world frame, +Y up).
+    pub fn angle(&self, aim: glam::DVec3, c0: glam::DVec3) -> f64 {
+        match self.geometry {
+            LampGeometry::Vertical | LampGeometry::HorizontalStays => {
+                let t = (-aim.y).clamp(-1.0, 1.0).acos().to_degrees();
+                let last = self.angles.last().copied().unwrap_or(0.0);
+                if last <= 90.0 && t > 90.0 {
+                    180.0 - t
+                } else {
+                    t
+                }
+            }
+            // The elevation of the lamp axis (c0) above the horizontal.
+            LampGeometry::HorizontalTilts => c0.y.abs().min(1.0).asin().to_degrees(),
+        }
+    }
+
+    /// The factor at tilt angle `angle` (degrees): linear between the tabulated angles,
+    /// the end factors beyond them.
+    pub fn factor_at(&self, angle: f64) -> f64 {
+        let (a, f) = (&self.angles, &self.factors);
+        if a.is_empty() {
+            return 1.0;
+        }
+        let (i, t) = bracket(a, angle);
+        let next = (i + 1).min(f.len() - 1);
+        f[i] + (f[next] - f[i]) * t
+    }
 }
 
 impl CandelaTable {

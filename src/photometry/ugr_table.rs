@@ -365,7 +365,12 @@ pub fn ugr_table(table: &CandelaTable, opts: UgrTableOptions) -> Result<UgrTable
             opts.spacing
         ));
     }
-    let distribution = Distribution::Table(Box::new(table.clone()));
+    // The standard table is of the luminaire as measured, aimed straight down (this
+    // frame is Z-up): an IES file's tilt data do not apply.
+    let distribution = Distribution::Table(Box::new(CandelaTable {
+        tilt: None,
+        ..table.clone()
+    }));
     let integral = distribution.integral();
     if !(integral > 0.0 && integral.is_finite()) {
         return Err("the distribution emits no light".into());
@@ -448,7 +453,8 @@ mod tests {
                 .map(|g| i0 * f64::from(g).to_radians().cos().max(0.0))
                 .collect()],
             lamp_lumens: lamp,
-            input_watts: 0.0,
+            input_watts: None,
+            tilt: None,
         }
     }
 
@@ -480,7 +486,8 @@ mod tests {
             horizontal,
             candela,
             lamp_lumens: Some(3000.0),
-            input_watts: 0.0,
+            input_watts: None,
+            tilt: None,
         }
     }
 
@@ -574,6 +581,24 @@ mod tests {
         }
         assert!((scaled.correction_summand - base.correction_summand - shift).abs() < 1e-9);
         assert!((scaled.luminaire_lumens / base.luminaire_lumens - k).abs() < 1e-9);
+    }
+
+    /// The standard table is of the luminaire as measured: tilt data change nothing.
+    #[test]
+    fn tilt_data_leave_the_standard_table_alone() {
+        let panel = linear_panel();
+        let tilted = CandelaTable {
+            tilt: Some(crate::photometry::Tilt {
+                geometry: crate::photometry::LampGeometry::Vertical,
+                angles: vec![0.0, 90.0],
+                factors: vec![1.0, 0.5],
+            }),
+            ..panel.clone()
+        };
+        let a = ugr_table(&panel, UgrTableOptions::default()).unwrap();
+        let b = ugr_table(&tilted, UgrTableOptions::default()).unwrap();
+        assert_eq!(cells(&a), cells(&b));
+        assert_eq!(a.luminaire_lumens, b.luminaire_lumens);
     }
 
     /// A rotationally symmetric luminaire looks the same crosswise and endwise; a linear

@@ -1,7 +1,9 @@
 //! Luminaire placement: each `[[luminaires]]` entry of `scene.toml` becomes a
 //! [`Luminaire`] (position in metres, flux in lm, spot angles in degrees, colour from RGB
 //! or a colour temperature in K, power in W) in its light group, creating groups that
-//! `[[lights]]` does not define. Photometric files (IES LM-63, EULUMDAT) are resolved inside
+//! `[[lights]]` does not define. A luminaire's power is its `watts`, else its lumens over
+//! its `efficacy`, else its photometric file's input watts (IES) or lamp-set wattage
+//! (EULUMDAT), else unknown. Photometric files (IES LM-63, EULUMDAT) are resolved inside
 //! the scene folder, read once per file and lamp set, and join the scene's files for the
 //! cache key.
 
@@ -124,10 +126,15 @@ fn build_luminaire(
         watts: None,
     };
     let mut lum = Luminaire::with_integral(spec, integral).map_err(bad)?;
+    // scene.toml's watts, else its efficacy, else the photometric file's input watts (which
+    // `Luminaire` took already; None when the file gives none). Rescaling `lumens` keeps
+    // the file's watts.
     lum.watts = match (l.watts, l.efficacy) {
         (Some(w), _) if w.is_finite() && w >= 0.0 => Some(w),
-        (None, Some(e)) if e.is_finite() && e > 0.0 => Some(lum.lumens / e),
-        (None, None) => None,
+        // Efficacy is of the lumens before any tilt factor: tilting a lamp costs light, not
+        // power.
+        (None, Some(e)) if e.is_finite() && e > 0.0 => Some(l.lumens.unwrap_or(integral) / e),
+        (None, None) => lum.watts,
         _ => return Err(bad("watts must be ≥ 0 and efficacy > 0".into())),
     };
     Ok(lum)

@@ -236,6 +236,101 @@ spacing = 0.75
     }
 }
 
+/// Watts from the photometric files: an LM-63-2019 file's input watts (458 W) and an
+/// EULUMDAT lamp set's wattage (36 W) are the luminaires' power unless `scene.toml` gives
+/// `watts`; rescaling `lumens` keeps the file's watts; an isotropic luminaire has none.
+/// The file's tilt data (factor 0.5 at 60°) halves the light of the luminaire aimed 60°
+/// from straight down, on the floor and in its lumens, and not its watts.
+#[test]
+fn photometric_files_give_watts_and_tilt_factors() {
+    let _gate = common::shared();
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/photometry");
+    let toml = r#"
+transfer = "columns"
+[mesh]
+max_edge = 8.0
+[[luminaires]]
+id = "down"
+group = "a"
+position = [0, 2, 0]
+photometry = "tilt-2019.ies"
+[[luminaires]]
+id = "tilted"
+group = "b"
+position = [10, 2, 0]
+aim = [0.8660254037844386, -0.5, 0]
+c0 = [0, 0, 1]
+photometry = "tilt-2019.ies"
+[[luminaires]]
+id = "rescaled"
+group = "c"
+position = [-10, 2, 0]
+photometry = "tilt-2019.ies"
+lumens = 20000
+[[luminaires]]
+id = "override"
+group = "c"
+position = [-10, 2, 10]
+photometry = "tilt-2019.ies"
+watts = 400
+[[luminaires]]
+id = "panel"
+group = "d"
+position = [0, 2, 10]
+photometry = "panel-isym0.ldt"
+[[luminaires]]
+id = "bulb"
+group = "e"
+position = [0, 2, -10]
+lumens = 1000
+[[grids]]
+id = "axes"
+points = [[0, 0, 0], [13.464101615137754, 0, 0]]
+"#;
+    let s = write_scene(&floor(30.0), BLACK, Some(toml));
+    for f in ["tilt-2019.ies", "panel-isym0.ldt"] {
+        std::fs::copy(dir.join(f), s.path().join(f)).unwrap();
+    }
+    let model = relight::model::Model::new(bake(&s));
+    let lums = model.luminaires();
+    let by_id = |id: &str| lums.iter().find(|l| l.id == id).unwrap();
+    assert_eq!(by_id("down").watts, Some(458.0));
+    assert_eq!(by_id("tilted").watts, Some(458.0));
+    assert_eq!(by_id("rescaled").watts, Some(458.0));
+    assert_eq!(by_id("override").watts, Some(400.0));
+    assert_eq!(by_id("panel").watts, Some(36.0));
+    assert_eq!(by_id("bulb").watts, None);
+    let down = by_id("down").lumens;
+    assert!((by_id("tilted").lumens / down - 0.5).abs() < 1e-9);
+    assert!((by_id("rescaled").lumens - 20000.0).abs() < 1e-6);
+    let group_watts: Vec<Option<f64>> = model.groups.iter().map(|g| g.watts).collect();
+    assert_eq!(
+        group_watts,
+        [Some(458.0), Some(458.0), Some(858.0), Some(36.0), None]
+    );
+    // On the floor: 10,000 cd straight down from 2 m; along the tilted aim 4 m away at
+    // 60° incidence, 10,000 × 0.5 cd × cos 60° / 4².
+    let w = |on: [f32; 5]| on.map(Rgb::splat);
+    let axes = &model.grids[0];
+    let e_down = f64::from(axes.values(&w([1.0, 0.0, 0.0, 0.0, 0.0]))[0]);
+    let e_tilted = f64::from(axes.values(&w([0.0, 1.0, 0.0, 0.0, 0.0]))[1]);
+    assert!((e_down / 2500.0 - 1.0).abs() < 0.01, "{e_down} lx");
+    assert!((e_tilted / 156.25 - 1.0).abs() < 0.01, "{e_tilted} lx");
+    // Power: every group at full but the bulb (off: no watts to know); the tilted group
+    // at half its level counts half its watts.
+    let p = model.luminaire_power(&w([1.0, 0.5, 1.0, 1.0, 0.0]));
+    let watts = p
+        .luminaire_watts
+        .expect("the lit luminaires all give watts");
+    assert!(
+        (watts - (458.0 + 229.0 + 858.0 + 36.0)).abs() < 1e-6,
+        "{watts}"
+    );
+    // With the bulb on, the power is unknown.
+    let p = model.luminaire_power(&w([1.0; 5]));
+    assert_eq!(p.luminaire_watts, None);
+}
+
 /// A luminaire with a luminous opening is an area source near it: a 1.2 × 0.3 m panel with
 /// a Lambertian table (I = I₀ cos γ, so its luminance is L = I₀ / A), 0.5 m above a black
 /// floor, gives E = π L F at floor points, F the closed-form configuration factor from a

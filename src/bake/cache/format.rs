@@ -11,8 +11,10 @@ use crate::transport::transfer::{SolveInfo, TransferMode};
 pub(super) const MAGIC: &[u8; 8] = b"RLTRANS\0";
 /// Bump when the file layout changes.
 pub(super) const FORMAT_VERSION: u32 = 5;
-/// Bump when the numbers a bake produces change (meshing, form factors, solver).
-pub(super) const ALGORITHM_VERSION: u32 = 2;
+/// Bump when the numbers a bake produces change (meshing, form factors, solver,
+/// photometry: 3 applies IES tilt data and no longer scales LM-63-2019 tables by their file
+/// generation type).
+pub(super) const ALGORITHM_VERSION: u32 = 3;
 /// Largest JSON header accepted, bytes.
 pub(super) const MAX_HEADER_BYTES: usize = 16 << 20;
 /// Bytes before the JSON header: magic, format version, header length.

@@ -170,7 +170,8 @@ pub(crate) struct LuminaireToml {
     /// EULUMDAT when it ends in `.ldt`, else IES LM-63. `ies` is the same key.
     pub(crate) photometry: Option<::toml::Spanned<String>>,
     pub(crate) ies: Option<::toml::Spanned<String>>,
-    /// The EULUMDAT lamp set whose flux scales the table (1-based; default 1).
+    /// The EULUMDAT lamp set whose flux scales the table and whose wattage is the
+    /// default `watts` (1-based; default 1).
     pub(crate) lamp_set: Option<usize>,
     /// Spot beam angle (50 % of peak) and field angle (cut-off), full cone, degrees.
     pub(crate) beam_deg: Option<f64>,
@@ -178,7 +179,8 @@ pub(crate) struct LuminaireToml {
     /// Linear RGB colour, or a colour temperature in kelvin (blackbody).
     pub(crate) color: Option<Rgb>,
     pub(crate) cct: Option<f64>,
-    /// Electrical power (W), or luminous efficacy (lm/W) to derive it.
+    /// Electrical power (W), or luminous efficacy (lm/W) to derive it; default the
+    /// photometric file's input watts (IES) or lamp-set wattage (EULUMDAT), if any.
     pub(crate) watts: Option<f64>,
     pub(crate) efficacy: Option<f64>,
     /// Colour rendering index Ra of the lamps, 0..100 (its group takes the lowest).
