@@ -97,9 +97,25 @@ impl Geometry {
         }
         for name in cfg.surface.keys() {
             if !g.surf_index.contains_key(name) {
+                // A glTF node of several materials gives surfaces `node / material`.
+                let prefix = format!("{name} / ");
+                let mut split: Vec<&str> = g
+                    .surfaces
+                    .iter()
+                    .map(|s| s.name.as_str())
+                    .filter(|s| s.starts_with(&prefix))
+                    .collect();
+                split.sort_unstable();
+                let hint = match split.len() {
+                    0 => String::new(),
+                    n => format!(
+                        "; its materials make it {n} surfaces: '{}'",
+                        split.join("', '")
+                    ),
+                };
                 return Err(SceneError::Invalid {
                     path: toml_path.to_path_buf(),
-                    message: format!("[surface.{name}]: no such object/group in the OBJ"),
+                    message: format!("[surface.{name}]: no such object/group in the model{hint}"),
                 });
             }
         }

@@ -126,6 +126,18 @@ fn one_mesh_of_many_materials_gives_one_surface_per_material() {
     let s = load(dir.path());
     let g = s.surface_index("Room / Glass").unwrap();
     assert!(s.surfaces[g].two_sided);
+    // The node's own name is no surface: the error lists the ones it became.
+    std::fs::write(
+        dir.path().join("scene.toml"),
+        "[surface.Room]\ntwo_sided = true\n",
+    )
+    .unwrap();
+    let e = load_err(dir.path());
+    assert!(
+        e.contains("[surface.Room]: no such object/group")
+            && e.contains("'Room / Glass', 'Room / Oak', 'Room / Paint'"),
+        "{e}"
+    );
 }
 
 /// The room in a folder with `scene.toml` text `toml` (a site is added).
