@@ -39,7 +39,7 @@ pub(super) fn render_image(
     };
     let finals = if o.quality == Quality::Final && !o.falsecolor {
         pipeline::needs_groups(lighting)?;
-        let f = entry.final_images(ready, &o.camera, cancel)?;
+        let f = entry.final_images(ready, &o.camera, &state.config.final_settings, cancel)?;
         // The entry grew by its final images: keep the cache within bounds.
         super::super::views::trim(state);
         Some(f)
@@ -49,7 +49,13 @@ pub(super) fn render_image(
     if let Some(sky) = sky {
         let daylight = match &finals {
             Some(_) => {
-                let d = entry.final_daylight(ready, &o.camera, sky, cancel)?;
+                let d = entry.final_daylight(
+                    ready,
+                    &o.camera,
+                    sky,
+                    &state.config.final_settings,
+                    cancel,
+                )?;
                 super::super::views::trim(state);
                 Some(d)
             }
