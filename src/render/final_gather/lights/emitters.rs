@@ -8,11 +8,13 @@ use glam::DVec3;
 
 use super::{GroupLights, Rays, Scratch, SIGNIFICANT};
 use crate::color::{Rgb, Rgb64};
+use crate::geometry::ray_offset;
 use crate::geometry::shaft::Shaft;
 use crate::render::final_gather::specular::Lobe;
 use crate::render::final_gather::FinalScene;
+use crate::sampling::{sample_triangle, Rng};
 use crate::transport::direct::visible;
-use crate::transport::formfactor::{point_to_polygon, sample_triangle, Rng};
+use crate::transport::formfactor::point_to_polygon;
 
 /// Shadow rays to an emitting triangle from which its shaft is tested first
 /// ([`Shaft`]): a clear shaft takes the place of the rays. A test costs about as much as
@@ -120,7 +122,7 @@ impl GroupLights<'_> {
         }
         // Stratified draws over the tail's cumulative light, one ray each.
         for j in 0..draws {
-            let mut r = (j as f64 + rng.next_f64()) / draws as f64 * tail;
+            let mut r = rng.stratum(j as usize, draws as usize) * tail;
             let mut drawn = None;
             for &(k, i, ff, part) in cand.iter() {
                 if part >= cut {
@@ -204,8 +206,8 @@ impl GroupLights<'_> {
             let mut sum = Rgb::ZERO;
             for a in 0..side {
                 for b in 0..side {
-                    let u = (a as f64 + rng.next_f64()) / side as f64;
-                    let v = (b as f64 + rng.next_f64()) / side as f64;
+                    let u = rng.stratum(a as usize, side as usize);
+                    let v = rng.stratum(b as usize, side as usize);
                     let y = sample_triangle(&e.corners, u, v);
                     let to = y - x;
                     let r = to.length();
@@ -243,7 +245,7 @@ impl GroupLights<'_> {
         }
         let (hull, normal) = &self.groups[k as usize].sets[set as usize];
         // The lift `visible` gives its rays.
-        let lift = 1e-6 * (1.0 + x.abs().max_element());
+        let lift = ray_offset(x);
         let clear = Shaft::new(x + n * lift, n, lift, hull, *normal)
             .is_some_and(|shaft| self.bvh.clear_of(&shaft, [skip, u32::MAX]));
         memo.push((k, set, clear));
@@ -278,11 +280,10 @@ impl GroupLights<'_> {
         rng: &mut Rng,
         sums: &mut Seen,
     ) {
-        let m = side as f64;
         for a in 0..side {
             for b in 0..side {
-                let u = (a as f64 + rng.next_f64()) / m;
-                let v = (b as f64 + rng.next_f64()) / m;
+                let u = rng.stratum(a as usize, side as usize);
+                let v = rng.stratum(b as usize, side as usize);
                 let y = sample_triangle(&e.corners, u, v);
                 let d = y - x;
                 let r2 = d.length_squared();
