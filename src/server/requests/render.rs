@@ -15,6 +15,7 @@ use super::{
     choice_impls, deserialize_by, lit_request, object_only, raw, schema_ref, some, visit_numbers,
     Choice,
 };
+use crate::input_limits::MAX_REQUEST_COORD_M;
 use crate::model::lighting::parse_value;
 use crate::model::sky_state::{SkySpec, SkyState};
 use crate::model::Model;
@@ -24,7 +25,7 @@ use crate::render::pipeline::{
 };
 use crate::render::{Camera, Format, ToneMap, MAX_SIDE};
 use crate::server::json::{numbers, FIELD};
-use crate::server::parse::{bounded, bounded_triple, direction, number, shorten, MAX_COORDINATE};
+use crate::server::parse::{bounded, bounded_triple, direction, number, shorten};
 use crate::server::AppError;
 
 /// Largest exposure, stops either way.
@@ -392,8 +393,8 @@ fn camera(spec: Option<&CameraSpec>, model: &Model, w: u32, h: u32) -> Result<Ca
             Camera::from_def(def, w, h)
         }
         Some(CameraSpec::Full(c)) => {
-            let position = bounded_triple(c.position.0 .0, "camera.position", MAX_COORDINATE)?;
-            let target = bounded_triple(c.target.0 .0, "camera.target", MAX_COORDINATE)?;
+            let position = bounded_triple(c.position.0 .0, "camera.position", MAX_REQUEST_COORD_M)?;
+            let target = bounded_triple(c.target.0 .0, "camera.target", MAX_REQUEST_COORD_M)?;
             let up = match c.up {
                 Some(u) => direction(u.0 .0, "camera.up")?.to_array(),
                 None => [0.0, 1.0, 0.0],
