@@ -1,7 +1,7 @@
 //! Random numbers and the sampling patterns made of them, at the bottom of the house:
 //! the deterministic generators ([`Rng`], [`XorShift`]), Fisher–Yates shuffles
 //! ([`shuffle`]), jittered strata ([`Rng::stratum`]) and uniform points of a triangle
-//! ([`sample_triangle`]).
+//! ([`sample_triangle`], [`stratified_on_triangle`]).
 //!
 //! Every stream is seeded by what it samples (a patch pair, a pixel block, a patch), never
 //! by a thread or the clock, so bakes and images are the same from run to run and compared
@@ -92,6 +92,23 @@ pub(crate) fn sample_triangle(c: &[DVec3; 3], mut u: f64, mut v: f64) -> DVec3 {
     let p = c[0] + (c[1] - c[0]) * u + (c[2] - c[0]) * v;
     let g = (c[0] + c[1] + c[2]) / 3.0;
     g + (p - g) * (1.0 - 1e-4)
+}
+
+/// A jittered point of each cell of a `side × side` grid over the unit square (rows
+/// first), mapped onto triangle `c` ([`sample_triangle`]) and handed to `f` in turn.
+pub(crate) fn stratified_on_triangle(
+    c: &[DVec3; 3],
+    side: usize,
+    rng: &mut Rng,
+    mut f: impl FnMut(DVec3),
+) {
+    for a in 0..side {
+        for b in 0..side {
+            let u = rng.stratum(a, side);
+            let v = rng.stratum(b, side);
+            f(sample_triangle(c, u, v));
+        }
+    }
 }
 
 #[cfg(test)]

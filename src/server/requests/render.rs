@@ -290,13 +290,7 @@ impl RenderRequest {
                 "h" => "height",
                 k => k,
             };
-            if seen.contains(&key) {
-                return Err(AppError::BadRequest(format!(
-                    "query parameter '{}' is given twice",
-                    shorten(k)
-                )));
-            }
-            seen.push(key);
+            given_once(&mut seen, key, k)?;
             let num = |v: &str| query_number(k, v);
             match key {
                 "camera" => r.camera = Some(CameraSpec::Preset(v.clone())),
@@ -344,6 +338,25 @@ pub(super) fn query_light(
     };
     lights.insert(g.to_string(), s);
     Ok(true)
+}
+
+/// Notes query parameter `key` (its canonical name; `k` as the client wrote it) as
+/// given: 400 when it was given before.
+pub(super) fn given_once<'q>(
+    seen: &mut Vec<&'q str>,
+    key: &'q str,
+    k: &str,
+) -> Result<(), AppError> {
+    if seen.contains(&key) {
+        return Err(given_twice(k));
+    }
+    seen.push(key);
+    Ok(())
+}
+
+/// The 400 for query parameter `k` given twice.
+pub(crate) fn given_twice(k: &str) -> AppError {
+    AppError::BadRequest(format!("query parameter '{}' is given twice", shorten(k)))
 }
 
 pub(super) fn query_number(k: &str, v: &str) -> Result<f64, AppError> {

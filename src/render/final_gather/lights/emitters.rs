@@ -12,7 +12,7 @@ use crate::geometry::ray_offset;
 use crate::geometry::shaft::Shaft;
 use crate::render::final_gather::specular::Lobe;
 use crate::render::final_gather::FinalScene;
-use crate::sampling::{sample_triangle, Rng};
+use crate::sampling::{stratified_on_triangle, Rng};
 use crate::transport::direct::visible;
 use crate::transport::formfactor::point_to_polygon;
 
@@ -204,28 +204,23 @@ impl GroupLights<'_> {
             };
             scratch.sampled.push(sampled);
             let mut sum = Rgb::ZERO;
-            for a in 0..side {
-                for b in 0..side {
-                    let u = rng.stratum(a as usize, side as usize);
-                    let v = rng.stratum(b as usize, side as usize);
-                    let y = sample_triangle(&e.corners, u, v);
-                    let to = y - x;
-                    let r = to.length();
-                    let d = to / r;
-                    let (cos_x, cos_y) = (n.dot(d), -e.normal.dot(d));
-                    if !(cos_x > 0.0 && cos_y > 0.0) {
-                        continue;
-                    }
-                    let f = lobe.brdf(d, 0.0);
-                    if f.luminance() <= 0.0 || !visible(self.bvh, x, n, y, skip) {
-                        continue;
-                    }
-                    // Density per solid angle of a uniform point on the triangle.
-                    let light = r * r / (e.area * cos_y);
-                    let w = 1.0 - sampled.ray_weight(d, r, lobe.pdf(d), rays);
-                    sum += f * (cos_x / light * w / m as f64) as f32;
+            stratified_on_triangle(&e.corners, side as usize, rng, |y| {
+                let to = y - x;
+                let r = to.length();
+                let d = to / r;
+                let (cos_x, cos_y) = (n.dot(d), -e.normal.dot(d));
+                if !(cos_x > 0.0 && cos_y > 0.0) {
+                    return;
                 }
-            }
+                let f = lobe.brdf(d, 0.0);
+                if f.luminance() <= 0.0 || !visible(self.bvh, x, n, y, skip) {
+                    return;
+                }
+                // Density per solid angle of a uniform point on the triangle.
+                let light = r * r / (e.area * cos_y);
+                let w = 1.0 - sampled.ray_weight(d, r, lobe.pdf(d), rays);
+                sum += f * (cos_x / light * w / m as f64) as f32;
+            });
             out[k as usize] += sum * e.exitance * std::f32::consts::FRAC_1_PI;
         }
     }
@@ -280,24 +275,19 @@ impl GroupLights<'_> {
         rng: &mut Rng,
         sums: &mut Seen,
     ) {
-        for a in 0..side {
-            for b in 0..side {
-                let u = rng.stratum(a as usize, side as usize);
-                let v = rng.stratum(b as usize, side as usize);
-                let y = sample_triangle(&e.corners, u, v);
-                let d = y - x;
-                let r2 = d.length_squared();
-                let w = n.dot(d) * -e.normal.dot(d) / (r2 * r2);
-                if w.is_nan() || w <= 0.0 {
-                    continue;
-                }
-                if visible(self.bvh, x, n, y, skip) {
-                    sums.free += w;
-                } else {
-                    sums.hidden += w;
-                }
+        stratified_on_triangle(&e.corners, side as usize, rng, |y| {
+            let d = y - x;
+            let r2 = d.length_squared();
+            let w = n.dot(d) * -e.normal.dot(d) / (r2 * r2);
+            if w.is_nan() || w <= 0.0 {
+                return;
             }
-        }
+            if visible(self.bvh, x, n, y, skip) {
+                sums.free += w;
+            } else {
+                sums.hidden += w;
+            }
+        });
     }
 }
 
