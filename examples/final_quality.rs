@@ -8,7 +8,7 @@ use std::time::Instant;
 use relight::bake::{load_or_bake, BakeOptions, CachePolicy};
 use relight::color::Rgb;
 use relight::model::{Cancel, Model};
-use relight::render::final_gather::patch_locator;
+use relight::render::final_gather::{patch_locator, FinalSettings};
 use relight::render::pipeline::final_images;
 use relight::render::{Camera, Shading};
 
@@ -25,9 +25,11 @@ fn main() {
     let t0 = Instant::now();
     let patches = patch_locator(&m.baked.mesh, &m.baked.scene.triangles);
     let bvh_ms = t0.elapsed().as_secs_f64() * 1e3;
+    // The benches' RELIGHT_FINAL_* overrides (docs/performance.md).
+    let settings = FinalSettings::from_env();
     let cam = Camera::from_def(&m.baked.scene.cameras[0], side as u32, side as u32);
     let t0 = Instant::now();
-    let gi = final_images(&m, &shading, &patches, &cam, &Cancel::default()).unwrap();
+    let gi = final_images(&m, &shading, &patches, &cam, &settings, &Cancel::default()).unwrap();
     let build_s = t0.elapsed().as_secs_f64();
     let t0 = Instant::now();
     let img = gi.linear(&[Rgb::ONE]);

@@ -7,7 +7,7 @@ use std::time::Instant;
 
 use relight::bake::{load_or_bake, BakeOptions, CachePolicy};
 use relight::model::{Cancel, Model};
-use relight::render::final_gather::patch_locator;
+use relight::render::final_gather::{patch_locator, FinalSettings};
 use relight::render::pipeline::final_images;
 use relight::render::{Camera, Shading};
 
@@ -23,11 +23,14 @@ fn main() {
     let m = Model::new(b);
     let shading = Shading::new(&m.baked.mesh);
     let patches = patch_locator(&m.baked.mesh, &m.baked.scene.triangles);
+    // The benches' RELIGHT_FINAL_* overrides (docs/performance.md).
+    let settings = FinalSettings::from_env();
     let cam = Camera::from_def(&m.baked.scene.cameras[0], w, h);
     let times: Vec<f64> = (0..runs)
         .map(|_| {
             let t0 = Instant::now();
-            let gi = final_images(&m, &shading, &patches, &cam, &Cancel::default()).unwrap();
+            let gi =
+                final_images(&m, &shading, &patches, &cam, &settings, &Cancel::default()).unwrap();
             std::hint::black_box(gi);
             t0.elapsed().as_secs_f64()
         })

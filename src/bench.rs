@@ -13,7 +13,7 @@ use crate::bake::{load_or_bake, BakeOptions, CachePolicy};
 use crate::color::Rgb;
 use crate::geometry::bvh::Bvh;
 use crate::geometry::mesh::Mesh;
-use crate::transport::formfactor::{sample_triangle, Rng};
+use crate::sampling::{sample_triangle, Rng};
 use crate::transport::transfer::TransferMode;
 
 /// Figures of one bench case.
@@ -135,7 +135,7 @@ pub fn nearest_throughput(
 
 /// A uniformly random point of a uniformly random patch (m), and the patch's index.
 fn random_patch_point(mesh: &Mesh, rng: &mut Rng) -> (glam::DVec3, usize) {
-    let i = ((rng.next_f64() * mesh.len() as f64) as usize).min(mesh.len() - 1);
+    let i = rng.index(mesh.len());
     let x = sample_triangle(&mesh.corners(i), rng.next_f64(), rng.next_f64());
     (x, i)
 }

@@ -1,9 +1,11 @@
-//! Input limits: every size, count and number relight accepts from a scene folder.
+//! Input limits: every size, count and number relight accepts from a scene folder, and
+//! the limits of requests and lighting states.
 //!
 //! Scenes may come from people other than the operator (a shared `scenes/` folder, an
 //! upload), so loading checks each value *before* it is used to allocate or compute, and
 //! refuses anything outside these bounds with a [`crate::scene::SceneError`] that names the
-//! file and line. docs/scene-format.md lists the same limits.
+//! file and line. docs/scene-format.md lists the same limits. The last ones bound what a
+//! request or a lighting state may ask of a loaded scene, as docs/http-api.md lists them.
 //!
 //! Lengths are checked in metres, after the `units`/`scale` conversion. Numbers are checked
 //! in the type the code computes with (`f32` for OBJ coordinates, `Kd` and `Ke`; `f64`
@@ -67,8 +69,9 @@ pub const MAX_TARGET_PATCHES: usize = 1_000_000;
 pub const MAX_EXITANCE: f32 = 1e8;
 /// Largest flux of a light group or luminaire (`lumens`), lm.
 pub const MAX_LUMENS: f64 = 1e9;
-/// Largest default `intensity` of a light group.
-pub const MAX_INTENSITY: f64 = 1e3;
+/// Largest default `intensity` of a light group in `scene.toml` (a lighting state may ask
+/// for more, [`MAX_STATE_INTENSITY`]).
+pub const MAX_DEFAULT_INTENSITY: f64 = 1e3;
 /// Largest component of a `color` (light groups and luminaires).
 pub const MAX_COLOR: f64 = 1e3;
 /// Largest electrical power of a luminaire (`watts`), W.
@@ -117,6 +120,23 @@ pub const MAX_IES_BALLAST: f64 = 100.0;
 pub const MAX_ARCHIVE_ENTRIES: usize = 1_000;
 /// Most bytes an uploaded zip archive may unpack to, in all (1 GiB).
 pub const MAX_ARCHIVE_UNPACKED: u64 = 1 << 30;
+
+// # Requests and lighting states
+//
+// What a request (HTTP or command line) may ask of a loaded scene: checked after the body
+// is parsed and before any work, each with a 422 that names the field.
+
+/// Largest intensity of a light group in a lighting state (a dimming factor; 1 = as
+/// modelled), and largest channel of its colour filter.
+pub const MAX_STATE_INTENSITY: f32 = 1e6;
+/// Largest per-patch emission of a lighting state, lm/m² per channel.
+pub const MAX_STATE_EMISSION: f64 = 1e9;
+/// Most lighting states in one batch.
+pub const MAX_BATCH_STATES: usize = 1000;
+/// Most points in one illuminance request.
+pub const MAX_REQUEST_POINTS: usize = 10_000;
+/// Largest coordinate accepted in a request (points, cameras, observers), metres.
+pub const MAX_REQUEST_COORD_M: f64 = 1e6;
 
 /// Most work of the per-patch emission states of one batch in hierarchical mode, in
 /// link sweeps of one colour column (3 per state × (links + 2 · nodes) × the sweeps the

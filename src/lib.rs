@@ -17,6 +17,7 @@ pub mod input_limits;
 pub mod model;
 pub mod photometry;
 pub mod render;
+pub(crate) mod sampling;
 pub mod scene;
 #[cfg(feature = "server")]
 pub(crate) mod schema;

@@ -86,7 +86,8 @@ pub fn run(a: RenderArgs) -> Result<()> {
     let lighting = Lighting::Groups(model.weights(&state)?);
     let shading = Shading::new(&model.baked.mesh);
     let t0 = std::time::Instant::now();
-    let image = render_once(&model, &shading, &lighting, &o)?;
+    let settings = relight::render::final_gather::FinalSettings::from_env();
+    let image = render_once(&model, &shading, &lighting, &o, &settings)?;
     let ms = t0.elapsed().as_secs_f64() * 1e3;
     if let Some((lo, hi)) = image.range {
         eprintln!("false colour: log scale {lo:.3} to {hi:.3} lux");

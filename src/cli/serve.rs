@@ -105,6 +105,7 @@ pub fn run(a: ServeArgs) -> Result<()> {
             None => None,
         },
         upload_limit: a.upload_limit.unwrap_or(defaults.upload_limit),
+        final_settings: relight::render::final_gather::FinalSettings::from_env(),
         ..defaults
     };
     let rt = tokio::runtime::Runtime::new()?;

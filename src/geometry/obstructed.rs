@@ -14,6 +14,7 @@
 use glam::{DVec3, Vec3A};
 
 use super::bvh::Bvh;
+use super::lifted;
 use crate::scene::Scene;
 
 /// Rays per point (an 8 × 8 stratification of the cosine-weighted hemisphere).
@@ -28,7 +29,7 @@ pub const OBSTRUCTED_SHARE: f64 = 0.5;
 pub fn is_obstructed(scene: &Scene, bvh: &Bvh, x: DVec3, n: DVec3) -> bool {
     let side = (OBSTRUCTION_RAYS as f64).sqrt() as usize;
     let (t, b) = super::frame(n);
-    let o = x + n * (1e-6 * (1.0 + x.abs().max_element()));
+    let o = lifted(x, n);
     let from = Vec3A::from(o.as_vec3());
     let mut blocked = 0usize;
     for r in 0..side * side {

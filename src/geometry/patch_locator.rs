@@ -522,10 +522,10 @@ mod tests {
             .map(|j| mesh.corners(j).map(|p| Vec3A::from(p.as_vec3())))
             .collect();
         let patches = Bvh::new(&tris);
-        let mut rng = crate::transport::formfactor::Rng::new(1, 2);
+        let mut rng = crate::sampling::Rng::new(1, 2);
         let (mut same, mut hits, n) = (0, 0, 20_000);
         for _ in 0..n {
-            let p = ((rng.next_f64() * mesh.len() as f64) as usize).min(mesh.len() - 1);
+            let p = rng.index(mesh.len());
             let c = mesh.corners(p);
             let (a, b) = (rng.next_f64(), rng.next_f64());
             let (a, b) = if a + b > 1.0 {
@@ -607,14 +607,11 @@ mod tests {
             corners.len(),
             mesh.len()
         );
-        let mut rng = crate::transport::formfactor::Rng::new(5, 6);
+        let mut rng = crate::sampling::Rng::new(5, 6);
         for _ in 0..20_000 {
-            let p = ((rng.next_f64() * mesh.len() as f64) as usize).min(mesh.len() - 1);
-            let x = crate::transport::formfactor::sample_triangle(
-                &mesh.corners(p),
-                rng.next_f64(),
-                rng.next_f64(),
-            );
+            let p = rng.index(mesh.len());
+            let x =
+                crate::sampling::sample_triangle(&mesh.corners(p), rng.next_f64(), rng.next_f64());
             let tri = mesh.patches[p].source;
             let f = &loc.frames[tri as usize];
             let back = mesh.patches[p].normal.dot(f.normal.as_dvec3()) < 0.0;

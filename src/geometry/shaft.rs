@@ -292,7 +292,8 @@ fn hull_in_plane(points: &[DVec3], n: DVec3) -> Option<Vec<DVec3>> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::transport::formfactor::{sample_triangle, Rng};
+    use crate::geometry::ray_offset;
+    use crate::sampling::{sample_triangle, Rng};
 
     fn tri(a: [f64; 3], b: [f64; 3], c: [f64; 3]) -> [DVec3; 3] {
         [a.into(), b.into(), c.into()]
@@ -371,7 +372,7 @@ mod tests {
             }
             let n = DVec3::Y;
             let x = DVec3::new(2.0 * r() - 1.0, 0.0, 2.0 * r() - 1.0);
-            let lift = 1e-6 * (1.0 + x.abs().max_element());
+            let lift = ray_offset(x);
             let o = x + n * lift;
             let Some(s) = Shaft::new(o, n, lift, &light[..], ne) else {
                 continue;
@@ -440,7 +441,7 @@ mod tests {
             }
             let x = sample_triangle(&t.p, rng.next_f64(), rng.next_f64());
             let n = normal(&t.p);
-            let lift = 1e-6 * (1.0 + x.abs().max_element());
+            let lift = ray_offset(x);
             let o = x + n * lift;
             let Some(s) = Shaft::new(o, n, lift, &hulls[0], normals[0]) else {
                 continue;

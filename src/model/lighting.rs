@@ -19,10 +19,8 @@ use std::collections::BTreeMap;
 use serde::{Deserialize, Serialize};
 
 use crate::color::{Rgb, Rgb64};
+use crate::input_limits::MAX_STATE_INTENSITY;
 use crate::scene::Scene;
-
-/// Largest accepted intensity (a dimming factor; 1 = as modelled).
-pub const MAX_INTENSITY: f32 = 1e6;
 
 /// Setting of one light group.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
@@ -38,9 +36,6 @@ pub struct LightSetting {
 pub struct LightState {
     pub lights: BTreeMap<String, LightSetting>,
 }
-
-/// Largest per-patch emission accepted, lm/m² per channel.
-pub const MAX_EMISSION: f64 = 1e9;
 
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum LightError {
@@ -66,19 +61,19 @@ impl LightSetting {
                 self.intensity
             )));
         }
-        if self.intensity > MAX_INTENSITY {
+        if self.intensity > MAX_STATE_INTENSITY {
             return Err(bad(format!(
-                "intensity {} exceeds the limit {MAX_INTENSITY}",
+                "intensity {} exceeds the limit {MAX_STATE_INTENSITY}",
                 self.intensity
             )));
         }
         if self
             .color
             .iter()
-            .any(|c| !c.is_finite() || *c < 0.0 || *c > MAX_INTENSITY)
+            .any(|c| !c.is_finite() || *c < 0.0 || *c > MAX_STATE_INTENSITY)
         {
             return Err(bad(format!(
-                "color must be three finite numbers in [0, {MAX_INTENSITY}], got {:?}",
+                "color must be three finite numbers in [0, {MAX_STATE_INTENSITY}], got {:?}",
                 self.color
             )));
         }
@@ -223,7 +218,7 @@ mod tests {
     fn validate_refuses_negative_non_finite_and_huge_numbers() {
         let ok = |intensity: f32, color: Rgb| LightSetting { intensity, color }.validate("g");
         assert!(ok(0.0, Rgb::ZERO).is_ok());
-        assert!(ok(MAX_INTENSITY, Rgb::splat(MAX_INTENSITY)).is_ok());
+        assert!(ok(MAX_STATE_INTENSITY, Rgb::splat(MAX_STATE_INTENSITY)).is_ok());
         for bad in [
             ok(-0.1, Rgb::ONE),
             ok(f32::NAN, Rgb::ONE),

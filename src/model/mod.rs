@@ -23,8 +23,8 @@
 //! - [`sky_state`]: the grammar of a sky ([`sky_state::SkySpec`]) and a sky resolved for the site.
 //! - [`daylight`]: daylight on surfaces, points and grids, and the point-gather cache.
 //! - [`annual`]: climate-based metrics over a year of weather (sDA, ASE, UDI, EN 17037).
-//! - [`metrics`]: those metrics and the daylight-factor statistics as pure functions of
-//!   illuminance values, with their thresholds as named constants.
+//! - [`daylight_metrics`]: those metrics and the daylight-factor statistics as pure
+//!   functions of illuminance values, with their thresholds as named constants.
 //! - [`info`]: what the scene is made of (units, bounds, luminaires, grids, surfaces,
 //!   patches), for clients.
 //!
@@ -43,13 +43,13 @@ pub mod annual;
 pub mod batch;
 pub mod compliance;
 pub mod daylight;
+pub mod daylight_metrics;
 pub mod design_report;
 pub mod error;
 pub mod glare;
 pub mod grid;
 pub mod info;
 pub mod lighting;
-pub mod metrics;
 pub mod optimize;
 pub mod query;
 pub mod report;

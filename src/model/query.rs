@@ -13,10 +13,11 @@ use serde::Serialize;
 
 use super::compliance::{self, Achieved, Compliance, ObserverUgr};
 use super::grid::{self, GridStats};
-use super::lighting::{LightState, Lighting, MAX_EMISSION};
+use super::lighting::{LightState, Lighting};
 use super::report::{surface_illuminance, Lux, SurfaceIlluminance};
 use super::{Cancel, Model, QueryError};
 use crate::color::{Rgb, Rgb64};
+use crate::input_limits::MAX_STATE_EMISSION;
 use crate::scene::Requirements;
 use crate::transport::transfer::{Solution, TransferMode};
 
@@ -185,7 +186,7 @@ impl Model {
         }
     }
 
-    /// One patch's emission, lm/m² per channel, checked against [`MAX_EMISSION`].
+    /// One patch's emission, lm/m² per channel, checked against [`MAX_STATE_EMISSION`].
     pub fn emission_value(&self, patch: usize, rgb: [f64; 3]) -> Result<Rgb, QueryError> {
         let n = self.patches();
         if patch >= n {
@@ -194,9 +195,9 @@ impl Model {
             )));
         }
         for x in rgb {
-            if !(0.0..=MAX_EMISSION).contains(&x) {
+            if !(0.0..=MAX_STATE_EMISSION).contains(&x) {
                 return Err(QueryError::Invalid(format!(
-                    "emission[{patch}]: values must be in [0, {MAX_EMISSION:e}] lm/m², got {x}"
+                    "emission[{patch}]: values must be in [0, {MAX_STATE_EMISSION:e}] lm/m², got {x}"
                 )));
             }
         }

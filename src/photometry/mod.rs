@@ -436,7 +436,7 @@ mod tests {
                 crate::photometry::ies::parse_ies(f, &text).unwrap(),
             )));
         }
-        let mut rng = crate::transport::formfactor::Rng::new(4, 5);
+        let mut rng = crate::sampling::Rng::new(4, 5);
         for distribution in dists {
             let l = Luminaire::new(LuminaireSpec {
                 id: "l",

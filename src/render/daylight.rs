@@ -14,6 +14,7 @@ use super::{Camera, ViewBuffer};
 use crate::color::Rgb;
 use crate::geometry::bvh::Bvh;
 use crate::geometry::glazing::Glazing;
+use crate::geometry::lifted;
 use crate::geometry::mesh::Mesh;
 
 /// The sun seen by a view: unit scene direction and normal illuminance (lux).
@@ -210,7 +211,7 @@ impl PixelTracer<'_> {
         }
         let t = n.dot(patch.centroid - pos) / denom;
         let hit = pos + d * t;
-        let o = hit + n * (1e-6 * (1.0 + hit.abs().max_element()));
+        let o = lifted(hit, n);
         let far = o + s.direction * self.reach;
         let free = !self.bvh.occluded(
             Vec3A::from(o.as_vec3()),

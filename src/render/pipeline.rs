@@ -142,20 +142,23 @@ pub fn render_values(
     )
 }
 
-/// Builds the view of `o.camera` (and its `final` images when asked) and renders once
-/// (the command line; the server keeps views in a cache).
+/// Builds the view of `o.camera` (and its `final` images when asked, with `settings`) and
+/// renders once (the command line; the server keeps views in a cache).
 pub fn render_once(
     model: &Model,
     shading: &Shading,
     lighting: &Lighting,
     o: &RenderOptions,
+    settings: &final_gather::FinalSettings,
 ) -> Result<Rendered, RenderError> {
     let view = ViewBuffer::build(&model.baked.mesh, shading, &o.camera);
     let finals = if o.quality == Quality::Final && !o.falsecolor {
         needs_groups(lighting)?;
         let patches = final_gather::patch_locator(&model.baked.mesh, &model.baked.scene.triangles);
         let cancel = crate::model::Cancel::default();
-        Some(final_images(model, shading, &patches, &o.camera, &cancel)?)
+        Some(final_images(
+            model, shading, &patches, &o.camera, settings, &cancel,
+        )?)
     } else {
         None
     };
@@ -179,28 +182,31 @@ pub fn needs_groups(lighting: &Lighting) -> Result<(), QueryError> {
     }
 }
 
-/// The `final` images of every light group of `model` seen by `cam`
-/// ([`final_gather::build`]); `patches` is [`final_gather::patch_locator`] of its mesh.
+/// The `final` images of every light group of `model` seen by `cam`, with the work per
+/// pixel of `settings` ([`final_gather::build`]); `patches` is
+/// [`final_gather::patch_locator`] of its mesh.
 pub fn final_images(
     model: &Model,
     shading: &Shading,
     patches: &crate::geometry::patch_locator::PatchLocator,
     cam: &Camera,
+    settings: &final_gather::FinalSettings,
     cancel: &crate::model::Cancel,
 ) -> Result<GroupImages, QueryError> {
     let scene = final_scene(model, shading, patches, None);
-    final_gather::build(&scene, cam, &final_gather::FinalSettings::default(), cancel)
+    final_gather::build(&scene, cam, settings, cancel)
 }
 
-/// The `final` image of `model`'s daylight under `sky` seen by `cam`, at unit weight (one
-/// group): the sun traced per pixel, the sky through openings and glazing, the daylight's
-/// interreflection gathered ([`final_gather::FinalSky`]).
+/// The `final` image of `model`'s daylight under `sky` seen by `cam` with `settings`, at
+/// unit weight (one group): the sun traced per pixel, the sky through openings and
+/// glazing, the daylight's interreflection gathered ([`final_gather::FinalSky`]).
 pub fn final_daylight_image(
     model: &Model,
     shading: &Shading,
     patches: &crate::geometry::patch_locator::PatchLocator,
     cam: &Camera,
     sky: &crate::model::sky_state::SkyState,
+    settings: &final_gather::FinalSettings,
     cancel: &crate::model::Cancel,
 ) -> Result<GroupImages, QueryError> {
     let b = &model.baked;
@@ -231,7 +237,7 @@ pub fn final_daylight_image(
         site,
     };
     let scene = final_scene(model, shading, patches, Some(final_sky));
-    final_gather::build(&scene, cam, &final_gather::FinalSettings::default(), cancel)
+    final_gather::build(&scene, cam, settings, cancel)
 }
 
 /// What [`final_gather::build`] reads of `model`, with the daylight of `sky` when given.

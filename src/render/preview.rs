@@ -16,6 +16,7 @@ use glam::DVec3;
 use rayon::prelude::*;
 
 use super::shading::{Shading, CREASE_DEG};
+use crate::geometry::barycentric;
 use crate::geometry::mesh::Mesh;
 use crate::scene::Scene;
 
@@ -151,38 +152,5 @@ impl Locator {
                 [1.0 / 3.0; 3]
             },
         ))
-    }
-}
-
-/// Barycentric coordinates of `p` projected onto the plane of triangle `c`.
-pub(super) fn barycentric(c: &[DVec3; 3], p: DVec3) -> [f64; 3] {
-    let (e0, e1, d) = (c[1] - c[0], c[2] - c[0], p - c[0]);
-    let (d00, d01, d11) = (e0.dot(e0), e0.dot(e1), e1.dot(e1));
-    let (d20, d21) = (d.dot(e0), d.dot(e1));
-    let den = d00 * d11 - d01 * d01;
-    if den <= 0.0 {
-        return [1.0 / 3.0; 3];
-    }
-    let v = (d11 * d20 - d01 * d21) / den;
-    let w = (d00 * d21 - d01 * d20) / den;
-    [1.0 - v - w, v, w]
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn barycentric_coordinates_rebuild_the_point() {
-        let c = [
-            DVec3::new(0.0, 0.0, 0.0),
-            DVec3::new(2.0, 0.0, 0.0),
-            DVec3::new(0.0, 0.0, 1.0),
-        ];
-        let p = DVec3::new(0.5, 0.0, 0.25);
-        let l = barycentric(&c, p);
-        let q = c[0] * l[0] + c[1] * l[1] + c[2] * l[2];
-        assert!((q - p).length() < 1e-12, "{l:?}");
-        assert!((l[0] - 0.5).abs() < 1e-12 && (l[1] - 0.25).abs() < 1e-12);
     }
 }

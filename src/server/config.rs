@@ -6,6 +6,7 @@ use std::time::Duration;
 
 use super::admission;
 use crate::bake;
+use crate::render::final_gather::FinalSettings;
 
 /// Largest accepted request body (bytes) unless configured.
 pub const DEFAULT_BODY_LIMIT: usize = 16 << 20;
@@ -43,6 +44,9 @@ pub struct ServerConfig {
     pub admin_token: Option<String>,
     /// Largest uploaded scene (the body of `PUT /api/scenes/{id}`), bytes.
     pub upload_limit: u64,
+    /// The work per pixel of `final` images (`relight serve` reads the benches'
+    /// `RELIGHT_FINAL_*` overrides once, [`FinalSettings::from_env`]).
+    pub final_settings: FinalSettings,
 }
 
 /// Default largest upload (256 MiB).
@@ -74,6 +78,7 @@ impl Default for ServerConfig {
             bake_command: None,
             admin_token: None,
             upload_limit: DEFAULT_UPLOAD_LIMIT,
+            final_settings: FinalSettings::default(),
         }
     }
 }

@@ -70,6 +70,17 @@ impl From<crate::model::lighting::LightError> for AppError {
 }
 
 /// A query's mistakes are the client's (422); an abandoned one is 503.
+/// A render's failure: its query's error, or an encoder's (500).
+impl From<crate::render::pipeline::RenderError> for AppError {
+    fn from(e: crate::render::pipeline::RenderError) -> AppError {
+        use crate::render::pipeline::RenderError;
+        match e {
+            RenderError::Query(q) => q.into(),
+            RenderError::Encode(m) => AppError::Internal(m),
+        }
+    }
+}
+
 impl From<crate::model::QueryError> for AppError {
     fn from(e: crate::model::QueryError) -> Self {
         match e {

@@ -20,15 +20,6 @@ use super::{AppError, AppState, Ready};
 pub(crate) use crate::model::error::shorten;
 use crate::model::Model;
 
-/// Most lighting states in one batch.
-pub(crate) const MAX_BATCH: usize = 1000;
-
-/// Most points in one illuminance request.
-pub(crate) const MAX_POINTS: usize = 10_000;
-
-/// Largest coordinate accepted in a request (points, cameras), metres.
-pub(crate) const MAX_COORDINATE: f64 = 1e6;
-
 /// Bodies above this size are parsed on the blocking pool, under the memory budget.
 pub const INLINE_PARSE_BYTES: usize = 64 << 10;
 

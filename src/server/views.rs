@@ -43,13 +43,15 @@ impl View {
         lock(&self.finals).is_some()
     }
 
-    /// The `final` images for `ready`'s light groups, built now when not cached (holding
-    /// this view's lock, so concurrent requests wait for one build). `Err(Cancelled)`
-    /// when `cancel` is raised during the build; the next request starts again.
+    /// The `final` images for `ready`'s light groups with `settings`, built now when not
+    /// cached (holding this view's lock, so concurrent requests wait for one build).
+    /// `Err(Cancelled)` when `cancel` is raised during the build; the next request starts
+    /// again.
     pub fn final_images(
         &self,
         ready: &Ready,
         cam: &Camera,
+        settings: &final_gather::FinalSettings,
         cancel: &Cancel,
     ) -> Result<Arc<GroupImages>, QueryError> {
         let mut slot = lock(&self.finals);
@@ -61,6 +63,7 @@ impl View {
             ready.shading(),
             ready.patch_locator(),
             cam,
+            settings,
             cancel,
         )?;
         let built = Arc::new(built);
@@ -68,13 +71,14 @@ impl View {
         Ok(built)
     }
 
-    /// The `final` image of the daylight under `sky`, built now unless the last one built
-    /// was for the same sky (one build at a time, as [`Self::final_images`]).
+    /// The `final` image of the daylight under `sky` with `settings`, built now unless the
+    /// last one built was for the same sky (one build at a time, as [`Self::final_images`]).
     pub fn final_daylight(
         &self,
         ready: &Ready,
         cam: &Camera,
         sky: &crate::model::sky_state::SkyState,
+        settings: &final_gather::FinalSettings,
         cancel: &Cancel,
     ) -> Result<Arc<GroupImages>, QueryError> {
         let key = format!("{sky:?}");
@@ -91,6 +95,7 @@ impl View {
             ready.patch_locator(),
             cam,
             sky,
+            settings,
             cancel,
         )?);
         *slot = Some((key, built.clone()));

@@ -21,6 +21,7 @@ use rayon::prelude::*;
 
 use crate::color::{Rgb, Rgb64};
 use crate::geometry::bvh::Bvh;
+use crate::geometry::lifted;
 use crate::geometry::mesh::Mesh;
 use crate::photometry::Luminaire;
 use crate::scene::Scene;
@@ -45,8 +46,7 @@ pub(crate) fn sub_centroids(level: u32) -> Vec<(f64, f64)> {
 
 /// Whether the segment from `x` (on a surface with normal `n`) to `p` is free.
 pub(crate) fn visible(bvh: &Bvh, x: DVec3, n: DVec3, p: DVec3, skip: u32) -> bool {
-    let lift = 1e-6 * (1.0 + x.abs().max_element());
-    let o = Vec3A::from((x + n * lift).as_vec3());
+    let o = Vec3A::from(lifted(x, n).as_vec3());
     !bvh.occluded(o, Vec3A::from(p.as_vec3()), [skip, u32::MAX])
 }
 

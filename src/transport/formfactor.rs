@@ -27,6 +27,7 @@ use serde::Serialize;
 
 use crate::geometry::bvh::Bvh;
 use crate::geometry::mesh::Mesh;
+use crate::sampling::{sample_triangle, Rng};
 
 /// Quality knobs of the form-factor pass. Part of the cache key.
 #[derive(Debug, Clone, Copy, Serialize, PartialEq)]
@@ -107,36 +108,6 @@ pub(crate) fn quadrature_tables() -> [Vec<DVec3>; 5] {
         rec(DVec3::X, DVec3::Y, DVec3::Z, l as u32, &mut v);
         v
     })
-}
-
-/// Small deterministic generator (SplitMix64) for ray sampling.
-pub(crate) struct Rng(u64);
-
-impl Rng {
-    pub(crate) fn new(i: usize, j: usize) -> Rng {
-        Rng((i as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15)
-            ^ (j as u64).wrapping_mul(0xC2B2_AE3D_27D4_EB4F))
-    }
-    pub(crate) fn next_f64(&mut self) -> f64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^= z >> 31;
-        (z >> 11) as f64 / (1u64 << 53) as f64
-    }
-}
-
-/// A point of triangle `c` from the unit square, uniformly distributed, pulled slightly
-/// inside so it never lies on an edge shared with a neighbour.
-pub(crate) fn sample_triangle(c: &[DVec3; 3], mut u: f64, mut v: f64) -> DVec3 {
-    if u + v > 1.0 {
-        u = 1.0 - u;
-        v = 1.0 - v;
-    }
-    let p = c[0] + (c[1] - c[0]) * u + (c[2] - c[0]) * v;
-    let g = (c[0] + c[1] + c[2]) / 3.0;
-    g + (p - g) * (1.0 - 1e-4)
 }
 
 /// Precomputed per-patch data for the pair loop.
@@ -289,7 +260,7 @@ pub(crate) fn visible_fraction(
         let mut free = 0u32;
         // Stratify the first sample coordinate of both ends over the rays.
         for r in 0..count {
-            let s = (r as f64 + rng.next_f64()) / count as f64;
+            let s = rng.stratum(r as usize, count as usize);
             let t = ((r * 7 + 3) % count) as f64 / count as f64;
             let x = sample_triangle(&a.c, s, rng.next_f64());
             let y = sample_triangle(&b.c, t + rng.next_f64() / count as f64, rng.next_f64());

@@ -10,6 +10,7 @@ use rayon::prelude::*;
 
 use crate::color::{Rgb, Rgb64};
 use crate::geometry::bvh::Bvh;
+use crate::geometry::lifted;
 use crate::geometry::mesh::Mesh;
 use crate::scene::Scene;
 use crate::transport::formfactor::point_to_polygon;
@@ -51,8 +52,7 @@ pub fn gather_weights(
 ) -> Vec<(u32, f64)> {
     let b = Rgb::column(importance);
     let n = n.normalize();
-    let lift = 1e-6 * (1.0 + x.abs().max_element());
-    let o = Vec3A::from((x + n * lift).as_vec3());
+    let o = Vec3A::from(lifted(x, n).as_vec3());
     let candidates: Vec<(usize, f64, Rgb64)> = (0..mesh.len())
         .into_par_iter()
         .with_min_len(256)

@@ -26,9 +26,10 @@ use rayon::prelude::*;
 use crate::daylight::tregenza::Subdivision;
 use crate::daylight::Site;
 use crate::geometry::bvh::Bvh;
-use crate::geometry::frame;
 use crate::geometry::glazing::Glazing;
 use crate::geometry::mesh::Mesh;
+use crate::geometry::{frame, lifted};
+use crate::sampling::{hashed_point, XorShift};
 
 /// Rays per patch for [`patch_sky_direct`]: about this many in all, …
 const PATCH_RAY_BUDGET: usize = 4 << 20;
@@ -111,14 +112,7 @@ fn fine_share_raw(u: f64, v: f64) -> f64 {
 /// A fixed pseudo-random point in 0 … 1 × 0 … 1 for sub-cell (si, sj) of coarse cell
 /// (i, j) of the [`SkyView`] grid.
 fn jitter(i: usize, j: usize, si: usize, sj: usize) -> (f64, f64) {
-    let mut h = (((j * VIEW_GRID + i) * VIEW_REFINE + sj) * VIEW_REFINE + si) as u64;
-    // splitmix64
-    h = h.wrapping_add(0x9E37_79B9_7F4A_7C15);
-    h = (h ^ (h >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-    h = (h ^ (h >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-    h ^= h >> 31;
-    let unit = |x: u64| (x >> 11) as f64 / (1u64 << 53) as f64;
-    (unit(h), unit(h.rotate_left(32)))
+    hashed_point((((j * VIEW_GRID + i) * VIEW_REFINE + sj) * VIEW_REFINE + si) as u64)
 }
 
 /// The cosine-weighted shares of the [`SkyView`] grid: per coarse cell (row-major) the sum
@@ -169,26 +163,6 @@ pub fn transmitted(
     }
 }
 
-/// `x` lifted a hair along `n`, off its surface.
-fn lifted(x: DVec3, n: DVec3) -> DVec3 {
-    x + n * (1e-6 * (1.0 + x.abs().max_element()))
-}
-
-/// A small xorshift generator, seeded per patch so results do not depend on threads.
-struct Rng(u64);
-
-impl Rng {
-    fn new(seed: u64) -> Rng {
-        Rng(seed.wrapping_mul(0x9E37_79B9_7F4A_7C15) | 1)
-    }
-    fn next(&mut self) -> f64 {
-        self.0 ^= self.0 << 13;
-        self.0 ^= self.0 >> 7;
-        self.0 ^= self.0 << 17;
-        (self.0 >> 11) as f64 / (1u64 << 53) as f64
-    }
-}
-
 /// Rays per patch for `n` patches (a square number).
 fn patch_rays(n: usize) -> usize {
     let want = (PATCH_RAY_BUDGET / n.max(1)).clamp(PATCH_RAYS_MIN, PATCH_RAYS_MAX);
@@ -216,7 +190,7 @@ pub fn patch_sky_direct(
             let p = &mesh.patches[i];
             let c = mesh.corners(i);
             let (t, b) = frame(p.normal);
-            let mut rng = Rng::new(i as u64 + 1);
+            let mut rng = XorShift::new(i as u64 + 1);
             let mut row = vec![0f64; k];
             for r in 0..rays {
                 // Stratified direction cell, and a point of the patch from an independent

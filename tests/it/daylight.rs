@@ -796,9 +796,17 @@ fn final_images_gather_the_sky_through_the_opening_and_trace_the_sun() {
     let image = |sky: serde_json::Value| {
         let spec: SkySpec = serde_json::from_value(sky).unwrap();
         let state = spec.resolve(m.site().unwrap()).unwrap();
-        final_daylight_image(&m, &shading, &patches, &cam, &state, &Cancel::default())
-            .unwrap()
-            .linear(&[relight::color::Rgb::ONE])
+        final_daylight_image(
+            &m,
+            &shading,
+            &patches,
+            &cam,
+            &state,
+            &relight::render::final_gather::FinalSettings::default(),
+            &Cancel::default(),
+        )
+        .unwrap()
+        .linear(&[relight::color::Rgb::ONE])
     };
     // Pixel (i, j) sees the floor at x = 2 + 2.9 tan 30° (2 (i + ½)/side − 1), z alike.
     let tan = 30f64.to_radians().tan();

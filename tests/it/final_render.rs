@@ -21,7 +21,15 @@ fn model(dir: &std::path::Path) -> Model {
 fn finals(m: &Model, cam: &Camera) -> GroupImages {
     let shading = Shading::new(&m.baked.mesh);
     let patches = patch_locator(&m.baked.mesh, &m.baked.scene.triangles);
-    final_images(m, &shading, &patches, cam, &Cancel::default()).unwrap()
+    final_images(
+        m,
+        &shading,
+        &patches,
+        cam,
+        &relight::render::final_gather::FinalSettings::default(),
+        &Cancel::default(),
+    )
+    .unwrap()
 }
 
 /// A square `side`² camera `height` above the origin looking straight down, image x along

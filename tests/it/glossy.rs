@@ -38,7 +38,15 @@ fn finals(glb: &[u8], toml: &str, cam: &Camera) -> GroupImages {
     let m = model(glb, toml);
     let shading = Shading::new(&m.baked.mesh);
     let patches = patch_locator(&m.baked.mesh, &m.baked.scene.triangles);
-    final_images(&m, &shading, &patches, cam, &Cancel::default()).unwrap()
+    final_images(
+        &m,
+        &shading,
+        &patches,
+        cam,
+        &relight::render::final_gather::FinalSettings::default(),
+        &Cancel::default(),
+    )
+    .unwrap()
 }
 
 /// A square camera `height` above the origin looking straight down at the floor, image
@@ -267,9 +275,17 @@ fn a_glossy_floor_reflects_the_sky_and_the_sun() {
     let image = |sky: serde_json::Value| {
         let spec: SkySpec = serde_json::from_value(sky).unwrap();
         let state = spec.resolve(m.site().unwrap()).unwrap();
-        final_daylight_image(&m, &shading, &patches, &cam, &state, &Cancel::default())
-            .unwrap()
-            .linear(&[Rgb::ONE])
+        final_daylight_image(
+            &m,
+            &shading,
+            &patches,
+            &cam,
+            &state,
+            &relight::render::final_gather::FinalSettings::default(),
+            &Cancel::default(),
+        )
+        .unwrap()
+        .linear(&[Rgb::ONE])
     };
     let view = |p: DVec3| (above.eye() - p).normalize();
     // A uniform sky of 10,000 lx on the horizontal: L = 10,000/π cd/m².

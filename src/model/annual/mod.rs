@@ -14,8 +14,8 @@
 //! position is computed at the middle of each hour (EPW rows are the hours ending then) for
 //! the weather file's location, in the scene's orientation (its `north`).
 //!
-//! Metrics ([`super::metrics`], with their thresholds and sources), over the occupied
-//! hours (local standard time, hours whose middle lies in `[start, end)`):
+//! Metrics ([`super::daylight_metrics`], with their thresholds and sources), over the
+//! occupied hours (local standard time, hours whose middle lies in `[start, end)`):
 //! - sDA300/50 %: the share of points with at least 300 lx for at least half the hours;
 //! - ASE1000,250h: the share of points with direct sunlight alone of at least 1000 lx for
 //!   more than 250 hours;
@@ -36,8 +36,8 @@ use glam::DVec3;
 use rayon::prelude::*;
 use serde::Serialize;
 
-use super::metrics::{self, PointHours};
-pub use super::metrics::{En17037, Udi};
+use super::daylight_metrics::{self as metrics, PointHours};
+pub use super::daylight_metrics::{En17037, Udi};
 use super::{Cancel, Model, QueryError};
 use crate::color::Rgb;
 use crate::daylight::epw::{self, Weather};

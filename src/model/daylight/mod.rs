@@ -21,9 +21,9 @@ use std::collections::BTreeMap;
 use glam::DVec3;
 use serde::Serialize;
 
+use super::daylight_metrics as metrics;
+pub use super::daylight_metrics::DaylightFactors;
 use super::grid::{self, GridStats};
-use super::metrics;
-pub use super::metrics::DaylightFactors;
 use super::query::{GridAnswer, IlluminanceQuery};
 use super::report::SurfaceIlluminance;
 use super::sky_state::{SkyState, SunPosition};

@@ -19,8 +19,9 @@ use rayon::prelude::*;
 use super::lights::{GroupLights, Rays, Scratch};
 use super::FinalScene;
 use crate::color::Rgb;
+use crate::geometry::lifted;
 use crate::geometry::patch_locator::PatchLocator;
-use crate::transport::formfactor::Rng;
+use crate::sampling::Rng;
 
 /// Reads the reflected radiosity at a point where a gather ray landed close by: `(point,
 /// patch, generator, per group RGB out)`.
@@ -239,7 +240,7 @@ impl Reflected {
         }
         let patch = &scene.mesh.patches[p as usize];
         let c = patch.v.map(|v| scene.mesh.vertices[v as usize]);
-        let l = crate::render::preview::barycentric(&c, x).map(|v| v.clamp(0.0, 1.0) as f32);
+        let l = crate::geometry::barycentric(&c, x).map(|v| v.clamp(0.0, 1.0) as f32);
         let sum = (l[0] + l[1] + l[2]).max(1e-6);
         let sv = scene.shading.corner[p as usize];
         let g3 = 3 * self.groups;
@@ -270,8 +271,7 @@ impl Reflected {
         let (rows, cols) = ray_grid(rays);
         let count = rows * cols;
         let (t, b) = crate::geometry::frame(n);
-        let lift = 1e-6 * (1.0 + x.abs().max_element());
-        let o = x + n * lift;
+        let o = lifted(x, n);
         let own = scene.mesh.patches[p as usize].source;
         let patches = scene.patches;
         let w = 1.0 / count as f32;
@@ -375,17 +375,13 @@ impl Reflected {
     ) {
         let count = square_count(rays);
         let side = count.isqrt();
-        let lift = 1e-6 * (1.0 + x.abs().max_element());
-        let o = x + n * lift;
+        let o = lifted(x, n);
         let own = scene.mesh.patches[p as usize].source;
         let patches = scene.patches;
         let inv_pi = std::f32::consts::FRAC_1_PI;
         let mut read = vec![0f32; out.len()];
         for i in 0..count {
-            let u = (
-                ((i / side) as f64 + rng.next_f64()) / side as f64,
-                ((i % side) as f64 + rng.next_f64()) / side as f64,
-            );
+            let u = (rng.stratum(i / side, side), rng.stratum(i % side, side));
             let Some((d, weight)) = lobe.sample(u) else {
                 continue;
             };

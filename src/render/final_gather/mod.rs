@@ -55,8 +55,8 @@ use crate::geometry::bvh::Bvh;
 use crate::geometry::mesh::Mesh;
 use crate::geometry::patch_locator::{max_grid_corners, PatchLocator};
 use crate::model::{Cancel, QueryError};
+use crate::sampling::{shuffle, Rng};
 use crate::scene::{LightGroup, Material, Triangle};
-use crate::transport::formfactor::Rng;
 use crate::transport::transfer::GroupColumns;
 
 use filter::Guide;
@@ -380,28 +380,20 @@ impl Tracer<'_> {
             BLOCK_SALT ^ self.settings.seed as usize,
         );
         let shift = (block_rng.next_f64(), block_rng.next_f64());
-        let mut subs = [0usize; BLOCK * BLOCK];
-        subs.iter_mut().enumerate().for_each(|(i, s)| *s = i);
-        for i in (1..subs.len()).rev() {
-            subs.swap(i, ((block_rng.next_f64() * (i + 1) as f64) as usize).min(i));
-        }
+        let mut subs: [usize; BLOCK * BLOCK] = std::array::from_fn(|i| i);
+        shuffle(&mut subs, &mut block_rng);
         let sub = subs[(y % BLOCK) * BLOCK + x % BLOCK];
         let (bx, by) = (sub % BLOCK, sub / BLOCK);
         cells.clear();
         cells.extend(0..k * k);
-        for i in (1..cells.len()).rev() {
-            cells.swap(i, ((rng.next_f64() * (i + 1) as f64) as usize).min(i));
-        }
+        shuffle(cells, rng);
         for (s, &cell) in cells.iter().enumerate() {
             let strata = gather::Strata {
                 shift,
                 interleave: k * BLOCK,
                 cell: ((cell % k) * BLOCK + bx, (cell / k) * BLOCK + by),
             };
-            let (sx, sy) = (
-                ((s % k) as f64 + rng.next_f64()) / k as f64,
-                ((s / k) as f64 + rng.next_f64()) / k as f64,
-            );
+            let (sx, sy) = (rng.stratum(s % k, k), rng.stratum(s / k, k));
             let d = self.rays.dir_at(x as f64 + sx, y as f64 + sy);
             dir_s.iter_mut().for_each(|v| *v = 0.0);
             ind_s.iter_mut().for_each(|v| *v = 0.0);

@@ -22,7 +22,7 @@ pub struct FinalSettings {
     /// whose difference measures the noise (benches).
     pub seed: u32,
     /// Whether images larger than [`GATHER_REFERENCE_PIXELS`] get fewer gather rays per
-    /// pixel (false when `RELIGHT_FINAL_GATHER` fixes them).
+    /// pixel (false when `RELIGHT_FINAL_GATHER` fixes them, [`FinalSettings::from_env`]).
     pub scale_gather: bool,
 }
 
@@ -59,21 +59,49 @@ impl FinalSettings {
 }
 
 impl Default for FinalSettings {
+    /// The documented work per pixel: 2 × 2 samples, 48 gather rays (fewer past
+    /// [`GATHER_REFERENCE_PIXELS`]), 16 emitter and 16 specular rays, 2 filter passes, seed 0.
     fn default() -> Self {
-        let env = |k: &str, d: u32| {
-            std::env::var(k)
-                .ok()
+        FinalSettings {
+            samples_per_side: 2,
+            gather_rays: 48,
+            emitter_rays: 16,
+            specular_rays: 16,
+            filter_passes: 2,
+            seed: 0,
+            scale_gather: true,
+        }
+    }
+}
+
+impl FinalSettings {
+    /// The defaults with the benches' overrides from the environment, read once where a
+    /// process starts (`relight serve`, `relight render`, the examples):
+    /// `RELIGHT_FINAL_SPS`, `RELIGHT_FINAL_GATHER` (which also fixes the gather rays at
+    /// every image size), `RELIGHT_FINAL_EMITTER`, `RELIGHT_FINAL_SPECULAR`,
+    /// `RELIGHT_FINAL_FILTER` and `RELIGHT_FINAL_SEED`. A variable that does not parse
+    /// keeps its default.
+    pub fn from_env() -> FinalSettings {
+        Self::from_vars(|k| std::env::var_os(k))
+    }
+
+    /// [`Self::from_env`] with the variables looked up by `var`.
+    fn from_vars(var: impl Fn(&str) -> Option<std::ffi::OsString>) -> FinalSettings {
+        let d = FinalSettings::default();
+        let num = |k: &str, d: u32| {
+            var(k)
+                .and_then(|v| v.into_string().ok())
                 .and_then(|v| v.parse().ok())
                 .unwrap_or(d)
         };
         FinalSettings {
-            scale_gather: std::env::var_os("RELIGHT_FINAL_GATHER").is_none(),
-            samples_per_side: env("RELIGHT_FINAL_SPS", 2),
-            gather_rays: env("RELIGHT_FINAL_GATHER", 48),
-            emitter_rays: env("RELIGHT_FINAL_EMITTER", 16),
-            specular_rays: env("RELIGHT_FINAL_SPECULAR", 16),
-            filter_passes: env("RELIGHT_FINAL_FILTER", 2),
-            seed: env("RELIGHT_FINAL_SEED", 0),
+            scale_gather: var("RELIGHT_FINAL_GATHER").is_none(),
+            samples_per_side: num("RELIGHT_FINAL_SPS", d.samples_per_side),
+            gather_rays: num("RELIGHT_FINAL_GATHER", d.gather_rays),
+            emitter_rays: num("RELIGHT_FINAL_EMITTER", d.emitter_rays),
+            specular_rays: num("RELIGHT_FINAL_SPECULAR", d.specular_rays),
+            filter_passes: num("RELIGHT_FINAL_FILTER", d.filter_passes),
+            seed: num("RELIGHT_FINAL_SEED", d.seed),
         }
     }
 }
@@ -87,15 +115,7 @@ mod tests {
     /// filter one more pass where they are halved or more; a fixed ray count stays.
     #[test]
     fn gather_rays_per_pixel_fall_with_the_image_size() {
-        let base = FinalSettings {
-            samples_per_side: 2,
-            gather_rays: 48,
-            emitter_rays: 16,
-            specular_rays: 16,
-            filter_passes: 2,
-            seed: 0,
-            scale_gather: true,
-        };
+        let base = FinalSettings::default();
         let at = |w: u64, h: u64| {
             let s = base.for_pixels(w * h);
             (s.gather_rays, s.filter_passes)
@@ -114,5 +134,29 @@ mod tests {
             ..base
         };
         assert_eq!(fixed.for_pixels(1024 * 1024), fixed);
+    }
+
+    /// The environment's overrides: a set `RELIGHT_FINAL_GATHER` fixes the gather rays at
+    /// every size, one that does not parse keeps its default, none gives the defaults.
+    #[test]
+    fn the_environment_overrides_the_defaults() {
+        use std::ffi::OsString;
+        assert_eq!(FinalSettings::from_vars(|_| None), FinalSettings::default());
+        let set = |k: &str| match k {
+            "RELIGHT_FINAL_GATHER" => Some(OsString::from("96")),
+            "RELIGHT_FINAL_SEED" => Some(OsString::from("7")),
+            "RELIGHT_FINAL_SPS" => Some(OsString::from("many")),
+            _ => None,
+        };
+        let s = FinalSettings::from_vars(set);
+        assert_eq!(
+            s,
+            FinalSettings {
+                gather_rays: 96,
+                seed: 7,
+                scale_gather: false,
+                ..FinalSettings::default()
+            }
+        );
     }
 }

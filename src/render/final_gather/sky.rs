@@ -6,7 +6,8 @@ use glam::{DVec3, Vec3A};
 
 use crate::color::Rgb;
 use crate::geometry::bvh::Bvh;
-use crate::transport::formfactor::Rng;
+use crate::geometry::lifted;
+use crate::sampling::Rng;
 
 /// The daylight of one sky state, for a `final` image of it: the sun traced exactly, the
 /// sky read by gather rays that leave the scene (through openings and glazing), and the
@@ -103,7 +104,7 @@ impl<'a> FinalSky<'a> {
         rng: &mut Rng,
         out: &mut [f32],
     ) {
-        let o = x + n * (1e-6 * (1.0 + x.abs().max_element()));
+        let o = lifted(x, n);
         let mut sum = 0f64;
         for _ in 0..aim.rays {
             let u = rng.next_f64();
@@ -142,7 +143,7 @@ impl FinalSky<'_> {
         if cos <= 0.0 {
             return 0.0;
         }
-        let o = x + n * (1e-6 * (1.0 + x.abs().max_element()));
+        let o = lifted(x, n);
         let far = o + s.direction * self.reach;
         if bvh.occluded(
             Vec3A::from(o.as_vec3()),

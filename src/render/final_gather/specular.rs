@@ -249,7 +249,7 @@ fn lambda(cos: f64, a2: f64) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::transport::formfactor::Rng;
+    use crate::sampling::Rng;
 
     fn lobe(alpha: f32, f0: f32, view_deg: f64) -> Lobe {
         let g = Gloss {

@@ -147,7 +147,7 @@ fn check_light(l: &LightToml) -> Result<(), String> {
         in_range("ra", ra, 0.0, 100.0)?;
     }
     if let Some(i) = l.intensity {
-        in_range("intensity", i as f64, 0.0, MAX_INTENSITY)?;
+        in_range("intensity", i as f64, 0.0, MAX_DEFAULT_INTENSITY)?;
     }
     if let Some(c) = &l.color {
         color_ok("color", c)?;

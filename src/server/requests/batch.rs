@@ -7,8 +7,9 @@ use utoipa::openapi::RefOr;
 use utoipa::ToSchema;
 
 use super::{lit_request, names, object_only, raw, schema_ref, some};
+use crate::input_limits::MAX_BATCH_STATES;
 use crate::model::Model;
-use crate::server::parse::{grid_list, surface_list, MAX_BATCH};
+use crate::server::parse::{grid_list, surface_list};
 use crate::server::AppError;
 
 lit_request! {
@@ -24,7 +25,7 @@ impl LightingState {
 
 fn states_schema() -> RefOr<Schema> {
     raw(
-        json!({"type": "array", "minItems": 1, "maxItems": MAX_BATCH,
+        json!({"type": "array", "minItems": 1, "maxItems": MAX_BATCH_STATES,
         "items": schema_ref("LightingState")}),
     )
 }
@@ -63,9 +64,9 @@ impl BatchRequest {
     /// checked.
     pub(crate) fn plan(&self, model: &Model) -> Result<(Vec<usize>, Vec<usize>), AppError> {
         let grids = grid_list(&self.grids, model)?;
-        if self.states.is_empty() || self.states.len() > MAX_BATCH {
+        if self.states.is_empty() || self.states.len() > MAX_BATCH_STATES {
             return Err(AppError::Invalid(format!(
-                "'states' has {} entries; give 1 to {MAX_BATCH}",
+                "'states' has {} entries; give 1 to {MAX_BATCH_STATES}",
                 self.states.len()
             )));
         }

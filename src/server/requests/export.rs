@@ -3,7 +3,9 @@
 use std::collections::BTreeMap;
 
 use super::lighting::{lighting, Lights};
-use super::render::{query_choice, query_light, query_number, TonemapName, MAX_EXPOSURE};
+use super::render::{
+    given_once, query_choice, query_light, query_number, TonemapName, MAX_EXPOSURE,
+};
 use crate::model::Lighting;
 use crate::model::Model;
 use crate::render::ExportOptions;
@@ -30,13 +32,7 @@ impl ExportRequest {
         };
         let mut seen: Vec<&str> = Vec::with_capacity(q.len());
         for (k, v) in q {
-            if seen.contains(&k.as_str()) {
-                return Err(AppError::BadRequest(format!(
-                    "query parameter '{}' is given twice",
-                    shorten(k)
-                )));
-            }
-            seen.push(k);
+            given_once(&mut seen, k, k)?;
             match k.as_str() {
                 "exposure" if v == "auto" => r.exposure = None,
                 "exposure" => r.exposure = Some(query_number(k, v)?),

@@ -10,9 +10,10 @@ use utoipa::ToSchema;
 use super::lighting::{light_weights, Direction, Lights, Position};
 use super::{object_only, raw, schema_ref, some};
 use crate::color::Rgb;
+use crate::input_limits::MAX_REQUEST_COORD_M;
 use crate::model::glare::{MAX_OBSERVERS, SEATED_EYE_HEIGHT};
 use crate::model::Model;
-use crate::server::parse::{bounded_triple, direction, number, MAX_COORDINATE};
+use crate::server::parse::{bounded_triple, direction, number};
 use crate::server::AppError;
 
 /// An observer: the eye, or where the observer is placed and the eye's height above it,
@@ -77,8 +78,12 @@ impl GlareRequest {
             .enumerate()
             .map(|(k, o)| {
                 let at = |p: &Position, what: &str| {
-                    bounded_triple(p.0 .0, &format!("observers[{k}].{what}"), MAX_COORDINATE)
-                        .map(DVec3::from_array)
+                    bounded_triple(
+                        p.0 .0,
+                        &format!("observers[{k}].{what}"),
+                        MAX_REQUEST_COORD_M,
+                    )
+                    .map(DVec3::from_array)
                 };
                 let eye = match (&o.eye, &o.position, o.height) {
                     (Some(e), None, None) => at(e, "eye")?,

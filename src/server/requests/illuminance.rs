@@ -15,11 +15,10 @@ use super::lighting::{Direction, Position};
 use super::{
     deserialize_by, grid_ids, lit_request, names, object_only, raw, schema_ref, some, visit_numbers,
 };
+use crate::input_limits::{MAX_REQUEST_COORD_M, MAX_REQUEST_POINTS};
 use crate::model::query::{Factors, IlluminanceQuery};
 use crate::model::{Lighting, Model};
-use crate::server::parse::{
-    bounded_triple, direction, grid_list, surface_list, MAX_COORDINATE, MAX_POINTS,
-};
+use crate::server::parse::{bounded_triple, direction, grid_list, surface_list};
 use crate::server::AppError;
 
 /// A receiver: a point and the normal of the surface it lies on.
@@ -34,7 +33,7 @@ object_only!(Point, "an object {position, normal}");
 
 pub(super) fn points_schema() -> RefOr<Schema> {
     raw(
-        json!({"type": "array", "maxItems": MAX_POINTS, "items": schema_ref("Point"),
+        json!({"type": "array", "maxItems": MAX_REQUEST_POINTS, "items": schema_ref("Point"),
         "description": "Receivers, e.g. [{\"position\": [0.278, 0.1, 0.278], \"normal\": [0, 1, 0]}]. Each point gathers from every patch it sees: thousands of points take seconds."}),
     )
 }
@@ -175,9 +174,9 @@ pub(super) fn report_query(
 }
 
 fn points(list: &[Point]) -> Result<Vec<(DVec3, DVec3)>, AppError> {
-    if list.len() > MAX_POINTS {
+    if list.len() > MAX_REQUEST_POINTS {
         return Err(AppError::Invalid(format!(
-            "{} points requested; the limit is {MAX_POINTS} per request",
+            "{} points requested; the limit is {MAX_REQUEST_POINTS} per request",
             list.len()
         )));
     }
@@ -185,7 +184,7 @@ fn points(list: &[Point]) -> Result<Vec<(DVec3, DVec3)>, AppError> {
         .enumerate()
         .map(|(k, p)| {
             let what = format!("points[{k}].position");
-            let pos = bounded_triple(p.position.0 .0, &what, MAX_COORDINATE)?;
+            let pos = bounded_triple(p.position.0 .0, &what, MAX_REQUEST_COORD_M)?;
             let n = direction(p.normal.0 .0, &format!("points[{k}].normal"))?;
             Ok((DVec3::from_array(pos), n))
         })

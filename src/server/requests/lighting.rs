@@ -13,12 +13,13 @@ use utoipa::{PartialSchema, ToSchema};
 
 use super::{deserialize_by, raw, schema_ref, some, visit_numbers};
 use crate::color::{Rgb, Rgb64};
-use crate::model::lighting::{LightState, MAX_EMISSION, MAX_INTENSITY};
+use crate::input_limits::{MAX_REQUEST_COORD_M, MAX_STATE_EMISSION, MAX_STATE_INTENSITY};
+use crate::model::lighting::LightState;
 use crate::model::sky_state::{SkySpec, SkyState};
 use crate::model::Lighting;
 use crate::model::Model;
 use crate::server::json::numbers;
-use crate::server::parse::{bounded, shorten, MAX_COORDINATE};
+use crate::server::parse::{bounded, shorten};
 use crate::server::AppError;
 
 /// Three JSON numbers, as sent; their ranges are checked by whoever uses them.
@@ -61,7 +62,7 @@ triple!(
     Color,
     triple_schema(
         0.0,
-        MAX_INTENSITY as f64,
+        MAX_STATE_INTENSITY as f64,
         "Linear RGB colour filter, each channel in [0, 1e6]."
     )
 );
@@ -69,8 +70,8 @@ triple!(
     /// A point, metres.
     Position,
     triple_schema(
-        -MAX_COORDINATE,
-        MAX_COORDINATE,
+        -MAX_REQUEST_COORD_M,
+        MAX_REQUEST_COORD_M,
         "A point, metres; each coordinate within ±1e6."
     )
 );
@@ -148,7 +149,7 @@ deserialize_by! {
 
 impl PartialSchema for LightSetting {
     fn schema() -> RefOr<Schema> {
-        let intensity = json!({"type": "number", "minimum": 0, "maximum": MAX_INTENSITY});
+        let intensity = json!({"type": "number", "minimum": 0, "maximum": MAX_STATE_INTENSITY});
         let mut level = intensity.clone();
         level["description"] = json!("Intensity (dimming factor; 1 = as modelled).");
         raw(
@@ -191,7 +192,7 @@ impl PartialSchema for Emission {
     fn schema() -> RefOr<Schema> {
         let exitance = triple_schema(
             0.0,
-            MAX_EMISSION,
+            MAX_STATE_EMISSION,
             "Emitted exitance [r, g, b], lm/m², each in [0, 1e9].",
         );
         raw(json!({
@@ -204,15 +205,15 @@ impl PartialSchema for Emission {
 }
 impl ToSchema for Emission {}
 
-/// An intensity (dimming factor) in `[0, MAX_INTENSITY]`.
+/// An intensity (dimming factor) in `[0, MAX_STATE_INTENSITY]`.
 fn intensity(x: f64, what: &str) -> Result<f32, AppError> {
-    Ok(bounded(x, what, 0.0, MAX_INTENSITY as f64)? as f32)
+    Ok(bounded(x, what, 0.0, MAX_STATE_INTENSITY as f64)? as f32)
 }
 
-/// A colour filter, each channel in `[0, MAX_INTENSITY]`.
+/// A colour filter, each channel in `[0, MAX_STATE_INTENSITY]`.
 fn color(c: Color, what: &str) -> Result<Rgb, AppError> {
     for x in c.0 .0 {
-        bounded(x, what, 0.0, MAX_INTENSITY as f64)?;
+        bounded(x, what, 0.0, MAX_STATE_INTENSITY as f64)?;
     }
     Ok(Rgb64(c.0 .0).to_f32())
 }

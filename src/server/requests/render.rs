@@ -15,6 +15,7 @@ use super::{
     choice_impls, deserialize_by, lit_request, object_only, raw, schema_ref, some, visit_numbers,
     Choice,
 };
+use crate::input_limits::MAX_REQUEST_COORD_M;
 use crate::model::lighting::parse_value;
 use crate::model::sky_state::{SkySpec, SkyState};
 use crate::model::Model;
@@ -24,7 +25,7 @@ use crate::render::pipeline::{
 };
 use crate::render::{Camera, Format, ToneMap, MAX_SIDE};
 use crate::server::json::{numbers, FIELD};
-use crate::server::parse::{bounded, bounded_triple, direction, number, shorten, MAX_COORDINATE};
+use crate::server::parse::{bounded, bounded_triple, direction, number, shorten};
 use crate::server::AppError;
 
 /// Largest exposure, stops either way.
@@ -289,13 +290,7 @@ impl RenderRequest {
                 "h" => "height",
                 k => k,
             };
-            if seen.contains(&key) {
-                return Err(AppError::BadRequest(format!(
-                    "query parameter '{}' is given twice",
-                    shorten(k)
-                )));
-            }
-            seen.push(key);
+            given_once(&mut seen, key, k)?;
             let num = |v: &str| query_number(k, v);
             match key {
                 "camera" => r.camera = Some(CameraSpec::Preset(v.clone())),
@@ -345,6 +340,25 @@ pub(super) fn query_light(
     Ok(true)
 }
 
+/// Notes query parameter `key` (its canonical name; `k` as the client wrote it) as
+/// given: 400 when it was given before.
+pub(super) fn given_once<'q>(
+    seen: &mut Vec<&'q str>,
+    key: &'q str,
+    k: &str,
+) -> Result<(), AppError> {
+    if seen.contains(&key) {
+        return Err(given_twice(k));
+    }
+    seen.push(key);
+    Ok(())
+}
+
+/// The 400 for query parameter `k` given twice.
+pub(crate) fn given_twice(k: &str) -> AppError {
+    AppError::BadRequest(format!("query parameter '{}' is given twice", shorten(k)))
+}
+
 pub(super) fn query_number(k: &str, v: &str) -> Result<f64, AppError> {
     v.parse::<f64>().map_err(|_| {
         AppError::BadRequest(format!(
@@ -392,8 +406,8 @@ fn camera(spec: Option<&CameraSpec>, model: &Model, w: u32, h: u32) -> Result<Ca
             Camera::from_def(def, w, h)
         }
         Some(CameraSpec::Full(c)) => {
-            let position = bounded_triple(c.position.0 .0, "camera.position", MAX_COORDINATE)?;
-            let target = bounded_triple(c.target.0 .0, "camera.target", MAX_COORDINATE)?;
+            let position = bounded_triple(c.position.0 .0, "camera.position", MAX_REQUEST_COORD_M)?;
+            let target = bounded_triple(c.target.0 .0, "camera.target", MAX_REQUEST_COORD_M)?;
             let up = match c.up {
                 Some(u) => direction(u.0 .0, "camera.up")?.to_array(),
                 None => [0.0, 1.0, 0.0],

@@ -1,4 +1,4 @@
-//! `POST /api/scenes/{id}/batch`: up to `MAX_BATCH` lighting states in one request,
+//! `POST /api/scenes/{id}/batch`: up to `MAX_BATCH_STATES` lighting states in one request,
 //! each answered with surface illuminance (lux), the power balance (lm), and optionally
 //! grids and per-patch radiosity (lm/m²).
 

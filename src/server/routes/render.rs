@@ -14,7 +14,7 @@ use crate::budget::human_bytes;
 use crate::model::sky_state::SkyState;
 use crate::model::{Cancel, Lighting};
 use crate::render::daylight::{daylight_pixels, DaylightScene, SunView};
-use crate::render::pipeline::{self, Frame, Quality, RenderError, RenderOptions};
+use crate::render::pipeline::{self, Frame, Quality, RenderOptions};
 use crate::render::ViewBuffer;
 use crate::server::openapi::{PostErrors, QueryErrors, RenderImage, RenderPng, SceneIdParam};
 use crate::server::parse::{ReadyScene, ScenePost};
@@ -33,13 +33,9 @@ pub(super) fn render_image(
     cancel: &Cancel,
 ) -> Result<pipeline::Rendered, AppError> {
     let entry = view_for(state, ready, &o.camera);
-    let encode = |e: RenderError| match e {
-        RenderError::Query(q) => q.into(),
-        RenderError::Encode(m) => AppError::Internal(m),
-    };
     let finals = if o.quality == Quality::Final && !o.falsecolor {
         pipeline::needs_groups(lighting)?;
-        let f = entry.final_images(ready, &o.camera, cancel)?;
+        let f = entry.final_images(ready, &o.camera, &state.config.final_settings, cancel)?;
         // The entry grew by its final images: keep the cache within bounds.
         super::super::views::trim(state);
         Some(f)
@@ -49,7 +45,13 @@ pub(super) fn render_image(
     if let Some(sky) = sky {
         let daylight = match &finals {
             Some(_) => {
-                let d = entry.final_daylight(ready, &o.camera, sky, cancel)?;
+                let d = entry.final_daylight(
+                    ready,
+                    &o.camera,
+                    sky,
+                    &state.config.final_settings,
+                    cancel,
+                )?;
                 super::super::views::trim(state);
                 Some(d)
             }
@@ -64,7 +66,7 @@ pub(super) fn render_image(
             groups: Some(f),
             shading: ready.shading(),
         };
-        return pipeline::render(&ready.model, frame, lighting, o).map_err(encode);
+        return pipeline::render(&ready.model, frame, lighting, o).map_err(AppError::from);
     }
     let groups = match lighting {
         Lighting::Groups(_) if !o.falsecolor => {
@@ -80,7 +82,7 @@ pub(super) fn render_image(
         groups,
         shading: ready.shading(),
     };
-    pipeline::render(&ready.model, frame, lighting, o).map_err(encode)
+    pipeline::render(&ready.model, frame, lighting, o).map_err(AppError::from)
 }
 
 /// [`render_image`] under a sky. At `fast` quality the daylight is the patches' plus the
@@ -95,17 +97,13 @@ fn render_under_sky(
     finals: Option<(&crate::render::GroupImages, &crate::render::GroupImages)>,
     o: &RenderOptions,
 ) -> Result<pipeline::Rendered, AppError> {
-    let encode = |e: RenderError| match e {
-        RenderError::Query(q) => q.into(),
-        RenderError::Encode(m) => AppError::Internal(m),
-    };
     if let (Some((f, day)), Lighting::Groups(w)) = (finals, lighting) {
         // Final quality: the groups' images and the daylight's, nothing from the patches.
         let mut rad = day.linear(&[crate::color::Rgb::ONE]);
         for (r, g) in rad.iter_mut().zip(f.linear(w)) {
             *r += g;
         }
-        return pipeline::render_radiance(&rad, o).map_err(encode);
+        return pipeline::render_radiance(&rad, o).map_err(AppError::from);
     }
     let m = &ready.model;
     let day = m.patch_daylight_without_sun(sky)?;
@@ -140,7 +138,7 @@ fn render_under_sky(
         groups: None,
         shading: ready.shading(),
     };
-    pipeline::render_values(frame, &b, &h, (&rad, &lux), o).map_err(encode)
+    pipeline::render_values(frame, &b, &h, (&rad, &lux), o).map_err(AppError::from)
 }
 
 async fn respond(

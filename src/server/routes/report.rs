@@ -15,7 +15,7 @@ use crate::render::pipeline::RenderOptions;
 use crate::render::Camera;
 use crate::server::openapi::{QueryErrors, ReportHtml, SceneIdParam};
 use crate::server::parse::{shorten, ReadyScene};
-use crate::server::requests::render::RenderQuery;
+use crate::server::requests::render::{given_twice, RenderQuery};
 use crate::server::requests::RenderRequest;
 use crate::server::views::render_estimate;
 use crate::server::{AppError, Ready};
@@ -58,9 +58,7 @@ fn split_meta(q: &[(String, String)]) -> Result<(ReportMeta, Vec<(String, String
             }
         };
         if slot.is_some() {
-            return Err(AppError::BadRequest(format!(
-                "query parameter '{k}' is given twice"
-            )));
+            return Err(given_twice(k));
         }
         let n = v.chars().count();
         if n > MAX_META_CHARS {

@@ -16,7 +16,9 @@ use glam::{DVec3, Vec3A};
 use rayon::prelude::*;
 
 use crate::geometry::bvh::Bvh;
-use crate::transport::formfactor::{sample_triangle, PatchGeo, Rng};
+use crate::geometry::ray_offset;
+use crate::sampling::{sample_triangle, Rng};
+use crate::transport::formfactor::PatchGeo;
 
 /// Relative standard deviation assumed for a patch's link sum.
 const LINK_SUM_REL_SD: f64 = 0.01;
@@ -40,12 +42,12 @@ pub(crate) fn hit_fraction(
             let (i, g) = (i as usize, &geo[i as usize]);
             let mut rng = Rng::new(i, usize::MAX);
             let (t1, t2) = tangents(g.n);
-            let lift = 1e-6 * (1.0 + g.centroid.abs().max_element()) + 1e-6 * g.size;
+            let lift = ray_offset(g.centroid) + 1e-6 * g.size;
             let mut hits = 0u32;
             for a in 0..side {
                 for b in 0..side {
-                    let u1 = (a as f64 + rng.next_f64()) / side as f64;
-                    let u2 = (b as f64 + rng.next_f64()) / side as f64;
+                    let u1 = rng.stratum(a as usize, side as usize);
+                    let u2 = rng.stratum(b as usize, side as usize);
                     let r = u1.sqrt();
                     let phi = 2.0 * std::f64::consts::PI * u2;
                     let d = t1 * (r * phi.cos()) + t2 * (r * phi.sin()) + g.n * (1.0 - u1).sqrt();

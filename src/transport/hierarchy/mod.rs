@@ -619,7 +619,7 @@ pub fn emitter_bounce(
             if rho_mean <= 0.0 {
                 return 0.0;
             }
-            let mut rng = crate::transport::formfactor::Rng::new(i, usize::MAX - 1);
+            let mut rng = crate::sampling::Rng::new(i, usize::MAX - 1);
             let mut h = 0.0;
             for &(t, _, m) in &emitters {
                 if t == g.source {
@@ -637,11 +637,8 @@ pub fn emitter_bounce(
                 let x = glam::Vec3A::from((g.centroid + g.n * (1e-6 * g.size)).as_vec3());
                 let free = (0..GLOW_RAYS)
                     .filter(|_| {
-                        let y = crate::transport::formfactor::sample_triangle(
-                            &c,
-                            rng.next_f64(),
-                            rng.next_f64(),
-                        );
+                        let y =
+                            crate::sampling::sample_triangle(&c, rng.next_f64(), rng.next_f64());
                         !bvh.occluded(x, glam::Vec3A::from(y.as_vec3()), [g.source, t])
                     })
                     .count();

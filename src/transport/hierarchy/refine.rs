@@ -46,9 +46,10 @@ use super::importance::Importance;
 use super::tree::{Tree, NONE};
 use super::Plan;
 use crate::geometry::bvh::Bvh;
+use crate::sampling::{sample_triangle, Rng};
 use crate::transport::formfactor::{
-    directed, height_above, point_to_polygon, quadrature_level, quadrature_tables, sample_triangle,
-    visible_fraction, FormFactorOptions, PatchGeo, Rng,
+    directed, height_above, point_to_polygon, quadrature_level, quadrature_tables,
+    visible_fraction, FormFactorOptions, PatchGeo,
 };
 
 /// Quality knobs of the hierarchical transfer. Part of the cache key.
@@ -438,7 +439,7 @@ impl Ctx<'_> {
     /// (and no random number drawn, so the default bake is unchanged).
     fn pair_shift(&self, count: u32, rng: &mut Rng) -> u32 {
         if self.unbiased {
-            ((rng.next_f64() * count as f64) as u32).min(count.saturating_sub(1))
+            rng.index(count as usize) as u32
         } else {
             0
         }
@@ -465,9 +466,9 @@ impl Ctx<'_> {
         shift: u32,
         rng: &mut Rng,
     ) -> (DVec3, u32, DVec3, u32) {
-        let ur = (k as f64 + rng.next_f64()) / count as f64;
+        let ur = rng.stratum(k as usize, count as usize);
         let js = (count - 1 - k + shift) % count;
-        let us = (js as f64 + rng.next_f64()) / count as f64;
+        let us = rng.stratum(js as usize, count as usize);
         let (x, lx) = self.sample(e.r, ur, rng);
         let (y, ly) = self.sample(e.s, us, rng);
         (x, lx, y, ly)
@@ -584,7 +585,7 @@ impl Ctx<'_> {
             let (x, lx, y, ly) = match pairs.get(k as usize) {
                 Some(p) => *p,
                 None => {
-                    let u = (k as f64 + rng.next_f64()) / rays as f64;
+                    let u = rng.stratum(k as usize, rays as usize);
                     let (x, lx) = self.sample(r, u, &mut rng);
                     let (y, ly) = self.sample(s, rng.next_f64(), &mut rng);
                     (x, lx, y, ly)

@@ -8,11 +8,13 @@ use glam::DVec3;
 
 use super::{GroupLights, Rays, Scratch, SIGNIFICANT};
 use crate::color::{Rgb, Rgb64};
+use crate::geometry::ray_offset;
 use crate::geometry::shaft::Shaft;
 use crate::render::final_gather::specular::Lobe;
 use crate::render::final_gather::FinalScene;
+use crate::sampling::{stratified_on_triangle, Rng};
 use crate::transport::direct::visible;
-use crate::transport::formfactor::{point_to_polygon, sample_triangle, Rng};
+use crate::transport::formfactor::point_to_polygon;
 
 /// Shadow rays to an emitting triangle from which its shaft is tested first
 /// ([`Shaft`]): a clear shaft takes the place of the rays. A test costs about as much as
@@ -120,7 +122,7 @@ impl GroupLights<'_> {
         }
         // Stratified draws over the tail's cumulative light, one ray each.
         for j in 0..draws {
-            let mut r = (j as f64 + rng.next_f64()) / draws as f64 * tail;
+            let mut r = rng.stratum(j as usize, draws as usize) * tail;
             let mut drawn = None;
             for &(k, i, ff, part) in cand.iter() {
                 if part >= cut {
@@ -202,28 +204,23 @@ impl GroupLights<'_> {
             };
             scratch.sampled.push(sampled);
             let mut sum = Rgb::ZERO;
-            for a in 0..side {
-                for b in 0..side {
-                    let u = (a as f64 + rng.next_f64()) / side as f64;
-                    let v = (b as f64 + rng.next_f64()) / side as f64;
-                    let y = sample_triangle(&e.corners, u, v);
-                    let to = y - x;
-                    let r = to.length();
-                    let d = to / r;
-                    let (cos_x, cos_y) = (n.dot(d), -e.normal.dot(d));
-                    if !(cos_x > 0.0 && cos_y > 0.0) {
-                        continue;
-                    }
-                    let f = lobe.brdf(d, 0.0);
-                    if f.luminance() <= 0.0 || !visible(self.bvh, x, n, y, skip) {
-                        continue;
-                    }
-                    // Density per solid angle of a uniform point on the triangle.
-                    let light = r * r / (e.area * cos_y);
-                    let w = 1.0 - sampled.ray_weight(d, r, lobe.pdf(d), rays);
-                    sum += f * (cos_x / light * w / m as f64) as f32;
+            stratified_on_triangle(&e.corners, side as usize, rng, |y| {
+                let to = y - x;
+                let r = to.length();
+                let d = to / r;
+                let (cos_x, cos_y) = (n.dot(d), -e.normal.dot(d));
+                if !(cos_x > 0.0 && cos_y > 0.0) {
+                    return;
                 }
-            }
+                let f = lobe.brdf(d, 0.0);
+                if f.luminance() <= 0.0 || !visible(self.bvh, x, n, y, skip) {
+                    return;
+                }
+                // Density per solid angle of a uniform point on the triangle.
+                let light = r * r / (e.area * cos_y);
+                let w = 1.0 - sampled.ray_weight(d, r, lobe.pdf(d), rays);
+                sum += f * (cos_x / light * w / m as f64) as f32;
+            });
             out[k as usize] += sum * e.exitance * std::f32::consts::FRAC_1_PI;
         }
     }
@@ -243,7 +240,7 @@ impl GroupLights<'_> {
         }
         let (hull, normal) = &self.groups[k as usize].sets[set as usize];
         // The lift `visible` gives its rays.
-        let lift = 1e-6 * (1.0 + x.abs().max_element());
+        let lift = ray_offset(x);
         let clear = Shaft::new(x + n * lift, n, lift, hull, *normal)
             .is_some_and(|shaft| self.bvh.clear_of(&shaft, [skip, u32::MAX]));
         memo.push((k, set, clear));
@@ -278,25 +275,19 @@ impl GroupLights<'_> {
         rng: &mut Rng,
         sums: &mut Seen,
     ) {
-        let m = side as f64;
-        for a in 0..side {
-            for b in 0..side {
-                let u = (a as f64 + rng.next_f64()) / m;
-                let v = (b as f64 + rng.next_f64()) / m;
-                let y = sample_triangle(&e.corners, u, v);
-                let d = y - x;
-                let r2 = d.length_squared();
-                let w = n.dot(d) * -e.normal.dot(d) / (r2 * r2);
-                if w.is_nan() || w <= 0.0 {
-                    continue;
-                }
-                if visible(self.bvh, x, n, y, skip) {
-                    sums.free += w;
-                } else {
-                    sums.hidden += w;
-                }
+        stratified_on_triangle(&e.corners, side as usize, rng, |y| {
+            let d = y - x;
+            let r2 = d.length_squared();
+            let w = n.dot(d) * -e.normal.dot(d) / (r2 * r2);
+            if w.is_nan() || w <= 0.0 {
+                return;
             }
-        }
+            if visible(self.bvh, x, n, y, skip) {
+                sums.free += w;
+            } else {
+                sums.hidden += w;
+            }
+        });
     }
 }
 

@@ -8,8 +8,8 @@ use super::{GroupLights, Rays, Scratch};
 use crate::color::Rgb;
 use crate::photometry::Luminaire;
 use crate::render::final_gather::specular::Lobe;
+use crate::sampling::Rng;
 use crate::transport::direct::{shadowed, visible};
-use crate::transport::formfactor::Rng;
 
 /// Bands of the cosine to a luminaire's aim in its [`Bounds`].
 const BANDS: usize = 64;

@@ -32,7 +32,7 @@ use crate::geometry::bvh::Bvh;
 use crate::geometry::mesh::Mesh;
 use crate::geometry::shaft::coplanar_sets;
 use crate::photometry::Luminaire;
-use crate::transport::formfactor::Rng;
+use crate::sampling::Rng;
 
 pub(super) use emitters::Sampled;
 use emitters::{emitters_of, Emitter};
