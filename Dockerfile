@@ -11,6 +11,10 @@
 
 # ---- build: the release binary (`cargo build --release`).
 FROM rust:1.95-slim-bookworm AS build
+# The meshopt crate (glTF EXT_meshopt_compression) compiles meshoptimizer's C++ source.
+RUN apt-get update \
+    && apt-get install -y --no-install-recommends g++=4:12.2.0-3 \
+    && rm -rf /var/lib/apt/lists/*
 WORKDIR /src
 COPY Cargo.toml Cargo.lock ./
 COPY src ./src
