@@ -204,10 +204,6 @@ impl Scene {
             surf_index,
             mut triangles,
         } = geometry;
-        if cfg.units.is_none() && cfg.scale.is_none() {
-            let (lo, hi) = bounds_of(&triangles);
-            warnings.extend(extent::units_hint(&model_name, (hi - lo).max_element()));
-        }
         let MaterialTable {
             materials,
             index: mat_index,
@@ -345,7 +341,7 @@ fn read_model(
 
 /// The model's triangles by surface (file units to metres), its glazing split off, and
 /// the materials table as the triangles left it; the model's materials checked against
-/// `scene.toml`.
+/// `scene.toml`, and a units hint among the warnings when its size makes no sense.
 fn build_geometry(
     model_name: &Path,
     mut table: MaterialTable,
@@ -361,6 +357,10 @@ fn build_geometry(
     )?;
     drop(parts);
     let glazing = geometry.split_glazing(cfg, &table, &toml.path, model_name, warnings)?;
+    if cfg.units.is_none() && cfg.scale.is_none() {
+        let (lo, hi) = bounds_of(&geometry.triangles);
+        warnings.extend(extent::units_hint(model_name, (hi - lo).max_element()));
+    }
     Ok((geometry, glazing, table))
 }
 

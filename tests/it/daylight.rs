@@ -771,7 +771,6 @@ fn a_sun_patch_is_sharp_in_renders() {
 fn final_images_gather_the_sky_through_the_opening_and_trace_the_sun() {
     let _gate = common::shared();
     use relight::render::final_gather::patch_locator;
-    use relight::render::pipeline::final_daylight_image;
     use relight::render::{Camera, Shading};
     let (ox, oz) = ((1.6, 2.4), (1.4, 2.6));
     let s = roof_room_floored(
@@ -793,21 +792,7 @@ fn final_images_gather_the_sky_through_the_opening_and_trace_the_sun() {
     };
     let shading = Shading::new(&m.baked.mesh);
     let patches = patch_locator(&m.baked.mesh, &m.baked.scene.triangles);
-    let image = |sky: serde_json::Value| {
-        let spec: SkySpec = serde_json::from_value(sky).unwrap();
-        let state = spec.resolve(m.site().unwrap()).unwrap();
-        final_daylight_image(
-            &m,
-            &shading,
-            &patches,
-            &cam,
-            &state,
-            &relight::render::final_gather::FinalSettings::default(),
-            &Cancel::default(),
-        )
-        .unwrap()
-        .linear(&[relight::color::Rgb::ONE])
-    };
+    let image = |sky| final_sky_image(&m, &shading, &patches, &cam, sky);
     // Pixel (i, j) sees the floor at x = 2 + 2.9 tan 30° (2 (i + ½)/side − 1), z alike.
     let tan = 30f64.to_radians().tan();
     let floor_at = |i: usize| 2.0 + 2.9 * tan * (2.0 * (i as f64 + 0.5) / side as f64 - 1.0);
@@ -929,6 +914,30 @@ fn points_reflect_the_same_daylight_through_their_coefficients_as_through_the_pa
             }
         }
     }
+}
+
+/// The `final` image of `m` from `cam` under `sky` (a sky as the API takes it), linear,
+/// every group at full white.
+pub(crate) fn final_sky_image(
+    m: &Model,
+    shading: &relight::render::Shading,
+    patches: &relight::geometry::patch_locator::PatchLocator,
+    cam: &relight::render::Camera,
+    sky: serde_json::Value,
+) -> Vec<relight::color::Rgb> {
+    let spec: SkySpec = serde_json::from_value(sky).unwrap();
+    let state = spec.resolve(m.site().unwrap()).unwrap();
+    relight::render::pipeline::final_daylight_image(
+        m,
+        shading,
+        patches,
+        cam,
+        &state,
+        &relight::render::final_gather::FinalSettings::default(),
+        &Cancel::default(),
+    )
+    .unwrap()
+    .linear(&[relight::color::Rgb::ONE])
 }
 
 /// `roof_room` with panes over its opening: (surface name, height, transmittance).

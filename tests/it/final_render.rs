@@ -18,7 +18,7 @@ fn model(dir: &std::path::Path) -> Model {
     Model::new(b)
 }
 
-fn finals(m: &Model, cam: &Camera) -> GroupImages {
+pub(crate) fn finals(m: &Model, cam: &Camera) -> GroupImages {
     let shading = Shading::new(&m.baked.mesh);
     let patches = patch_locator(&m.baked.mesh, &m.baked.scene.triangles);
     final_images(

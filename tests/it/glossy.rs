@@ -7,9 +7,8 @@
 use glam::{DVec3, Vec3};
 use relight::bake::{load_or_bake, BakeOptions, CachePolicy};
 use relight::color::Rgb;
-use relight::model::{Cancel, Model};
+use relight::model::Model;
 use relight::render::final_gather::patch_locator;
-use relight::render::pipeline::final_images;
 use relight::render::{Camera, GroupImages, Shading};
 use serde_json::json;
 
@@ -35,18 +34,7 @@ fn model(glb: &[u8], toml: &str) -> Model {
 
 /// Bakes the GLB `glb` (with `toml` as its scene.toml) and builds its `final` images.
 fn finals(glb: &[u8], toml: &str, cam: &Camera) -> GroupImages {
-    let m = model(glb, toml);
-    let shading = Shading::new(&m.baked.mesh);
-    let patches = patch_locator(&m.baked.mesh, &m.baked.scene.triangles);
-    final_images(
-        &m,
-        &shading,
-        &patches,
-        cam,
-        &relight::render::final_gather::FinalSettings::default(),
-        &Cancel::default(),
-    )
-    .unwrap()
+    crate::final_render::finals(&model(glb, toml), cam)
 }
 
 /// A square camera `height` above the origin looking straight down at the floor, image
@@ -249,8 +237,6 @@ fn gltf_albedo(f0: f64, alpha: f64, v: DVec3) -> f64 {
 #[test]
 fn a_glossy_floor_reflects_the_sky_and_the_sun() {
     let _gate = common::shared();
-    use relight::model::sky_state::SkySpec;
-    use relight::render::pipeline::final_daylight_image;
     let mut d = Doc::default();
     let (p, i) = quad(&mut d, FLOOR);
     let glb = d.glb(json!({
@@ -272,21 +258,7 @@ fn a_glossy_floor_reflects_the_sky_and_the_sun() {
     let (side, cam) = (above.side, above.camera());
     let shading = Shading::new(&m.baked.mesh);
     let patches = patch_locator(&m.baked.mesh, &m.baked.scene.triangles);
-    let image = |sky: serde_json::Value| {
-        let spec: SkySpec = serde_json::from_value(sky).unwrap();
-        let state = spec.resolve(m.site().unwrap()).unwrap();
-        final_daylight_image(
-            &m,
-            &shading,
-            &patches,
-            &cam,
-            &state,
-            &relight::render::final_gather::FinalSettings::default(),
-            &Cancel::default(),
-        )
-        .unwrap()
-        .linear(&[Rgb::ONE])
-    };
+    let image = |sky| crate::daylight::final_sky_image(&m, &shading, &patches, &cam, sky);
     let view = |p: DVec3| (above.eye() - p).normalize();
     // A uniform sky of 10,000 lx on the horizontal: L = 10,000/π cd/m².
     let uniform = image(json!({"type": "uniform", "horizontal_illuminance": 10000}));
