@@ -17,7 +17,7 @@ fn main() {
         .nth(1)
         .and_then(|s| s.parse().ok())
         .unwrap_or(512);
-    assert!(side % 256 == 0, "SIDE must be a multiple of 256");
+    assert!(side.is_multiple_of(256), "SIDE must be a multiple of 256");
     let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell-box");
     let b = load_or_bake(&dir, CachePolicy::Off, &BakeOptions::default(), &|_, _| {}).unwrap();
     let m = Model::new(b);

@@ -211,8 +211,8 @@ fn stored_planes(isym: usize, mc: usize) -> Result<usize, String> {
     match isym {
         0 => Ok(mc),
         1 => Ok(1),
-        2 | 3 if mc % 2 == 0 => Ok(mc / 2 + 1),
-        4 if mc % 4 == 0 => Ok(mc / 4 + 1),
+        2 | 3 if mc.is_multiple_of(2) => Ok(mc / 2 + 1),
+        4 if mc.is_multiple_of(4) => Ok(mc / 4 + 1),
         2 | 3 => Err(format!(
             "Isym {isym} needs an even number of C planes, not {mc}"
         )),

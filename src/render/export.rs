@@ -336,7 +336,7 @@ fn nodes_and_cameras(scene: &crate::scene::Scene) -> (Vec<Value>, Vec<Value>) {
 /// binary chunk (padded with zeros), each chunk 4-byte aligned.
 fn glb(doc: &Value, bin: &[u8]) -> Vec<u8> {
     let mut js = serde_json::to_vec(doc).unwrap_or_default();
-    while js.len() % 4 != 0 {
+    while !js.len().is_multiple_of(4) {
         js.push(b' ');
     }
     let pad = (4 - bin.len() % 4) % 4;

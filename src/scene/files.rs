@@ -280,9 +280,9 @@ pub(crate) fn to_text(path: &Path, bytes: Vec<u8>) -> Result<String, SceneError>
 
 /// "16 MiB", "256 MiB", "512 KiB", "100 bytes".
 pub(crate) fn human_bytes(n: u64) -> String {
-    if n >= 1 << 20 && n % (1 << 20) == 0 {
+    if n >= 1 << 20 && n.is_multiple_of(1 << 20) {
         format!("{} MiB", n >> 20)
-    } else if n >= 1 << 10 && n % (1 << 10) == 0 {
+    } else if n >= 1 << 10 && n.is_multiple_of(1 << 10) {
         format!("{} KiB", n >> 10)
     } else {
         format!("{n} bytes")

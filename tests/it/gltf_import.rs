@@ -24,7 +24,7 @@ pub(crate) struct Doc {
 
 impl Doc {
     pub(crate) fn view(&mut self, bytes: &[u8]) -> usize {
-        while self.bin.len() % 4 != 0 {
+        while !self.bin.len().is_multiple_of(4) {
             self.bin.push(0);
         }
         self.views
@@ -88,11 +88,11 @@ impl Doc {
 /// A GLB container: header, JSON chunk (space-padded), BIN chunk (zero-padded).
 pub(crate) fn glb(doc: &Value, bin: &[u8]) -> Vec<u8> {
     let mut js = serde_json::to_vec(doc).unwrap();
-    while js.len() % 4 != 0 {
+    while !js.len().is_multiple_of(4) {
         js.push(b' ');
     }
     let mut b = bin.to_vec();
-    while b.len() % 4 != 0 {
+    while !b.len().is_multiple_of(4) {
         b.push(0);
     }
     let total = 12 + 8 + js.len() + 8 + b.len();

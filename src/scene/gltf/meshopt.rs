@@ -100,7 +100,7 @@ impl Compressed {
     fn check(&self) -> Result<(), String> {
         let s = self.stride;
         match self.mode {
-            Mode::Attributes if s == 0 || s > 256 || s % 4 != 0 => {
+            Mode::Attributes if s == 0 || s > 256 || !s.is_multiple_of(4) => {
                 return Err(format!(
                     "byteStride {s} of an ATTRIBUTES view must be a multiple of 4 up to 256"
                 ))
@@ -108,7 +108,7 @@ impl Compressed {
             Mode::Triangles | Mode::Indices if s != 2 && s != 4 => {
                 return Err(format!("byteStride {s} of an index view must be 2 or 4"))
             }
-            Mode::Triangles if self.count % 3 != 0 => {
+            Mode::Triangles if !self.count.is_multiple_of(3) => {
                 return Err(format!(
                     "count {} of a TRIANGLES view is not a multiple of 3",
                     self.count

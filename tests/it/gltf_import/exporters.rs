@@ -292,7 +292,7 @@ fn packed_room(meshopt: bool) -> Vec<u8> {
     let mut bin = Vec::new();
     let mut views = Vec::new();
     let push = |bin: &mut Vec<u8>, bytes: &[u8]| {
-        while bin.len() % 4 != 0 {
+        while !bin.len().is_multiple_of(4) {
             bin.push(0);
         }
         let at = bin.len();

@@ -55,7 +55,7 @@ async fn batched_emission_states_were_solved_one_by_one_into_the_timeout() {
     // 16th (one solve each takes 0.1–0.3 s); the superposition below covers them all.
     let singles: Vec<usize> = (0..count + 1).filter(|&k| k != 60).collect();
     let checked = |k: usize| {
-        k % 16 == 0
+        k.is_multiple_of(16)
             || [
                 1,
                 59,
