@@ -136,7 +136,8 @@ pub fn nearest_throughput(
 /// A uniformly random point of a uniformly random patch (m), and the patch's index.
 fn random_patch_point(mesh: &Mesh, rng: &mut Rng) -> (glam::DVec3, usize) {
     let i = rng.index(mesh.len());
-    let x = sample_triangle(&mesh.corners(i), rng.next_f64(), rng.next_f64());
+    let (f, u) = mesh.pick_facet(i, rng.next_f64());
+    let x = sample_triangle(&f.corners, u, rng.next_f64());
     (x, i)
 }
 

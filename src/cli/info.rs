@@ -22,6 +22,10 @@ pub fn run(root: &Path) -> Result<()> {
                     s.mesh.max_edge,
                     bake::DEFAULT_MAX_PATCHES,
                 ) {
+                    // Cluster patches hold several of the model's triangles.
+                    Ok(mesh) if mesh.elements.len() > mesh.len() => {
+                        format!("{} ({} triangles)", mesh.len(), mesh.elements.len())
+                    }
                     Ok(mesh) => mesh.len().to_string(),
                     Err(e) => format!(">{}", e.at_least.max(e.limit as u64)),
                 };

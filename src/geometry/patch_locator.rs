@@ -70,17 +70,20 @@ pub struct PatchLocator {
     /// Per cell, where its run of patch ids starts in `entries` (one more at the end).
     cell_start: Vec<u32>,
     entries: Vec<u32>,
-    /// Per patch, its corners' coordinates in its triangle's plane, `[x0, y0, x1, y1, x2,
+    /// Per element, its corners' coordinates in its triangle's plane, `[x0, y0, x1, y1, x2,
     /// y2]`, m.
     uv: Vec<[f32; 6]>,
+    /// Per element, its patch.
+    patch_of: Vec<u32>,
     /// Corners of all the sides' grids.
     corners: u32,
 }
 
-/// Bytes per patch a [`PatchLocator`] holds, besides [`LOCATOR_BYTES_PER_TRIANGLE`] per
-/// scene triangle: its coordinates (24), grid entries (about four per patch) and cells
-/// (at most [`MAX_CELLS_PER_PATCH`] per patch, and a few per side).
-pub const LOCATOR_BYTES_PER_PATCH: u64 = 24 + 4 * 6 + 4 * MAX_CELLS_PER_PATCH as u64 + 4 * 8;
+/// Bytes per element (patch triangle) a [`PatchLocator`] holds, besides
+/// [`LOCATOR_BYTES_PER_TRIANGLE`] per scene triangle: its coordinates (24), its patch (4),
+/// grid entries (about four per element) and cells (at most [`MAX_CELLS_PER_PATCH`] per
+/// element, and a few per side).
+pub const LOCATOR_BYTES_PER_PATCH: u64 = 24 + 4 + 4 * 6 + 4 * MAX_CELLS_PER_PATCH as u64 + 4 * 8;
 
 /// Cells of a side's grid per patch: a cell is about as large as the side's mean patch.
 const CELLS_PER_PATCH: f64 = 1.0;
@@ -108,15 +111,16 @@ impl PatchLocator {
         let mut frames: Vec<Frame> = triangles.iter().map(|t| frame(&t.p)).collect();
         // Patches per (triangle, side).
         let mut by_side: Vec<Vec<u32>> = vec![Vec::new(); 2 * triangles.len()];
-        let mut uv = vec![[0f32; 6]; mesh.len()];
+        let mut uv = vec![[0f32; 6]; mesh.elements.len()];
         let mut areas = vec![0f64; 2 * triangles.len()];
-        for (j, p) in mesh.patches.iter().enumerate() {
+        for j in 0..mesh.elements.len() {
+            let p = mesh.facet(j);
             let s = p.source as usize;
             let Some(f) = frames.get(s) else { continue };
             let back = p.normal.dot(f.normal.as_dvec3()) < 0.0;
             by_side[2 * s + usize::from(back)].push(j as u32);
             areas[2 * s + usize::from(back)] += p.area;
-            for (k, c) in mesh.corners(j).iter().enumerate() {
+            for (k, c) in p.corners.iter().enumerate() {
                 let (u, v) = f.coords(*c);
                 uv[j][2 * k] = u as f32;
                 uv[j][2 * k + 1] = v as f32;
@@ -193,6 +197,7 @@ impl PatchLocator {
             cell_start,
             entries,
             uv,
+            patch_of: mesh.elements.iter().map(|e| e.patch).collect(),
             corners,
         }
     }
@@ -283,18 +288,26 @@ impl PatchLocator {
     pub fn bytes(&self) -> u64 {
         (self.frames.len() * std::mem::size_of::<Frame>()
             + 4 * (self.cell_start.len() + self.entries.len())
-            + self.uv.len() * std::mem::size_of::<[f32; 6]>()) as u64
+            + self.uv.len() * std::mem::size_of::<[f32; 6]>()
+            + 4 * self.patch_of.len()) as u64
     }
 
     /// The patch of triangle `tri` on side `back` under the point `x` (on or next to the
     /// triangle's plane): the patch containing it, or when rounding leaves it in none,
     /// the one it lies least outside of. None when that side has no patches.
     pub fn locate(&self, tri: u32, back: bool, x: DVec3) -> Option<u32> {
-        self.locate_weighted(tri, back, x).map(|(j, _)| j)
+        self.locate_weighted(tri, back, x)
+            .map(|(j, _)| self.patch_of[j as usize])
     }
 
-    /// As [`Self::locate`], with the point's barycentric weights on the patch's corners
-    /// (clamped to the patch, summing to 1).
+    /// The patch of element `e` (the ids [`Self::locate_weighted`],
+    /// [`Self::locate_beside`] and [`Self::nearest_weighted`] give).
+    pub fn patch_of(&self, e: u32) -> u32 {
+        self.patch_of[e as usize]
+    }
+
+    /// As [`Self::locate`], naming the element (the patch's triangle) under the point,
+    /// with the point's barycentric weights on its corners (clamped to it, summing to 1).
     pub fn locate_weighted(&self, tri: u32, back: bool, x: DVec3) -> Option<(u32, [f32; 3])> {
         let f = self.frames.get(tri as usize)?;
         let (u, v) = f.coords(x);
@@ -368,11 +381,11 @@ impl PatchLocator {
         cull_back: bool,
     ) -> Option<(f32, u32)> {
         self.nearest_weighted(bvh, o, d, own, cull_back)
-            .map(|(t, j, _)| (t, j))
+            .map(|(t, j, _)| (t, self.patch_of[j as usize]))
     }
 
-    /// As [`Self::nearest`], with the hit's barycentric weights on the patch's corners
-    /// ([`Self::locate_weighted`]).
+    /// As [`Self::nearest`], naming the element met, with the hit's barycentric weights
+    /// on its corners ([`Self::locate_weighted`]).
     pub fn nearest_weighted(
         &self,
         bvh: &Bvh,
@@ -519,14 +532,14 @@ mod tests {
         let bvh = crate::bake::scene_bvh(&scene);
         let loc = PatchLocator::new(&mesh, &scene.triangles);
         let tris: Vec<[Vec3A; 3]> = (0..mesh.len())
-            .map(|j| mesh.corners(j).map(|p| Vec3A::from(p.as_vec3())))
+            .map(|j| mesh.element_corners(j).map(|p| Vec3A::from(p.as_vec3())))
             .collect();
         let patches = Bvh::new(&tris);
         let mut rng = crate::sampling::Rng::new(1, 2);
         let (mut same, mut hits, n) = (0, 0, 20_000);
         for _ in 0..n {
             let p = rng.index(mesh.len());
-            let c = mesh.corners(p);
+            let c = mesh.element_corners(p);
             let (a, b) = (rng.next_f64(), rng.next_f64());
             let (a, b) = if a + b > 1.0 {
                 (1.0 - a, 1.0 - b)
@@ -561,7 +574,7 @@ mod tests {
             if let (Some((tg, jg, w)), Some((tw, jw))) = (got, want) {
                 hits += 1;
                 // The weights put the point where the ray met the patch.
-                let c = mesh.corners(jg as usize);
+                let c = mesh.element_corners(jg as usize);
                 let at = c[0] * w[0] as f64 + c[1] * w[1] as f64 + c[2] * w[2] as f64;
                 let x = o + d * tg as f64;
                 assert!(
@@ -610,8 +623,11 @@ mod tests {
         let mut rng = crate::sampling::Rng::new(5, 6);
         for _ in 0..20_000 {
             let p = rng.index(mesh.len());
-            let x =
-                crate::sampling::sample_triangle(&mesh.corners(p), rng.next_f64(), rng.next_f64());
+            let x = crate::sampling::sample_triangle(
+                &mesh.element_corners(p),
+                rng.next_f64(),
+                rng.next_f64(),
+            );
             let tri = mesh.patches[p].source;
             let f = &loc.frames[tri as usize];
             let back = mesh.patches[p].normal.dot(f.normal.as_dvec3()) < 0.0;
@@ -642,7 +658,7 @@ mod tests {
                 continue;
             }
             let (q, w) = loc.locate_beside(tri, back, x).unwrap();
-            let c = mesh.corners(q as usize);
+            let c = mesh.element_corners(q as usize);
             let at = c[0] * w[0] as f64 + c[1] * w[1] as f64 + c[2] * w[2] as f64;
             // The nearest point of the triangle, from a dense barycentric grid.
             let p = scene.triangles[tri as usize].p;

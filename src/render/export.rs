@@ -217,9 +217,9 @@ impl Export<'_> {
     fn positions(&self) -> Vec<[f32; 3]> {
         let mesh = &self.model.baked.mesh;
         let mut pos = vec![[0f32; 3]; self.shading.len()];
-        for (p, c) in mesh.patches.iter().zip(self.shading.corners()) {
+        for (e, c) in mesh.elements.iter().zip(self.shading.corners()) {
             for k in 0..3 {
-                pos[c[k] as usize] = mesh.vertices[p.v[k] as usize].as_vec3().to_array();
+                pos[c[k] as usize] = mesh.vertices[e.v[k] as usize].as_vec3().to_array();
             }
         }
         pos

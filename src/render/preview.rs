@@ -28,12 +28,13 @@ pub const PREVIEW_TRIANGLES: usize = 30_000;
 /// The preview mesh of `fine` (meshed from `scene`) with its shading, or None when the
 /// scene is small enough to draw whole.
 pub fn preview_mesh(scene: &Scene, fine: &Mesh) -> Option<(Mesh, Shading)> {
-    if fine.len() <= PREVIEW_ABOVE {
+    let triangles = fine.elements.len();
+    if triangles <= PREVIEW_ABOVE {
         return None;
     }
-    let longest = (0..fine.len())
-        .map(|i| {
-            let c = fine.corners(i);
+    let longest = (0..triangles)
+        .map(|e| {
+            let c = fine.element_corners(e);
             (c[1] - c[0])
                 .length()
                 .max((c[2] - c[1]).length())
@@ -41,10 +42,10 @@ pub fn preview_mesh(scene: &Scene, fine: &Mesh) -> Option<(Mesh, Shading)> {
         })
         .fold(0.0, f64::max);
     // Patch count scales with 1 / edge²; bisection meshes overshoot, so aim a bit low.
-    let mut edge = longest * (fine.len() as f64 / PREVIEW_TRIANGLES as f64).sqrt();
+    let mut edge = longest * (triangles as f64 / PREVIEW_TRIANGLES as f64).sqrt();
     for _ in 0..8 {
         let coarse = Mesh::build_with(scene, edge);
-        if coarse.len() <= 2 * PREVIEW_TRIANGLES {
+        if coarse.elements.len() <= 2 * PREVIEW_TRIANGLES {
             let shading = Shading::new(&coarse);
             return Some((coarse, shading));
         }
@@ -66,10 +67,12 @@ pub fn preview_weights(
         .into_par_iter()
         .with_min_len(256)
         .map(|sv| {
-            let (cp, corner) = coarse_shading.first_corner(sv as u32);
-            let p = coarse.vertices[coarse.patches[cp as usize].v[corner] as usize];
-            let patch = &coarse.patches[cp as usize];
-            let Some((t, l)) = locate.find(fine, p, patch.surface, patch.normal, cos_crease) else {
+            let (ce, corner) = coarse_shading.anchor(coarse, sv);
+            let elem = coarse.elements[ce as usize];
+            let p = coarse.vertices[elem.v[corner] as usize];
+            let patch = &coarse.patches[elem.patch as usize];
+            let normal = coarse.facet(ce as usize).normal;
+            let Some((t, l)) = locate.find(fine, p, patch.surface, normal, cos_crease) else {
                 return vec![];
             };
             let mut acc: Vec<(u32, f32)> = Vec::new();
@@ -88,7 +91,7 @@ pub fn preview_weights(
         .collect()
 }
 
-/// Fine patches by surface and grid cell (each patch in every cell its box touches).
+/// Fine elements by surface and grid cell (each element in every cell its box touches).
 struct Locator {
     cell: f64,
     cells: HashMap<(u32, [i64; 3]), Vec<u32>>,
@@ -96,12 +99,14 @@ struct Locator {
 
 impl Locator {
     fn new(fine: &Mesh) -> Locator {
-        let mean_area = fine.patches.iter().map(|p| p.area).sum::<f64>() / fine.len().max(1) as f64;
+        let mean_area =
+            fine.patches.iter().map(|p| p.area).sum::<f64>() / fine.elements.len().max(1) as f64;
         let cell = (4.0 * mean_area).sqrt().max(1e-9);
         let at = |x: f64| (x / cell).floor() as i64;
         let mut cells: HashMap<(u32, [i64; 3]), Vec<u32>> = HashMap::new();
-        for (i, p) in fine.patches.iter().enumerate() {
-            let c = fine.corners(i);
+        for (i, e) in fine.elements.iter().enumerate() {
+            let p = &fine.patches[e.patch as usize];
+            let c = fine.element_corners(i);
             let lo = c[0].min(c[1]).min(c[2]);
             let hi = c[0].max(c[1]).max(c[2]);
             for x in at(lo.x)..=at(hi.x) {
@@ -118,7 +123,7 @@ impl Locator {
         Locator { cell, cells }
     }
 
-    /// The fine patch of `surface`, facing within the crease angle of `n`, that contains
+    /// The fine element of `surface`, facing within the crease angle of `n`, that contains
     /// `p` (or comes nearest to containing it), and p's barycentric coordinates in it.
     fn find(
         &self,
@@ -131,10 +136,10 @@ impl Locator {
         let key = [p.x, p.y, p.z].map(|x| (x / self.cell).floor() as i64);
         let mut best: Option<(f64, u32, [f64; 3])> = None;
         for &t in self.cells.get(&(surface, key))? {
-            if fine.patches[t as usize].normal.dot(n) < cos_crease {
+            if fine.facet(t as usize).normal.dot(n) < cos_crease {
                 continue;
             }
-            let l = barycentric(&fine.corners(t as usize), p);
+            let l = barycentric(&fine.element_corners(t as usize), p);
             let score = l[0].min(l[1]).min(l[2]);
             if best.is_none_or(|b| score > b.0) {
                 best = Some((score, t, l));

@@ -62,7 +62,7 @@ impl ViewBuffer {
         let s = samples_per_side(cam);
         let (w, h) = (cam.width as usize, cam.height as usize);
         let (depth, sample) = rasterize(mesh, cam, s);
-        let rows = resolve_rows(&sample, shading, w, h, s);
+        let rows = resolve_rows(&sample, mesh, shading, w, h, s);
         // The samples are resolved: free them before the rows are joined, and join into
         // buffers of the exact size (no doubling).
         drop(depth);
@@ -166,7 +166,7 @@ impl ViewBuffer {
     }
 }
 
-/// Per sample: patch (u32::MAX: none), and barycentrics b1, b2 (b0 = 1 − b1 − b2).
+/// Per sample: element (u32::MAX: none), and barycentrics b1, b2 (b0 = 1 − b1 − b2).
 type Sample = (u32, f32, f32);
 
 /// The z-buffer pass at `s`×`s` samples per pixel: per sample, the depth and the nearest
@@ -196,19 +196,20 @@ fn rasterize(mesh: &Mesh, cam: &Camera, s: u32) -> (Vec<f32>, Vec<Sample>) {
         let y = c.y / (c.z * tan);
         ((x * 0.5 + 0.5) * sw as f32, (0.5 - y * 0.5) * sh as f32)
     };
-    for (pi, p) in mesh.patches.iter().enumerate() {
+    for (ei, e) in mesh.elements.iter().enumerate() {
         // Back faces are culled: only fronts are ever lit, and the back of a two-sided
         // panel would z-fight with its front.
-        if p.normal.as_vec3().dot(cam.position - p.centroid.as_vec3()) <= 0.0 {
+        let f = mesh.facet(ei);
+        if f.normal.as_vec3().dot(cam.position - f.centroid.as_vec3()) <= 0.0 {
             continue;
         }
-        let cc = p.v.map(|k| to_cam(mesh.vertices[k as usize]));
+        let cc = e.v.map(|k| to_cam(mesh.vertices[k as usize]));
         let poly = clip_near(cc, near);
         if poly.len() < 3 {
             continue;
         }
         for k in 1..poly.len() - 1 {
-            zb.triangle([poly[0], poly[k], poly[k + 1]], pi as u32, &project);
+            zb.triangle([poly[0], poly[k], poly[k + 1]], ei as u32, &project);
         }
     }
     (zb.depth, zb.sample)
@@ -234,7 +235,14 @@ fn clip_near(cc: [Vec3; 3], near: f32) -> Vec<(Vec3, Vec3)> {
 }
 
 /// Resolves the samples into per-pixel vertex weights, one [`PixelRow`] per image row.
-fn resolve_rows(sample: &[Sample], shading: &Shading, w: usize, h: usize, s: u32) -> Vec<PixelRow> {
+fn resolve_rows(
+    sample: &[Sample],
+    mesh: &Mesh,
+    shading: &Shading,
+    w: usize,
+    h: usize,
+    s: u32,
+) -> Vec<PixelRow> {
     let sw = w * s as usize;
     let inv = 1.0 / (s * s) as f32;
     (0..h)
@@ -249,11 +257,11 @@ fn resolve_rows(sample: &[Sample], shading: &Shading, w: usize, h: usize, s: u32
                 for sy in 0..s as usize {
                     for sx in 0..s as usize {
                         let idx = (y * s as usize + sy) * sw + x * s as usize + sx;
-                        let (p, b1, b2) = sample[idx];
-                        if p == u32::MAX {
+                        let (e, b1, b2) = sample[idx];
+                        if e == u32::MAX {
                             continue;
                         }
-                        let corners = shading.corner[p as usize];
+                        let corners = shading.corner[e as usize];
                         for (k, b) in [(0, 1.0 - b1 - b2), (1, b1), (2, b2)] {
                             let v = corners[k];
                             let wgt = b.max(0.0) * inv;
@@ -265,7 +273,11 @@ fn resolve_rows(sample: &[Sample], shading: &Shading, w: usize, h: usize, s: u32
                     }
                 }
                 let mid = (s / 2) as usize;
-                centre.push(sample[(y * s as usize + mid) * sw + x * s as usize + mid].0);
+                let e = sample[(y * s as usize + mid) * sw + x * s as usize + mid].0;
+                centre.push(match mesh.elements.get(e as usize) {
+                    Some(el) => el.patch,
+                    None => u32::MAX,
+                });
                 counts.push(local.len() as u32);
                 for (v, wgt) in local {
                     svs.push(v);

@@ -16,7 +16,7 @@ pub(super) const CREASE_DEG: f64 = 30.0;
 
 /// Per-corner shading vertices and their patch weights (CSR).
 pub struct Shading {
-    /// Shading vertex of each patch corner.
+    /// Shading vertex of each element corner (indexed like [`Mesh::elements`]).
     pub(super) corner: Vec<[u32; 3]>,
     start: Vec<u32>,
     patch: Vec<u32>,
@@ -25,37 +25,43 @@ pub struct Shading {
 
 impl Shading {
     pub fn new(mesh: &Mesh) -> Shading {
-        // Incident patches per mesh vertex.
+        // Incident elements per mesh vertex.
         let nv = mesh.vertices.len();
         let mut inc: Vec<Vec<(u32, u8)>> = vec![Vec::new(); nv];
-        for (p, patch) in mesh.patches.iter().enumerate() {
-            for (k, &v) in patch.v.iter().enumerate() {
-                inc[v as usize].push((p as u32, k as u8));
+        for (e, elem) in mesh.elements.iter().enumerate() {
+            for (k, &v) in elem.v.iter().enumerate() {
+                inc[v as usize].push((e as u32, k as u8));
             }
         }
+        let patch_of = |e: u32| mesh.elements[e as usize].patch;
         let cos_crease = CREASE_DEG.to_radians().cos();
-        let mut corner = vec![[0u32; 3]; mesh.len()];
+        let mut corner = vec![[0u32; 3]; mesh.elements.len()];
         let mut start = vec![0u32];
         let mut patch = Vec::new();
         let mut weight = Vec::new();
         for list in &inc {
             // Greedy clusters by normal.
             let mut clusters: Vec<(DVec3, Vec<(u32, u8)>)> = Vec::new();
-            for &(p, k) in list {
-                let n = mesh.patches[p as usize].normal;
+            for &(e, k) in list {
+                let n = mesh.patches[patch_of(e) as usize].normal;
                 match clusters.iter_mut().find(|(cn, _)| cn.dot(n) >= cos_crease) {
-                    Some(c) => c.1.push((p, k)),
-                    None => clusters.push((n, vec![(p, k)])),
+                    Some(c) => c.1.push((e, k)),
+                    None => clusters.push((n, vec![(e, k)])),
                 }
             }
             for (_, members) in clusters {
                 let sv = (start.len() - 1) as u32;
-                let total: f64 = members
-                    .iter()
-                    .map(|&(p, _)| mesh.patches[p as usize].area)
-                    .sum();
-                for &(p, k) in &members {
-                    corner[p as usize][k as usize] = sv;
+                // Each patch once, though several of a cluster patch's elements may meet
+                // at the vertex.
+                let mut around: Vec<u32> = Vec::with_capacity(members.len());
+                for &(e, k) in &members {
+                    corner[e as usize][k as usize] = sv;
+                    if !around.contains(&patch_of(e)) {
+                        around.push(patch_of(e));
+                    }
+                }
+                let total: f64 = around.iter().map(|&p| mesh.patches[p as usize].area).sum();
+                for p in around {
                     patch.push(p);
                     weight.push((mesh.patches[p as usize].area / total) as f32);
                 }
@@ -70,19 +76,20 @@ impl Shading {
         }
     }
 
-    /// The shading vertex of each patch corner.
+    /// The shading vertex of each element corner (indexed like [`Mesh::elements`]).
     pub fn corners(&self) -> &[[u32; 3]] {
         &self.corner
     }
 
-    /// A patch around shading vertex `v`, and which of its corners `v` is.
-    pub(super) fn anchor(&self, v: usize) -> (u32, usize) {
+    /// An element around shading vertex `v`, and which of its corners `v` is.
+    pub(super) fn anchor(&self, mesh: &Mesh, v: usize) -> (u32, usize) {
         let p = self.patch[self.start[v] as usize];
-        let k = self.corner[p as usize]
-            .iter()
-            .position(|&c| c as usize == v)
-            .unwrap_or(0);
-        (p, k)
+        for e in mesh.elements_of(p as usize) {
+            if let Some(k) = self.corner[e].iter().position(|&c| c as usize == v) {
+                return (e as u32, k);
+            }
+        }
+        (mesh.patches[p as usize].elements.start, 0)
     }
 
     /// Number of shading vertices.
@@ -100,9 +107,9 @@ impl Shading {
     ///
     /// ```text
     /// "RLMESH01"                       8 bytes
-    /// u32 nv, nt, nw                   shading vertices, triangles (= patches), weights
+    /// u32 nv, nt, nw                   shading vertices, triangles (elements), weights
     /// f32 position[nv][3]              m
-    /// u32 triangle[nt][3]              shading vertices of patch t, counter-clockwise
+    /// u32 triangle[nt][3]              shading vertices of element t, counter-clockwise
     ///                                  seen from its lit (front) side
     /// u32 surface[nt]                  index into the scene's surfaces
     /// u32 start[nv + 1]                CSR: vertex v blends patch[start[v]..start[v+1]]
@@ -129,9 +136,9 @@ impl Shading {
     fn write_mesh(&self, mesh: &Mesh, weights: impl Iterator<Item = Vec<(u32, f32)>>) -> Vec<u8> {
         let (nv, nt) = (self.len(), self.corner.len());
         let mut pos = vec![[0f32; 3]; nv];
-        for (p, c) in mesh.patches.iter().zip(&self.corner) {
+        for (e, c) in mesh.elements.iter().zip(&self.corner) {
             for k in 0..3 {
-                pos[c[k] as usize] = mesh.vertices[p.v[k] as usize].as_vec3().to_array();
+                pos[c[k] as usize] = mesh.vertices[e.v[k] as usize].as_vec3().to_array();
             }
         }
         let mut start = vec![0u32];
@@ -156,7 +163,13 @@ impl Shading {
         };
         words(&mut out, &mut pos.iter().flatten().map(|v| v.to_bits()));
         words(&mut out, &mut self.corner.iter().flatten().copied());
-        words(&mut out, &mut mesh.patches.iter().map(|p| p.surface));
+        words(
+            &mut out,
+            &mut mesh
+                .elements
+                .iter()
+                .map(|e| mesh.patches[e.patch as usize].surface),
+        );
         words(&mut out, &mut start.iter().copied());
         words(&mut out, &mut patch.iter().copied());
         words(&mut out, &mut weight.iter().map(|w| w.to_bits()));
@@ -170,16 +183,6 @@ impl Shading {
             .iter()
             .copied()
             .zip(self.weight[r].iter().copied())
-    }
-
-    /// A patch with shading vertex `v` at one of its corners, and which corner.
-    pub(super) fn first_corner(&self, v: u32) -> (u32, usize) {
-        let p = self.patch[self.start[v as usize] as usize];
-        let k = self.corner[p as usize]
-            .iter()
-            .position(|&c| c == v)
-            .unwrap_or(0);
-        (p, k)
     }
 
     /// Vertex values from per-patch values (n × 3 interleaved).

@@ -138,6 +138,9 @@ impl From<crate::photometry::PhotometryError> for SceneError {
 pub struct MeshSettings {
     /// Longest patch edge, metres.
     pub max_edge: f64,
+    /// Small triangles of the model are clustered into patches of about `max_edge`
+    /// (`[mesh] cluster`, default true; see [`crate::geometry::mesh`]).
+    pub cluster: bool,
 }
 
 /// A loaded, validated scene.
@@ -403,5 +406,8 @@ fn mesh_settings(
             (5.0 * total_area / target).sqrt()
         }
     };
-    MeshSettings { max_edge }
+    MeshSettings {
+        max_edge,
+        cluster: cfg.mesh.cluster.unwrap_or(true),
+    }
 }

@@ -22,7 +22,7 @@ use rayon::prelude::*;
 use crate::color::{Rgb, Rgb64};
 use crate::geometry::bvh::Bvh;
 use crate::geometry::lifted;
-use crate::geometry::mesh::Mesh;
+use crate::geometry::mesh::{Facet, Mesh};
 use crate::photometry::Luminaire;
 use crate::scene::Scene;
 
@@ -74,7 +74,8 @@ pub(crate) fn shadowed(
     (e, any, all && any)
 }
 
-/// Direct illuminance (lux, luminous) of one luminaire on patch `j`, averaged over the patch.
+/// Direct illuminance (lux, luminous) of one luminaire on patch `j`, averaged over the patch
+/// (area-weighted over the elements of a cluster patch).
 fn patch_illuminance(
     mesh: &Mesh,
     bvh: &Bvh,
@@ -84,12 +85,31 @@ fn patch_illuminance(
     fine: &[(f64, f64)],
 ) -> f64 {
     let p = &mesh.patches[j];
+    if p.elements.len() == 1 {
+        let f = mesh.facets(j).next().expect("a patch has an element");
+        return facet_illuminance(bvh, l, &f, coarse, fine);
+    }
+    let sum: f64 = mesh
+        .facets(j)
+        .map(|f| f.area * facet_illuminance(bvh, l, &f, coarse, fine))
+        .sum();
+    sum / p.area
+}
+
+/// Direct illuminance (lux, luminous) of one luminaire on one facet, averaged over it.
+fn facet_illuminance(
+    bvh: &Bvh,
+    l: &Luminaire,
+    p: &Facet,
+    coarse: &[(f64, f64)],
+    fine: &[(f64, f64)],
+) -> f64 {
     let reach = 0.5 * l.opening.largest_dimension();
     if p.normal.dot(l.position - p.centroid) <= -reach {
         // The luminaire (all of its opening) is behind the patch plane.
         return 0.0;
     }
-    let c = mesh.corners(j);
+    let c = p.corners;
     let at = |&(u, v): &(f64, f64)| c[0] + (c[1] - c[0]) * u + (c[2] - c[0]) * v;
     let sample = |pts: &[(f64, f64)]| -> (f64, usize) {
         let mut sum = 0.0;

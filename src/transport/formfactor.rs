@@ -26,7 +26,7 @@ use rayon::prelude::*;
 use serde::Serialize;
 
 use crate::geometry::bvh::Bvh;
-use crate::geometry::mesh::Mesh;
+use crate::geometry::mesh::{Facet, Mesh};
 use crate::sampling::{sample_triangle, Rng};
 
 /// Quality knobs of the form-factor pass. Part of the cache key.
@@ -112,33 +112,128 @@ pub(crate) fn quadrature_tables() -> [Vec<DVec3>; 5] {
 
 /// Precomputed per-patch data for the pair loop.
 pub(crate) struct PatchGeo {
+    /// The corners of a single-triangle patch (of a cluster patch: its first element's).
     pub c: [DVec3; 3],
     pub centroid: DVec3,
     pub n: DVec3,
     pub area: f64,
+    /// The longest edge of a triangle; the bounding box's diagonal of a cluster.
     pub size: f64,
+    pub source: u32,
+    /// The elements of a cluster patch, with the cumulative share of the area up to and
+    /// including each; None for a single triangle.
+    pub cluster: Option<Box<[(Facet, f64)]>>,
+}
+
+/// A point of a patch with the normal and scene triangle of the element it lies on.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct PatchPoint {
+    pub x: DVec3,
+    pub n: DVec3,
     pub source: u32,
 }
 
-/// Mean point-to-polygon factor from `level`-quadrature points on `a` to triangle `b`.
-pub(crate) fn directed(a: &PatchGeo, b: &PatchGeo, pts: &[DVec3]) -> f64 {
-    let mut s = 0.0;
-    for w in pts {
-        let x = a.c[0] * w.x + a.c[1] * w.y + a.c[2] * w.z;
-        // x must see b's front.
-        if b.n.dot(x - b.centroid) <= 0.0 {
-            continue;
+impl PatchGeo {
+    /// The point of the patch at (u, v) ∈ [0, 1)²: `sample_triangle` on a triangle; on a
+    /// cluster, `u` first picks the element by area and is rescaled within it.
+    pub(crate) fn point(&self, u: f64, v: f64) -> PatchPoint {
+        let Some(elems) = &self.cluster else {
+            return PatchPoint {
+                x: sample_triangle(&self.c, u, v),
+                n: self.n,
+                source: self.source,
+            };
+        };
+        let k = elems
+            .partition_point(|&(_, cum)| cum <= u)
+            .min(elems.len() - 1);
+        let lo = if k == 0 { 0.0 } else { elems[k - 1].1 };
+        let (f, hi) = elems[k];
+        let u = ((u - lo) / (hi - lo).max(1e-300)).clamp(0.0, 1.0);
+        PatchPoint {
+            x: sample_triangle(&f.corners, u, v),
+            n: f.normal,
+            source: f.source,
         }
-        s += point_to_polygon(x, a.n, &b.c);
     }
-    s / pts.len() as f64
+
+    /// The patch's elements as facets: itself when it is a single triangle.
+    pub(crate) fn facets(&self) -> impl Iterator<Item = Facet> + '_ {
+        let single = self.cluster.is_none().then(|| Facet {
+            corners: self.c,
+            normal: self.n,
+            centroid: self.centroid,
+            area: self.area,
+            source: self.source,
+        });
+        single
+            .into_iter()
+            .chain(self.cluster.iter().flat_map(|e| e.iter().map(|&(f, _)| f)))
+    }
+
+    /// The unoccluded factor from a point `x` with normal `n` to the whole patch: the
+    /// exact point-to-polygon factor of each element whose front faces `x`.
+    pub(crate) fn seen_from(&self, x: DVec3, n: DVec3) -> f64 {
+        if self.cluster.is_none() {
+            return if self.n.dot(x - self.centroid) > 0.0 {
+                point_to_polygon(x, n, &self.c)
+            } else {
+                0.0
+            };
+        }
+        self.facets()
+            .filter(|f| f.normal.dot(x - f.centroid) > 0.0)
+            .map(|f| point_to_polygon(x, n, &f.corners))
+            .sum()
+    }
 }
 
-/// Largest signed height of `b`'s corners above `a`'s plane.
+/// Mean point-to-polygon factor from `level`-quadrature points on `a` to patch `b`.
+pub(crate) fn directed(a: &PatchGeo, b: &PatchGeo, pts: &[DVec3]) -> f64 {
+    if a.cluster.is_none() && b.cluster.is_none() {
+        let mut s = 0.0;
+        for w in pts {
+            let x = a.c[0] * w.x + a.c[1] * w.y + a.c[2] * w.z;
+            // x must see b's front.
+            if b.n.dot(x - b.centroid) <= 0.0 {
+                continue;
+            }
+            s += point_to_polygon(x, a.n, &b.c);
+        }
+        return s / pts.len() as f64;
+    }
+    // A cluster: the area-weighted mean over a's elements of the sum over b's.
+    let mut s = 0.0;
+    for fa in a.facets() {
+        let mut sa = 0.0;
+        for w in pts {
+            let x = fa.corners[0] * w.x + fa.corners[1] * w.y + fa.corners[2] * w.z;
+            sa += b.seen_from(x, fa.normal);
+        }
+        s += fa.area * sa / pts.len() as f64;
+    }
+    s / a.area
+}
+
+/// Largest signed height of `b`'s corners above `a`'s plane (above the plane of any of
+/// `a`'s elements, for a cluster).
 pub(crate) fn height_above(a: &PatchGeo, b: &PatchGeo) -> f64 {
-    b.c.iter()
-        .map(|p| a.n.dot(*p - a.centroid))
-        .fold(f64::NEG_INFINITY, f64::max)
+    if a.cluster.is_none() && b.cluster.is_none() {
+        return b
+            .c
+            .iter()
+            .map(|p| a.n.dot(*p - a.centroid))
+            .fold(f64::NEG_INFINITY, f64::max);
+    }
+    let mut h = f64::NEG_INFINITY;
+    for fa in a.facets() {
+        for fb in b.facets() {
+            for p in fb.corners {
+                h = h.max(fa.normal.dot(p - fa.centroid));
+            }
+        }
+    }
+    h
 }
 
 /// Computes the dense form-factor matrix. `progress` receives the finished fraction
@@ -182,22 +277,47 @@ pub fn compute(
     f
 }
 
-/// Corners, centroid, normal, area, size and source triangle of every patch.
+/// Corners, centroid, normal, area, size and source triangle of every patch (and the
+/// elements of cluster patches).
 pub(crate) fn patch_geometry(mesh: &Mesh) -> Vec<PatchGeo> {
     (0..mesh.len())
         .map(|i| {
             let p = &mesh.patches[i];
-            let c = mesh.corners(i);
-            let size = (0..3)
-                .map(|k| c[k].distance(c[(k + 1) % 3]))
-                .fold(0.0, f64::max);
+            if let Some(c) = mesh.single_corners(i) {
+                let size = (0..3)
+                    .map(|k| c[k].distance(c[(k + 1) % 3]))
+                    .fold(0.0, f64::max);
+                return PatchGeo {
+                    c,
+                    centroid: p.centroid,
+                    n: p.normal,
+                    area: p.area,
+                    size,
+                    source: p.source,
+                    cluster: None,
+                };
+            }
+            let (mut lo, mut hi) = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
+            let mut cum = 0.0;
+            let elems: Box<[(Facet, f64)]> = mesh
+                .facets(i)
+                .map(|f| {
+                    for q in f.corners {
+                        lo = lo.min(q);
+                        hi = hi.max(q);
+                    }
+                    cum += f.area / p.area;
+                    (f, cum)
+                })
+                .collect();
             PatchGeo {
-                c,
+                c: elems[0].0.corners,
                 centroid: p.centroid,
                 n: p.normal,
                 area: p.area,
-                size,
+                size: (hi - lo).length(),
                 source: p.source,
+                cluster: Some(elems),
             }
         })
         .collect()
@@ -262,12 +382,12 @@ pub(crate) fn visible_fraction(
         for r in 0..count {
             let s = rng.stratum(r as usize, count as usize);
             let t = ((r * 7 + 3) % count) as f64 / count as f64;
-            let x = sample_triangle(&a.c, s, rng.next_f64());
-            let y = sample_triangle(&b.c, t + rng.next_f64() / count as f64, rng.next_f64());
+            let x = a.point(s, rng.next_f64());
+            let y = b.point(t + rng.next_f64() / count as f64, rng.next_f64());
             let blocked = bvh.occluded(
-                Vec3A::from(x.as_vec3()),
-                Vec3A::from(y.as_vec3()),
-                [a.source, b.source],
+                Vec3A::from(x.x.as_vec3()),
+                Vec3A::from(y.x.as_vec3()),
+                [x.source, y.source],
             );
             free += u32::from(!blocked);
         }

@@ -61,11 +61,11 @@ pub fn gather_weights(
             if bj == Rgb64::ZERO {
                 return None;
             }
-            let p = &mesh.patches[j];
-            if p.normal.dot(x - p.centroid) <= 0.0 {
-                return None;
-            }
-            let ff = point_to_polygon(x, n, &mesh.corners(j));
+            let ff: f64 = mesh
+                .facets(j)
+                .filter(|f| f.normal.dot(x - f.centroid) > 0.0)
+                .map(|f| point_to_polygon(x, n, &f.corners))
+                .sum();
             (ff > 0.0).then_some((j, ff, bj))
         })
         .collect();
@@ -77,8 +77,6 @@ pub fn gather_weights(
         .par_iter()
         .with_min_len(64)
         .filter_map(|&(j, ff, bj)| {
-            let p = &mesh.patches[j];
-            let c = mesh.corners(j);
             let mut state = (j as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15) | 1;
             let mut next = || {
                 state ^= state << 13;
@@ -89,12 +87,13 @@ pub fn gather_weights(
             let mut cast = |count: u32| {
                 let mut free = 0;
                 for r in 0..count {
-                    let (mut u, mut v) = ((r as f64 + next()) / count as f64, next());
+                    let (p, mut u) = mesh.pick_facet(j, (r as f64 + next()) / count as f64);
+                    let mut v = next();
                     if u + v > 1.0 {
                         u = 1.0 - u;
                         v = 1.0 - v;
                     }
-                    let g = p.centroid;
+                    let (c, g) = (p.corners, p.centroid);
                     let y = g + (c[0] + (c[1] - c[0]) * u + (c[2] - c[0]) * v - g) * (1.0 - 1e-4);
                     let blocked = bvh.occluded(o, Vec3A::from(y.as_vec3()), [p.source, u32::MAX]);
                     free += u32::from(!blocked);

@@ -27,7 +27,7 @@ use crate::daylight::tregenza::Subdivision;
 use crate::daylight::Site;
 use crate::geometry::bvh::Bvh;
 use crate::geometry::glazing::Glazing;
-use crate::geometry::mesh::Mesh;
+use crate::geometry::mesh::{Facet, Mesh};
 use crate::geometry::{frame, lifted};
 use crate::sampling::{hashed_point, XorShift};
 
@@ -187,25 +187,31 @@ pub fn patch_sky_direct(
         .into_par_iter()
         .with_min_len(16)
         .map(|i| {
-            let p = &mesh.patches[i];
-            let c = mesh.corners(i);
-            let (t, b) = frame(p.normal);
+            let single = mesh.patches[i].elements.len() == 1;
+            let (t, b) = frame(mesh.patches[i].normal);
             let mut rng = XorShift::new(i as u64 + 1);
             let mut row = vec![0f64; k];
             for r in 0..rays {
                 // Stratified direction cell, and a point of the patch from an independent
                 // stratification (the cell index scrambled), so points and directions
-                // decorrelate.
+                // decorrelate. A cluster patch's point picks its element, whose normal the
+                // directions follow.
                 let (cu, cv) = (r % side, r / side);
                 let u = (cu as f64 + rng.next()) / side as f64;
                 let v = (cv as f64 + rng.next()) / side as f64;
-                let d = cosine_dir(u, v, t, b, p.normal);
-                let (mut a, mut e) = (rng.next(), rng.next());
+                let (p, mut a) = mesh.pick_facet(i, rng.next());
+                let mut e = rng.next();
+                let d = if single {
+                    cosine_dir(u, v, t, b, p.normal)
+                } else {
+                    let (t, b) = frame(p.normal);
+                    cosine_dir(u, v, t, b, p.normal)
+                };
                 if a + e > 1.0 {
                     a = 1.0 - a;
                     e = 1.0 - e;
                 }
-                let g = p.centroid;
+                let (c, g) = (p.corners, p.centroid);
                 let x = g + (c[0] + (c[1] - c[0]) * a + (c[2] - c[0]) * e - g) * (1.0 - 1e-4);
                 let tr = transmitted(bvh, glazing, lifted(x, p.normal), d, reach, p.source);
                 if tr > 0.0 {
@@ -540,29 +546,37 @@ pub fn patch_sun_direct(
         .into_par_iter()
         .with_min_len(64)
         .map(|i| {
+            let lit = |p: &Facet| -> f64 {
+                let cos = p.normal.dot(s);
+                if cos <= 0.0 {
+                    return 0.0;
+                }
+                let c = p.corners;
+                // Per point, the share of the beam that reaches it.
+                let lit = |pts: &[(f64, f64)]| -> Vec<f64> {
+                    pts.iter()
+                        .map(|&(u, v)| {
+                            let x = c[0] + (c[1] - c[0]) * u + (c[2] - c[0]) * v;
+                            transmitted(bvh, glazing, lifted(x, p.normal), s, reach, p.source)
+                        })
+                        .collect()
+                };
+                let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len() as f64;
+                let free = lit(&coarse);
+                let frac = if free.iter().all(|&f| f == free[0]) {
+                    free[0]
+                } else {
+                    mean(&lit(&fine))
+                };
+                e_n * cos * frac
+            };
             let p = &mesh.patches[i];
-            let cos = p.normal.dot(s);
-            if cos <= 0.0 {
-                return 0.0;
+            if p.elements.len() == 1 {
+                let f = mesh.facets(i).next().expect("a patch has an element");
+                return lit(&f) as f32;
             }
-            let c = mesh.corners(i);
-            // Per point, the share of the beam that reaches it.
-            let lit = |pts: &[(f64, f64)]| -> Vec<f64> {
-                pts.iter()
-                    .map(|&(u, v)| {
-                        let x = c[0] + (c[1] - c[0]) * u + (c[2] - c[0]) * v;
-                        transmitted(bvh, glazing, lifted(x, p.normal), s, reach, p.source)
-                    })
-                    .collect()
-            };
-            let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len() as f64;
-            let free = lit(&coarse);
-            let frac = if free.iter().all(|&f| f == free[0]) {
-                free[0]
-            } else {
-                mean(&lit(&fine))
-            };
-            (e_n * cos * frac) as f32
+            let sum: f64 = mesh.facets(i).map(|f| f.area * lit(&f)).sum();
+            (sum / p.area) as f32
         })
         .collect()
 }

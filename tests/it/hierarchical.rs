@@ -62,7 +62,7 @@ fn hierarchical_closed_room_conserves_energy_and_agrees_with_factored() {
     let sums = hier.factor_sums();
     let under_block = |i: usize| {
         h.mesh
-            .corners(i)
+            .element_corners(i)
             .iter()
             .any(|p| p.y.abs() < 1e-9 && (0.3..=0.7).contains(&p.x) && (0.3..=0.6).contains(&p.z))
     };

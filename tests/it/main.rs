@@ -8,6 +8,7 @@ mod bench;
 mod browser;
 mod cache;
 mod cli;
+mod cluster_patches;
 mod configuration_factors;
 mod cornell;
 mod daylight;

@@ -229,7 +229,7 @@ fn preview_vertices_read_the_fine_shading_at_their_position() {
     assert_eq!(w.len(), cs.len());
     // Positions of the preview's shading vertices, from its triangles' corners.
     let mut pos = vec![glam::DVec3::ZERO; cs.len()];
-    for (p, c) in coarse.patches.iter().zip(cs.corners()) {
+    for (p, c) in coarse.elements.iter().zip(cs.corners()) {
         for k in 0..3 {
             pos[c[k] as usize] = coarse.vertices[p.v[k] as usize];
         }

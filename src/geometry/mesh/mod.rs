@@ -6,6 +6,11 @@
 //! `max_edge`. Longest-edge bisection keeps the mesh conforming: neighbouring patches of a
 //! surface share their vertices, so per-vertex (Gouraud) interpolation has no cracks.
 //!
+//! Small triangles (a model's furniture detail, far below `max_edge`) are then clustered
+//! into patches of about `max_edge` ([`cluster`]): a patch is one or more triangles, its
+//! *elements*, of one surface and material facing the same way. Rendering, sampling and
+//! exports work on the elements; the transfer has one unknown per patch.
+//!
 //! **Patch order** (stable, part of the API): surfaces in the order of their first
 //! appearance in the OBJ; within a surface, front-side patches in refinement order
 //! (deterministic for a given input and `max_edge`), then, for two-sided surfaces, the
@@ -19,6 +24,7 @@ use crate::geometry::bvh::Bvh;
 
 use crate::scene::{is_two_sided, Scene};
 
+mod cluster;
 mod contacts;
 mod refine;
 
@@ -26,22 +32,65 @@ use contacts::Contacts;
 pub use contacts::CONTACT_DIVISOR;
 use refine::Refiner;
 
-/// One patch: a triangle of constant radiosity.
+pub use cluster::{MAX_CLUSTER_TURN_DEG, SMALL_AREA_SHARE};
+
+/// One patch: a set of triangles (its elements, one for most patches) of constant
+/// radiosity.
 #[derive(Debug, Clone)]
 pub struct Patch {
-    /// Vertex indices into [`Mesh::vertices`], counter-clockwise seen from the front.
-    pub v: [u32; 3],
+    /// Its elements, a range of [`Mesh::elements`].
+    pub elements: Range<u32>,
     pub surface: u32,
     pub material: u32,
     /// Light group of an emitting patch.
     pub group: Option<u32>,
+    /// Area in m² (the sum of its elements').
+    pub area: f64,
+    /// Centroid in metres (area-weighted over its elements).
+    pub centroid: DVec3,
+    /// Unit normal of the front (emitting, reflecting, receiving) side: the area-weighted
+    /// mean of its elements' normals.
+    pub normal: DVec3,
+    /// Index of the scene triangle its first element was cut from.
+    pub source: u32,
+}
+
+/// One element of a patch with its geometry, as samplers and integrators use it.
+#[derive(Debug, Clone, Copy)]
+pub struct Facet {
+    pub corners: [DVec3; 3],
+    /// Unit normal of the front side.
+    pub normal: DVec3,
+    pub centroid: DVec3,
     /// Area in m².
     pub area: f64,
-    /// Centroid in metres.
-    pub centroid: DVec3,
-    /// Unit normal of the front (emitting, reflecting, receiving) side.
-    pub normal: DVec3,
-    /// Index of the scene triangle the patch was cut from.
+    /// The scene triangle it was cut from (rays leaving it skip that triangle).
+    pub source: u32,
+}
+
+impl Facet {
+    /// The facet of a triangle given counter-clockwise from the front.
+    pub fn new(corners: [DVec3; 3], source: u32) -> Facet {
+        let [a, b, c] = corners;
+        let cr = (b - a).cross(c - a);
+        Facet {
+            corners,
+            normal: cr.normalize(),
+            centroid: (a + b + c) / 3.0,
+            area: 0.5 * cr.length(),
+            source,
+        }
+    }
+}
+
+/// One triangle of a patch: what rendering, sampling and exports work on.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Element {
+    /// Vertex indices into [`Mesh::vertices`], counter-clockwise seen from the front.
+    pub v: [u32; 3],
+    /// The patch it belongs to.
+    pub patch: u32,
+    /// Index of the scene triangle it was cut from.
     pub source: u32,
 }
 
@@ -51,6 +100,8 @@ pub struct Mesh {
     /// Vertex positions in metres. Vertices are shared within a surface only.
     pub vertices: Vec<DVec3>,
     pub patches: Vec<Patch>,
+    /// The triangles of all patches, patch by patch (each patch owns a contiguous range).
+    pub elements: Vec<Element>,
     /// Patch range of each surface (indexed like `Scene::surfaces`).
     pub surface_patches: Vec<Range<u32>>,
 }
@@ -100,8 +151,7 @@ impl Mesh {
             limit: max_patches,
             estimated: false,
         };
-        let mut vertices = Vec::new();
-        let mut patches = Vec::new();
+        let mut out = Builder::default();
         let mut surface_patches = Vec::with_capacity(scene.surfaces.len());
         let contacts = Contacts::new(scene);
         let found = std::cell::RefCell::new(Vec::new());
@@ -113,50 +163,59 @@ impl Mesh {
             }
         }
         for tris in &by_surface {
-            let start = patches.len() as u32;
+            let start = out.patches.len() as u32;
             if !tris.is_empty() {
-                let budget = max_patches.saturating_sub(patches.len());
+                // Refinement is bounded by the limit on its triangles: a patch has at
+                // least one.
+                let done = out.elements.len();
+                let budget = max_patches.saturating_sub(done);
                 let mut r = Refiner::new(scene, tris);
-                r.fix_t_junctions(budget)
-                    .map_err(|n| too_many(patches.len() + n))?;
-                r.refine(max_edge, budget)
-                    .map_err(|n| too_many(patches.len() + n))?;
+                r.fix_t_junctions(budget).map_err(|n| too_many(done + n))?;
+                // Triangles from here on are cut by refinement: never clustered.
+                let input = r.tris.len();
+                r.refine(max_edge, budget).map_err(|n| too_many(done + n))?;
                 r.refine_where(max_edge / CONTACT_DIVISOR, budget, |r, t| {
                     contacts.cut(&r.corners(t), &mut found.borrow_mut())
                 })
-                .map_err(|n| too_many(patches.len() + n))?;
-                let base = vertices.len() as u32;
-                vertices.extend_from_slice(&r.pos);
+                .map_err(|n| too_many(done + n))?;
                 let front: Vec<usize> = (0..r.tris.len()).filter(|&t| r.alive[t]).collect();
-                for &t in &front {
-                    let src = r.src[t];
-                    let tri = &scene.triangles[src as usize];
-                    let v = r.tris[t].map(|k| k + base);
-                    patches.push(make_patch(&vertices, v, tri, src));
-                }
-                let two: Vec<usize> = front
-                    .iter()
-                    .copied()
-                    .filter(|&t| {
-                        let tri = &scene.triangles[r.src[t] as usize];
-                        is_two_sided(tri, &scene.materials, &scene.surfaces)
+                let groups = if scene.mesh.cluster {
+                    cluster::clusters(&r, &front, input, scene, max_edge, |t| {
+                        contacts.cut(&r.corners(t), &mut found.borrow_mut())
                     })
+                } else {
+                    front.iter().map(|&t| vec![t]).collect()
+                };
+                let base = out.vertices.len() as u32;
+                out.vertices.extend_from_slice(&r.pos);
+                let tri = |t: usize| &scene.triangles[r.src[t] as usize];
+                let two: Vec<&Vec<usize>> = groups
+                    .iter()
+                    .filter(|g| is_two_sided(tri(g[0]), &scene.materials, &scene.surfaces))
                     .collect();
-                if patches.len().saturating_add(two.len()) > max_patches {
-                    return Err(too_many(patches.len() + two.len()));
+                if out.patches.len() + groups.len() + two.len() > max_patches {
+                    return Err(too_many(out.patches.len() + groups.len() + two.len()));
                 }
-                for t in two {
-                    let src = r.src[t];
-                    let tri = &scene.triangles[src as usize];
-                    let [a, b, c] = r.tris[t].map(|k| k + base);
-                    patches.push(make_patch(&vertices, [a, c, b], tri, src));
+                for g in &groups {
+                    out.push(
+                        g.iter().map(|&t| (r.tris[t].map(|k| k + base), r.src[t])),
+                        tri(g[0]),
+                    );
+                }
+                for g in two {
+                    let back = g.iter().map(|&t| {
+                        let [a, b, c] = r.tris[t].map(|k| k + base);
+                        ([a, c, b], r.src[t])
+                    });
+                    out.push(back, tri(g[0]));
                 }
             }
-            surface_patches.push(start..patches.len() as u32);
+            surface_patches.push(start..out.patches.len() as u32);
         }
         Ok(Mesh {
-            vertices,
-            patches,
+            vertices: out.vertices,
+            patches: out.patches,
+            elements: out.elements,
             surface_patches,
         })
     }
@@ -171,9 +230,107 @@ impl Mesh {
         self.patches.is_empty()
     }
 
-    /// Corner positions of patch `i`.
-    pub fn corners(&self, i: usize) -> [DVec3; 3] {
-        self.patches[i].v.map(|k| self.vertices[k as usize])
+    /// Corner positions of element `e`.
+    pub fn element_corners(&self, e: usize) -> [DVec3; 3] {
+        self.elements[e].v.map(|k| self.vertices[k as usize])
+    }
+
+    /// The elements of patch `i`, as indices into [`Mesh::elements`].
+    pub fn elements_of(&self, i: usize) -> Range<usize> {
+        let r = &self.patches[i].elements;
+        r.start as usize..r.end as usize
+    }
+
+    /// The corners of each element of patch `i`, with the scene triangle it was cut from.
+    pub fn triangles_of(&self, i: usize) -> impl Iterator<Item = ([DVec3; 3], u32)> + '_ {
+        self.elements_of(i)
+            .map(|e| (self.element_corners(e), self.elements[e].source))
+    }
+
+    /// The elements of patch `i` as [`Facet`]s. A single-triangle patch gives one, with
+    /// exactly the patch's own normal, centroid, area and source.
+    pub fn facets(&self, i: usize) -> impl Iterator<Item = Facet> + '_ {
+        let p = &self.patches[i];
+        let single = p.elements.len() == 1;
+        self.elements_of(i).map(move |e| {
+            let corners = self.element_corners(e);
+            if single {
+                Facet {
+                    corners,
+                    normal: p.normal,
+                    centroid: p.centroid,
+                    area: p.area,
+                    source: p.source,
+                }
+            } else {
+                Facet::new(corners, self.elements[e].source)
+            }
+        })
+    }
+
+    /// The facet of patch `i` that `u` ∈ [0, 1) falls in when its elements are laid end to
+    /// end by area, and `u` rescaled to [0, 1) within it: a sample of the patch by area.
+    /// A single-triangle patch gives its facet and `u` unchanged.
+    pub fn pick_facet(&self, i: usize, u: f64) -> (Facet, f64) {
+        let p = &self.patches[i];
+        let mut facets = self.facets(i);
+        let first = facets.next().expect("a patch has an element");
+        if p.elements.len() == 1 {
+            return (first, u);
+        }
+        let target = u * p.area;
+        let mut at = 0.0;
+        let mut last = first;
+        for f in std::iter::once(first).chain(facets) {
+            if target < at + f.area {
+                return (f, ((target - at) / f.area).clamp(0.0, 1.0 - f64::EPSILON));
+            }
+            at += f.area;
+            last = f;
+        }
+        (last, 1.0 - f64::EPSILON)
+    }
+
+    /// Element `e` as a [`Facet`]; exactly its patch's facet when the patch is a single
+    /// triangle.
+    pub fn facet(&self, e: usize) -> Facet {
+        let el = &self.elements[e];
+        let p = &self.patches[el.patch as usize];
+        if p.elements.len() == 1 {
+            Facet {
+                corners: self.element_corners(e),
+                normal: p.normal,
+                centroid: p.centroid,
+                area: p.area,
+                source: p.source,
+            }
+        } else {
+            Facet::new(self.element_corners(e), el.source)
+        }
+    }
+
+    /// The element of patch `i` that the point `x` (on the patch) lies in, and `x`'s
+    /// barycentric coordinates in it: the element whose smallest coordinate is largest.
+    pub fn locate(&self, i: usize, x: DVec3) -> (usize, [f64; 3]) {
+        let mut best = (
+            self.patches[i].elements.start as usize,
+            [0.0; 3],
+            f64::NEG_INFINITY,
+        );
+        for e in self.elements_of(i) {
+            let l = crate::geometry::barycentric(&self.element_corners(e), x);
+            let worst = l[0].min(l[1]).min(l[2]);
+            if worst > best.2 {
+                best = (e, l, worst);
+            }
+        }
+        (best.0, best.1)
+    }
+
+    /// The corners of patch `i` when it is a single triangle (most patches are).
+    pub fn single_corners(&self, i: usize) -> Option<[DVec3; 3]> {
+        let r = self.elements_of(i);
+        (r.len() == 1).then(|| self.element_corners(r.start))
     }
 
     /// A hash of the mesh geometry, stored in the cache to check that a transfer belongs
@@ -186,8 +343,13 @@ impl Mesh {
             }
         }
         for p in &self.patches {
-            for k in p.v {
-                h.update(&k.to_le_bytes());
+            for e in &self.elements[p.elements.start as usize..p.elements.end as usize] {
+                for k in e.v {
+                    h.update(&k.to_le_bytes());
+                }
+            }
+            if p.elements.len() > 1 {
+                h.update(&(p.elements.len() as u32).to_le_bytes());
             }
             h.update(&p.surface.to_le_bytes());
             h.update(&p.material.to_le_bytes());
@@ -257,18 +419,53 @@ pub fn estimate_patches(scene: &Scene, max_edge: f64) -> u64 {
     }
 }
 
-fn make_patch(vertices: &[DVec3], v: [u32; 3], tri: &crate::scene::Triangle, src: u32) -> Patch {
-    let [a, b, c] = v.map(|k| vertices[k as usize]);
-    let cr = (b - a).cross(c - a);
-    Patch {
-        v,
-        surface: tri.surface,
-        material: tri.material,
-        group: tri.group,
-        area: 0.5 * cr.length(),
-        centroid: (a + b + c) / 3.0,
-        normal: cr.normalize(),
-        source: src,
+/// The mesh as it grows, patch by patch.
+#[derive(Default)]
+struct Builder {
+    vertices: Vec<DVec3>,
+    patches: Vec<Patch>,
+    elements: Vec<Element>,
+}
+
+impl Builder {
+    /// Adds a patch of the given elements (vertex indices, source triangle), which come
+    /// from `tri`'s surface and material.
+    fn push(&mut self, elems: impl Iterator<Item = ([u32; 3], u32)>, tri: &crate::scene::Triangle) {
+        let id = self.patches.len() as u32;
+        let start = self.elements.len() as u32;
+        let (mut area, mut moment, mut normal) = (0.0, DVec3::ZERO, DVec3::ZERO);
+        for (v, source) in elems {
+            let [a, b, c] = v.map(|k| self.vertices[k as usize]);
+            let cr = (b - a).cross(c - a);
+            let ea = 0.5 * cr.length();
+            area += ea;
+            moment += ea * (a + b + c) / 3.0;
+            normal += 0.5 * cr;
+            self.elements.push(Element {
+                v,
+                patch: id,
+                source,
+            });
+        }
+        let range = start..self.elements.len() as u32;
+        let first = self.elements[start as usize];
+        let (centroid, normal) = if range.len() == 1 {
+            // One triangle: exactly its centroid and normal.
+            let [a, b, c] = first.v.map(|k| self.vertices[k as usize]);
+            ((a + b + c) / 3.0, (b - a).cross(c - a).normalize())
+        } else {
+            (moment / area, normal.normalize())
+        };
+        self.patches.push(Patch {
+            elements: range,
+            surface: tri.surface,
+            material: tri.material,
+            group: tri.group,
+            area,
+            centroid,
+            normal,
+            source: first.source,
+        });
     }
 }
 
@@ -303,10 +500,11 @@ mod tests {
     fn assert_conforming(m: &Mesh) {
         let mut count: Map<(u32, u32), usize> = Map::new();
         let mut surface = vec![u32::MAX; m.vertices.len()];
-        for p in &m.patches {
+        for e in &m.elements {
+            let p = &m.patches[e.patch as usize];
             for k in 0..3 {
-                *count.entry(key(p.v[k], p.v[(k + 1) % 3])).or_default() += 1;
-                surface[p.v[k] as usize] = p.surface;
+                *count.entry(key(e.v[k], e.v[(k + 1) % 3])).or_default() += 1;
+                surface[e.v[k] as usize] = p.surface;
             }
         }
         // A vertex lying strictly inside some edge would be a hanging node.
@@ -335,7 +533,7 @@ mod tests {
         let total: f64 = m.patches.iter().map(|p| p.area).sum();
         assert!((total - 4.0).abs() < 1e-9, "area {total}");
         for i in 0..m.len() {
-            let c = m.corners(i);
+            let c = m.element_corners(i);
             for k in 0..3 {
                 assert!(c[k].distance(c[(k + 1) % 3]) <= 0.3 + 1e-9);
             }
@@ -391,7 +589,7 @@ mod tests {
         let floor = m.surface_patches[0].clone();
         let (mut crossing, mut coarse) = (0, 0);
         for i in floor.clone() {
-            let c = m.corners(i as usize);
+            let c = m.element_corners(i as usize);
             let longest = (0..3)
                 .map(|k| c[k].distance(c[(k + 1) % 3]))
                 .fold(0.0, f64::max);

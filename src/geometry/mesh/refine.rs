@@ -222,6 +222,19 @@ impl Refiner {
         }
     }
 
+    /// The live triangles that share an edge with `t`, edge by edge.
+    pub(super) fn neighbours(&self, t: u32) -> impl Iterator<Item = u32> + '_ {
+        let v = self.tris[t as usize];
+        (0..3).flat_map(move |k| {
+            self.edges
+                .get(&key(v[k], v[(k + 1) % 3]))
+                .into_iter()
+                .flatten()
+                .copied()
+                .filter(move |&u| u != t)
+        })
+    }
+
     /// The corners of triangle `t`.
     pub(super) fn corners(&self, t: u32) -> [DVec3; 3] {
         self.tris[t as usize].map(|k| self.pos[k as usize])

@@ -94,13 +94,15 @@ fn shading_direct(scene: &FinalScene<'_>, lights: &GroupLights<'_>, g: usize) ->
     out.par_chunks_mut(3 * g)
         .enumerate()
         .for_each_init(Scratch::default, |scratch, (v, acc)| {
-            let (p, k) = shading.anchor(v);
-            let patch = &mesh.patches[p as usize];
-            let x = mesh.vertices[patch.v[k] as usize];
-            let at = patch.centroid + (x - patch.centroid) * (1.0 - INSET);
+            let (e, k) = shading.anchor(mesh, v);
+            let elem = mesh.elements[e as usize];
+            let p = elem.patch;
+            let f = mesh.facet(e as usize);
+            let x = mesh.vertices[elem.v[k] as usize];
+            let at = f.centroid + (x - f.centroid) * (1.0 - INSET);
             let mut rng = Rng::new(v, VERTEX_SALT);
             lights.direct(
-                (at, patch.normal, p),
+                (at, f.normal, p),
                 Rays::Stratified(DIRECT_RAYS),
                 &mut rng,
                 scratch,
@@ -203,7 +205,7 @@ impl Reflected {
                         continue;
                     };
                     let sv = scene.shading.corner[q as usize];
-                    let rho = scene.rho[q as usize];
+                    let rho = scene.rho[loc.patch_of(q) as usize];
                     for (k, vals) in per_group.iter().enumerate() {
                         let v = vals[sv[0] as usize] * w[0]
                             + vals[sv[1] as usize] * w[1]
@@ -238,11 +240,10 @@ impl Reflected {
         if self.expected.is_empty() {
             return;
         }
-        let patch = &scene.mesh.patches[p as usize];
-        let c = patch.v.map(|v| scene.mesh.vertices[v as usize]);
-        let l = crate::geometry::barycentric(&c, x).map(|v| v.clamp(0.0, 1.0) as f32);
+        let (e, l) = scene.mesh.locate(p as usize, x);
+        let l = l.map(|v| v.clamp(0.0, 1.0) as f32);
         let sum = (l[0] + l[1] + l[2]).max(1e-6);
-        let sv = scene.shading.corner[p as usize];
+        let sv = scene.shading.corner[e];
         let g3 = 3 * self.groups;
         let rows = sv.map(|v| &self.expected[g3 * v as usize..g3 * (v as usize + 1)]);
         let l = l.map(|v| v / sum);

@@ -108,6 +108,9 @@ pub(crate) struct MeshToml {
     pub(crate) max_edge: Option<f64>,
     /// Aim for about this many patches when `max_edge` is not given (default 4000).
     pub(crate) target_patches: Option<usize>,
+    /// Cluster the model's small triangles into patches of about `max_edge` (default
+    /// true); false gives every triangle its own patch.
+    pub(crate) cluster: Option<bool>,
 }
 
 #[derive(Debug, Default, Clone, Deserialize)]

@@ -17,7 +17,7 @@ use rayon::prelude::*;
 
 use crate::geometry::bvh::Bvh;
 use crate::geometry::ray_offset;
-use crate::sampling::{sample_triangle, Rng};
+use crate::sampling::Rng;
 use crate::transport::formfactor::PatchGeo;
 
 /// Relative standard deviation assumed for a patch's link sum.
@@ -50,8 +50,16 @@ pub(crate) fn hit_fraction(
                     let u2 = rng.stratum(b as usize, side as usize);
                     let r = u1.sqrt();
                     let phi = 2.0 * std::f64::consts::PI * u2;
-                    let d = t1 * (r * phi.cos()) + t2 * (r * phi.sin()) + g.n * (1.0 - u1).sqrt();
-                    let x = sample_triangle(&g.c, rng.next_f64(), rng.next_f64()) + g.n * lift;
+                    // A cluster patch's ray leaves the element its point lies on.
+                    let p = g.point(rng.next_f64(), rng.next_f64());
+                    let (t1, t2, n) = if g.cluster.is_some() {
+                        let (t1, t2) = tangents(p.n);
+                        (t1, t2, p.n)
+                    } else {
+                        (t1, t2, g.n)
+                    };
+                    let d = t1 * (r * phi.cos()) + t2 * (r * phi.sin()) + n * (1.0 - u1).sqrt();
+                    let x = p.x + n * lift;
                     let hit = bvh.nearest(
                         Vec3A::from(x.as_vec3()),
                         Vec3A::from(d.as_vec3()),
@@ -59,7 +67,7 @@ pub(crate) fn hit_fraction(
                         f32::INFINITY,
                     );
                     if let Some((_, t)) = hit {
-                        if t != g.source && front.get(t as usize).is_some_and(|n| n.dot(d) < 0.0) {
+                        if t != p.source && front.get(t as usize).is_some_and(|n| n.dot(d) < 0.0) {
                             hits += 1;
                         }
                     }

@@ -46,10 +46,10 @@ use super::importance::Importance;
 use super::tree::{Tree, NONE};
 use super::Plan;
 use crate::geometry::bvh::Bvh;
-use crate::sampling::{sample_triangle, Rng};
+use crate::sampling::Rng;
 use crate::transport::formfactor::{
-    directed, height_above, point_to_polygon, quadrature_level, quadrature_tables,
-    visible_fraction, FormFactorOptions, PatchGeo,
+    directed, height_above, quadrature_level, quadrature_tables, visible_fraction,
+    FormFactorOptions, PatchGeo, PatchPoint,
 };
 
 /// Quality knobs of the hierarchical transfer. Part of the cache key.
@@ -402,8 +402,9 @@ impl Ctx<'_> {
         })
     }
 
-    /// A point of node `k` (area-distributed, by the stratum `u` in 0..1) and its patch.
-    fn sample(&self, k: u32, mut u: f64, rng: &mut Rng) -> (DVec3, u32) {
+    /// A point of node `k` (area-distributed, by the stratum `u` in 0..1), with its
+    /// element's normal and scene triangle.
+    fn sample(&self, k: u32, mut u: f64, rng: &mut Rng) -> PatchPoint {
         let t = self.tree;
         let mut k = k;
         while !t.is_leaf(k) {
@@ -417,8 +418,7 @@ impl Ctx<'_> {
                 k = b;
             }
         }
-        let c = &self.geo[k as usize].c;
-        (sample_triangle(c, rng.next_f64(), rng.next_f64()), k)
+        self.geo[k as usize].point(rng.next_f64(), rng.next_f64())
     }
 
     /// What the point pairs of the link r ← s share.
@@ -431,6 +431,7 @@ impl Ctx<'_> {
             nr: t.planes[t.plane[r as usize] as usize].0,
             area_s: t.area[s as usize],
             leaf_source: t.is_leaf(s),
+            cluster_receiver: t.is_leaf(r) && self.geo[r as usize].cluster.is_some(),
         }
     }
 
@@ -446,9 +447,9 @@ impl Ctx<'_> {
     }
 
     /// Pair `k` of `count` stratified point pairs of the link `e`: a point of the
-    /// receiver and its patch, a point of the source and its patch. Receiver strata in
-    /// order, source strata reversed and turned by `shift` (drawn once per set of pairs,
-    /// see [`Ctx::pair_shift`]).
+    /// receiver and a point of the source. Receiver strata in order, source strata
+    /// reversed and turned by `shift` (drawn once per set of pairs, see
+    /// [`Ctx::pair_shift`]).
     ///
     /// A random turn is what makes the pairs unbiased: every receiver stratum then
     /// meets every source stratum with the same chance. A fixed pairing samples a few of
@@ -465,43 +466,40 @@ impl Ctx<'_> {
         count: u32,
         shift: u32,
         rng: &mut Rng,
-    ) -> (DVec3, u32, DVec3, u32) {
+    ) -> (PatchPoint, PatchPoint) {
         let ur = rng.stratum(k as usize, count as usize);
         let js = (count - 1 - k + shift) % count;
         let us = rng.stratum(js as usize, count as usize);
-        let (x, lx) = self.sample(e.r, ur, rng);
-        let (y, ly) = self.sample(e.s, us, rng);
-        (x, lx, y, ly)
+        let x = self.sample(e.r, ur, rng);
+        let y = self.sample(e.s, us, rng);
+        (x, y)
     }
 
-    /// Whether the segment x → y is blocked (the triangles of patches `lx` and `ly`
-    /// skipped).
+    /// Whether the segment x → y is blocked (the triangles they lie on skipped).
     #[inline]
-    fn blocked(&self, x: DVec3, lx: u32, y: DVec3, ly: u32) -> bool {
-        let src = [self.geo[lx as usize].source, self.geo[ly as usize].source];
-        self.bvh
-            .occluded(Vec3A::from(x.as_vec3()), Vec3A::from(y.as_vec3()), src)
+    fn blocked(&self, x: &PatchPoint, y: &PatchPoint) -> bool {
+        self.bvh.occluded(
+            Vec3A::from(x.x.as_vec3()),
+            Vec3A::from(y.x.as_vec3()),
+            [x.source, y.source],
+        )
     }
 
     /// The unoccluded factor estimate of one point pair of the link `e`: from x (on the
-    /// receiver) to the whole source when it is a patch (exact), else to the point y of
-    /// leaf `ly` standing for the source's area.
+    /// receiver) to the whole source when it is a patch (exact), else to the point y
+    /// standing for the source's area. A cluster patch receives with the normal of the
+    /// element x lies on.
     #[inline]
-    fn pair_factor(&self, e: &LinkEnds, x: DVec3, y: DVec3, ly: u32) -> f64 {
+    fn pair_factor(&self, e: &LinkEnds, x: &PatchPoint, y: &PatchPoint) -> f64 {
+        let nr = if e.cluster_receiver { x.n } else { e.nr };
         if e.leaf_source {
-            let g = &self.geo[e.s as usize];
-            if g.n.dot(x - g.centroid) > 0.0 {
-                point_to_polygon(x, e.nr, &g.c)
-            } else {
-                0.0
-            }
+            self.geo[e.s as usize].seen_from(x.x, nr)
         } else {
-            let d = y - x;
+            let d = y.x - x.x;
             let d2 = d.length_squared();
             if d2 > 0.0 {
-                let ny = self.geo[ly as usize].n;
-                let cr = e.nr.dot(d).max(0.0);
-                let cs = (-ny.dot(d)).max(0.0);
+                let cr = nr.dot(d).max(0.0);
+                let cs = (-y.n.dot(d)).max(0.0);
                 e.area_s * cr * cs / (PI * d2 * d2)
             } else {
                 0.0
@@ -520,10 +518,10 @@ impl Ctx<'_> {
         let (mut sum, mut free) = (0.0, 0u32);
         let shift = self.pair_shift(count, &mut rng);
         for k in 0..count {
-            let (x, lx, y, ly) = self.pair(&e, k, count, shift, &mut rng);
-            let f = self.pair_factor(&e, x, y, ly);
+            let (x, y) = self.pair(&e, k, count, shift, &mut rng);
+            let f = self.pair_factor(&e, &x, &y);
             if rays {
-                if !self.blocked(x, lx, y, ly) {
+                if !self.blocked(&x, &y) {
                     free += 1;
                     sum += f;
                 }
@@ -560,9 +558,9 @@ impl Ctx<'_> {
         let mut pairs = Vec::with_capacity(m as usize);
         let shift = self.pair_shift(m, &mut rng);
         for k in 0..m {
-            let (x, lx, y, ly) = self.pair(&e, k, m, shift, &mut rng);
-            let f = self.pair_factor(&e, x, y, ly);
-            pairs.push((x, lx, y, ly));
+            let (x, y) = self.pair(&e, k, m, shift, &mut rng);
+            let f = self.pair_factor(&e, &x, &y);
+            pairs.push((x, y));
             sum += f;
             lo = lo.min(f);
             hi = hi.max(f);
@@ -582,16 +580,16 @@ impl Ctx<'_> {
         let rays = ((8.0 * f / eps).ceil().min(u32::MAX as f64) as u32).clamp(m, cap.max(m));
         let mut free = 0u32;
         for k in 0..rays {
-            let (x, lx, y, ly) = match pairs.get(k as usize) {
+            let (x, y) = match pairs.get(k as usize) {
                 Some(p) => *p,
                 None => {
                     let u = rng.stratum(k as usize, rays as usize);
-                    let (x, lx) = self.sample(r, u, &mut rng);
-                    let (y, ly) = self.sample(s, rng.next_f64(), &mut rng);
-                    (x, lx, y, ly)
+                    let x = self.sample(r, u, &mut rng);
+                    let y = self.sample(s, rng.next_f64(), &mut rng);
+                    (x, y)
                 }
             };
-            free += u32::from(!self.blocked(x, lx, y, ly));
+            free += u32::from(!self.blocked(&x, &y));
         }
         let vis = free as f64 / rays as f64;
         let spread = if free == 0 || free == rays {
@@ -622,4 +620,6 @@ struct LinkEnds {
     area_s: f64,
     /// The source is a patch (its factor is exact from each receiver point).
     leaf_source: bool,
+    /// The receiver is a cluster patch: each point receives with its element's normal.
+    cluster_receiver: bool,
 }

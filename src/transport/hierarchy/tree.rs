@@ -92,10 +92,14 @@ impl Tree {
         };
         let groups = plane_groups(mesh);
         for (i, p) in mesh.patches.iter().enumerate() {
-            let c = mesh.corners(i);
+            let (mut lo, mut hi) = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
+            for (c, _) in mesh.triangles_of(i) {
+                lo = lo.min(c[0].min(c[1]).min(c[2]));
+                hi = hi.max(c[0].max(c[1]).max(c[2]));
+            }
             t.area.push(p.area);
-            t.lo.push(c[0].min(c[1]).min(c[2]));
-            t.hi.push(c[0].max(c[1]).max(c[2]));
+            t.lo.push(lo);
+            t.hi.push(hi);
             t.plane.push(NONE);
         }
         let mut roots = Vec::with_capacity(groups.len());
@@ -197,8 +201,14 @@ fn plane_groups(mesh: &Mesh) -> Vec<Vec<u32>> {
     for (i, p) in mesh.patches.iter().enumerate() {
         let q = |x: f64, step: f64| (x / step).round() as i64;
         let d = p.normal.dot(p.centroid);
+        // A cluster patch that is not flat is a plane of its own.
+        let own = p.elements.len() > 1
+            && mesh.facets(i).any(|f| {
+                f.normal.dot(p.normal) < 1.0 - 1e-9
+                    || (f.centroid - p.centroid).dot(p.normal).abs() > 1e-9 * scale
+            });
         let key = (
-            p.surface,
+            if own { u32::MAX - i as u32 } else { p.surface },
             [
                 q(p.normal.x, 1e-5),
                 q(p.normal.y, 1e-5),

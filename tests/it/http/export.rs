@@ -214,8 +214,8 @@ async fn exported_glb_matches_the_served_mesh_and_radiosity_and_imports_as_the_s
     std::fs::write(dir.path().join("relit.glb"), &b).unwrap();
     let s = Scene::load(dir.path()).unwrap();
     let mesh = &r.model.baked.mesh;
-    assert_eq!(s.triangles.len(), mesh.len());
-    for (t, p) in s.triangles.iter().zip(&mesh.patches) {
+    assert_eq!(s.triangles.len(), mesh.elements.len());
+    for (t, p) in s.triangles.iter().zip(&mesh.elements) {
         for k in 0..3 {
             let want = mesh.vertices[p.v[k] as usize];
             assert!((t.p[k] - want).length() < 1e-5, "{} vs {want}", t.p[k]);

@@ -143,8 +143,8 @@ async fn mesh_and_per_patch_illuminance_let_a_client_shade_like_the_server() {
     let (pos, tri) = (20, 20 + 12 * nv);
     let (surf, start) = (tri + 12 * nt, tri + 16 * nt);
     let (patch, weight) = (start + 4 * (nv + 1), start + 4 * (nv + 1) + 4 * nw);
-    for (t, p) in mesh.patches.iter().enumerate() {
-        assert_eq!(u(surf + 4 * t), p.surface);
+    for (t, p) in mesh.elements.iter().enumerate() {
+        assert_eq!(u(surf + 4 * t), mesh.patches[p.patch as usize].surface);
         // Each triangle corner sits on the patch's mesh vertex, counter-clockwise.
         for k in 0..3 {
             let v = u(tri + 12 * t + 4 * k) as usize;
