@@ -17,7 +17,8 @@
 //!   and each luminaire's luminous opening ([`openings`]) at its average luminance towards
 //!   the camera, `I/A_proj`;
 //! - **glossy reflection** ([`specular`]), on glTF materials with a specular lobe: the
-//!   luminaires' and the sun's highlights, and reflection rays that read the solution.
+//!   luminaires' and the sun's highlights, and reflection rays that read the solution,
+//!   weighed against light samples of the emitters ([`glossy`]).
 //!
 //! The indirect part, less the noise-free irradiance the solved radiosity gives at the
 //! pixel's point ([`gather::Reflected::expected`]), is denoised by an edge-avoiding
