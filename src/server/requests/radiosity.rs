@@ -2,10 +2,10 @@
 //! per patch.
 
 use super::lighting::sky_state;
-use super::{choice_impls, lit_request, some, Choice};
+use super::{choice_impls, lit_request, some, Choice, Resolve};
 use crate::model::query::Quantity;
 use crate::model::sky_state::{SkySpec, SkyState};
-use crate::model::Model;
+use crate::model::{Lighting, Model};
 use crate::server::json::FIELD;
 use crate::server::AppError;
 
@@ -44,10 +44,10 @@ lit_request! {
         /// Also return per-surface area-weighted averages.
         #[serde(default)]
         #[schema(default = false)]
-        pub surfaces: bool,
+        surfaces: bool,
         #[serde(default)]
         #[schema(inline)]
-        pub quantity: QuantityName,
+        quantity: QuantityName,
         /// Daylight from this sky (a scene with a [site]) added to the light groups' light.
         #[serde(default, deserialize_with = "some")]
         #[schema(nullable = false)]
@@ -55,9 +55,26 @@ lit_request! {
     }
 }
 
-impl RadiosityRequest {
-    /// The sky, resolved for the scene's site.
-    pub(crate) fn sky(&self, model: &Model) -> Result<Option<SkyState>, AppError> {
-        sky_state(self.sky.as_ref(), model)
+/// A radiosity request in the model's terms.
+pub(crate) struct RadiosityAsk {
+    pub lighting: Lighting,
+    /// The sky whose daylight is added.
+    pub sky: Option<SkyState>,
+    /// Whether per-surface averages are asked for too.
+    pub surfaces: bool,
+    pub quantity: Quantity,
+}
+
+impl Resolve for RadiosityRequest {
+    type Resolved = RadiosityAsk;
+
+    /// The lighting state, and the sky resolved for the scene's site.
+    fn resolve(&self, model: &Model) -> Result<RadiosityAsk, AppError> {
+        Ok(RadiosityAsk {
+            lighting: self.lighting(model)?,
+            sky: sky_state(self.sky.as_ref(), model)?,
+            surfaces: self.surfaces,
+            quantity: self.quantity.0,
+        })
     }
 }

@@ -9,8 +9,8 @@ use crate::model::annual::{AnnualAnswer, AnnualQuery};
 use crate::model::QueryError;
 use crate::server::openapi::{PostErrors, SceneIdParam};
 use crate::server::parse::ScenePost;
-use crate::server::requests::annual::Weather;
-use crate::server::requests::AnnualRequest;
+use crate::server::requests::annual::{AnnualAsk, Weather};
+use crate::server::requests::{AnnualRequest, Resolve};
 use crate::server::AppError;
 
 #[utoipa::path(post, path = "/api/scenes/{id}/annual", operation_id = "annual", tags = ["scenes"],
@@ -22,7 +22,11 @@ use crate::server::AppError;
 pub(crate) async fn annual(
     ScenePost(ready, state, req): ScenePost<AnnualRequest>,
 ) -> Result<Json<AnnualAnswer>, AppError> {
-    let (grids, occupied, weather) = req.parts(&ready.model)?;
+    let AnnualAsk {
+        grids,
+        occupied,
+        weather,
+    } = req.resolve(&ready.model)?;
     let points = grid_points(&ready.model, &grids);
     // Sized for a leap year, before the file is read.
     let bytes = ready.model.annual_bytes(&grids, 8784);

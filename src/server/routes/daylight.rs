@@ -7,7 +7,8 @@ use super::at_points;
 use crate::model::daylight::DaylightAnswer;
 use crate::server::openapi::{PostErrors, SceneIdParam};
 use crate::server::parse::ScenePost;
-use crate::server::requests::DaylightRequest;
+use crate::server::requests::daylight::DaylightAsk;
+use crate::server::requests::{DaylightRequest, Resolve};
 use crate::server::AppError;
 
 #[utoipa::path(post, path = "/api/scenes/{id}/daylight", operation_id = "daylight", tags = ["scenes"],
@@ -19,7 +20,11 @@ use crate::server::AppError;
 pub(crate) async fn daylight(
     ScenePost(ready, state, req): ScenePost<DaylightRequest>,
 ) -> Result<Json<DaylightAnswer>, AppError> {
-    let (sky, weights, q) = req.query(&ready.model)?;
+    let DaylightAsk {
+        sky,
+        weights,
+        query: q,
+    } = req.resolve(&ready.model)?;
     let bytes = ready.model.daylight_bytes(&q);
     let what = at_points("daylight", &ready.model, &q);
     let answer = state

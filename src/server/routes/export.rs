@@ -12,7 +12,8 @@ use crate::budget::human_bytes;
 use crate::render::{self, export_bytes, MAX_EXPORT_BYTES};
 use crate::server::openapi::{GlbFile, QueryErrors, SceneIdParam};
 use crate::server::parse::{ReadyScene, SceneId};
-use crate::server::requests::export::{ExportQuery, ExportRequest};
+use crate::server::requests::export::{ExportAsk, ExportQuery, ExportRequest};
+use crate::server::requests::Resolve;
 use crate::server::AppError;
 
 #[utoipa::path(get, path = "/api/scenes/{id}/export.glb", operation_id = "exportGlb", tags = ["scenes"],
@@ -26,7 +27,10 @@ pub(crate) async fn export_glb(
 ) -> Result<Response, AppError> {
     let t0 = Instant::now();
     let req = ExportRequest::from_query(&q)?;
-    let (weights, o) = req.resolve(&ready.model)?;
+    let ExportAsk {
+        weights,
+        options: o,
+    } = req.resolve(&ready.model)?;
     // Shading vertices are at most three per patch; the working set is about twice the file.
     let m = &ready.model;
     let size = export_bytes(m, 3 * m.baked.mesh.len(), o.relightable);

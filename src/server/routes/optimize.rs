@@ -6,7 +6,8 @@ use axum::Json;
 use crate::model::optimize::OptimizeAnswer;
 use crate::server::openapi::{PostErrors, SceneIdParam};
 use crate::server::parse::ScenePost;
-use crate::server::requests::OptimizeRequest;
+use crate::server::requests::optimize::OptimizeAsk;
+use crate::server::requests::{OptimizeRequest, Resolve};
 use crate::server::AppError;
 
 #[utoipa::path(post, path = "/api/scenes/{id}/optimize", operation_id = "optimize", tags = ["scenes"],
@@ -19,7 +20,11 @@ use crate::server::AppError;
 pub(crate) async fn optimize(
     ScenePost(ready, state, req): ScenePost<OptimizeRequest>,
 ) -> Result<Json<OptimizeAnswer>, AppError> {
-    let (base, free, targets) = req.problem(&ready.model)?;
+    let OptimizeAsk {
+        base,
+        free,
+        targets,
+    } = req.resolve(&ready.model)?;
     let bytes = ready.model.optimize_bytes(free.len(), &targets);
     let rows: usize = targets
         .iter()
