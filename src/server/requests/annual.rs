@@ -5,6 +5,7 @@ use serde::Deserialize;
 use utoipa::ToSchema;
 
 use super::{grid_ids, object_only, some, Resolve};
+use crate::model::annual::WeatherSource;
 use crate::model::Model;
 use crate::server::parse::grid_list;
 use crate::server::AppError;
@@ -74,9 +75,9 @@ impl Resolve for AnnualRequest {
             }
         };
         let weather = if self.weather.contains('\n') {
-            Weather::Text(self.weather.clone())
+            WeatherSource::Text(self.weather.clone())
         } else {
-            Weather::File(self.weather.clone())
+            WeatherSource::File(self.weather.clone())
         };
         Ok(AnnualAsk {
             grids,
@@ -92,11 +93,5 @@ pub(crate) struct AnnualAsk {
     pub grids: Vec<usize>,
     /// The occupied hours, from and to, local standard time.
     pub occupied: (f64, f64),
-    pub weather: Weather,
-}
-
-/// Where the weather comes from.
-pub(crate) enum Weather {
-    File(String),
-    Text(String),
+    pub weather: WeatherSource,
 }

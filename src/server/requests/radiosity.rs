@@ -38,6 +38,16 @@ choice_impls!(
     "radiosity: B, lm/m² leaving each patch; illuminance: H, lux arriving at each patch."
 );
 
+/// A radiosity request in the model's terms.
+pub(crate) struct RadiosityAsk {
+    pub lighting: Lighting,
+    /// The sky whose daylight is added.
+    pub sky: Option<SkyState>,
+    /// Whether per-surface averages are asked for too.
+    pub surfaces: bool,
+    pub quantity: Quantity,
+}
+
 lit_request! {
     /// A lighting state and what to return.
     RadiosityRequest, "a JSON object" {
@@ -55,26 +65,19 @@ lit_request! {
     }
 }
 
-/// A radiosity request in the model's terms.
-pub(crate) struct RadiosityAsk {
-    pub lighting: Lighting,
-    /// The sky whose daylight is added.
-    pub sky: Option<SkyState>,
-    /// Whether per-surface averages are asked for too.
-    pub surfaces: bool,
-    pub quantity: Quantity,
-}
-
 impl Resolve for RadiosityRequest {
     type Resolved = RadiosityAsk;
 
     /// The lighting state, and the sky resolved for the scene's site.
     fn resolve(&self, model: &Model) -> Result<RadiosityAsk, AppError> {
+        let lighting = self.lighting(model)?;
+        let sky = sky_state(self.sky.as_ref(), model)?;
+        let (surfaces, quantity) = (self.surfaces, self.quantity.0);
         Ok(RadiosityAsk {
-            lighting: self.lighting(model)?,
-            sky: sky_state(self.sky.as_ref(), model)?,
-            surfaces: self.surfaces,
-            quantity: self.quantity.0,
+            lighting,
+            sky,
+            surfaces,
+            quantity,
         })
     }
 }
