@@ -6,9 +6,10 @@ use super::lighting::{light_weights, Lights};
 use super::query::{as_written, read_query};
 use super::render::{TonemapName, MAX_EXPOSURE};
 use super::Resolve;
+use crate::budget::human_bytes;
 use crate::color::Rgb;
 use crate::model::Model;
-use crate::render::ExportOptions;
+use crate::render::{export_bytes, ExportOptions, MAX_EXPORT_BYTES};
 use crate::server::parse::{number, shorten};
 use crate::server::AppError;
 
@@ -59,12 +60,15 @@ impl ExportRequest {
 pub(crate) struct ExportAsk {
     pub weights: Vec<Rgb>,
     pub options: ExportOptions,
+    /// The file's size at most, bytes (within [`MAX_EXPORT_BYTES`]).
+    pub bytes: u64,
 }
 
 impl Resolve for ExportRequest {
     type Resolved = ExportAsk;
 
-    /// The group weights (422 for unknown groups and values out of range) and options.
+    /// The group weights (422 for unknown groups and values out of range) and options,
+    /// and the file's size, refused over [`MAX_EXPORT_BYTES`].
     fn resolve(&self, model: &Model) -> Result<ExportAsk, AppError> {
         let weights = light_weights(Some(&self.lights), model)?;
         let exposure = match self.exposure {
@@ -84,7 +88,20 @@ impl Resolve for ExportRequest {
             tonemap: self.tonemap.0,
             relightable: self.relightable,
         };
-        Ok(ExportAsk { weights, options })
+        // Shading vertices are at most three per patch.
+        let bytes = export_bytes(model, 3 * model.baked.mesh.len(), options.relightable);
+        if bytes > MAX_EXPORT_BYTES {
+            return Err(AppError::Invalid(format!(
+                "the export could take up to {} (limit {}): ask with relightable=false",
+                human_bytes(bytes),
+                human_bytes(MAX_EXPORT_BYTES)
+            )));
+        }
+        Ok(ExportAsk {
+            weights,
+            options,
+            bytes,
+        })
     }
 }
 

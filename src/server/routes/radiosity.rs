@@ -92,12 +92,7 @@ pub(crate) async fn radiosity(
     state
         .heavy(bytes, &what, move |_| {
             let m = &ready.model;
-            let mut sol = m.solve(&lighting)?;
-            if let Some(sky) = &sky {
-                let day = m.patch_daylight(sky)?;
-                sol.b.iter_mut().zip(&day.b).for_each(|(a, x)| *a += x);
-                sol.h.iter_mut().zip(&day.h).for_each(|(a, x)| *a += x);
-            }
+            let sol = m.solve_daylit(&lighting, sky.as_ref())?;
             let b = &m.baked;
             let surfaces = want_surfaces.then(|| surface_averages(&b.scene, &b.mesh, &sol));
             let values = match quantity {
