@@ -7,6 +7,7 @@ use std::path::PathBuf;
 use anyhow::{Context, Result};
 
 use super::{outln, ModelArgs};
+use relight::model::sky_state::SkySpec;
 use relight::model::{LightState, Lighting};
 use relight::render::pipeline::{render_once, Quality, RenderOptions};
 use relight::render::{Camera, Format, Shading, ToneMap};
@@ -41,6 +42,10 @@ pub struct RenderArgs {
     /// image).
     #[arg(long, default_value = "fast")]
     quality: String,
+    /// Daylight from this sky added (a scene with a [site]), in the grammar of the HTTP
+    /// API's `sky`, as JSON: '{"type": "cie_overcast", "horizontal_illuminance": 10000}'.
+    #[arg(long, value_name = "JSON", value_parser = parse_sky)]
+    sky: Option<SkySpec>,
     #[command(flatten)]
     model: ModelArgs,
 }
@@ -87,7 +92,11 @@ pub fn run(a: RenderArgs) -> Result<()> {
     let shading = Shading::new(&model.baked.mesh);
     let t0 = std::time::Instant::now();
     let settings = relight::render::final_gather::FinalSettings::from_env();
-    let image = render_once(&model, &shading, &lighting, &o, &settings)?;
+    let sky = match &a.sky {
+        Some(spec) => Some(spec.resolve(model.site()?)?),
+        None => None,
+    };
+    let image = render_once(&model, &shading, &lighting, sky.as_ref(), &o, &settings)?;
     let ms = t0.elapsed().as_secs_f64() * 1e3;
     if let Some((lo, hi)) = image.range {
         eprintln!("false colour: log scale {lo:.3} to {hi:.3} lux");
@@ -102,6 +111,13 @@ pub fn run(a: RenderArgs) -> Result<()> {
         image.bytes.len()
     );
     Ok(())
+}
+
+/// `--sky`: a sky in the JSON grammar of the HTTP API ([`SkySpec`]).
+fn parse_sky(s: &str) -> Result<SkySpec, String> {
+    serde_json::from_str(s).map_err(|e| {
+        format!("{e} (e.g. '{{\"type\": \"cie_overcast\", \"horizontal_illuminance\": 10000}}')")
+    })
 }
 
 /// The format of an output file name's extension.

@@ -8,6 +8,7 @@
 //! in hierarchical mode beyond [`MAX_EMISSION_SWEEP_WORK`]), and it knows the working
 //! memory, so a server can reserve it before any work starts.
 
+use super::query::BYTES_PER_PATCH_ANSWER;
 use super::{Cancel, Lighting, Model, QueryError};
 use crate::input_limits::MAX_EMISSION_SWEEP_WORK;
 use crate::transport::transfer::{
@@ -63,7 +64,33 @@ fn expected_sweeps(t: &Transfer) -> u64 {
     sweeps.clamp(1, HIERARCHY_MAX_SWEEPS) as u64
 }
 
+/// What a batch reports for each state besides the power balance.
+#[derive(Debug, Clone, Default)]
+pub struct BatchReport {
+    /// Grids whose statistics each state answers (light-group states only).
+    pub grids: Vec<usize>,
+    /// Surfaces whose illuminance statistics each state answers.
+    pub surfaces: Vec<usize>,
+    /// Whether each state answers its per-patch radiosity.
+    pub radiosity: bool,
+}
+
 impl Model {
+    /// Peak bytes a batch planned as `plan` takes to answer `report` for each state: the
+    /// solves' working memory (a chunk of emission states at a time), and every answer's
+    /// surfaces, grids and (when asked) radiosity, then as text.
+    pub fn batch_bytes(&self, plan: &BatchPlan, report: &BatchReport) -> u64 {
+        let n = self.patches() as u64;
+        let grid_points: u64 = report
+            .grids
+            .iter()
+            .map(|&g| self.grids[g].len() as u64)
+            .sum();
+        let radiosity = if report.radiosity { 150 * n } else { 0 };
+        let per_state = 400 * report.surfaces.len() as u64 + 48 * grid_points + radiosity;
+        2 * plan.states as u64 * per_state + plan.bytes + BYTES_PER_PATCH_ANSWER * n
+    }
+
     /// Checks a batch of `states` lighting states, `emission_states` of them per-patch
     /// emissions: emission needs the factored or hierarchical transfer, and in
     /// hierarchical mode the predicted sweep work ([`hierarchy_sweep_work`]) must stay

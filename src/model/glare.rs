@@ -127,6 +127,12 @@ impl ViewCache {
 }
 
 impl Model {
+    /// Peak bytes [`Model::glare`] takes for `observers` observers: an observer's view costs
+    /// a gather once (its gather weights, a few bytes per patch); later states reuse it.
+    pub fn glare_bytes(&self, observers: usize) -> u64 {
+        16 * self.baked.mesh.len() as u64 * observers as u64
+    }
+
     /// The UGR at each observer (eye, unit direction of view; metres) for group weights
     /// `w`.
     pub fn glare(

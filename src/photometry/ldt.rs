@@ -109,30 +109,7 @@ fn parse(text: &str, lamp_set: Option<usize>) -> Result<CandelaTable, ParseError
     l.number("distance between C planes Dc", 0.0, 360.0)?;
     let (_, ng) = l.count("number of intensities per plane Ng", 1, MAX_LDT_ANGLES)?;
     l.number("distance between γ angles Dg", 0.0, 180.0)?;
-    for what in [
-        "the measurement report number",
-        "the luminaire name",
-        "the luminaire number",
-        "the file name",
-        "the date and user",
-    ] {
-        l.text(what)?;
-    }
-    let mm = 1000.0 * MAX_OPENING;
-    for what in ["luminaire length", "luminaire width", "luminaire height"] {
-        l.number(what, 0.0, mm)?;
-    }
-    let (_, length) = l.number("luminous area length", 0.0, mm)?;
-    let (_, width) = l.number("luminous area width", 0.0, mm)?;
-    let mut heights = [0.0; 4];
-    for (h, what) in heights.iter_mut().zip([
-        "luminous height C0",
-        "luminous height C90",
-        "luminous height C180",
-        "luminous height C270",
-    ]) {
-        *h = l.number(what, 0.0, mm)?.1 / 1000.0;
-    }
+    let opening = luminaire(&mut l)?;
     l.number("downward flux fraction DFF", 0.0, 100.0)?;
     l.number("light output ratio LORL", 0.0, 100.0)?;
     let (cfli_line, cfli) = l.number("conversion factor CFLI", 0.0, MAX_IES_MULTIPLIER)?;
@@ -174,9 +151,42 @@ fn parse(text: &str, lamp_set: Option<usize>) -> Result<CandelaTable, ParseError
         candela,
         lamp_lumens: Some(set.flux),
         input_watts: (set.watts > 0.0).then_some(set.watts),
-        opening: LuminousOpening::from_ldt(length / 1000.0, width / 1000.0, heights),
+        opening,
         tilt: None,
     })
+}
+
+/// The luminaire's names and dimensions, and its luminous opening (mm in the file).
+fn luminaire(l: &mut Lines) -> Result<LuminousOpening, ParseError> {
+    for what in [
+        "the measurement report number",
+        "the luminaire name",
+        "the luminaire number",
+        "the file name",
+        "the date and user",
+    ] {
+        l.text(what)?;
+    }
+    let mm = 1000.0 * MAX_OPENING;
+    for what in ["luminaire length", "luminaire width", "luminaire height"] {
+        l.number(what, 0.0, mm)?;
+    }
+    let (_, length) = l.number("luminous area length", 0.0, mm)?;
+    let (_, width) = l.number("luminous area width", 0.0, mm)?;
+    let mut heights = [0.0; 4];
+    for (h, what) in heights.iter_mut().zip([
+        "luminous height C0",
+        "luminous height C90",
+        "luminous height C180",
+        "luminous height C270",
+    ]) {
+        *h = l.number(what, 0.0, mm)?.1 / 1000.0;
+    }
+    Ok(LuminousOpening::from_ldt(
+        length / 1000.0,
+        width / 1000.0,
+        heights,
+    ))
 }
 
 /// The lamp sets (at most [`MAX_LDT_LAMP_SETS`]).

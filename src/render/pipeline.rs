@@ -12,6 +12,7 @@ use super::{
 use super::{final_gather, ViewBuffer};
 use crate::color::Rgb;
 use crate::model::query::Quantity;
+use crate::model::sky_state::SkyState;
 use crate::model::{Lighting, Model, QueryError};
 
 /// Lowest and highest ends of a false-colour range, lux.
@@ -143,31 +144,167 @@ pub fn render_values(
 }
 
 /// Builds the view of `o.camera` (and its `final` images when asked, with `settings`) and
-/// renders once (the command line; the server keeps views in a cache).
+/// renders once, under `sky` when given (the command line; the server keeps views in a
+/// cache).
 pub fn render_once(
     model: &Model,
     shading: &Shading,
     lighting: &Lighting,
+    sky: Option<&SkyState>,
     o: &RenderOptions,
     settings: &final_gather::FinalSettings,
 ) -> Result<Rendered, RenderError> {
     let view = ViewBuffer::build(&model.baked.mesh, shading, &o.camera);
-    let finals = if o.quality == Quality::Final && !o.falsecolor {
+    let cancel = crate::model::Cancel::default();
+    let mut finals = None;
+    let mut daylight = None;
+    if wants_finals(o) {
         needs_groups(lighting)?;
         let patches = final_gather::patch_locator(&model.baked.mesh, &model.baked.scene.triangles);
-        let cancel = crate::model::Cancel::default();
-        Some(final_images(
+        finals = Some(final_images(
             model, shading, &patches, &o.camera, settings, &cancel,
-        )?)
-    } else {
-        None
-    };
+        )?);
+        if let Some(sky) = sky {
+            daylight = Some(final_daylight_image(
+                model, shading, &patches, &o.camera, sky, settings, &cancel,
+            )?);
+        }
+    }
     let frame = Frame {
         view: &view,
         groups: finals.as_ref(),
         shading,
     };
-    render(model, frame, lighting, o)
+    match sky {
+        Some(sky) => render_daylit(
+            model,
+            frame,
+            lighting,
+            Daylit {
+                sky,
+                final_image: daylight.as_ref(),
+            },
+            o,
+        ),
+        None => render(model, frame, lighting, o),
+    }
+}
+
+/// Whether a render of `o` is made of `final` images (shaded, at quality `final`).
+pub fn wants_finals(o: &RenderOptions) -> bool {
+    o.quality == Quality::Final && !o.falsecolor
+}
+
+/// Daylight to add to an image: the sky, and at `final` quality its `final` image
+/// ([`final_daylight_image`]).
+#[derive(Clone, Copy)]
+pub struct Daylit<'a> {
+    pub sky: &'a SkyState,
+    pub final_image: Option<&'a GroupImages>,
+}
+
+/// Renders `lighting` under `day.sky` through `frame` and encodes it. With the `final`
+/// images (the groups' in `frame`, the daylight's in `day`) the two are summed per pixel,
+/// nothing from the patches. Otherwise the daylight is the patches' plus the sun traced per
+/// pixel (with shadows) and the sky seen out of the scene, and the light groups the
+/// patches'.
+pub fn render_daylit(
+    model: &Model,
+    frame: Frame<'_>,
+    lighting: &Lighting,
+    day: Daylit<'_>,
+    o: &RenderOptions,
+) -> Result<Rendered, RenderError> {
+    if let (Some(f), Some(d), Lighting::Groups(w)) = (frame.groups, day.final_image, lighting) {
+        let mut rad = d.linear(&[Rgb::ONE]);
+        for (r, g) in rad.iter_mut().zip(f.linear(w)) {
+            *r += g;
+        }
+        return render_radiance(&rad, o);
+    }
+    let sky = day.sky;
+    let patches = model.patch_daylight_without_sun(sky)?;
+    let (mut b, mut h) = (patches.b, patches.h);
+    if let Lighting::Groups(w) = lighting {
+        let t = &model.baked.transfer;
+        let mut more = vec![0f32; b.len()];
+        t.relight_into(w, &mut more);
+        b.iter_mut().zip(&more).for_each(|(a, x)| *a += x);
+        t.illuminance_into(w, &mut more);
+        h.iter_mut().zip(&more).for_each(|(a, x)| *a += x);
+    }
+    let site = model.site()?;
+    let scene = super::daylight::DaylightScene {
+        mesh: &model.baked.mesh,
+        bvh: &model.baked.bvh,
+        glazing: &model.baked.glazing,
+        rho: &model.baked.transfer.rho,
+        reach: model.reach_length(),
+    };
+    let (rad, lux) = super::daylight::daylight_pixels(
+        &scene,
+        frame.view,
+        &o.camera,
+        sun_view(sky, site),
+        &|d| sky.luminance(site, d),
+    );
+    render_values(frame, &b, &h, (&rad, &lux), o)
+}
+
+/// The sun of `sky` at `site` as the tracers take it, when it shines.
+fn sun_view(sky: &SkyState, site: &crate::daylight::Site) -> Option<super::daylight::SunView> {
+    sky.sun_direction(site)
+        .map(|(direction, normal_illuminance)| super::daylight::SunView {
+            direction,
+            normal_illuminance,
+        })
+}
+
+/// What a render finds made before it starts: the server's cached view; nothing on the
+/// command line ([`Made::default`], then every part is estimated).
+#[derive(Debug, Clone, Copy, Default)]
+pub struct Made {
+    /// When the view buffer is built: the bytes its group images still take (0 once made,
+    /// or when they are not worth making). None when the buffer is to be built.
+    pub view: Option<u64>,
+    /// Whether the `final` images are built.
+    pub finals: bool,
+    /// The points per group a `final` build gathers at ([`final_gather::gather_points`]).
+    pub gather_points: u64,
+    /// Bytes the patch lookup of `final` renders still takes (0 once built).
+    pub patch_locator: u64,
+}
+
+/// Peak bytes a render of `o` (under a sky when `sky`) may allocate beyond what `made`
+/// holds: the view buffer and group images when not made yet, the `final` images when
+/// asked for and not made, the linear and 8-bit images and the encoded file; under a sky,
+/// the per-pixel and per-patch daylight and its own `final` image.
+pub fn estimate_bytes(model: &Model, o: &RenderOptions, sky: bool, made: &Made) -> u64 {
+    let cam = &o.camera;
+    let px = cam.width as u64 * cam.height as u64;
+    let groups = model.baked.transfer.group_count();
+    let n = model.baked.transfer.n as u64;
+    let images = px * (12 + 3 + 4) + 12 * n * 3;
+    let view = made.view.unwrap_or_else(|| {
+        ViewBuffer::estimate_bytes(cam)
+            // Group images are at most the size of the buffer (else not made).
+            + 2 * ViewBuffer::estimate_bytes(cam).min(24 * groups as u64 * px)
+    });
+    let finals = if wants_finals(o) && !made.finals {
+        final_gather::estimate_bytes(cam, groups, made.gather_points) + made.patch_locator
+    } else {
+        0
+    };
+    let mut bytes = images + view + finals;
+    if sky {
+        // Per-pixel daylight (two RGB images) and per-patch daylight (b, h and a column).
+        bytes += 24 * px + 36 * model.patches() as u64;
+        if wants_finals(o) {
+            // The daylight's own `final` image, built per sky.
+            bytes += final_gather::estimate_bytes(cam, 1, made.gather_points);
+        }
+    }
+    bytes
 }
 
 /// `Err` unless `lighting` is a light-group state (what `final` images are made of).
@@ -205,7 +342,7 @@ pub fn final_daylight_image(
     shading: &Shading,
     patches: &crate::geometry::patch_locator::PatchLocator,
     cam: &Camera,
-    sky: &crate::model::sky_state::SkyState,
+    sky: &SkyState,
     settings: &final_gather::FinalSettings,
     cancel: &crate::model::Cancel,
 ) -> Result<GroupImages, QueryError> {
@@ -222,12 +359,7 @@ pub fn final_daylight_image(
     };
     let final_sky = final_gather::FinalSky {
         reflected: &day.b,
-        sun: sky
-            .sun_direction(site)
-            .map(|(direction, normal_illuminance)| super::daylight::SunView {
-                direction,
-                normal_illuminance,
-            }),
+        sun: sun_view(sky, site),
         luminance: &luminance,
         glazing: &b.glazing,
         reach: model.reach_length(),

@@ -210,26 +210,7 @@ impl Geometry {
                 }
             })
             .collect();
-        let of_material: Vec<Option<f64>> = materials
-            .iter()
-            .enumerate()
-            .map(|(i, m)| match cfg.material.get(&m.name) {
-                Some(o) if o.opaque => None,
-                Some(o) if o.transmittance.is_some() => o.transmittance,
-                _ => {
-                    let t = table.glass.get(&(i as u32)).copied()?;
-                    if m.ke.iter().any(|&k| k > 0.0) {
-                        warnings.push(format!(
-                            "material '{}' is see-through in the model file but emits: it \
-                             stays an opaque emitter",
-                            m.name
-                        ));
-                        return None;
-                    }
-                    Some(t)
-                }
-            })
-            .collect();
+        let of_material = material_transmittances(cfg, table, warnings);
         if of_surface.iter().all(|o| !matches!(o, Some(Some(_))))
             && of_material.iter().all(Option::is_none)
         {
@@ -316,4 +297,35 @@ fn is_degenerate(p: &[DVec3; 3]) -> bool {
         .max((p[2] - p[1]).length())
         .max((p[0] - p[2]).length());
     area2.is_nan() || area2 <= 1e-6 * longest * longest || area2 < 1e-14
+}
+
+/// Each material's transmittance when it is glazing: set in `scene.toml`, else made
+/// see-through by the model file (`table.glass`), unless `scene.toml` marks it `opaque`; a
+/// see-through material of the model file that emits stays opaque, with a warning.
+fn material_transmittances(
+    cfg: &SceneToml,
+    table: &MaterialTable,
+    warnings: &mut Vec<String>,
+) -> Vec<Option<f64>> {
+    table
+        .materials
+        .iter()
+        .enumerate()
+        .map(|(i, m)| match cfg.material.get(&m.name) {
+            Some(o) if o.opaque => None,
+            Some(o) if o.transmittance.is_some() => o.transmittance,
+            _ => {
+                let t = table.glass.get(&(i as u32)).copied()?;
+                if m.ke.iter().any(|&k| k > 0.0) {
+                    warnings.push(format!(
+                        "material '{}' is see-through in the model file but emits: it \
+                         stays an opaque emitter",
+                        m.name
+                    ));
+                    return None;
+                }
+                Some(t)
+            }
+        })
+        .collect()
 }

@@ -8,7 +8,7 @@ use std::sync::{Arc, Mutex, OnceLock};
 use super::{AppState, Ready};
 use crate::model::{Cancel, QueryError};
 use crate::render::final_gather;
-use crate::render::pipeline::{Quality, RenderOptions};
+use crate::render::pipeline::{self, RenderOptions};
 use crate::render::{Camera, GroupImages, ViewBuffer};
 
 type ViewKey = (String, [u32; 12]);
@@ -251,35 +251,29 @@ pub fn view_for(state: &AppState, ready: &Ready, cam: &Camera) -> Arc<View> {
     }
 }
 
-/// Peak bytes a render may allocate beyond what is cached: the view buffer and group
-/// images when not cached yet, the linear and 8-bit images, and the encoded file.
-pub fn render_estimate(state: &AppState, ready: &Ready, o: &RenderOptions) -> u64 {
-    let px = o.camera.width as u64 * o.camera.height as u64;
+/// What the cache holds of the view `o` renders ([`pipeline::Made`]), for the render's
+/// memory estimate ([`pipeline::estimate_bytes`]).
+pub fn made(state: &AppState, ready: &Ready, o: &RenderOptions) -> pipeline::Made {
     let groups = ready.model.baked.transfer.group_count();
-    let n = ready.model.baked.transfer.n as u64;
-    let images = px * (12 + 3 + 4) + 12 * n * 3;
-    let view = match lock(&state.views).peek(&view_key(ready, &o.camera)) {
-        Some(v) if v.group_images_pending(groups) => GroupImages::estimate_bytes(&v.buffer, groups),
-        Some(_) => 0,
-        None => {
-            ViewBuffer::estimate_bytes(&o.camera)
-                // Group images are at most the size of the buffer (else not made).
-                + 2 * (ViewBuffer::estimate_bytes(&o.camera)).min(24 * groups as u64 * px)
-        }
-    };
-    let finals = match o.quality {
-        Quality::Final if !o.falsecolor => {
-            match lock(&state.views).peek(&view_key(ready, &o.camera)) {
-                Some(v) if v.has_finals() => 0,
-                _ => {
-                    final_gather::estimate_bytes(&o.camera, groups, ready.gather_points())
-                        + ready.patch_locator_pending_bytes()
-                }
+    let cached = lock(&state.views).peek(&view_key(ready, &o.camera));
+    pipeline::Made {
+        view: cached.as_ref().map(|v| {
+            if v.group_images_pending(groups) {
+                GroupImages::estimate_bytes(&v.buffer, groups)
+            } else {
+                0
             }
-        }
-        _ => 0,
-    };
-    images + view + finals
+        }),
+        finals: cached.as_ref().is_some_and(|v| v.has_finals()),
+        gather_points: ready.gather_points(),
+        patch_locator: ready.patch_locator_pending_bytes(),
+    }
+}
+
+/// Peak bytes a render of `o` (under a sky when `sky`) may allocate beyond what the cache
+/// holds.
+pub fn render_estimate(state: &AppState, ready: &Ready, o: &RenderOptions, sky: bool) -> u64 {
+    pipeline::estimate_bytes(&ready.model, o, sky, &made(state, ready, o))
 }
 
 fn lock<T>(m: &Mutex<T>) -> std::sync::MutexGuard<'_, T> {

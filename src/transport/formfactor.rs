@@ -188,9 +188,13 @@ impl PatchGeo {
     }
 }
 
-/// Mean point-to-polygon factor from `level`-quadrature points on `a` to patch `b`.
-pub(crate) fn directed(a: &PatchGeo, b: &PatchGeo, pts: &[DVec3]) -> f64 {
+/// Mean point-to-polygon factor from `level`-quadrature points on `a` to patch `b`
+/// (`quad` the tables of [`quadrature_tables`]). A cluster patch shares the level's points
+/// among its elements by area (at least one each), so its cost stays about a triangle's
+/// times the elements of `b`.
+pub(crate) fn directed(a: &PatchGeo, b: &PatchGeo, quad: &[Vec<DVec3>; 5], level: usize) -> f64 {
     if a.cluster.is_none() && b.cluster.is_none() {
+        let pts = &quad[level];
         let mut s = 0.0;
         for w in pts {
             let x = a.c[0] * w.x + a.c[1] * w.y + a.c[2] * w.z;
@@ -202,9 +206,16 @@ pub(crate) fn directed(a: &PatchGeo, b: &PatchGeo, pts: &[DVec3]) -> f64 {
         }
         return s / pts.len() as f64;
     }
-    // A cluster: the area-weighted mean over a's elements of the sum over b's.
+    // The area-weighted mean over a's elements of the factor to all of b's.
+    let budget = quad[level].len() as f64;
     let mut s = 0.0;
     for fa in a.facets() {
+        let share = budget * fa.area / a.area;
+        let l = (0..=level)
+            .rev()
+            .find(|&l| quad[l].len() as f64 <= share.max(1.0))
+            .unwrap_or(0);
+        let pts = &quad[l];
         let mut sa = 0.0;
         for w in pts {
             let x = fa.corners[0] * w.x + fa.corners[1] * w.y + fa.corners[2] * w.z;
@@ -338,8 +349,8 @@ fn coupling(
     if height_above(a, b) <= tol || height_above(b, a) <= tol {
         return 0.0;
     }
-    let fij = directed(a, b, &quad[quadrature_level(a, b)]);
-    let fji = directed(b, a, &quad[quadrature_level(b, a)]);
+    let fij = directed(a, b, quad, quadrature_level(a, b));
+    let fji = directed(b, a, quad, quadrature_level(b, a));
     let g = 0.5 * (a.area * fij + b.area * fji);
     if g <= 0.0 {
         return 0.0;

@@ -361,3 +361,85 @@ fn export_writes_a_relit_glb_and_refuses_other_names() {
     let out = run("x.glb", &["--tonemap", "sepia"]);
     assert!(String::from_utf8_lossy(&out.stderr).contains("clamp or filmic"));
 }
+
+/// `relight render --sky` composes daylight through the same pipeline as the server: its
+/// image is the HTTP `/render` answer for the same scene, camera and sky, byte for byte,
+/// at `fast` and at `final` quality.
+#[tokio::test]
+async fn render_with_a_sky_equals_the_http_render() {
+    use http_body_util::BodyExt;
+    use tower::ServiceExt;
+    let _gate = common::shared();
+    // A grey block on a grey yard in the open, under a clear sky with the sun.
+    let scenes = tempfile::tempdir().unwrap();
+    let dir = scenes.path().join("yard");
+    std::fs::create_dir(&dir).unwrap();
+    let obj = quad(
+        "ground",
+        "wall",
+        [[-3., 0., -3.], [3., 0., -3.], [3., 0., 3.], [-3., 0., 3.]],
+        [0., 1., 0.],
+    ) + &box_faces("block", "wall", [-0.5, 0., -0.5], [0.5, 1., 0.5], false);
+    std::fs::write(dir.join("scene.obj"), format!("mtllib scene.mtl\n{obj}")).unwrap();
+    std::fs::write(dir.join("scene.mtl"), "newmtl wall\nKd 0.5 0.5 0.5\n").unwrap();
+    std::fs::write(
+        dir.join("scene.toml"),
+        "[site]\nlatitude = 49.5\nlongitude = 8.5\ntimezone = 1\n[mesh]\nmax_edge = 0.5\n\
+         [[cameras]]\nid = \"above\"\nposition = [2.5, 2.5, 2.5]\ntarget = [0, 0.3, 0]\nfov_deg = 60\n",
+    )
+    .unwrap();
+    let sky = r#"{"type": "cie_clear", "horizontal_illuminance": 15000, "direct_normal_illuminance": 70000, "sun": {"altitude": 40, "azimuth": 160}}"#;
+    let cache = tempfile::tempdir().unwrap();
+    let out = tempfile::tempdir().unwrap();
+    let mut cli = Vec::new();
+    for quality in ["fast", "final"] {
+        let png = out.path().join(format!("{quality}.png"));
+        let run = relight()
+            .args(["render", dir.to_str().unwrap(), "--sky", sky])
+            .args([
+                "--width",
+                "48",
+                "--height",
+                "32",
+                "--quality",
+                quality,
+                "-o",
+            ])
+            .arg(&png)
+            .arg("--cache")
+            .arg(cache.path())
+            .output()
+            .unwrap();
+        assert!(
+            run.status.success(),
+            "{}",
+            String::from_utf8_lossy(&run.stderr)
+        );
+        cli.push(std::fs::read(&png).unwrap());
+    }
+    // A read-only server over the entry the command wrote.
+    let config = relight::server::ServerConfig {
+        scenes: scenes.path().to_path_buf(),
+        cache: cache.path().to_path_buf(),
+        read_only: true,
+        ..Default::default()
+    };
+    let state = relight::server::AppState::new(config).unwrap();
+    state.bake_all();
+    let app = relight::server::router(state);
+    for (quality, cli) in ["fast", "final"].into_iter().zip(cli) {
+        let body =
+            format!(r#"{{"width": 48, "height": 32, "quality": "{quality}", "sky": {sky}}}"#);
+        let req = axum::http::Request::post("/api/scenes/yard/render")
+            .header("content-type", "application/json")
+            .body(axum::body::Body::from(body))
+            .unwrap();
+        let resp = app.clone().oneshot(req).await.unwrap();
+        assert_eq!(resp.status(), 200, "{quality}");
+        let http = resp.into_body().collect().await.unwrap().to_bytes();
+        assert!(
+            cli == http,
+            "{quality}: the command line's image differs from /render's"
+        );
+    }
+}

@@ -312,6 +312,13 @@ impl Mesh {
     /// The element of patch `i` that the point `x` (on the patch) lies in, and `x`'s
     /// barycentric coordinates in it: the element whose smallest coordinate is largest.
     pub fn locate(&self, i: usize, x: DVec3) -> (usize, [f64; 3]) {
+        let r = self.elements_of(i);
+        if r.len() == 1 {
+            return (
+                r.start,
+                crate::geometry::barycentric(&self.element_corners(r.start), x),
+            );
+        }
         let mut best = (
             self.patches[i].elements.start as usize,
             [0.0; 3],

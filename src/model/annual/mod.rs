@@ -64,6 +64,14 @@ pub struct AnnualQuery {
     pub occupied: (f64, f64),
 }
 
+/// Where a year of weather comes from: the name of an EPW file in the scene's folder, or
+/// the text of one.
+#[derive(Debug, Clone)]
+pub enum WeatherSource {
+    File(String),
+    Text(String),
+}
+
 /// The weather used.
 #[derive(Debug, Clone, Serialize)]
 #[cfg_attr(feature = "server", derive(utoipa::ToSchema))]
@@ -359,6 +367,16 @@ impl Model {
             .collect();
         cancel.check()?;
         Ok(Hourly { product, sun })
+    }
+
+    /// The weather of `source`: a file in the scene's folder ([`Model::weather_file`]) or
+    /// EPW text, read.
+    pub fn weather(&self, source: &WeatherSource) -> Result<Weather, QueryError> {
+        match source {
+            WeatherSource::File(name) => self.weather_file(name),
+            WeatherSource::Text(text) => crate::daylight::epw::parse(text)
+                .map_err(|m| QueryError::Invalid(format!("weather: {m}"))),
+        }
     }
 
     /// The weather file `name` in the scene's folder: a plain file name ending in `.epw`,

@@ -134,6 +134,22 @@ impl Model {
         }
     }
 
+    /// The solution of `lighting` (B and H per patch) with the daylight of `sky` added,
+    /// when a sky is given.
+    pub fn solve_daylit(
+        &self,
+        lighting: &crate::model::Lighting,
+        sky: Option<&SkyState>,
+    ) -> Result<crate::transport::transfer::Solution, QueryError> {
+        let mut sol = self.solve(lighting)?;
+        if let Some(sky) = sky {
+            let day = self.patch_daylight(sky)?;
+            sol.b.iter_mut().zip(&day.b).for_each(|(a, x)| *a += x);
+            sol.h.iter_mut().zip(&day.h).for_each(|(a, x)| *a += x);
+        }
+        Ok(sol)
+    }
+
     /// A sky's daylight on every patch.
     pub fn patch_daylight(&self, sky: &SkyState) -> Result<PatchDaylight, QueryError> {
         self.sky_on_patches(sky, true)

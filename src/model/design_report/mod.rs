@@ -136,7 +136,24 @@ pub struct DesignReport {
     pub images: Vec<CameraImage>,
 }
 
+/// Bytes of report text per grid point (its plan cell and label).
+const BYTES_PER_PLAN_POINT: u64 = 320;
+
 impl DesignReport {
+    /// Peak bytes a report of `model` with images of `pixels` pixels each takes, the
+    /// images made one at a time with at most `render_bytes` each: every encoded image
+    /// kept (PNG at most 4 bytes a pixel, and its base64 text), the grids' answers and
+    /// the text.
+    pub fn estimate_bytes(model: &Model, pixels: &[u64], render_bytes: u64) -> u64 {
+        let points: u64 = model.grids.iter().map(|g| g.len() as u64).sum();
+        let kept: u64 = pixels.iter().map(|px| 10 * px).sum();
+        let q = IlluminanceQuery {
+            grids: (0..model.grids.len()).collect(),
+            ..Default::default()
+        };
+        render_bytes + kept + 2 * model.illuminance_bytes(&q) + BYTES_PER_PLAN_POINT * points
+    }
+
     /// Assembles the report of group weights `w` on `model`, with the caller's `images`.
     pub fn assemble(
         model: &Model,

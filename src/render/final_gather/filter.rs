@@ -41,6 +41,33 @@ impl Guide {
     }
 }
 
+/// The layout of the images the filter runs on: `[pixel][group][rgb]`, row by row.
+#[derive(Debug, Clone, Copy)]
+pub(super) struct Layout {
+    pub(super) width: usize,
+    pub(super) height: usize,
+    /// Light groups per pixel.
+    pub(super) groups: usize,
+}
+
+impl Layout {
+    /// Values per pixel.
+    fn stride(&self) -> usize {
+        3 * self.groups
+    }
+}
+
+/// One tap of an output pixel's kernel.
+#[derive(Debug, Clone, Copy, Default)]
+struct Tap {
+    /// Its pixel's index.
+    pixel: usize,
+    weight: f32,
+    /// Its offset from the centre, in steps, along x and y.
+    u: f32,
+    v: f32,
+}
+
 /// Normal weight exponent: `max(0, n·n')^NORMAL_POWER`.
 const NORMAL_POWER: i32 = 64;
 /// Plane distance, in pixel footprints at the centre's depth × the pass step, that
@@ -50,20 +77,21 @@ const PLANE_FOOTPRINTS: f32 = 1.0;
 /// The B3 spline kernel's taps.
 const KERNEL: [f32; 5] = [1.0 / 16.0, 1.0 / 4.0, 3.0 / 8.0, 1.0 / 4.0, 1.0 / 16.0];
 
-/// Filters `indirect` (`[pixel][group][rgb]` radiance, (w, h, groups)) in place with
-/// `passes` passes; `footprint` is a pixel's size per metre of depth.
+/// Filters `indirect` (radiance laid out as `layout` says) in place with `passes`
+/// passes; `footprint` is a pixel's size per metre of depth.
 pub(super) fn denoise(
     indirect: &mut [f32],
     albedo: &[Rgb],
     guides: &[Guide],
-    (w, h, g): (usize, usize, usize),
+    layout: Layout,
     footprint: f32,
     passes: u32,
 ) {
+    let (w, g) = (layout.width, layout.groups);
     if passes == 0 || g == 0 {
         return;
     }
-    let stride = 3 * g;
+    let stride = layout.stride();
     // Radiance → irradiance-like values: divide by the reflectance.
     let inv = |a: f32| {
         if a > 1e-6 {
@@ -82,7 +110,7 @@ pub(super) fn denoise(
             .for_each(|(y, row)| {
                 for x in 0..w {
                     let out = &mut row[stride * x..stride * (x + 1)];
-                    tap_sum(src, guides, (x, y), (w, h, stride), step, footprint, out);
+                    tap_sum(src, guides, (x, y), layout, step, footprint, out);
                 }
             });
         indirect.copy_from_slice(&next);
@@ -113,11 +141,12 @@ fn tap_sum(
     src: &[f32],
     guides: &[Guide],
     (x, y): (usize, usize),
-    (w, h, stride): (usize, usize, usize),
+    layout: Layout,
     step: usize,
     footprint: f32,
     out: &mut [f32],
 ) {
+    let (w, h, stride) = (layout.width, layout.height, layout.stride());
     let i = y * w + x;
     let c = &guides[i];
     if c.depth <= 0.0 {
@@ -125,8 +154,7 @@ fn tap_sum(
         return;
     }
     let scale = 1.0 / (PLANE_FOOTPRINTS * footprint * c.depth * step as f32).max(1e-9);
-    // The taps: pixel index, weight and offset in steps.
-    let mut taps = [(0usize, 0f32, 0f32, 0f32); 25];
+    let mut taps = [Tap::default(); 25];
     let mut n = 0;
     for (ky, wy) in KERNEL.iter().enumerate() {
         let Some(yy) = mirror(y as isize + (ky as isize - 2) * step as isize, h) else {
@@ -139,7 +167,12 @@ fn tap_sum(
             let j = yy * w + xx;
             let wt = wx * wy * likeness(c, &guides[j], scale);
             if wt > 0.0 {
-                taps[n] = (j, wt, kx as f32 - 2.0, ky as f32 - 2.0);
+                taps[n] = Tap {
+                    pixel: j,
+                    weight: wt,
+                    u: kx as f32 - 2.0,
+                    v: ky as f32 - 2.0,
+                };
                 n += 1;
             }
         }
@@ -147,9 +180,10 @@ fn tap_sum(
     let taps = &mut taps[..n];
     fit_weights(taps);
     out.iter_mut().for_each(|v| *v = 0.0);
-    for &(j, wt, _, _) in taps.iter() {
+    for t in taps.iter() {
+        let j = t.pixel;
         for (o, v) in out.iter_mut().zip(&src[stride * j..stride * (j + 1)]) {
-            *o += wt * v;
+            *o += t.weight * v;
         }
     }
 }
@@ -208,10 +242,10 @@ fn falloff(x: f32) -> f32 {
 /// `M = Σ w (1, u, v)ᵀ (1, u, v)`. They sum to 1 and reproduce linear data exactly. Where
 /// the taps do not span a plane (a line of taps, one tap), the fit falls back along the
 /// missing direction to the weighted mean.
-fn fit_weights(taps: &mut [(usize, f32, f32, f32)]) {
+fn fit_weights(taps: &mut [Tap]) {
     let (mut s, mut su, mut sv, mut suu, mut suv, mut svv) = (0f64, 0f64, 0f64, 0f64, 0f64, 0f64);
-    for &(_, w, u, v) in taps.iter() {
-        let (w, u, v) = (w as f64, u as f64, v as f64);
+    for t in taps.iter() {
+        let (w, u, v) = (t.weight as f64, t.u as f64, t.v as f64);
         s += w;
         su += w * u;
         sv += w * v;
@@ -240,7 +274,7 @@ fn fit_weights(taps: &mut [(usize, f32, f32, f32)]) {
     };
     let (gu, gv) = (iuu * mu + iuv * mv, iuv * mu + ivv * mv);
     for t in taps.iter_mut() {
-        let (du, dv) = (t.2 as f64 - mu, t.3 as f64 - mv);
-        t.1 = (t.1 as f64 / s * (1.0 - (du * gu + dv * gv))) as f32;
+        let (du, dv) = (t.u as f64 - mu, t.v as f64 - mv);
+        t.weight = (t.weight as f64 / s * (1.0 - (du * gu + dv * gv))) as f32;
     }
 }

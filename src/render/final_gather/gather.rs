@@ -17,6 +17,7 @@ use glam::DVec3;
 use rayon::prelude::*;
 
 use super::lights::{GroupLights, Rays, Scratch};
+use super::point::ShadingPoint;
 use super::FinalScene;
 use crate::color::Rgb;
 use crate::geometry::lifted;
@@ -60,21 +61,38 @@ pub(super) struct Reflected {
 /// shading vertex.
 const DIRECT_RAYS: u32 = 4;
 
-/// Each grid side's run of `values` (`stride` per corner), for filling in parallel:
-/// (triangle, back, the run).
-fn side_runs<'v>(
-    loc: &PatchLocator,
+/// One grid side's run of a [`Reflected`]'s values, for filling in parallel.
+struct SideRun<'v> {
+    /// The scene triangle whose side it is.
+    triangle: u32,
+    back: bool,
+    /// Its corners' values, `stride` per corner.
     values: &'v mut [f32],
-    stride: usize,
-) -> Vec<(u32, bool, &'v mut [f32])> {
+}
+
+/// Each grid side's run of `values` (`stride` per corner).
+fn side_runs<'v>(loc: &PatchLocator, values: &'v mut [f32], stride: usize) -> Vec<SideRun<'v>> {
     let mut runs = Vec::new();
     let mut rest = values;
-    for (tri, back, n) in loc.grid_sides() {
+    for (triangle, back, n) in loc.grid_sides() {
         let (run, tail) = std::mem::take(&mut rest).split_at_mut(n * stride);
-        runs.push((tri, back, run));
+        runs.push(SideRun {
+            triangle,
+            back,
+            values: run,
+        });
         rest = tail;
     }
     runs
+}
+
+/// Where a ray met a side of a scene triangle.
+#[derive(Debug, Clone, Copy)]
+pub(super) struct SideHit {
+    pub(super) triangle: u32,
+    /// Whether it met the triangle's back.
+    pub(super) back: bool,
+    pub(super) point: DVec3,
 }
 
 /// How far a shading vertex's point for its direct light moves towards the centroid of
@@ -101,8 +119,14 @@ fn shading_direct(scene: &FinalScene<'_>, lights: &GroupLights<'_>, g: usize) ->
             let x = mesh.vertices[elem.v[k] as usize];
             let at = f.centroid + (x - f.centroid) * (1.0 - INSET);
             let mut rng = Rng::new(v, VERTEX_SALT);
+            let at = ShadingPoint {
+                position: at,
+                normal: f.normal,
+                patch: p,
+                element: e,
+            };
             lights.direct(
-                (at, f.normal, p),
+                at,
                 Rays::Stratified(DIRECT_RAYS),
                 &mut rng,
                 scratch,
@@ -117,29 +141,140 @@ fn shading_direct(scene: &FinalScene<'_>, lights: &GroupLights<'_>, g: usize) ->
 /// each shading vertex.
 pub(super) const REFLECTED_BYTES_PER_POINT_AND_GROUP: u64 = 12;
 
+/// Per group, the reflected radiosity per patch (n × 3): `B − E` for the groups whose
+/// emission the direct part lights, `B` for the others; under a sky, the daylight's.
+fn reflected_per_patch(scene: &FinalScene<'_>, lights: &GroupLights<'_>) -> Vec<Vec<f32>> {
+    match &scene.sky {
+        Some(sky) => vec![sky.reflected.to_vec()],
+        None => scene
+            .groups
+            .iter()
+            .enumerate()
+            .map(|(k, col)| {
+                let mut r = col.b.clone();
+                if lights.explicit(k) {
+                    for (v, e) in r.iter_mut().zip(&col.e) {
+                        *v = (*v - e).max(0.0);
+                    }
+                }
+                r
+            })
+            .collect(),
+    }
+}
+
+/// Takes out of each group's reflected radiosity per patch (`per_patch`) the direct
+/// light's share, as the patch's vertices give it, times the reflectance.
+fn remove_patch_direct(scene: &FinalScene<'_>, direct: &VertexDirect, per_patch: &mut [Vec<f32>]) {
+    for (k, r) in per_patch.iter_mut().enumerate() {
+        for (p, rgb) in r.chunks_exact_mut(3).enumerate() {
+            let rho = scene.rho[p];
+            for (c, v) in rgb.iter_mut().enumerate() {
+                *v -= rho[c] * direct.patch_mean(scene, p, k, c);
+            }
+        }
+    }
+}
+
+/// Per shading vertex and group, the irradiance the gather should find from the solved
+/// radiosity ([`Reflected::expected`]): the patches' incident illuminance less their
+/// direct light, interpolated to the vertices; `[vertex][group][rgb]`.
+fn expected_at_vertices(scene: &FinalScene<'_>, direct: &VertexDirect) -> Vec<f32> {
+    let g = direct.groups;
+    let per_group: Vec<Vec<Rgb>> = scene
+        .groups
+        .par_iter()
+        .enumerate()
+        .map(|(k, col)| {
+            let mut h = col.h.clone();
+            for (p, rgb) in h.chunks_exact_mut(3).enumerate() {
+                for (c, v) in rgb.iter_mut().enumerate() {
+                    *v = (*v - direct.patch_mean(scene, p, k, c)).max(0.0);
+                }
+            }
+            scene.shading.vertex_values(&h)
+        })
+        .collect();
+    // Vertex by vertex, so a pixel reads each of its three in one place.
+    let mut expected = vec![0f32; scene.shading.len() * 3 * g];
+    expected
+        .par_chunks_mut(3 * g)
+        .enumerate()
+        .for_each(|(v, out)| {
+            for (k, vals) in per_group.iter().enumerate() {
+                out[3 * k..3 * k + 3].copy_from_slice(&vals[v].0);
+            }
+        });
+    expected
+}
+
+/// The values of a [`Reflected`] at every grid corner of the patch lookup, `g` groups:
+/// the vertex values `per_group` of the patch under the corner, interpolated, plus the
+/// vertices' `direct` light there (when computed) times the reflectance.
+fn corner_values(
+    scene: &FinalScene<'_>,
+    per_group: &[Vec<Rgb>],
+    direct: Option<&VertexDirect>,
+    g: usize,
+) -> Vec<f32> {
+    let loc = scene.patches;
+    let mut values = vec![0f32; loc.corner_count() * 3 * g];
+    side_runs(loc, &mut values, 3 * g)
+        .into_par_iter()
+        .for_each(|side| {
+            let (tri, back) = (side.triangle, side.back);
+            for (c, out) in side.values.chunks_mut((3 * g).max(1)).enumerate() {
+                let x = loc.grid_corner(tri, back, c);
+                let Some((q, w)) = loc.locate_beside(tri, back, x) else {
+                    continue;
+                };
+                let sv = scene.shading.corner[q as usize];
+                let rho = scene.rho[loc.patch_of(q) as usize];
+                for (k, vals) in per_group.iter().enumerate() {
+                    let v = vals[sv[0] as usize] * w[0]
+                        + vals[sv[1] as usize] * w[1]
+                        + vals[sv[2] as usize] * w[2];
+                    out[3 * k..3 * k + 3].copy_from_slice(&v.0);
+                }
+                for (i, o) in out.iter_mut().enumerate() {
+                    // The vertices' direct light at the corner, if any, reflected.
+                    let d: f32 = match direct {
+                        Some(direct) => (0..3).map(|j| w[j] * direct.at(sv[j], i)).sum(),
+                        None => 0.0,
+                    };
+                    *o = (*o + rho[i % 3] * d).max(0.0);
+                }
+            }
+        });
+    values
+}
+
+/// Per shading vertex and group, the direct illuminance computed exactly there
+/// ([`shading_direct`]), `[vertex][group][rgb]`.
+struct VertexDirect {
+    values: Vec<f32>,
+    groups: usize,
+}
+
+impl VertexDirect {
+    /// Vertex `v`'s value `i` (group `i / 3`, channel `i % 3`).
+    fn at(&self, v: u32, i: usize) -> f32 {
+        self.values[3 * self.groups * v as usize + i]
+    }
+
+    /// Patch `p`'s direct light in group `k`, channel `c`: the mean of its vertices' (the
+    /// mean of the light interpolated).
+    fn patch_mean(&self, scene: &FinalScene<'_>, p: usize, k: usize, c: usize) -> f32 {
+        scene.shading.corner[p]
+            .iter()
+            .fold(0.0, |a, &v| a + self.at(v, 3 * k + c) / 3.0)
+    }
+}
+
 impl Reflected {
     pub(super) fn new(scene: &FinalScene<'_>, lights: &GroupLights<'_>) -> Reflected {
-        // Per group, the reflected radiosity per patch.
-        let mut per_patch: Vec<Vec<f32>> = match &scene.sky {
-            Some(sky) => vec![sky.reflected.to_vec()],
-            None => scene
-                .groups
-                .iter()
-                .enumerate()
-                .map(|(k, col)| {
-                    let mut r = col.b.clone();
-                    if lights.explicit(k) {
-                        for (v, e) in r.iter_mut().zip(&col.e) {
-                            *v = (*v - e).max(0.0);
-                        }
-                    }
-                    r
-                })
-                .collect(),
-        };
+        let mut per_patch = reflected_per_patch(scene, lights);
         let g = per_patch.len();
-        let loc = scene.patches;
-        let mut values = vec![0f32; loc.corner_count() * 3 * g];
         // Under the groups' lights, the direct light is computed exactly at every shading
         // vertex, and its share of the solved radiosity, as the patches average it,
         // comes out of the patches' values: a patch blurs a shadow over its area and the
@@ -147,89 +282,32 @@ impl Reflected {
         // the blur. The corners then add the vertices' direct light back, interpolated.
         let exact_direct = scene.sky.is_none() && g > 0;
         let mut expected = Vec::new();
-        let mut vertex_direct = Vec::new();
+        let mut vertex_direct = None;
         if exact_direct {
-            vertex_direct = shading_direct(scene, lights, g);
-            // Patch p's direct light in group k, channel c: the mean of its vertices'
-            // (the mean of the light interpolated).
-            let vertex_direct = &vertex_direct;
-            let direct = move |p: usize, k: usize, c: usize| {
-                scene.shading.corner[p].iter().fold(0.0, |a, &v| {
-                    a + vertex_direct[3 * g * v as usize + 3 * k + c] / 3.0
-                })
+            let direct = VertexDirect {
+                values: shading_direct(scene, lights, g),
+                groups: g,
             };
-            for (k, r) in per_patch.iter_mut().enumerate() {
-                for (p, rgb) in r.chunks_exact_mut(3).enumerate() {
-                    let rho = scene.rho[p];
-                    for (c, v) in rgb.iter_mut().enumerate() {
-                        *v -= rho[c] * direct(p, k, c);
-                    }
-                }
-            }
-            let per_group: Vec<Vec<Rgb>> = scene
-                .groups
-                .par_iter()
-                .enumerate()
-                .map(|(k, col)| {
-                    let mut h = col.h.clone();
-                    for (p, rgb) in h.chunks_exact_mut(3).enumerate() {
-                        for (c, v) in rgb.iter_mut().enumerate() {
-                            *v = (*v - direct(p, k, c)).max(0.0);
-                        }
-                    }
-                    scene.shading.vertex_values(&h)
-                })
-                .collect();
-            // Vertex by vertex, so a pixel reads each of its three in one place.
-            expected = vec![0f32; scene.shading.len() * 3 * g];
-            expected
-                .par_chunks_mut(3 * g)
-                .enumerate()
-                .for_each(|(v, out)| {
-                    for (k, vals) in per_group.iter().enumerate() {
-                        out[3 * k..3 * k + 3].copy_from_slice(&vals[v].0);
-                    }
-                });
+            remove_patch_direct(scene, &direct, &mut per_patch);
+            expected = expected_at_vertices(scene, &direct);
+            vertex_direct = Some(direct);
         }
         let per_group: Vec<Vec<Rgb>> = per_patch
             .par_iter()
             .map(|r| scene.shading.vertex_values(r))
             .collect();
         drop(per_patch);
-        side_runs(loc, &mut values, 3 * g)
-            .into_par_iter()
-            .for_each(|(tri, back, run)| {
-                for (c, out) in run.chunks_mut((3 * g).max(1)).enumerate() {
-                    let x = loc.grid_corner(tri, back, c);
-                    let Some((q, w)) = loc.locate_beside(tri, back, x) else {
-                        continue;
-                    };
-                    let sv = scene.shading.corner[q as usize];
-                    let rho = scene.rho[loc.patch_of(q) as usize];
-                    for (k, vals) in per_group.iter().enumerate() {
-                        let v = vals[sv[0] as usize] * w[0]
-                            + vals[sv[1] as usize] * w[1]
-                            + vals[sv[2] as usize] * w[2];
-                        out[3 * k..3 * k + 3].copy_from_slice(&v.0);
-                    }
-                    for (i, o) in out.iter_mut().enumerate() {
-                        // The vertices' direct light at the corner, if any, reflected.
-                        let d: f32 = if exact_direct {
-                            (0..3)
-                                .map(|j| w[j] * vertex_direct[3 * g * sv[j] as usize + i])
-                                .sum()
-                        } else {
-                            0.0
-                        };
-                        *o = (*o + rho[i % 3] * d).max(0.0);
-                    }
-                }
-            });
+        let values = corner_values(scene, &per_group, vertex_direct.as_ref(), g);
         Reflected {
             groups: g,
             values,
             expected,
         }
+    }
+
+    /// The light groups it holds (one under a sky).
+    pub(super) fn groups(&self) -> usize {
+        self.groups
     }
 
     /// Adds to `out` (per group RGB) the indirect irradiance (lux) the solved radiosity
@@ -252,8 +330,8 @@ impl Reflected {
         }
     }
 
-    /// Adds to `out` (per group RGB) the gathered irradiance (lux) at `x` on patch `p`
-    /// (normal `n`), from `rays` cosine-weighted rays; rays that leave the scene read the
+    /// Adds to `out` (per group RGB) the gathered irradiance (lux) at `at`, from `rays`
+    /// cosine-weighted rays; rays that leave the scene read the
     /// sky, weighted against the aimed sky rays of `aim` when given. A ray that lands closer than
     /// [`NEAR`] × the mean patch size of the side it meets asks `near(point, patch, values)` for the
     /// reflected radiosity there instead (per group RGB into `values`), when given: near
@@ -263,17 +341,18 @@ impl Reflected {
     pub(super) fn gather(
         &self,
         scene: &FinalScene<'_>,
-        (x, n, p): (DVec3, DVec3, u32),
+        at: ShadingPoint,
         (rays, strata): (usize, Strata),
         rng: &mut Rng,
         (mut near, aim): (Option<&mut NearHit<'_>>, Option<&super::sky::SkyAim>),
         out: &mut [f32],
     ) -> f32 {
+        let (x, n) = (at.position, at.normal);
         let (rows, cols) = ray_grid(rays);
         let count = rows * cols;
         let (t, b) = crate::geometry::frame(n);
         let o = lifted(x, n);
-        let own = scene.mesh.patches[p as usize].source;
+        let own = at.triangle(scene.mesh);
         let patches = scene.patches;
         let w = 1.0 / count as f32;
         // The reflected radiosity at close hits, reused from ray to ray.
@@ -301,18 +380,8 @@ impl Reflected {
                 inverse_distances += 1.0 / (th as f64).max(1e-9);
             }
             let Some((th, tri, back)) = hit else {
-                // Out of the scene: the sky (through any glazing), as radiosity π L, or
-                // weighted against the aimed sky rays.
                 if let Some(sky) = &scene.sky {
-                    let l = sky.outside(o, d, false) as f64;
-                    let v = match aim {
-                        Some(a) => {
-                            let pc = count as f64 * n.dot(d) / std::f64::consts::PI;
-                            l * n.dot(d) / (pc + sky.aimed_density(a, d))
-                        }
-                        None => std::f64::consts::PI * l / count as f64,
-                    };
-                    Rgb::column_mut(out)[0] += Rgb::splat(v as f32);
+                    read_sky(sky, (o, d), n, aim, count, out);
                 }
                 continue;
             };
@@ -334,23 +403,23 @@ impl Reflected {
                     continue;
                 }
             }
-            self.add_at(patches, (tri, back, at), w, out);
+            let hit = SideHit {
+                triangle: tri,
+                back,
+                point: at,
+            };
+            self.add_at(patches, hit, w, out);
         }
         (count as f64 / inverse_distances) as f32
     }
 
-    /// Adds to `out` (per group RGB) `w` × the reflected radiosity at `at` on side `back`
-    /// of scene triangle `tri`, read bilinearly from the grid corners around it.
+    /// Adds to `out` (per group RGB) `w` × the reflected radiosity at `hit`, read
+    /// bilinearly from the grid corners around it.
     #[inline]
-    fn add_at(
-        &self,
-        patches: &PatchLocator,
-        (tri, back, at): (u32, bool, DVec3),
-        w: f32,
-        out: &mut [f32],
-    ) {
+    pub(super) fn add_at(&self, patches: &PatchLocator, hit: SideHit, w: f32, out: &mut [f32]) {
         let g = self.groups;
-        let Some((c, [wa, wb, wc, wd])) = patches.grid_weights(tri, back, at) else {
+        let Some((c, [wa, wb, wc, wd])) = patches.grid_weights(hit.triangle, hit.back, hit.point)
+        else {
             return;
         };
         let rows = c.map(|c| &self.values[3 * g * c as usize..3 * g * (c as usize + 1)]);
@@ -358,74 +427,28 @@ impl Reflected {
             *o += w * (wa * rows[0][k] + wb * rows[1][k] + wc * rows[2][k] + wd * rows[3][k]);
         }
     }
+}
 
-    /// Adds to `out` (per group RGB, cd/m²) the light the specular `lobe` at `x` on
-    /// patch `p` (normal `n`) reflects towards the viewer, from `rays` rays drawn from
-    /// the lobe on a jittered √rays × √rays grid ([`super::specular`]). A ray reads the
-    /// reflected radiosity where it lands over π, plus the emitting surface's luminance
-    /// `E/π` for the groups whose emission the direct part lights (the table holds `B`
-    /// whole for the others), or the sky's luminance where it leaves the scene.
-    pub(super) fn specular(
-        &self,
-        scene: &FinalScene<'_>,
-        lights: &GroupLights<'_>,
-        (x, n, p): (DVec3, DVec3, u32),
-        (lobe, rays, sampled): (&super::specular::Lobe, usize, &[super::lights::Sampled]),
-        rng: &mut Rng,
-        out: &mut [f32],
-    ) {
-        let count = square_count(rays);
-        let side = count.isqrt();
-        let o = lifted(x, n);
-        let own = scene.mesh.patches[p as usize].source;
-        let patches = scene.patches;
-        let inv_pi = std::f32::consts::FRAC_1_PI;
-        let mut read = vec![0f32; out.len()];
-        for i in 0..count {
-            let u = (rng.stratum(i / side, side), rng.stratum(i % side, side));
-            let Some((d, weight)) = lobe.sample(u) else {
-                continue;
-            };
-            let weight = weight * (1.0 / count as f32);
-            let hit = patches.nearest_side(scene.bvh, o, d, Some(own), false);
-            read.iter_mut().for_each(|v| *v = 0.0);
-            match hit {
-                None => {
-                    if let Some(sky) = &scene.sky {
-                        read[..3]
-                            .iter_mut()
-                            .for_each(|v| *v = sky.outside(o, d, false));
-                    }
-                }
-                Some((th, tri, back)) => {
-                    if !patches.faces(tri, back, d) {
-                        continue;
-                    }
-                    let at = o + d * th as f64;
-                    self.add_at(patches, (tri, back, at), inv_pi, &mut read);
-                    // An emitter's own luminance, for the groups whose table leaves it out.
-                    let group = scene.triangles.get(tri as usize).and_then(|t| t.group);
-                    if let (Some(k), false, None) = (group, back, &scene.sky) {
-                        let k = k as usize;
-                        if k < self.groups && lights.explicit(k) {
-                            if let Some(q) = patches.locate(tri, back, at) {
-                                // Weighed against the light samples the triangle got.
-                                let mis =
-                                    sampled.iter().find(|s| s.source == tri).map_or(1.0, |s| {
-                                        s.ray_weight(d, th as f64, lobe.pdf(d), count)
-                                    });
-                                let e = Rgb::column(&scene.groups[k].e)[q as usize];
-                                Rgb::column_mut(&mut read)[k] += e * (inv_pi * mis as f32);
-                            }
-                        }
-                    }
-                }
-            }
-            for (o, r) in Rgb::column_mut(out).iter_mut().zip(Rgb::column(&read)) {
-                *o += weight * *r;
-            }
+/// Adds to `out` (group 0's RGB) what a gather ray from `o` along `d` (`ray`) reads out
+/// of the scene at a point of normal `n`, one of `count`: the sky (through any glazing),
+/// as radiosity π L, or weighted against the aimed sky rays of `aim` when given.
+fn read_sky(
+    sky: &super::FinalSky<'_>,
+    (o, d): (DVec3, DVec3),
+    n: DVec3,
+    aim: Option<&super::sky::SkyAim>,
+    count: usize,
+    out: &mut [f32],
+) {
+    let l = sky.outside(o, d, false) as f64;
+    let v = match aim {
+        Some(a) => {
+            let pc = count as f64 * n.dot(d) / std::f64::consts::PI;
+            l * n.dot(d) / (pc + sky.aimed_density(a, d))
         }
-    }
+        None => std::f64::consts::PI * l / count as f64,
+    };
+    Rgb::column_mut(out)[0] += Rgb::splat(v as f32);
 }
 
 /// Which cells of a square grid of directions a gather traces (cosine-weighted: the
@@ -480,7 +503,8 @@ pub(super) fn ray_grid(rays: usize) -> (usize, usize) {
     (rows, rays.max(1).div_ceil(rows))
 }
 
-/// The rays [`Reflected::specular`] traces when asked for `rays`: a whole square grid.
+/// The rays a glossy lobe traces when asked for `rays` ([`super::glossy`]): a whole
+/// square grid.
 pub(super) fn square_count(rays: usize) -> usize {
     let side = (rays as f64).sqrt().ceil().max(1.0) as usize;
     side * side

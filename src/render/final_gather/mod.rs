@@ -17,7 +17,8 @@
 //!   and each luminaire's luminous opening ([`openings`]) at its average luminance towards
 //!   the camera, `I/A_proj`;
 //! - **glossy reflection** ([`specular`]), on glTF materials with a specular lobe: the
-//!   luminaires' and the sun's highlights, and reflection rays that read the solution.
+//!   luminaires' and the sun's highlights, and reflection rays that read the solution,
+//!   weighed against light samples of the emitters ([`glossy`]).
 //!
 //! The indirect part, less the noise-free irradiance the solved radiosity gives at the
 //! pixel's point ([`gather::Reflected::expected`]), is denoised by an edge-avoiding
@@ -35,8 +36,10 @@
 mod emitted;
 mod filter;
 mod gather;
+mod glossy;
 mod lights;
 mod openings;
+mod point;
 mod settings;
 mod sky;
 mod specular;
@@ -60,6 +63,7 @@ use crate::scene::{LightGroup, Material, Triangle};
 use crate::transport::transfer::GroupColumns;
 
 use filter::Guide;
+use point::ShadingPoint;
 
 /// What a `final` image reads of a baked scene.
 pub struct FinalScene<'a> {
@@ -88,14 +92,58 @@ pub struct FinalScene<'a> {
 #[derive(Default)]
 struct Buffers {
     scratch: lights::Scratch,
-    /// Per group RGB: one sample's direct, indirect and expected light, and the emission
-    /// the camera sees.
-    dir_s: Vec<f32>,
-    ind_s: Vec<f32>,
-    exp_s: Vec<f32>,
+    /// Per group RGB: one sample's direct, indirect and expected light.
+    light: LightBuffers,
+    /// Per group RGB: the emission the camera sees, summed over a pixel's samples.
     emitted: Vec<f32>,
     /// The order in which a pixel's samples take the cells of its grid.
     cells: Vec<usize>,
+}
+
+/// The storage of one sample's [`LightParts`].
+#[derive(Default)]
+struct LightBuffers {
+    direct: Vec<f32>,
+    indirect: Vec<f32>,
+    expected: Vec<f32>,
+}
+
+impl LightBuffers {
+    /// Its parts, each `len` zeros.
+    fn zeroed(&mut self, len: usize) -> LightParts<'_> {
+        for v in [&mut self.direct, &mut self.indirect, &mut self.expected] {
+            v.clear();
+            v.resize(len, 0.0);
+        }
+        LightParts {
+            direct: &mut self.direct,
+            indirect: &mut self.indirect,
+            expected: &mut self.expected,
+        }
+    }
+}
+
+/// Per group RGB radiance (cd/m²) in the three parts that the image keeps apart until
+/// the filter: a camera sample's, or a pixel's sums of them.
+struct LightParts<'a> {
+    /// What needs no filtering: the direct light, highlights, a near mirror's reflections.
+    direct: &'a mut [f32],
+    /// The gathered indirect light (with a wide glossy lobe's), filtered later.
+    indirect: &'a mut [f32],
+    /// The indirect light the solved radiosity gives (no noise): the filter smooths
+    /// `indirect` less this.
+    expected: &'a mut [f32],
+}
+
+/// The rays one camera sample traces.
+#[derive(Debug, Clone, Copy)]
+struct RayBudget {
+    /// Cosine-weighted gather rays (a whole grid of them, [`gather::ray_grid`]).
+    gather_rays: usize,
+    /// The cells of the gather's grid of directions that this sample takes.
+    strata: gather::Strata,
+    /// Rays drawn from a glossy lobe (a whole square grid of them).
+    specular_rays: usize,
 }
 
 /// Pixels per side of a block whose gathers share one grid of directions, each pixel's
@@ -154,17 +202,84 @@ pub fn gather_points(
 
 /// One pixel's accumulators while tracing.
 struct PixelSums<'a> {
-    /// Per group RGB radiance that needs no filtering (direct light), cd/m².
-    direct: &'a mut [f32],
-    /// Per group RGB indirect radiance, cd/m² (filtered later).
-    indirect: &'a mut [f32],
-    /// Per group RGB indirect radiance the solved radiosity gives (no noise), cd/m²:
-    /// the filter smooths `indirect` less this.
-    expected: &'a mut [f32],
+    /// The means of its samples' light.
+    light: LightParts<'a>,
     /// Per group RGB radiance of the emitters seen, cd/m².
     emitted: &'a mut [f32],
     /// Mean reflectance of the pixel's samples.
     albedo: &'a mut Rgb,
+}
+
+/// The image's accumulators while it is built, per pixel: `[pixel][group][rgb]` for the
+/// light, one value per pixel for the rest.
+struct ImageSums {
+    direct: Vec<f32>,
+    indirect: Vec<f32>,
+    expected: Vec<f32>,
+    emitted: Vec<f32>,
+    albedo: Vec<Rgb>,
+    guides: Vec<Guide>,
+    coverage: Vec<Coverage>,
+}
+
+/// One row of an [`ImageSums`].
+struct RowSums<'a> {
+    light: LightParts<'a>,
+    emitted: &'a mut [f32],
+    albedo: &'a mut [Rgb],
+    guides: &'a mut [Guide],
+    coverage: &'a mut [Coverage],
+}
+
+impl ImageSums {
+    fn new(layout: filter::Layout) -> ImageSums {
+        let px = layout.width * layout.height;
+        let values = px * 3 * layout.groups;
+        ImageSums {
+            direct: vec![0f32; values],
+            indirect: vec![0f32; values],
+            expected: vec![0f32; values],
+            emitted: vec![0f32; values],
+            albedo: vec![Rgb::ZERO; px],
+            guides: vec![Guide::default(); px],
+            coverage: vec![Coverage::None; px],
+        }
+    }
+
+    /// Its rows, top to bottom, to trace in parallel (none without groups).
+    fn rows(&mut self, layout: filter::Layout) -> Vec<RowSums<'_>> {
+        let (w, row) = (layout.width, (3 * layout.groups * layout.width).max(1));
+        let mut direct = self.direct.chunks_mut(row);
+        let mut indirect = self.indirect.chunks_mut(row);
+        let mut expected = self.expected.chunks_mut(row);
+        let mut emitted = self.emitted.chunks_mut(row);
+        let mut albedo = self.albedo.chunks_mut(w);
+        let mut guides = self.guides.chunks_mut(w);
+        let mut coverage = self.coverage.chunks_mut(w);
+        let mut rows = Vec::with_capacity(layout.height);
+        while let (Some(d), Some(i), Some(x), Some(e), Some(a), Some(g), Some(c)) = (
+            direct.next(),
+            indirect.next(),
+            expected.next(),
+            emitted.next(),
+            albedo.next(),
+            guides.next(),
+            coverage.next(),
+        ) {
+            rows.push(RowSums {
+                light: LightParts {
+                    direct: d,
+                    indirect: i,
+                    expected: x,
+                },
+                emitted: e,
+                albedo: a,
+                guides: g,
+                coverage: c,
+            });
+        }
+        rows
+    }
 }
 
 /// The per-image constants of the tracer.
@@ -187,110 +302,159 @@ pub fn build(
     cancel: &Cancel,
 ) -> Result<GroupImages, QueryError> {
     let settings = &settings.for_pixels(cam.width as u64 * cam.height as u64);
-    let g = if scene.sky.is_some() {
-        1
-    } else {
-        scene.groups.len()
+    let tracer = Tracer::new(scene, cam, settings);
+    let layout = filter::Layout {
+        width: cam.width as usize,
+        height: cam.height as usize,
+        groups: tracer.groups,
     };
-    let lights = lights::GroupLights::new(scene);
-    let reflected = gather::Reflected::new(scene, &lights);
-    let tracer = Tracer {
-        reflected,
-        // The luminaires' openings show in the groups' images, not in the daylight's.
-        openings: openings::Openings::new(if scene.sky.is_some() {
-            &[]
-        } else {
-            scene.lights
-        }),
-        rays: super::daylight::CameraRays::new(cam),
-        lights,
-        settings: *settings,
-        groups: g,
-        scene,
-    };
-    let (w, h) = (cam.width as usize, cam.height as usize);
-    let mut direct = vec![0f32; w * h * 3 * g];
-    let mut indirect = vec![0f32; w * h * 3 * g];
-    let mut albedo = vec![Rgb::ZERO; w * h];
-    let mut guides = vec![Guide::default(); w * h];
-    let mut emitted = vec![0f32; w * h * 3 * g];
-    let mut expected = vec![0f32; w * h * 3 * g];
-    let mut coverage = vec![Coverage::None; w * h];
+    let mut sums = ImageSums::new(layout);
     // What the rays through the pixels' corners see: a pixel whose four corners see
     // different surfaces gets more samples.
-    let lattice: Vec<Guide> = (0..(w + 1) * (h + 1))
+    let corners = CornerGuides::trace(&tracer, layout);
+    sums.rows(layout)
         .into_par_iter()
-        .with_min_len(256)
-        .map(|i| tracer.guide_at((i % (w + 1)) as f64, (i / (w + 1)) as f64))
-        .collect();
-    let split = |x: usize, y: usize| {
-        let c = [
-            &lattice[y * (w + 1) + x],
-            &lattice[y * (w + 1) + x + 1],
-            &lattice[(y + 1) * (w + 1) + x],
-            &lattice[(y + 1) * (w + 1) + x + 1],
-        ];
-        c[1..].iter().any(|q| !q.alike(c[0]))
-    };
-    let row = 3 * g * w;
-    direct
-        .par_chunks_mut(row.max(1))
-        .zip(indirect.par_chunks_mut(row.max(1)))
-        .zip(emitted.par_chunks_mut(row.max(1)))
-        .zip(albedo.par_chunks_mut(w).zip(guides.par_chunks_mut(w)))
-        .zip(coverage.par_chunks_mut(w))
-        .zip(expected.par_chunks_mut(row.max(1)))
         .enumerate()
-        .for_each(|(y, (((((dr, ir), er), (al, gd)), cov), xr))| {
+        .for_each(|(y, row)| {
             if cancel.is_cancelled() {
                 return;
             }
-            let mut buffers = Buffers::default();
-            for x in 0..w {
-                let px = 3 * g * x..3 * g * (x + 1);
-                let sums = PixelSums {
-                    direct: &mut dr[px.clone()],
-                    indirect: &mut ir[px.clone()],
-                    expected: &mut xr[px.clone()],
-                    emitted: &mut er[px],
-                    albedo: &mut al[x],
-                };
-                (gd[x], cov[x]) = tracer.pixel(x, y, split(x, y), sums, &mut buffers);
-            }
+            tracer.row(y, &corners, row);
         });
     cancel.check()?;
-    tracer.emitter_rims(&coverage, (w, h), &mut emitted);
-    let footprint = 2.0 * ((cam.fov_deg as f64).to_radians() * 0.5).tan() / h as f64;
-    // The filter smooths what the gather found beyond what the solution expects.
-    indirect
-        .par_iter_mut()
-        .zip(&expected)
-        .for_each(|(i, x)| *i -= x);
-    filter::denoise(
-        &mut indirect,
-        &albedo,
-        &guides,
-        (w, h, g),
-        footprint as f32,
-        settings.filter_passes,
-    );
-    direct
-        .par_iter_mut()
-        .zip(&indirect)
-        .zip(&emitted)
-        .zip(&expected)
-        .for_each(|(((d, i), e), x)| *d += i + e + x);
-    Ok(GroupImages::from_parts(cam.width, cam.height, g, direct))
+    let footprint = 2.0 * ((cam.fov_deg as f64).to_radians() * 0.5).tan() / layout.height as f64;
+    let image = tracer.finish(sums, layout, footprint as f32);
+    Ok(GroupImages::from_parts(
+        cam.width,
+        cam.height,
+        tracer.groups,
+        image,
+    ))
+}
+
+/// The filter guides of the camera rays through the pixels' corners.
+struct CornerGuides {
+    /// Corners per row: the image's width + 1.
+    width: usize,
+    guides: Vec<Guide>,
+}
+
+impl CornerGuides {
+    fn trace(tracer: &Tracer<'_>, layout: filter::Layout) -> CornerGuides {
+        let (w, h) = (layout.width, layout.height);
+        let guides = (0..(w + 1) * (h + 1))
+            .into_par_iter()
+            .with_min_len(256)
+            .map(|i| tracer.guide_at((i % (w + 1)) as f64, (i / (w + 1)) as f64))
+            .collect();
+        CornerGuides {
+            width: w + 1,
+            guides,
+        }
+    }
+
+    /// Whether pixel (x, y)'s four corners see different surfaces: an edge or a
+    /// silhouette crosses it.
+    fn split(&self, x: usize, y: usize) -> bool {
+        let w = self.width;
+        let c = [
+            &self.guides[y * w + x],
+            &self.guides[y * w + x + 1],
+            &self.guides[(y + 1) * w + x],
+            &self.guides[(y + 1) * w + x + 1],
+        ];
+        c[1..].iter().any(|q| !q.alike(c[0]))
+    }
+}
+
+impl<'a> Tracer<'a> {
+    fn new(scene: &'a FinalScene<'a>, cam: &Camera, settings: &FinalSettings) -> Tracer<'a> {
+        let g = if scene.sky.is_some() {
+            1
+        } else {
+            scene.groups.len()
+        };
+        let lights = lights::GroupLights::new(scene);
+        let reflected = gather::Reflected::new(scene, &lights);
+        Tracer {
+            reflected,
+            // The luminaires' openings show in the groups' images, not in the daylight's.
+            openings: openings::Openings::new(if scene.sky.is_some() {
+                &[]
+            } else {
+                scene.lights
+            }),
+            rays: super::daylight::CameraRays::new(cam),
+            lights,
+            settings: *settings,
+            groups: g,
+            scene,
+        }
+    }
 }
 
 impl Tracer<'_> {
-    /// Traces pixel (x, y) into `sums`; the guide of its first sample, and whether a
-    /// sample met an emitter. A pixel that is `split` between surfaces (its corners see
-    /// different ones: an edge or a silhouette) gets [`EDGE_SAMPLES`]× the samples per
-    /// side, sharing the same gather rays among them: there its few samples would decide
-    /// the split, and that error is larger than the gather's. The corners decide, not the
-    /// pixel's own random samples: a pixel traced again when its samples disagreed, and
-    /// kept when they agreed, leans towards the surface that covers more of it.
+    /// Traces row `y` of the image into `row`.
+    fn row(&self, y: usize, corners: &CornerGuides, row: RowSums<'_>) {
+        let g = self.groups;
+        let mut buffers = Buffers::default();
+        let RowSums {
+            light,
+            emitted,
+            albedo,
+            guides,
+            coverage,
+        } = row;
+        for x in 0..guides.len() {
+            let px = 3 * g * x..3 * g * (x + 1);
+            let sums = PixelSums {
+                light: LightParts {
+                    direct: &mut light.direct[px.clone()],
+                    indirect: &mut light.indirect[px.clone()],
+                    expected: &mut light.expected[px.clone()],
+                },
+                emitted: &mut emitted[px],
+                albedo: &mut albedo[x],
+            };
+            let seen = self.pixel(x, y, corners.split(x, y), sums, &mut buffers);
+            (guides[x], coverage[x]) = (seen.guide, seen.emitters);
+        }
+    }
+
+    /// The image from its accumulators: the emitters' rims measured, the indirect light
+    /// filtered (less what the solution expects), and the parts added up.
+    fn finish(&self, sums: ImageSums, layout: filter::Layout, footprint: f32) -> Vec<f32> {
+        let ImageSums {
+            mut direct,
+            mut indirect,
+            expected,
+            mut emitted,
+            albedo,
+            guides,
+            coverage,
+        } = sums;
+        self.emitter_rims(&coverage, (layout.width, layout.height), &mut emitted);
+        // The filter smooths what the gather found beyond what the solution expects.
+        indirect
+            .par_iter_mut()
+            .zip(&expected)
+            .for_each(|(i, x)| *i -= x);
+        let passes = self.settings.filter_passes;
+        filter::denoise(&mut indirect, &albedo, &guides, layout, footprint, passes);
+        direct
+            .par_iter_mut()
+            .enumerate()
+            .for_each(|(j, d)| *d += indirect[j] + emitted[j] + expected[j]);
+        direct
+    }
+
+    /// Traces pixel (x, y) into `sums`. A pixel that is `split` between surfaces (its
+    /// corners see different ones: an edge or a silhouette) gets [`EDGE_SAMPLES`]× the
+    /// samples per side, sharing the same gather rays among them: there its few samples
+    /// would decide the split, and that error is larger than the gather's. The corners
+    /// decide, not the pixel's own random samples: a pixel traced again when its samples
+    /// disagreed, and kept when they agreed, leans towards the surface that covers more
+    /// of it.
     fn pixel(
         &self,
         x: usize,
@@ -298,7 +462,7 @@ impl Tracer<'_> {
         split: bool,
         mut sums: PixelSums<'_>,
         buffers: &mut Buffers,
-    ) -> (Guide, Coverage) {
+    ) -> PixelSeen {
         let k = self.settings.samples_per_side.max(1) as usize;
         let mut rng = Rng::new(
             y * self.rays.width() + x,
@@ -309,18 +473,15 @@ impl Tracer<'_> {
         } else {
             k
         };
-        let traced = self.samples(x, y, k, &mut rng, &mut sums, buffers);
-        (traced.guide, traced.emitters)
+        self.samples(x, y, k, &mut rng, &mut sums, buffers)
     }
 
     /// The filter guide of what the camera ray through image point (x, y) (in pixels)
     /// sees.
     fn guide_at(&self, x: f64, y: f64) -> Guide {
         let d = self.rays.dir_at(x, y);
-        let hit = self.primary(d);
         let o = self.rays.origin();
-        let t_scene = hit.map_or(f64::INFINITY, |(t, _)| t as f64);
-        let Some((t, p)) = hit.filter(|_| !self.openings.blocks(o, d, t_scene)) else {
+        let Some((t, p)) = self.surface_seen(d, self.primary(d)) else {
             return Guide::default();
         };
         let patch = &self.scene.mesh.patches[p as usize];
@@ -342,39 +503,58 @@ impl Tracer<'_> {
         rng: &mut Rng,
         sums: &mut PixelSums<'_>,
         buffers: &mut Buffers,
-    ) -> Samples {
+    ) -> PixelSeen {
         let samples = (k * k) as f32;
-        let gather_each = (self.settings.gather_rays as usize).div_ceil(k * k);
+        let gather_rays = (self.settings.gather_rays as usize).div_ceil(k * k);
         // At least a 2 × 2 grid per sample: a split pixel's many samples each see their
         // own point, and a single ray per sample left edges speckled.
         let specular = self.settings.specular_rays as usize;
-        let specular_each = if specular == 0 {
+        let specular_rays = if specular == 0 {
             0
         } else {
             specular.div_ceil(k * k).max(4)
         };
-        let mut out = Samples::default();
-        let g = self.groups;
+        let mut out = PixelSeen::default();
         let Buffers {
             scratch,
-            dir_s,
-            ind_s,
-            exp_s,
+            light,
             emitted,
             cells,
         } = buffers;
-        for v in [&mut *dir_s, &mut *ind_s, &mut *exp_s, &mut *emitted] {
-            v.clear();
-            v.resize(3 * g, 0.0);
-        }
+        emitted.clear();
+        emitted.resize(3 * self.groups, 0.0);
         let mut emitter_samples = 0;
-        // One grid of gather directions for a block of BLOCK × BLOCK pixels: each pixel
-        // takes one sub-cell (the same in every cell of its own grid, drawn without
-        // replacement within the block, so every pixel's rays are unbiased), and each of
-        // its samples one cell of each k × k block of that grid.
+        let block = self.block_grid(x, y);
         // The cells go to the samples in a random order: a sample's own rays then cover
         // the whole hemisphere on average, so the light of a sample that sees another
         // surface than its pixel's others is unbiased too.
+        cells.clear();
+        cells.extend(0..k * k);
+        shuffle(cells, rng);
+        for (s, &cell) in cells.iter().enumerate() {
+            let budget = RayBudget {
+                gather_rays,
+                strata: block.strata(cell, k),
+                specular_rays,
+            };
+            let (sx, sy) = (rng.stratum(s % k, k), rng.stratum(s / k, k));
+            let d = self.rays.dir_at(x as f64 + sx, y as f64 + sy);
+            let mut sample = light.zeroed(3 * self.groups);
+            let hit = self.primary(d);
+            emitter_samples += usize::from(self.emitted_along(d, hit, emitted));
+            let seen = self.sample(d, hit, rng, scratch, &mut sample, budget);
+            if s == 0 {
+                out.guide = seen.guide;
+            }
+            sums.add(&seen, &sample, samples);
+        }
+        out.emitters = self.emitter_coverage((x, y), emitter_samples, k, emitted, sums.emitted);
+        out
+    }
+
+    /// The shared grid of gather directions of pixel (x, y)'s block of `BLOCK × BLOCK`
+    /// pixels, and the pixel's sub-cell in each of its cells.
+    fn block_grid(&self, x: usize, y: usize) -> BlockGrid {
         let mut block_rng = Rng::new(
             (y / BLOCK) * self.rays.width().div_ceil(BLOCK) + x / BLOCK,
             BLOCK_SALT ^ self.settings.seed as usize,
@@ -383,58 +563,36 @@ impl Tracer<'_> {
         let mut subs: [usize; BLOCK * BLOCK] = std::array::from_fn(|i| i);
         shuffle(&mut subs, &mut block_rng);
         let sub = subs[(y % BLOCK) * BLOCK + x % BLOCK];
-        let (bx, by) = (sub % BLOCK, sub / BLOCK);
-        cells.clear();
-        cells.extend(0..k * k);
-        shuffle(cells, rng);
-        for (s, &cell) in cells.iter().enumerate() {
-            let strata = gather::Strata {
-                shift,
-                interleave: k * BLOCK,
-                cell: ((cell % k) * BLOCK + bx, (cell / k) * BLOCK + by),
-            };
-            let (sx, sy) = (rng.stratum(s % k, k), rng.stratum(s / k, k));
-            let d = self.rays.dir_at(x as f64 + sx, y as f64 + sy);
-            dir_s.iter_mut().for_each(|v| *v = 0.0);
-            ind_s.iter_mut().for_each(|v| *v = 0.0);
-            exp_s.iter_mut().for_each(|v| *v = 0.0);
-            let hit = self.primary(d);
-            emitter_samples += usize::from(self.emitted_along(d, hit, emitted));
-            let seen = self.sample(
-                d,
-                hit,
-                rng,
-                scratch,
-                (dir_s, ind_s, exp_s),
-                (gather_each, strata, specular_each),
-            );
-            if s == 0 {
-                out.guide = seen.guide;
-            }
-            *sums.albedo += seen.albedo / samples;
-            for (a, v) in sums.direct.iter_mut().zip(dir_s.iter()) {
-                *a += v / samples;
-            }
-            for (a, v) in sums.indirect.iter_mut().zip(ind_s.iter()) {
-                *a += v / samples;
-            }
-            for (a, v) in sums.expected.iter_mut().zip(exp_s.iter()) {
-                *a += v / samples;
-            }
+        BlockGrid {
+            shift,
+            sub: (sub % BLOCK, sub / BLOCK),
         }
-        out.emitters = if emitter_samples == 0 {
+    }
+
+    /// How pixel (x, y) saw emitters, `hits` of its `k × k` samples having met one, and
+    /// its emitted light into `out`: the samples' mean `emitted` where all met one, or
+    /// measured on a fine grid where an emitter's edge crosses the pixel.
+    fn emitter_coverage(
+        &self,
+        (x, y): (usize, usize),
+        hits: usize,
+        k: usize,
+        emitted: &[f32],
+        out: &mut [f32],
+    ) -> Coverage {
+        let samples = (k * k) as f32;
+        if hits == 0 {
             Coverage::None
-        } else if emitter_samples < k * k {
+        } else if hits < k * k {
             // An emitter's edge in the pixel: measure its coverage on a fine grid instead.
-            self.emitted_in_pixel(x, y, sums.emitted);
+            self.emitted_in_pixel(x, y, out);
             Coverage::Measured
         } else {
-            for (a, v) in sums.emitted.iter_mut().zip(emitted.iter()) {
+            for (a, v) in out.iter_mut().zip(emitted.iter()) {
                 *a += v / samples;
             }
             Coverage::All
-        };
-        out
+        }
     }
 
     /// The nearest patch whose front the camera ray along `d` meets.
@@ -443,63 +601,128 @@ impl Tracer<'_> {
         self.scene.patches.nearest(self.scene.bvh, o, d, None, true)
     }
 
-    /// One camera ray along `d`, which meets `hit`: adds the light its surface reflects per group, direct
-    /// (exact) and indirect (gathered) radiance, cd/m². Emission is [`Self::emitted_along`].
+    /// The patch the camera ray along `d`, which meets `hit`, shows: none where a
+    /// luminaire's opening is in front of it.
+    fn surface_seen(&self, d: DVec3, hit: Option<(f32, u32)>) -> Option<(f32, u32)> {
+        let o = self.rays.origin();
+        let t_scene = hit.map_or(f64::INFINITY, |(t, _)| t as f64);
+        if self.openings.blocks(o, d, t_scene) {
+            return None;
+        }
+        hit
+    }
+
+    /// One camera ray along `d`, which meets `hit`: adds to `light` the light its surface
+    /// reflects per group, direct (exact) and indirect (gathered) radiance, cd/m², with
+    /// the rays of `budget`. Emission is [`Self::emitted_along`].
     fn sample(
         &self,
         d: DVec3,
         hit: Option<(f32, u32)>,
         rng: &mut Rng,
         scratch: &mut lights::Scratch,
-        out: (&mut [f32], &mut [f32], &mut [f32]),
-        (gather_rays, strata, specular_rays): (usize, gather::Strata, usize),
-    ) -> Seen {
-        let (direct, indirect, expected) = out;
-        let o = self.rays.origin();
-        let t_scene = hit.map_or(f64::INFINITY, |(t, _)| t as f64);
-        if self.openings.blocks(o, d, t_scene) {
-            return Seen::default();
-        }
-        let Some((t, p)) = hit else {
-            return Seen::default();
+        light: &mut LightParts<'_>,
+        budget: RayBudget,
+    ) -> SampleSeen {
+        let Some((t, p)) = self.surface_seen(d, hit) else {
+            return SampleSeen::default();
         };
-        let patch = &self.scene.mesh.patches[p as usize];
-        let x = o + d * t as f64;
-        let n = patch.normal;
-        let rho = self.scene.rho[p as usize];
-        let inv_pi = std::f32::consts::FRAC_1_PI;
+        let at = ShadingPoint::on(self.scene.mesh, self.rays.origin() + d * t as f64, p);
+        let lobe = self.lobe(at, d, budget.specular_rays);
         // Direct light (lux) and gathered indirect light (lux), then × ρ/π.
         let mut e_direct = std::mem::take(&mut scratch.lux);
         e_direct.clear();
         e_direct.resize(3 * self.groups, 0.0);
-        // A glossy surface's specular lobe towards the camera: the point sources'
-        // highlights (exact, no noise) go straight into the unfiltered direct part, as
-        // radiance; its sampled light below.
-        let lobe = self
-            .scene
+        self.direct_light(at, lobe.as_ref(), rng, scratch, &mut e_direct, light.direct);
+        let reach = self.indirect_light(at, budget, rng, scratch, light);
+        // Under a specular lobe, the diffuse part keeps the share the lobe leaves it.
+        let rho = match &lobe {
+            Some(l) => self.scene.rho[p as usize] * l.diffuse_share(),
+            None => self.scene.rho[p as usize],
+        };
+        reflect_diffuse(rho * std::f32::consts::FRAC_1_PI, &e_direct, light);
+        scratch.lux = e_direct;
+        // The glossy lobe's sampled light: its reflections and its share of the emitting
+        // surfaces. A wide lobe's goes through the filter with the gathered light (its
+        // draws scatter over the room), demodulated by the lobe's Fresnel reflectance
+        // beside ρ; a near mirror's draws all but agree, and stay sharp.
+        let mut albedo = rho;
+        if let Some(lobe) = &lobe {
+            if lobe.filtered() {
+                albedo += lobe.reflectance();
+            }
+            self.glossy_light(at, lobe, budget.specular_rays, rng, scratch, light);
+        }
+        SampleSeen {
+            albedo,
+            guide: Guide {
+                position: at.position.as_vec3().to_array(),
+                normal: at.normal.as_vec3().to_array(),
+                surface: self.scene.mesh.patches[p as usize].surface,
+                depth: t,
+                reach,
+            },
+        }
+    }
+
+    /// A glossy surface's specular lobe at `at` towards the camera (looking along `d`),
+    /// when the settings trace specular rays.
+    fn lobe(&self, at: ShadingPoint, d: DVec3, specular_rays: usize) -> Option<specular::Lobe> {
+        let patch = &self.scene.mesh.patches[at.patch as usize];
+        self.scene
             .triangles
             .get(patch.source as usize)
             .and_then(|t| self.scene.materials.get(t.material as usize)?.gloss)
             .filter(|_| specular_rays > 0)
-            .and_then(|g| specular::Lobe::new(&g, n, d));
+            .and_then(|g| specular::Lobe::new(&g, at.normal, d))
+    }
+
+    /// Adds to `e_direct` (per group RGB, lux) the direct light at `at`: the groups'
+    /// lights, or under a sky the sun. A specular `lobe`'s highlights of the point
+    /// luminaires and the sun (exact, no noise) go straight to `highlights`, as
+    /// radiance; its sampled light is [`Self::glossy_light`].
+    fn direct_light(
+        &self,
+        at: ShadingPoint,
+        lobe: Option<&specular::Lobe>,
+        rng: &mut Rng,
+        scratch: &mut lights::Scratch,
+        e_direct: &mut [f32],
+        highlights: &mut [f32],
+    ) {
         self.lights.direct(
-            (x, n, p),
+            at,
             lights::Rays::Stratified(self.settings.emitter_rays),
             rng,
             scratch,
-            &mut e_direct,
-            lobe.as_ref().map(|l| (l, &mut *direct)),
+            e_direct,
+            lobe.map(|l| (l, &mut *highlights)),
         );
         if let Some(sky) = &self.scene.sky {
-            let sun = sky.sun_lux(self.scene.bvh, (x, n, patch.source));
+            let sun = sky.sun_lux(self.scene.bvh, at.shadow_origin(self.scene.mesh));
             e_direct[..3].iter_mut().for_each(|v| *v += sun);
-            if let (Some(lobe), Some(s), true) = (&lobe, &sky.sun, sun > 0.0) {
+            if let (Some(lobe), Some(s), true) = (lobe, &sky.sun, sun > 0.0) {
                 let spread = 0.25 * crate::daylight::sky_luminance::SUN_DIAMETER_DEG.to_radians();
-                Rgb::column_mut(direct)[0] += sun * lobe.brdf(s.direction, spread);
+                Rgb::column_mut(highlights)[0] += sun * lobe.brdf(s.direction, spread);
             }
         }
+    }
+
+    /// Adds to `light` the indirect irradiance (lux) at `at` from the gather rays of
+    /// `budget` (and under a sky, its aimed sky rays), and the irradiance the solution
+    /// expects there. Returns the harmonic mean distance of the gather's hits (infinite
+    /// without gather rays).
+    fn indirect_light(
+        &self,
+        at: ShadingPoint,
+        budget: RayBudget,
+        rng: &mut Rng,
+        scratch: &mut lights::Scratch,
+        light: &mut LightParts<'_>,
+    ) -> f32 {
+        let gather_rays = budget.gather_rays;
         let mut reach = f32::INFINITY;
-        let aim = self.scene.sky.as_ref().and_then(|s| s.aim(p));
+        let aim = self.scene.sky.as_ref().and_then(|s| s.aim(at.patch));
         if gather_rays > 0 {
             // The direct light's buffers are free until the specular lobe's light below.
             let mut near = |at: DVec3, q: u32, rng: &mut Rng, v: &mut [f32]| {
@@ -507,11 +730,11 @@ impl Tracer<'_> {
             };
             reach = self.reflected.gather(
                 self.scene,
-                (x, n, p),
-                (gather_rays, strata),
+                at,
+                (gather_rays, budget.strata),
                 rng,
                 (Some(&mut near), aim.as_ref()),
-                indirect,
+                light.indirect,
             );
         }
         if let (Some(sky), Some(aim)) = (&self.scene.sky, &aim) {
@@ -520,63 +743,16 @@ impl Tracer<'_> {
             } else {
                 0
             };
-            let at = (x, n, patch.source);
-            sky.aimed(self.scene.bvh, aim, at, cosine, rng, indirect);
+            let origin = at.shadow_origin(self.scene.mesh);
+            sky.aimed(self.scene.bvh, aim, origin, cosine, rng, light.indirect);
         }
         if gather_rays > 0 {
-            self.reflected.expected(self.scene, x, p, expected);
-        }
-        // Per group: direct += ρ/π · E_direct, indirect and expected ×= ρ/π; under a
-        // specular lobe, the diffuse part keeps the share the lobe leaves it.
-        let rho = match &lobe {
-            Some(l) => rho * l.diffuse_share(),
-            None => rho,
-        };
-        let reflect = rho * inv_pi;
-        for (((d, i), x), &e) in Rgb::column_mut(direct)
-            .iter_mut()
-            .zip(Rgb::column_mut(indirect))
-            .zip(Rgb::column_mut(expected))
-            .zip(Rgb::column(&e_direct))
-        {
-            *d += reflect * e;
-            *i *= reflect;
-            *x *= reflect;
-        }
-        scratch.lux = e_direct;
-        // The glossy lobe's sampled light: its reflections and its share of the emitting
-        // surfaces. A wide lobe's goes through the filter with the gathered light (its
-        // draws scatter over the room), demodulated by the lobe's Fresnel reflectance
-        // beside ρ; a near mirror's draws all but agree, and stay sharp.
-        let mut albedo = rho;
-        if let Some(lobe) = &lobe {
-            // A whole grid of rays, which the light samples' weights count.
-            let (at, rays) = ((x, n, p), (lobe, gather::square_count(specular_rays)));
-            let out = if lobe.filtered() {
-                albedo += lobe.reflectance();
-                &mut *indirect
-            } else {
-                &mut *direct
-            };
-            self.lights.specular_emitters(at, rays, rng, scratch, out);
-            let rays = (rays.0, rays.1, &scratch.sampled[..]);
             self.reflected
-                .specular(self.scene, &self.lights, at, rays, rng, out);
+                .expected(self.scene, at.position, at.patch, light.expected);
         }
-        Seen {
-            albedo,
-            guide: Guide {
-                position: x.as_vec3().to_array(),
-                normal: n.as_vec3().to_array(),
-                surface: patch.surface,
-                depth: t,
-                reach,
-            },
-        }
+        reach
     }
-}
 
-impl Tracer<'_> {
     /// The radiosity reflected at point `at` of patch `q`, per group (lm/m², emission
     /// left out as in the gather's table): `ρ (direct + gathered)`, with a small gather
     /// that reads the patches.
@@ -588,21 +764,15 @@ impl Tracer<'_> {
         scratch: &mut lights::Scratch,
         out: &mut [f32],
     ) {
-        let patch = &self.scene.mesh.patches[q as usize];
+        let point = ShadingPoint::on(self.scene.mesh, at, q);
         let mut lux = std::mem::take(&mut scratch.near);
         lux.clear();
         lux.resize(out.len(), 0.0);
-        self.lights.direct(
-            (at, patch.normal, q),
-            lights::Rays::OneDrawn,
-            rng,
-            scratch,
-            &mut lux,
-            None,
-        );
+        self.lights
+            .direct(point, lights::Rays::OneDrawn, rng, scratch, &mut lux, None);
         self.reflected.gather(
             self.scene,
-            (at, patch.normal, q),
+            point,
             (NEAR_GATHER_RAYS, gather::Strata::own(rng)),
             rng,
             (None, None),
@@ -611,7 +781,7 @@ impl Tracer<'_> {
         let rho = self.scene.rho[q as usize];
         let (out, light) = (Rgb::column_mut(out), Rgb::column(&lux));
         if let Some(sky) = &self.scene.sky {
-            let sun = sky.sun_lux(self.scene.bvh, (at, patch.normal, patch.source));
+            let sun = sky.sun_lux(self.scene.bvh, point.shadow_origin(self.scene.mesh));
             out[0] = rho * (light[0] + Rgb::splat(sun));
         } else {
             for (k, col) in self.scene.groups.iter().enumerate() {
@@ -620,6 +790,35 @@ impl Tracer<'_> {
             }
         }
         scratch.near = lux;
+    }
+}
+
+/// Per group: `light.direct += reflect · e_direct` (lux to radiance), and the indirect
+/// and expected irradiance `×= reflect`.
+fn reflect_diffuse(reflect: Rgb, e_direct: &[f32], light: &mut LightParts<'_>) {
+    let direct = Rgb::column_mut(light.direct);
+    let indirect = Rgb::column_mut(light.indirect);
+    let expected = Rgb::column_mut(light.expected);
+    for (k, &e) in Rgb::column(e_direct).iter().enumerate() {
+        direct[k] += reflect * e;
+        indirect[k] *= reflect;
+        expected[k] *= reflect;
+    }
+}
+
+impl PixelSums<'_> {
+    /// Adds one of its `samples` samples: what it `seen` and its `light`.
+    fn add(&mut self, seen: &SampleSeen, light: &LightParts<'_>, samples: f32) {
+        *self.albedo += seen.albedo / samples;
+        for (a, v) in self.light.direct.iter_mut().zip(light.direct.iter()) {
+            *a += v / samples;
+        }
+        for (a, v) in self.light.indirect.iter_mut().zip(light.indirect.iter()) {
+            *a += v / samples;
+        }
+        for (a, v) in self.light.expected.iter_mut().zip(light.expected.iter()) {
+            *a += v / samples;
+        }
     }
 }
 
@@ -637,17 +836,41 @@ const EDGE_SAMPLES: usize = 2;
 /// Most samples per side of a pixel.
 const MAX_SAMPLES_PER_SIDE: usize = 16;
 
-/// What a pixel's samples saw: the first sample's guide, and how many met an emitter.
+/// One grid of gather directions for a block of `BLOCK × BLOCK` pixels: each pixel takes
+/// one sub-cell (the same in every cell of its own grid, drawn without replacement within
+/// the block, so every pixel's rays are unbiased), and each of its samples one cell of
+/// each `k × k` block of that grid.
+struct BlockGrid {
+    /// The offset within each cell, shared by the block ([`gather::Strata::shift`]).
+    shift: (f64, f64),
+    /// This pixel's sub-cell (radial, azimuthal).
+    sub: (usize, usize),
+}
+
+impl BlockGrid {
+    /// The cells a gather of a pixel's `k × k` samples takes, for the sample given `cell`.
+    fn strata(&self, cell: usize, k: usize) -> gather::Strata {
+        gather::Strata {
+            shift: self.shift,
+            interleave: k * BLOCK,
+            cell: (
+                (cell % k) * BLOCK + self.sub.0,
+                (cell / k) * BLOCK + self.sub.1,
+            ),
+        }
+    }
+}
+
+/// What a pixel's samples saw: the first sample's guide, and how they met emitters.
 #[derive(Default)]
-struct Samples {
+struct PixelSeen {
     guide: Guide,
     emitters: Coverage,
 }
 
 /// What a camera sample saw: its reflectance and its filter guide.
 #[derive(Default)]
-struct Seen {
+struct SampleSeen {
     albedo: Rgb,
-
     guide: Guide,
 }

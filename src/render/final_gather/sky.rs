@@ -4,6 +4,7 @@
 
 use glam::{DVec3, Vec3A};
 
+use super::point::ShadowOrigin;
 use crate::color::Rgb;
 use crate::geometry::bvh::Bvh;
 use crate::geometry::lifted;
@@ -93,18 +94,18 @@ impl<'a> FinalSky<'a> {
     }
 
     /// Adds to `out` (group 0's RGB, lux as the gather counts it) the aimed sky rays from
-    /// `x` (normal `n`, skipping scene triangle `skip`), weighted against `cosine_rays`
-    /// cosine-weighted rays.
+    /// `at`, weighted against `cosine_rays` cosine-weighted rays.
     pub(super) fn aimed(
         &self,
         bvh: &Bvh,
         aim: &SkyAim,
-        (x, n, skip): (DVec3, DVec3, u32),
+        at: ShadowOrigin,
         cosine_rays: usize,
         rng: &mut Rng,
         out: &mut [f32],
     ) {
-        let o = lifted(x, n);
+        let (n, skip) = (at.normal, at.skip_triangle);
+        let o = lifted(at.position, n);
         let mut sum = 0f64;
         for _ in 0..aim.rays {
             let u = rng.next_f64();
@@ -135,15 +136,16 @@ impl<'a> FinalSky<'a> {
 }
 
 impl FinalSky<'_> {
-    /// The sun's illuminance (lux) at `x` (normal `n`), with shadow rays through `bvh`
-    /// (skipping scene triangle `skip`) and the glazing's transmittance.
-    pub(super) fn sun_lux(&self, bvh: &Bvh, (x, n, skip): (DVec3, DVec3, u32)) -> f32 {
+    /// The sun's illuminance (lux) at `at`, with shadow rays through `bvh` and the
+    /// glazing's transmittance.
+    pub(super) fn sun_lux(&self, bvh: &Bvh, at: ShadowOrigin) -> f32 {
         let Some(s) = self.sun else { return 0.0 };
+        let (n, skip) = (at.normal, at.skip_triangle);
         let cos = n.dot(s.direction);
         if cos <= 0.0 {
             return 0.0;
         }
-        let o = lifted(x, n);
+        let o = lifted(at.position, n);
         let far = o + s.direction * self.reach;
         if bvh.occluded(
             Vec3A::from(o.as_vec3()),

@@ -124,10 +124,11 @@ impl Lobe {
     /// uniform `u` in [0, 1)², and its weight `BRDF · cos θₗ / pdf = F · G₂/G₁`; None
     /// when the reflected direction falls below the surface (it carries no light).
     pub(super) fn sample(&self, u: (f64, f64)) -> Option<(DVec3, Rgb)> {
-        let (l, vdoth, weight) = draw(self.v, self.alpha, u)?;
+        let drawn = draw(self.v, self.alpha, u)?;
         let [t, b, n] = self.frame;
+        let l = drawn.direction;
         let world = (t * l.x + b * l.y + n * l.z).normalize();
-        Some((world, self.fresnel(vdoth) * weight as f32))
+        Some((world, self.fresnel(drawn.v_dot_h) * drawn.weight as f32))
     }
 
     /// The lobe's directional albedo towards the viewer: the share of light from all
@@ -148,11 +149,20 @@ impl Lobe {
     }
 }
 
+/// A direction drawn from the lobe, in its local frame ([`draw`]).
+struct Drawn {
+    /// The reflected direction (local, z the normal).
+    direction: DVec3,
+    /// `v·h`, between the viewer and the drawn microfacet normal.
+    v_dot_h: f64,
+    /// `G₂/G₁`.
+    weight: f64,
+}
+
 /// Draws a direction from GGX's distribution of normals visible from `v` (local, z the
 /// normal) of width `a` (Heitz 2018, "Sampling the GGX Distribution of Visible
-/// Normals"), for uniform `u`: the reflected direction (local), `v·h`, and the weight
-/// `G₂/G₁`; None below the surface.
-fn draw(v: DVec3, a: f64, u: (f64, f64)) -> Option<(DVec3, f64, f64)> {
+/// Normals"), for uniform `u`; None below the surface.
+fn draw(v: DVec3, a: f64, u: (f64, f64)) -> Option<Drawn> {
     let vh = DVec3::new(a * v.x, a * v.y, v.z).normalize();
     let len2 = vh.x * vh.x + vh.y * vh.y;
     let t1 = if len2 > 0.0 {
@@ -175,7 +185,11 @@ fn draw(v: DVec3, a: f64, u: (f64, f64)) -> Option<(DVec3, f64, f64)> {
     }
     let a2 = a * a;
     let (lv, ll) = (lambda(v.z, a2), lambda(l.z, a2));
-    Some((l, vdoth, (1.0 + lv) / (1.0 + lv + ll)))
+    Some(Drawn {
+        direction: l,
+        v_dot_h: vdoth,
+        weight: (1.0 + lv) / (1.0 + lv + ll),
+    })
 }
 
 /// Nodes per axis of the albedo table, over cos θᵥ and α in [0, 1].
@@ -201,9 +215,9 @@ fn albedo_terms(cos: f64, alpha: f64) -> [f64; 2] {
                 for i in 0..m * m {
                     let u = ((i / m) as f64 + 0.5) / m as f64;
                     let w = ((i % m) as f64 + 0.5) / m as f64;
-                    if let Some((_, vdoth, g)) = draw(v, a, (u, w)) {
-                        sum[0] += g;
-                        sum[1] += g * (1.0 - vdoth).powi(5);
+                    if let Some(d) = draw(v, a, (u, w)) {
+                        sum[0] += d.weight;
+                        sum[1] += d.weight * (1.0 - d.v_dot_h).powi(5);
                     }
                 }
                 sum.map(|x| x / (m * m) as f64)

@@ -4,7 +4,8 @@
 use serde::Deserialize;
 use utoipa::ToSchema;
 
-use super::{grid_ids, object_only, some};
+use super::{grid_ids, object_only, some, Resolve};
+use crate::model::annual::WeatherSource;
 use crate::model::Model;
 use crate::server::parse::grid_list;
 use crate::server::AppError;
@@ -39,10 +40,12 @@ fn clock(s: &str, what: &str) -> Result<f64, AppError> {
     Ok(h as f64 + m as f64 / 60.0)
 }
 
-impl AnnualRequest {
+impl Resolve for AnnualRequest {
+    type Resolved = AnnualAsk;
+
     /// The grids and occupied hours, and where the weather comes from (a file name in the
     /// scene's folder, or EPW text), checked.
-    pub(crate) fn parts(&self, model: &Model) -> Result<AnnualParts, AppError> {
+    fn resolve(&self, model: &Model) -> Result<AnnualAsk, AppError> {
         if self.weather.trim().is_empty() {
             return Err(AppError::Invalid(
                 "weather is empty: name an EPW file in the scene's folder, or send its text".into(),
@@ -72,19 +75,23 @@ impl AnnualRequest {
             }
         };
         let weather = if self.weather.contains('\n') {
-            Weather::Text(self.weather.clone())
+            WeatherSource::Text(self.weather.clone())
         } else {
-            Weather::File(self.weather.clone())
+            WeatherSource::File(self.weather.clone())
         };
-        Ok((grids, occupied, weather))
+        Ok(AnnualAsk {
+            grids,
+            occupied,
+            weather,
+        })
     }
 }
 
-/// The grids, the occupied hours and the weather's source of an annual request.
-pub(crate) type AnnualParts = (Vec<usize>, (f64, f64), Weather);
-
-/// Where the weather comes from.
-pub(crate) enum Weather {
-    File(String),
-    Text(String),
+/// An annual request in the model's terms.
+pub(crate) struct AnnualAsk {
+    /// The grids to rate.
+    pub grids: Vec<usize>,
+    /// The occupied hours, from and to, local standard time.
+    pub occupied: (f64, f64),
+    pub weather: WeatherSource,
 }

@@ -6,8 +6,9 @@ use utoipa::openapi::schema::Schema;
 use utoipa::openapi::RefOr;
 use utoipa::ToSchema;
 
-use super::{lit_request, names, object_only, raw, schema_ref, some};
+use super::{lit_request, names, object_only, raw, schema_ref, some, Resolve};
 use crate::input_limits::MAX_BATCH_STATES;
+use crate::model::batch::BatchReport;
 use crate::model::Model;
 use crate::server::parse::{grid_list, surface_list};
 use crate::server::AppError;
@@ -51,7 +52,7 @@ pub(crate) struct BatchRequest {
     /// Also return per-patch radiosity for each state.
     #[serde(default)]
     #[schema(default = false)]
-    pub radiosity: bool,
+    radiosity: bool,
     #[serde(default)]
     #[schema(schema_with = batch_grids)]
     grids: Vec<String>,
@@ -59,10 +60,12 @@ pub(crate) struct BatchRequest {
 
 object_only!(BatchRequest, "a JSON object");
 
-impl BatchRequest {
-    /// The grids and surfaces to report (absent surfaces: all), with the states' count
-    /// checked.
-    pub(crate) fn plan(&self, model: &Model) -> Result<(Vec<usize>, Vec<usize>), AppError> {
+impl Resolve for BatchRequest {
+    type Resolved = BatchReport;
+
+    /// What to report for each state: the grids, the surfaces (absent: all) and whether
+    /// the radiosity; with the states' count checked.
+    fn resolve(&self, model: &Model) -> Result<BatchReport, AppError> {
         let grids = grid_list(&self.grids, model)?;
         if self.states.is_empty() || self.states.len() > MAX_BATCH_STATES {
             return Err(AppError::Invalid(format!(
@@ -74,6 +77,10 @@ impl BatchRequest {
             Some(names) => surface_list(names, model)?,
             None => (0..model.baked.scene.surfaces.len()).collect(),
         };
-        Ok((grids, surfaces))
+        Ok(BatchReport {
+            grids,
+            surfaces,
+            radiosity: self.radiosity,
+        })
     }
 }

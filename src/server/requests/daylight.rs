@@ -4,12 +4,12 @@ use serde::Deserialize;
 use utoipa::ToSchema;
 
 use super::illuminance::{points_schema, report_query, report_surfaces, Point};
-use super::lighting::{lighting, Lights};
-use super::{grid_ids, object_only, some};
+use super::lighting::{light_weights, Lights};
+use super::{grid_ids, object_only, some, Resolve};
 use crate::color::Rgb;
 use crate::model::query::IlluminanceQuery;
 use crate::model::sky_state::{SkySpec, SkyState};
-use crate::model::{Lighting, Model};
+use crate::model::Model;
 use crate::server::AppError;
 
 /// A sky, electric light added if `lights` is given, and where to report illuminance.
@@ -35,23 +35,31 @@ pub(crate) struct DaylightRequest {
 
 object_only!(DaylightRequest, "a JSON object {sky, ...}");
 
-impl DaylightRequest {
+/// A daylight request in the model's terms.
+pub(crate) struct DaylightAsk {
+    pub sky: SkyState,
+    /// The electric light's group weights, when it is added.
+    pub weights: Option<Vec<Rgb>>,
+    pub query: IlluminanceQuery,
+}
+
+impl Resolve for DaylightRequest {
+    type Resolved = DaylightAsk;
+
     /// The resolved sky, the electric light's group weights, and the query; nothing asked
     /// for means every surface.
-    pub(crate) fn query(
-        &self,
-        model: &Model,
-    ) -> Result<(SkyState, Option<Vec<Rgb>>, IlluminanceQuery), AppError> {
+    fn resolve(&self, model: &Model) -> Result<DaylightAsk, AppError> {
         let site = model.site()?;
         let sky = self.sky.resolve(site)?;
         let weights = match &self.lights {
             None => None,
-            Some(l) => match lighting(Some(l), None, model)? {
-                Lighting::Groups(w) => Some(w),
-                Lighting::Emission(_) => None,
-            },
+            Some(l) => Some(light_weights(Some(l), model)?),
         };
-        let q = report_query(self.surfaces.as_deref(), &self.grids, &self.points, model)?;
-        Ok((sky, weights, q))
+        let query = report_query(self.surfaces.as_deref(), &self.grids, &self.points, model)?;
+        Ok(DaylightAsk {
+            sky,
+            weights,
+            query,
+        })
     }
 }

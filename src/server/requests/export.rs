@@ -2,13 +2,14 @@
 
 use std::collections::BTreeMap;
 
-use super::lighting::{lighting, Lights};
-use super::render::{
-    given_once, query_choice, query_light, query_number, TonemapName, MAX_EXPOSURE,
-};
-use crate::model::Lighting;
+use super::lighting::{light_weights, Lights};
+use super::query::{as_written, read_query};
+use super::render::{TonemapName, MAX_EXPOSURE};
+use super::Resolve;
+use crate::budget::human_bytes;
+use crate::color::Rgb;
 use crate::model::Model;
-use crate::render::ExportOptions;
+use crate::render::{export_bytes, ExportOptions, MAX_EXPORT_BYTES};
 use crate::server::parse::{number, shorten};
 use crate::server::AppError;
 
@@ -23,25 +24,23 @@ pub(crate) struct ExportRequest {
 impl ExportRequest {
     /// 400 for a parameter given twice, unknown, or not a number where one is expected.
     pub(crate) fn from_query(q: &[(String, String)]) -> Result<ExportRequest, AppError> {
-        let mut lights = BTreeMap::new();
         let mut r = ExportRequest {
             lights: Lights(BTreeMap::new()),
             exposure: None,
             tonemap: TonemapName::default(),
             relightable: true,
         };
-        let mut seen: Vec<&str> = Vec::with_capacity(q.len());
-        for (k, v) in q {
-            given_once(&mut seen, k, k)?;
-            match k.as_str() {
-                "exposure" if v == "auto" => r.exposure = None,
-                "exposure" => r.exposure = Some(query_number(k, v)?),
-                "tonemap" => r.tonemap = query_choice("tonemap", v)?,
+        let known = "exposure, tonemap, relightable, light.<group>";
+        r.lights = read_query(q, as_written, known, |p| {
+            match p.name {
+                "exposure" if p.value == "auto" => r.exposure = None,
+                "exposure" => r.exposure = Some(p.number()?),
+                "tonemap" => r.tonemap = p.choice()?,
                 "relightable" => {
-                    r.relightable = match v.as_str() {
+                    r.relightable = match p.value {
                         "true" => true,
                         "false" => false,
-                        _ => {
+                        v => {
                             return Err(AppError::BadRequest(format!(
                                 "query parameter relightable={}: use true or false",
                                 shorten(v)
@@ -49,32 +48,29 @@ impl ExportRequest {
                         }
                     }
                 }
-                _ => {
-                    if !query_light(k, v, &mut lights)? {
-                        return Err(AppError::BadRequest(format!(
-                            "unknown query parameter '{}' (exposure, tonemap, relightable, \
-                             light.<group>)",
-                            shorten(k)
-                        )));
-                    }
-                }
+                _ => return Ok(false),
             }
-        }
-        r.lights = Lights(lights);
+            Ok(true)
+        })?;
         Ok(r)
     }
+}
 
-    /// The group weights (422 for unknown groups and values out of range) and options.
-    pub(crate) fn resolve(
-        &self,
-        model: &Model,
-    ) -> Result<(Vec<crate::color::Rgb>, ExportOptions), AppError> {
-        let weights = match lighting(Some(&self.lights), None, model)? {
-            Lighting::Groups(w) => w,
-            Lighting::Emission(_) => {
-                return Err(AppError::Internal("export: lights gave an emission".into()))
-            }
-        };
+/// An export in the model's terms: the group weights and the look of the colours.
+pub(crate) struct ExportAsk {
+    pub weights: Vec<Rgb>,
+    pub options: ExportOptions,
+    /// The file's size at most, bytes (within [`MAX_EXPORT_BYTES`]).
+    pub bytes: u64,
+}
+
+impl Resolve for ExportRequest {
+    type Resolved = ExportAsk;
+
+    /// The group weights (422 for unknown groups and values out of range) and options,
+    /// and the file's size, refused over [`MAX_EXPORT_BYTES`].
+    fn resolve(&self, model: &Model) -> Result<ExportAsk, AppError> {
+        let weights = light_weights(Some(&self.lights), model)?;
         let exposure = match self.exposure {
             None => None,
             Some(e) => {
@@ -87,14 +83,25 @@ impl ExportRequest {
                 Some(e as f32)
             }
         };
-        Ok((
+        let options = ExportOptions {
+            exposure,
+            tonemap: self.tonemap.0,
+            relightable: self.relightable,
+        };
+        // Shading vertices are at most three per patch.
+        let bytes = export_bytes(model, 3 * model.baked.mesh.len(), options.relightable);
+        if bytes > MAX_EXPORT_BYTES {
+            return Err(AppError::Invalid(format!(
+                "the export could take up to {} (limit {}): ask with relightable=false",
+                human_bytes(bytes),
+                human_bytes(MAX_EXPORT_BYTES)
+            )));
+        }
+        Ok(ExportAsk {
             weights,
-            ExportOptions {
-                exposure,
-                tonemap: self.tonemap.0,
-                relightable: self.relightable,
-            },
-        ))
+            options,
+            bytes,
+        })
     }
 }
 

@@ -8,7 +8,7 @@ use utoipa::openapi::RefOr;
 use utoipa::ToSchema;
 
 use super::lighting::{light_weights, Direction, Lights, Position};
-use super::{object_only, raw, schema_ref, some};
+use super::{object_only, raw, schema_ref, some, Resolve};
 use crate::color::Rgb;
 use crate::input_limits::MAX_REQUEST_COORD_M;
 use crate::model::glare::{MAX_OBSERVERS, SEATED_EYE_HEIGHT};
@@ -62,9 +62,17 @@ pub(crate) struct GlareRequest {
 
 object_only!(GlareRequest, "a JSON object");
 
-impl GlareRequest {
+/// A glare request in the model's terms.
+pub(crate) struct GlareAsk {
+    pub weights: Vec<Rgb>,
+    pub observers: Vec<Eye>,
+}
+
+impl Resolve for GlareRequest {
+    type Resolved = GlareAsk;
+
     /// The group weights and each observer's eye and unit direction of view.
-    pub(crate) fn query(&self, model: &Model) -> Result<(Vec<Rgb>, Vec<Eye>), AppError> {
+    fn resolve(&self, model: &Model) -> Result<GlareAsk, AppError> {
         let w = light_weights(self.lights.as_ref(), model)?;
         if self.observers.is_empty() || self.observers.len() > MAX_OBSERVERS {
             return Err(AppError::Invalid(format!(
@@ -112,6 +120,9 @@ impl GlareRequest {
                 Ok((eye, d))
             })
             .collect::<Result<_, AppError>>()?;
-        Ok((w, observers))
+        Ok(GlareAsk {
+            weights: w,
+            observers,
+        })
     }
 }

@@ -13,7 +13,8 @@ use utoipa::ToSchema;
 
 use super::lighting::{Direction, Position};
 use super::{
-    deserialize_by, grid_ids, lit_request, names, object_only, raw, schema_ref, some, visit_numbers,
+    deserialize_by, grid_ids, lit_request, names, object_only, raw, schema_ref, some,
+    visit_numbers, Resolve,
 };
 use crate::input_limits::{MAX_REQUEST_COORD_M, MAX_REQUEST_POINTS};
 use crate::model::query::{Factors, IlluminanceQuery};
@@ -64,9 +65,17 @@ lit_request! {
     }
 }
 
-impl IlluminanceRequest {
+/// An illuminance request in the model's terms.
+pub(crate) struct IlluminanceAsk {
+    pub lighting: Lighting,
+    pub query: IlluminanceQuery,
+}
+
+impl Resolve for IlluminanceRequest {
+    type Resolved = IlluminanceAsk;
+
     /// The lighting state and the query; nothing asked for means every surface.
-    pub(crate) fn query(&self, model: &Model) -> Result<(Lighting, IlluminanceQuery), AppError> {
+    fn resolve(&self, model: &Model) -> Result<IlluminanceAsk, AppError> {
         let lighting = self.lighting(model)?;
         let mut q = report_query(self.surfaces.as_deref(), &self.grids, &self.points, model)?;
         q.maintenance = self
@@ -83,7 +92,7 @@ impl IlluminanceRequest {
             }
             q.requirements.insert(gi, *r);
         }
-        Ok((lighting, q))
+        Ok(IlluminanceAsk { lighting, query: q })
     }
 }
 

@@ -4,8 +4,7 @@
 //! and the OpenAPI document cannot drift apart.
 //!
 //! Deserialization checks shapes and types; the numbers' ranges and the ids are checked
-//! after it, by the conversions to engine terms (`lighting`, `query`, `options`, …),
-//! through [`super::parse`] and the query model.
+//! after it, by the one conversion to engine terms ([`Resolve`]), through [`super::parse`] and the query model.
 //!
 //! One module per route (as in [`super::routes`]), and [`lighting`]: light-group
 //! settings, per-patch emission, skies, and the triples (colours, positions, directions)
@@ -29,6 +28,7 @@ pub(crate) mod glare;
 pub(crate) mod illuminance;
 pub(crate) mod lighting;
 pub(crate) mod optimize;
+pub(crate) mod query;
 pub(crate) mod radiosity;
 pub(crate) mod render;
 
@@ -42,6 +42,17 @@ pub(crate) use radiosity::RadiosityRequest;
 pub(crate) use render::RenderRequest;
 // Schemas written as JSON Schema, for the union types that have their own deserializers.
 pub(crate) use crate::schema::raw;
+
+/// A request read against a scene's model: the one conversion of every request to the
+/// model's terms, checked (ranges, ids, limits), into a named type.
+pub(crate) trait Resolve {
+    /// What the request asks, in the model's terms.
+    type Resolved;
+    fn resolve(
+        &self,
+        model: &crate::model::Model,
+    ) -> Result<Self::Resolved, crate::server::AppError>;
+}
 
 /// For optional fields: present means a value of `T`, never `null` (serde's `Option`
 /// would take `null` for absent). Use with `#[serde(default, deserialize_with = "some")]`.

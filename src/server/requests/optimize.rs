@@ -8,7 +8,7 @@ use utoipa::openapi::RefOr;
 use utoipa::ToSchema;
 
 use super::lighting::{light_weights, Lights};
-use super::{object_only, raw, schema_ref, some};
+use super::{object_only, raw, schema_ref, some, Resolve};
 use crate::color::Rgb;
 use crate::model::optimize::{GridTarget, MAX_TARGET_LUX};
 use crate::model::Model;
@@ -88,11 +88,19 @@ pub(crate) struct OptimizeRequest {
 
 object_only!(OptimizeRequest, "a JSON object");
 
-/// What the optimizer is given: the base weights, the free groups, the targets.
-pub(crate) type Problem = (Vec<Rgb>, Vec<usize>, Vec<GridTarget>);
+/// What the optimizer is given.
+pub(crate) struct OptimizeAsk {
+    /// The weights of every group; the free groups' are replaced by the levels found.
+    pub base: Vec<Rgb>,
+    /// The groups the optimizer may dim.
+    pub free: Vec<usize>,
+    pub targets: Vec<GridTarget>,
+}
 
-impl OptimizeRequest {
-    pub(crate) fn problem(&self, model: &Model) -> Result<Problem, AppError> {
+impl Resolve for OptimizeRequest {
+    type Resolved = OptimizeAsk;
+
+    fn resolve(&self, model: &Model) -> Result<OptimizeAsk, AppError> {
         let base = light_weights(Some(&self.lights), model)?;
         let free = match &self.groups {
             None => (0..model.baked.scene.lights.len()).collect(),
@@ -103,9 +111,15 @@ impl OptimizeRequest {
             }
             Some(ids) => group_list(ids, model)?,
         };
-        Ok((base, free, self.targets(model)?))
+        Ok(OptimizeAsk {
+            base,
+            free,
+            targets: self.targets(model)?,
+        })
     }
+}
 
+impl OptimizeRequest {
     /// One target per grid, each checked.
     fn targets(&self, model: &Model) -> Result<Vec<GridTarget>, AppError> {
         if self.targets.is_empty() {

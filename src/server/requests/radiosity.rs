@@ -2,10 +2,10 @@
 //! per patch.
 
 use super::lighting::sky_state;
-use super::{choice_impls, lit_request, some, Choice};
+use super::{choice_impls, lit_request, some, Choice, Resolve};
 use crate::model::query::Quantity;
 use crate::model::sky_state::{SkySpec, SkyState};
-use crate::model::Model;
+use crate::model::{Lighting, Model};
 use crate::server::json::FIELD;
 use crate::server::AppError;
 
@@ -38,16 +38,26 @@ choice_impls!(
     "radiosity: B, lm/m² leaving each patch; illuminance: H, lux arriving at each patch."
 );
 
+/// A radiosity request in the model's terms.
+pub(crate) struct RadiosityAsk {
+    pub lighting: Lighting,
+    /// The sky whose daylight is added.
+    pub sky: Option<SkyState>,
+    /// Whether per-surface averages are asked for too.
+    pub surfaces: bool,
+    pub quantity: Quantity,
+}
+
 lit_request! {
     /// A lighting state and what to return.
     RadiosityRequest, "a JSON object" {
         /// Also return per-surface area-weighted averages.
         #[serde(default)]
         #[schema(default = false)]
-        pub surfaces: bool,
+        surfaces: bool,
         #[serde(default)]
         #[schema(inline)]
-        pub quantity: QuantityName,
+        quantity: QuantityName,
         /// Daylight from this sky (a scene with a [site]) added to the light groups' light.
         #[serde(default, deserialize_with = "some")]
         #[schema(nullable = false)]
@@ -55,9 +65,19 @@ lit_request! {
     }
 }
 
-impl RadiosityRequest {
-    /// The sky, resolved for the scene's site.
-    pub(crate) fn sky(&self, model: &Model) -> Result<Option<SkyState>, AppError> {
-        sky_state(self.sky.as_ref(), model)
+impl Resolve for RadiosityRequest {
+    type Resolved = RadiosityAsk;
+
+    /// The lighting state, and the sky resolved for the scene's site.
+    fn resolve(&self, model: &Model) -> Result<RadiosityAsk, AppError> {
+        let lighting = self.lighting(model)?;
+        let sky = sky_state(self.sky.as_ref(), model)?;
+        let (surfaces, quantity) = (self.surfaces, self.quantity.0);
+        Ok(RadiosityAsk {
+            lighting,
+            sky,
+            surfaces,
+            quantity,
+        })
     }
 }

@@ -1,8 +1,6 @@
 //! The body of `POST …/render` and the query of `GET …/render.png`, and their
 //! conversion to [`RenderOptions`].
 
-use std::collections::BTreeMap;
-
 use serde::de::{MapAccess, SeqAccess};
 use serde::Deserialize;
 use serde_json::json;
@@ -10,15 +8,15 @@ use utoipa::openapi::schema::Schema;
 use utoipa::openapi::RefOr;
 use utoipa::{PartialSchema, ToSchema};
 
-use super::lighting::{sky_state, Direction, LightSetting, Lights, Position, Triple};
+use super::lighting::{sky_state, Direction, Position};
+use super::query::{read_query, Param};
 use super::{
     choice_impls, deserialize_by, lit_request, object_only, raw, schema_ref, some, visit_numbers,
-    Choice,
+    Choice, Resolve,
 };
 use crate::input_limits::MAX_REQUEST_COORD_M;
-use crate::model::lighting::parse_value;
 use crate::model::sky_state::{SkySpec, SkyState};
-use crate::model::Model;
+use crate::model::{Lighting, Model};
 use crate::render::final_gather::MAX_FINAL_PIXELS;
 use crate::render::pipeline::{
     Quality, RenderOptions, MAX_FOV_DEG, MAX_RANGE_LUX, MIN_FOV_DEG, MIN_RANGE_LUX,
@@ -211,9 +209,30 @@ lit_request! {
     }
 }
 
+/// A render request in the model's terms.
+pub(crate) struct RenderAsk {
+    pub lighting: Lighting,
+    /// The sky whose daylight is added (light-group states only).
+    pub sky: Option<SkyState>,
+    pub options: RenderOptions,
+}
+
+impl Resolve for RenderRequest {
+    type Resolved = RenderAsk;
+
+    /// The lighting state, the sky and the image's options, checked in that order.
+    fn resolve(&self, model: &Model) -> Result<RenderAsk, AppError> {
+        Ok(RenderAsk {
+            lighting: self.lighting(model)?,
+            sky: self.sky(model)?,
+            options: self.options(model)?,
+        })
+    }
+}
+
 impl RenderRequest {
     /// The sky, resolved for the scene's site; a sky goes with light groups only.
-    pub(crate) fn sky(&self, model: &Model) -> Result<Option<SkyState>, AppError> {
+    fn sky(&self, model: &Model) -> Result<Option<SkyState>, AppError> {
         if self.sky.is_some() && self.emission.is_some() {
             return Err(AppError::Invalid(
                 "a render takes a sky with light groups (lights), not with a per-patch emission"
@@ -224,7 +243,7 @@ impl RenderRequest {
     }
 
     /// The camera, image size and look, checked.
-    pub(crate) fn options(&self, model: &Model) -> Result<RenderOptions, AppError> {
+    fn options(&self, model: &Model) -> Result<RenderOptions, AppError> {
         let w = size(self.width, "width")?;
         let h = size(self.height, "height")?;
         let camera = camera(self.camera.as_ref(), model, w, h)?;
@@ -281,96 +300,63 @@ impl RenderRequest {
     /// `render.png?camera=front&w=512&h=512&light.ceiling=0.5&exposure=0&mode=falsecolor`:
     /// 400 for a parameter given twice, unknown, or not a number where one is expected.
     pub(crate) fn from_query(q: &[(String, String)]) -> Result<RenderRequest, AppError> {
+        Self::from_query_and(q, |_| Ok(false))
+    }
+
+    /// [`Self::from_query`] for a route that takes parameters of its own besides these:
+    /// `own` is offered each parameter first and answers true for one it took.
+    pub(crate) fn from_query_and<'q>(
+        q: &'q [(String, String)],
+        mut own: impl FnMut(&Param<'q>) -> Result<bool, AppError>,
+    ) -> Result<RenderRequest, AppError> {
         let mut r = RenderRequest::default();
-        let mut lights = BTreeMap::new();
-        let mut seen: Vec<&str> = Vec::with_capacity(q.len());
-        for (k, v) in q {
-            let key = match k.as_str() {
-                "w" => "width",
-                "h" => "height",
-                k => k,
-            };
-            given_once(&mut seen, key, k)?;
-            let num = |v: &str| query_number(k, v);
-            match key {
-                "camera" => r.camera = Some(CameraSpec::Preset(v.clone())),
-                "width" => r.width = Some(num(v)?),
-                "height" => r.height = Some(num(v)?),
-                "exposure" if v == "auto" => r.exposure = Some(Exposure::Auto),
-                "exposure" => r.exposure = Some(Exposure::Stops(num(v)?)),
-                "mode" => r.mode = query_choice(key, v)?,
-                "tonemap" => r.tonemap = query_choice(key, v)?,
-                "quality" => r.quality = query_choice(key, v)?,
-                _ => {
-                    if !query_light(k, v, &mut lights)? {
-                        return Err(AppError::BadRequest(format!(
-                            "unknown query parameter '{}' (camera, w, h, exposure, mode, tonemap, quality, light.<group>)", shorten(k)
-                        )));
-                    }
-                }
-            }
-        }
-        r.lights = Some(Lights(lights));
+        let lights = read_query(q, render_alias, RENDER_PARAMS, |p| {
+            Ok(own(&p)? || r.take(p)?)
+        })?;
+        r.lights = Some(lights);
         Ok(r)
     }
-}
 
-/// Reads `light.ID=0.5` or `light.ID=r,g,b` into `lights`; false for other keys.
-pub(super) fn query_light(
-    k: &str,
-    v: &str,
-    lights: &mut BTreeMap<String, LightSetting>,
-) -> Result<bool, AppError> {
-    let Some(g) = k.strip_prefix("light.") else {
-        return Ok(false);
-    };
-    let bad = |e: String| {
-        AppError::BadRequest(format!(
-            "query parameter {}={}: {e}",
-            shorten(k),
-            shorten(v)
-        ))
-    };
-    // The one text grammar of a setting, as on the command line.
-    let s = match parse_value(v).map_err(bad)? {
-        (_, Some(c)) => LightSetting::colored(Triple(c)),
-        (i, None) => LightSetting::Intensity(i.unwrap_or(1.0)),
-    };
-    lights.insert(g.to_string(), s);
-    Ok(true)
-}
-
-/// Notes query parameter `key` (its canonical name; `k` as the client wrote it) as
-/// given: 400 when it was given before.
-pub(super) fn given_once<'q>(
-    seen: &mut Vec<&'q str>,
-    key: &'q str,
-    k: &str,
-) -> Result<(), AppError> {
-    if seen.contains(&key) {
-        return Err(given_twice(k));
+    /// Takes query parameter `p` of `render.png`; false when it is not one.
+    fn take(&mut self, p: Param<'_>) -> Result<bool, AppError> {
+        match p.name {
+            "camera" => self.camera = Some(CameraSpec::Preset(p.value.to_string())),
+            "width" => self.width = Some(p.number()?),
+            "height" => self.height = Some(p.number()?),
+            "exposure" if p.value == "auto" => self.exposure = Some(Exposure::Auto),
+            "exposure" => self.exposure = Some(Exposure::Stops(p.number()?)),
+            "mode" => self.mode = p.choice()?,
+            "tonemap" => self.tonemap = p.choice()?,
+            "quality" => self.quality = p.choice()?,
+            _ => return Ok(false),
+        }
+        Ok(true)
     }
-    seen.push(key);
-    Ok(())
+
+    /// The camera preset the request names, if it names one.
+    pub(crate) fn camera_preset(&self) -> Option<&str> {
+        match &self.camera {
+            Some(CameraSpec::Preset(id)) => Some(id),
+            _ => None,
+        }
+    }
+
+    /// Whether the request gives the image's width or height.
+    pub(crate) fn has_size(&self) -> bool {
+        self.width.is_some() || self.height.is_some()
+    }
 }
 
-/// The 400 for query parameter `k` given twice.
-pub(crate) fn given_twice(k: &str) -> AppError {
-    AppError::BadRequest(format!("query parameter '{}' is given twice", shorten(k)))
-}
+/// The parameters of `render.png` besides the lights, for the 400 of an unknown one.
+const RENDER_PARAMS: &str = "camera, w, h, exposure, mode, tonemap, quality, light.<group>";
 
-pub(super) fn query_number(k: &str, v: &str) -> Result<f64, AppError> {
-    v.parse::<f64>().map_err(|_| {
-        AppError::BadRequest(format!(
-            "query parameter {}={}: not a number",
-            shorten(k),
-            shorten(v)
-        ))
-    })
-}
-
-pub(super) fn query_choice<T: Choice>(key: &str, v: &str) -> Result<T, AppError> {
-    T::pick(v).ok_or_else(|| AppError::Invalid(T::refuse(&shorten(v)).replacen(FIELD, key, 1)))
+/// `render.png`'s short names of the image's size.
+fn render_alias(k: &str) -> &str {
+    match k {
+        "w" => "width",
+        "h" => "height",
+        k => k,
+    }
 }
 
 /// An image side, pixels (default 512).

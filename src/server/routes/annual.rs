@@ -6,11 +6,9 @@ use axum::Json;
 
 use super::grid_points;
 use crate::model::annual::{AnnualAnswer, AnnualQuery};
-use crate::model::QueryError;
 use crate::server::openapi::{PostErrors, SceneIdParam};
 use crate::server::parse::ScenePost;
-use crate::server::requests::annual::Weather;
-use crate::server::requests::AnnualRequest;
+use crate::server::requests::{AnnualRequest, Resolve};
 use crate::server::AppError;
 
 #[utoipa::path(post, path = "/api/scenes/{id}/annual", operation_id = "annual", tags = ["scenes"],
@@ -22,23 +20,18 @@ use crate::server::AppError;
 pub(crate) async fn annual(
     ScenePost(ready, state, req): ScenePost<AnnualRequest>,
 ) -> Result<Json<AnnualAnswer>, AppError> {
-    let (grids, occupied, weather) = req.parts(&ready.model)?;
-    let points = grid_points(&ready.model, &grids);
+    let ask = req.resolve(&ready.model)?;
+    let points = grid_points(&ready.model, &ask.grids);
     // Sized for a leap year, before the file is read.
-    let bytes = ready.model.annual_bytes(&grids, 8784);
+    let bytes = ready.model.annual_bytes(&ask.grids, 8784);
     let what = format!("annual metrics for {points} grid points");
     let answer = state
         .heavy(bytes, &what, move |cancel| {
             let m = &ready.model;
-            let weather = match weather {
-                Weather::File(name) => m.weather_file(&name)?,
-                Weather::Text(text) => crate::daylight::epw::parse(&text)
-                    .map_err(|m| QueryError::Invalid(format!("weather: {m}")))?,
-            };
             let q = AnnualQuery {
-                weather: Arc::new(weather),
-                grids,
-                occupied,
+                weather: Arc::new(m.weather(&ask.weather)?),
+                grids: ask.grids,
+                occupied: ask.occupied,
             };
             Ok(m.annual(&q, cancel)?)
         })

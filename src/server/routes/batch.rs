@@ -7,14 +7,13 @@ use serde::Serialize;
 use std::collections::BTreeMap;
 use utoipa::ToSchema;
 
-use super::grid_points;
-use crate::model::query::{GridAnswer, BYTES_PER_PATCH_ANSWER};
+use crate::model::query::GridAnswer;
 use crate::model::report::{PowerReport, SurfaceIlluminance};
 use crate::model::Lighting;
 use crate::schema::{lm, lm_per_m2, lx};
 use crate::server::openapi::{PostErrors, SceneIdParam};
 use crate::server::parse::ScenePost;
-use crate::server::requests::BatchRequest;
+use crate::server::requests::{BatchRequest, Resolve};
 use crate::server::AppError;
 
 /// The units of the results.
@@ -64,20 +63,13 @@ pub(crate) async fn batch(
     ScenePost(ready, state, req): ScenePost<BatchRequest>,
 ) -> Result<Json<BatchResponse>, AppError> {
     let m = &ready.model;
-    let (grids, surfaces) = req.plan(m)?;
-    let with_radiosity = req.radiosity;
+    let report = req.resolve(m)?;
     let states = &req.states;
     // Refused here, in microseconds, when the transfer cannot solve the emission states
     // or (hierarchical) they would take too long.
     let emission_states = states.iter().filter(|s| s.is_emission()).count();
     let plan = m.plan_batch(states.len(), emission_states)?;
-    // Memory: the solves' working memory (a chunk of emission states at a time), and
-    // every answer's surfaces, grids and (when asked) radiosity, then as text.
-    let n = m.patches() as u64;
-    let grid_points = grid_points(m, &grids) as u64;
-    let per_state =
-        400 * surfaces.len() as u64 + 48 * grid_points + if with_radiosity { 150 * n } else { 0 };
-    let bytes = 2 * states.len() as u64 * per_state + plan.bytes + BYTES_PER_PATCH_ANSWER * n;
+    let bytes = m.batch_bytes(&plan, &report);
     let what = format!("a batch of {} states", states.len());
     let results = state
         .heavy(bytes, &what, move |cancel| {
@@ -89,9 +81,10 @@ pub(crate) async fn batch(
                 |k| states[k].lighting(m).map_err(|e| at(k, e)),
                 cancel,
                 |k, l, sol| {
-                    let radiosity = with_radiosity
+                    let radiosity = report
+                        .radiosity
                         .then(|| crate::color::Rgb::column(&sol.b).to_vec());
-                    let grid_answers = if grids.is_empty() {
+                    let grid_answers = if report.grids.is_empty() {
                         None
                     } else {
                         let Lighting::Groups(w) = l else {
@@ -99,10 +92,10 @@ pub(crate) async fn batch(
                                 "grids need light-group states (per-patch emission has no grid columns)".into(),
                             )));
                         };
-                        Some(m.grid_answers(&grids, &w))
+                        Some(m.grid_answers(&report.grids, &w))
                     };
                     results.push(BatchResult {
-                        surfaces: m.surface_stats(&surfaces, &sol.h),
+                        surfaces: m.surface_stats(&report.surfaces, &sol.h),
                         power: PowerReport::new(m.baked.transfer.power(&sol)),
                         radiosity,
                         grids: grid_answers,

@@ -7,7 +7,7 @@ use super::at_points;
 use crate::model::daylight::DaylightAnswer;
 use crate::server::openapi::{PostErrors, SceneIdParam};
 use crate::server::parse::ScenePost;
-use crate::server::requests::DaylightRequest;
+use crate::server::requests::{DaylightRequest, Resolve};
 use crate::server::AppError;
 
 #[utoipa::path(post, path = "/api/scenes/{id}/daylight", operation_id = "daylight", tags = ["scenes"],
@@ -19,12 +19,15 @@ use crate::server::AppError;
 pub(crate) async fn daylight(
     ScenePost(ready, state, req): ScenePost<DaylightRequest>,
 ) -> Result<Json<DaylightAnswer>, AppError> {
-    let (sky, weights, q) = req.query(&ready.model)?;
-    let bytes = ready.model.daylight_bytes(&q);
-    let what = at_points("daylight", &ready.model, &q);
+    let ask = req.resolve(&ready.model)?;
+    let bytes = ready.model.daylight_bytes(&ask.query);
+    let what = at_points("daylight", &ready.model, &ask.query);
     let answer = state
         .heavy(bytes, &what, move |cancel| {
-            Ok(ready.model.daylight(&sky, weights.as_deref(), &q, cancel)?)
+            let weights = ask.weights.as_deref();
+            Ok(ready
+                .model
+                .daylight(&ask.sky, weights, &ask.query, cancel)?)
         })
         .await?;
     Ok(Json(answer))

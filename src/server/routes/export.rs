@@ -9,10 +9,11 @@ use axum::response::Response;
 
 use super::{made, put};
 use crate::budget::human_bytes;
-use crate::render::{self, export_bytes, MAX_EXPORT_BYTES};
+use crate::render;
 use crate::server::openapi::{GlbFile, QueryErrors, SceneIdParam};
 use crate::server::parse::{ReadyScene, SceneId};
 use crate::server::requests::export::{ExportQuery, ExportRequest};
+use crate::server::requests::Resolve;
 use crate::server::AppError;
 
 #[utoipa::path(get, path = "/api/scenes/{id}/export.glb", operation_id = "exportGlb", tags = ["scenes"],
@@ -26,26 +27,13 @@ pub(crate) async fn export_glb(
 ) -> Result<Response, AppError> {
     let t0 = Instant::now();
     let req = ExportRequest::from_query(&q)?;
-    let (weights, o) = req.resolve(&ready.model)?;
-    // Shading vertices are at most three per patch; the working set is about twice the file.
-    let m = &ready.model;
-    let size = export_bytes(m, 3 * m.baked.mesh.len(), o.relightable);
-    if size > MAX_EXPORT_BYTES {
-        return Err(AppError::Invalid(format!(
-            "the export could take up to {} (limit {}): ask with relightable=false",
-            human_bytes(size),
-            human_bytes(MAX_EXPORT_BYTES)
-        )));
-    }
-    let what = format!("a glTF export (up to {})", human_bytes(size));
+    let ask = req.resolve(&ready.model)?;
+    // The working set is about twice the file.
+    let what = format!("a glTF export (up to {})", human_bytes(ask.bytes));
     let r = state
-        .heavy(2 * size, &what, move |_| {
-            Ok(render::export_glb(
-                &ready.model,
-                ready.shading(),
-                &weights,
-                &o,
-            ))
+        .heavy(2 * ask.bytes, &what, move |_| {
+            let (m, shading) = (&ready.model, ready.shading());
+            Ok(render::export_glb(m, shading, &ask.weights, &ask.options))
         })
         .await?;
     let timing = ("x-relight-export-ms", t0);

@@ -6,7 +6,8 @@ use axum::Json;
 use crate::model::glare::ObserverGlare;
 use crate::server::openapi::{PostErrors, SceneIdParam};
 use crate::server::parse::ScenePost;
-use crate::server::requests::GlareRequest;
+use crate::server::requests::glare::GlareAsk;
+use crate::server::requests::{GlareRequest, Resolve};
 use crate::server::AppError;
 
 /// The ratings, one per observer in the order asked.
@@ -25,14 +26,12 @@ pub(crate) struct GlareAnswer {
 pub(crate) async fn glare(
     ScenePost(ready, state, req): ScenePost<GlareRequest>,
 ) -> Result<Json<GlareAnswer>, AppError> {
-    let (w, observers) = req.query(&ready.model)?;
-    // An observer's view costs a gather once (its gather weights: a few bytes per patch);
-    // later states reuse it.
-    let bytes = 16 * ready.model.baked.mesh.len() as u64 * observers.len() as u64;
+    let GlareAsk { weights, observers } = req.resolve(&ready.model)?;
+    let bytes = ready.model.glare_bytes(observers.len());
     let what = format!("glare at {} observers", observers.len());
     let answer = state
         .heavy(bytes, &what, move |cancel| {
-            Ok(ready.model.glare(&observers, &w, cancel)?)
+            Ok(ready.model.glare(&observers, &weights, cancel)?)
         })
         .await?;
     Ok(Json(GlareAnswer { observers: answer }))

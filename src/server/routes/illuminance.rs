@@ -7,7 +7,8 @@ use super::at_points;
 use crate::model::query::IlluminanceAnswer;
 use crate::server::openapi::{PostErrors, SceneIdParam};
 use crate::server::parse::ScenePost;
-use crate::server::requests::IlluminanceRequest;
+use crate::server::requests::illuminance::IlluminanceAsk;
+use crate::server::requests::{IlluminanceRequest, Resolve};
 use crate::server::AppError;
 
 #[utoipa::path(post, path = "/api/scenes/{id}/illuminance", operation_id = "illuminance", tags = ["scenes"],
@@ -20,7 +21,7 @@ use crate::server::AppError;
 pub(crate) async fn illuminance(
     ScenePost(ready, state, req): ScenePost<IlluminanceRequest>,
 ) -> Result<Json<IlluminanceAnswer>, AppError> {
-    let (lighting, q) = req.query(&ready.model)?;
+    let IlluminanceAsk { lighting, query: q } = req.resolve(&ready.model)?;
     // Group lighting and no points: a weighted sum of precomputed columns, inline.
     if ready.model.is_cheap(&lighting, &q) {
         let answer = ready

@@ -6,7 +6,7 @@ use axum::Json;
 use crate::model::optimize::OptimizeAnswer;
 use crate::server::openapi::{PostErrors, SceneIdParam};
 use crate::server::parse::ScenePost;
-use crate::server::requests::OptimizeRequest;
+use crate::server::requests::{OptimizeRequest, Resolve};
 use crate::server::AppError;
 
 #[utoipa::path(post, path = "/api/scenes/{id}/optimize", operation_id = "optimize", tags = ["scenes"],
@@ -19,16 +19,17 @@ use crate::server::AppError;
 pub(crate) async fn optimize(
     ScenePost(ready, state, req): ScenePost<OptimizeRequest>,
 ) -> Result<Json<OptimizeAnswer>, AppError> {
-    let (base, free, targets) = req.problem(&ready.model)?;
-    let bytes = ready.model.optimize_bytes(free.len(), &targets);
-    let rows: usize = targets
-        .iter()
-        .map(|t| ready.model.grids[t.grid].len())
-        .sum();
-    let what = format!("optimizing {} groups over {rows} grid points", free.len());
+    let ask = req.resolve(&ready.model)?;
+    let m = &ready.model;
+    let bytes = m.optimize_bytes(ask.free.len(), &ask.targets);
+    let rows: usize = ask.targets.iter().map(|t| m.grids[t.grid].len()).sum();
+    let what = format!(
+        "optimizing {} groups over {rows} grid points",
+        ask.free.len()
+    );
     let answer = state
         .heavy(bytes, &what, move |_| {
-            Ok(ready.model.optimize(&base, &free, &targets)?)
+            Ok(ready.model.optimize(&ask.base, &ask.free, &ask.targets)?)
         })
         .await?;
     Ok(Json(answer))

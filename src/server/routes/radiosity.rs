@@ -18,7 +18,8 @@ use crate::model::Lighting;
 use crate::schema::{words, Rgb};
 use crate::server::openapi::{PostErrors, RadiosityAnswer, SceneIdParam};
 use crate::server::parse::ScenePost;
-use crate::server::requests::RadiosityRequest;
+use crate::server::requests::radiosity::RadiosityAsk;
+use crate::server::requests::{RadiosityRequest, Resolve};
 use crate::server::AppError;
 
 fn radiosity_unit() -> RefOr<Schema> {
@@ -58,7 +59,12 @@ pub(crate) async fn radiosity(
     headers: HeaderMap,
     ScenePost(ready, state, req): ScenePost<RadiosityRequest>,
 ) -> Result<Response, AppError> {
-    let (want_surfaces, quantity) = (req.surfaces, req.quantity.0);
+    let RadiosityAsk {
+        lighting,
+        sky,
+        surfaces: want_surfaces,
+        quantity,
+    } = req.resolve(&ready.model)?;
     let (key, unit, layout) = match quantity {
         Quantity::Illuminance => (
             "illuminance",
@@ -71,8 +77,6 @@ pub(crate) async fn radiosity(
             "f32 LE [patch][r,g,b] radiosity, lm/m2",
         ),
     };
-    let lighting = req.lighting(&ready.model)?;
-    let sky = req.sky(&ready.model)?;
     let n = ready.model.patches();
     let binary_out = wants_binary(&headers);
     // The hot path: group weights and binary out, no surfaces, no sky: one weighted sum (a
@@ -88,12 +92,7 @@ pub(crate) async fn radiosity(
     state
         .heavy(bytes, &what, move |_| {
             let m = &ready.model;
-            let mut sol = m.solve(&lighting)?;
-            if let Some(sky) = &sky {
-                let day = m.patch_daylight(sky)?;
-                sol.b.iter_mut().zip(&day.b).for_each(|(a, x)| *a += x);
-                sol.h.iter_mut().zip(&day.h).for_each(|(a, x)| *a += x);
-            }
+            let sol = m.solve_daylit(&lighting, sky.as_ref())?;
             let b = &m.baked;
             let surfaces = want_surfaces.then(|| surface_averages(&b.scene, &b.mesh, &sol));
             let values = match quantity {

@@ -13,17 +13,18 @@ use super::{made, put};
 use crate::budget::human_bytes;
 use crate::model::sky_state::SkyState;
 use crate::model::{Cancel, Lighting};
-use crate::render::daylight::{daylight_pixels, DaylightScene, SunView};
-use crate::render::pipeline::{self, Frame, Quality, RenderOptions};
+use crate::render::pipeline::{self, Daylit, Frame, RenderOptions};
 use crate::render::ViewBuffer;
 use crate::server::openapi::{PostErrors, QueryErrors, RenderImage, RenderPng, SceneIdParam};
 use crate::server::parse::{ReadyScene, ScenePost};
-use crate::server::requests::render::RenderQuery;
-use crate::server::requests::RenderRequest;
-use crate::server::views::{render_estimate, view_for};
+use crate::server::requests::render::{RenderAsk, RenderQuery};
+use crate::server::requests::{RenderRequest, Resolve};
+use crate::server::views::{self, render_estimate, view_for};
 use crate::server::{AppError, AppState, Ready};
 
-/// Renders and encodes through the view cache.
+/// Renders and encodes through the view cache, under `sky` when given: the view and its
+/// images come from the cache (built there when missing), the image from
+/// [`pipeline::render`] or [`pipeline::render_daylit`].
 pub(super) fn render_image(
     state: &AppState,
     ready: &Ready,
@@ -33,46 +34,24 @@ pub(super) fn render_image(
     cancel: &Cancel,
 ) -> Result<pipeline::Rendered, AppError> {
     let entry = view_for(state, ready, &o.camera);
-    let finals = if o.quality == Quality::Final && !o.falsecolor {
+    let settings = &state.config.final_settings;
+    let (mut finals, mut daylight) = (None, None);
+    if pipeline::wants_finals(o) {
         pipeline::needs_groups(lighting)?;
-        let f = entry.final_images(ready, &o.camera, &state.config.final_settings, cancel)?;
+        finals = Some(entry.final_images(ready, &o.camera, settings, cancel)?);
+        if let Some(sky) = sky {
+            daylight = Some(entry.final_daylight(ready, &o.camera, sky, settings, cancel)?);
+        }
         // The entry grew by its final images: keep the cache within bounds.
-        super::super::views::trim(state);
-        Some(f)
-    } else {
-        None
-    };
-    if let Some(sky) = sky {
-        let daylight = match &finals {
-            Some(_) => {
-                let d = entry.final_daylight(
-                    ready,
-                    &o.camera,
-                    sky,
-                    &state.config.final_settings,
-                    cancel,
-                )?;
-                super::super::views::trim(state);
-                Some(d)
-            }
-            None => None,
-        };
-        let finals = finals.as_deref().zip(daylight.as_deref());
-        return render_under_sky(ready, &entry, lighting, sky, finals, o);
+        views::trim(state);
     }
-    if let Some(f) = &finals {
-        let frame = Frame {
-            view: &entry.buffer,
-            groups: Some(f),
-            shading: ready.shading(),
-        };
-        return pipeline::render(&ready.model, frame, lighting, o).map_err(AppError::from);
-    }
-    let groups = match lighting {
-        Lighting::Groups(_) if !o.falsecolor => {
+    let groups = match (&finals, sky, lighting) {
+        (Some(f), _, _) => Some(&**f),
+        // Under a sky, the patches' light groups; else per-group images when worth it.
+        (None, None, Lighting::Groups(_)) if !o.falsecolor => {
             let g = entry.group_images(ready);
             // The entry may have grown by its group images: keep the cache within bounds.
-            super::super::views::trim(state);
+            views::trim(state);
             g
         }
         _ => None,
@@ -82,85 +61,29 @@ pub(super) fn render_image(
         groups,
         shading: ready.shading(),
     };
-    pipeline::render(&ready.model, frame, lighting, o).map_err(AppError::from)
-}
-
-/// [`render_image`] under a sky. At `fast` quality the daylight is the patches' plus the
-/// sun traced per pixel (with shadows) and the sky seen out of the scene, and the light
-/// groups the patches'. At `final` quality, `finals` holds the groups' images and the
-/// daylight's (the sun traced, the sky and the interreflection gathered per pixel).
-fn render_under_sky(
-    ready: &Ready,
-    entry: &crate::server::views::View,
-    lighting: &Lighting,
-    sky: &SkyState,
-    finals: Option<(&crate::render::GroupImages, &crate::render::GroupImages)>,
-    o: &RenderOptions,
-) -> Result<pipeline::Rendered, AppError> {
-    if let (Some((f, day)), Lighting::Groups(w)) = (finals, lighting) {
-        // Final quality: the groups' images and the daylight's, nothing from the patches.
-        let mut rad = day.linear(&[crate::color::Rgb::ONE]);
-        for (r, g) in rad.iter_mut().zip(f.linear(w)) {
-            *r += g;
-        }
-        return pipeline::render_radiance(&rad, o).map_err(AppError::from);
-    }
     let m = &ready.model;
-    let day = m.patch_daylight_without_sun(sky)?;
-    let (mut b, mut h) = (day.b, day.h);
-    if let Lighting::Groups(w) = lighting {
-        let t = &m.baked.transfer;
-        let mut more = vec![0f32; b.len()];
-        t.relight_into(w, &mut more);
-        b.iter_mut().zip(&more).for_each(|(a, x)| *a += x);
-        t.illuminance_into(w, &mut more);
-        h.iter_mut().zip(&more).for_each(|(a, x)| *a += x);
-    }
-    let site = m.site()?;
-    let sun = sky
-        .sun_direction(site)
-        .map(|(direction, normal_illuminance)| SunView {
-            direction,
-            normal_illuminance,
-        });
-    let scene = DaylightScene {
-        mesh: &m.baked.mesh,
-        bvh: &m.baked.bvh,
-        glazing: &m.baked.glazing,
-        rho: &m.baked.transfer.rho,
-        reach: m.reach_length(),
-    };
-    let (rad, lux) = daylight_pixels(&scene, &entry.buffer, &o.camera, sun, &|d| {
-        sky.luminance(site, d)
-    });
-    let frame = Frame {
-        view: &entry.buffer,
-        groups: None,
-        shading: ready.shading(),
-    };
-    pipeline::render_values(frame, &b, &h, (&rad, &lux), o).map_err(AppError::from)
+    Ok(match sky {
+        Some(sky) => {
+            let final_image = daylight.as_deref();
+            pipeline::render_daylit(m, frame, lighting, Daylit { sky, final_image }, o)
+        }
+        None => pipeline::render(m, frame, lighting, o),
+    }?)
 }
 
 async fn respond(
     state: Arc<AppState>,
     ready: Arc<Ready>,
-    lighting: Lighting,
-    sky: Option<SkyState>,
-    o: RenderOptions,
+    ask: RenderAsk,
 ) -> Result<Response, AppError> {
+    let RenderAsk {
+        lighting,
+        sky,
+        options: o,
+    } = ask;
     let t0 = Instant::now();
     let format = o.format;
-    let mut bytes = render_estimate(&state, &ready, &o);
-    if sky.is_some() {
-        // Per-pixel daylight (two RGB images) and per-patch daylight (b, h and a column).
-        let px = o.camera.width as u64 * o.camera.height as u64;
-        bytes += 24 * px + 36 * ready.model.patches() as u64;
-        if o.quality == Quality::Final && !o.falsecolor {
-            // The daylight's own `final` image, built per sky.
-            bytes +=
-                crate::render::final_gather::estimate_bytes(&o.camera, 1, ready.gather_points());
-        }
-    }
+    let bytes = render_estimate(&state, &ready, &o, sky.is_some());
     let what = format!(
         "a {}×{} render (view buffer up to {})",
         o.camera.width,
@@ -192,10 +115,8 @@ async fn respond(
 pub(crate) async fn render_post(
     ScenePost(ready, state, req): ScenePost<RenderRequest>,
 ) -> Result<Response, AppError> {
-    let lighting = req.lighting(&ready.model)?;
-    let sky = req.sky(&ready.model)?;
-    let o = req.options(&ready.model)?;
-    respond(state, ready, lighting, sky, o).await
+    let ask = req.resolve(&ready.model)?;
+    respond(state, ready, ask).await
 }
 
 /// `GET …/render.png?camera=front&w=512&h=512&light.ceiling=0.5&exposure=0&mode=falsecolor`
@@ -207,8 +128,6 @@ pub(crate) async fn render_get(
     ReadyScene(ready, state): ReadyScene,
     Query(q): Query<Vec<(String, String)>>,
 ) -> Result<Response, AppError> {
-    let req = RenderRequest::from_query(&q)?;
-    let lighting = req.lighting(&ready.model)?;
-    let o = req.options(&ready.model)?;
-    respond(state, ready, lighting, None, o).await
+    let ask = RenderRequest::from_query(&q)?.resolve(&ready.model)?;
+    respond(state, ready, ask).await
 }

@@ -15,16 +15,13 @@ use crate::render::pipeline::RenderOptions;
 use crate::render::Camera;
 use crate::server::openapi::{QueryErrors, ReportHtml, SceneIdParam};
 use crate::server::parse::{shorten, ReadyScene};
-use crate::server::requests::render::{given_twice, RenderQuery};
-use crate::server::requests::RenderRequest;
+use crate::server::requests::render::{RenderAsk, RenderQuery};
+use crate::server::requests::{RenderRequest, Resolve};
 use crate::server::views::render_estimate;
 use crate::server::{AppError, Ready};
 
 /// The images' size unless the query gives `w`/`h`, pixels.
 const IMAGE_SIZE: (u32, u32) = (640, 400);
-
-/// Bytes of report text per grid point (its plan cell and label).
-const BYTES_PER_PLAN_POINT: u64 = 320;
 
 /// The title block's words of the report's query.
 #[derive(utoipa::IntoParams)]
@@ -42,67 +39,69 @@ pub(crate) struct ReportQuery {
     author: Option<String>,
 }
 
-/// Takes `title`, `project` and `author` out of the query: 400 when one is given twice,
-/// 422 when one is too long. The rest is the query of `render.png`.
-fn split_meta(q: &[(String, String)]) -> Result<(ReportMeta, Vec<(String, String)>), AppError> {
+/// The report's query: `title`, `project` and `author` (422 when one is too long), and
+/// the rest as `render.png` takes it.
+fn read(q: &[(String, String)]) -> Result<(ReportMeta, RenderRequest), AppError> {
     let mut meta = ReportMeta::default();
-    let mut rest = Vec::with_capacity(q.len());
-    for (k, v) in q {
-        let slot = match k.as_str() {
+    let req = RenderRequest::from_query_and(q, |p| {
+        let slot = match p.name {
             "title" => &mut meta.title,
             "project" => &mut meta.project,
             "author" => &mut meta.author,
-            _ => {
-                rest.push((k.clone(), v.clone()));
-                continue;
-            }
+            _ => return Ok(false),
         };
-        if slot.is_some() {
-            return Err(given_twice(k));
-        }
-        let n = v.chars().count();
+        let n = p.value.chars().count();
         if n > MAX_META_CHARS {
             return Err(AppError::Invalid(format!(
-                "{k} has {n} characters (at most {MAX_META_CHARS}): {}",
-                shorten(v)
+                "{} has {n} characters (at most {MAX_META_CHARS}): {}",
+                p.written,
+                shorten(p.value)
             )));
         }
-        let v = v.trim();
+        let v = p.value.trim();
         *slot = (!v.is_empty()).then(|| v.to_string());
-    }
-    Ok((meta, rest))
+        Ok(true)
+    })?;
+    Ok((meta, req))
 }
 
-/// The render options of each image: the query's camera, else every preset, at the
+/// One image of the report: the camera preset it shows, and how.
+struct ReportImage {
+    camera: String,
+    options: RenderOptions,
+}
+
+/// The report's lighting state and images: the query's camera, else every preset, at the
 /// query's size, else [`IMAGE_SIZE`].
-fn image_options(
-    req: &RenderRequest,
-    q: &[(String, String)],
-    ready: &Ready,
-) -> Result<Vec<RenderOptions>, AppError> {
-    let scene = &ready.model.baked.scene;
-    let given = |names: &[&str]| q.iter().any(|(k, _)| names.contains(&k.as_str()));
-    if scene.cameras.is_empty() && !given(&["camera"]) {
-        return Ok(vec![]);
+fn resolve(req: &RenderRequest, ready: &Ready) -> Result<(Lighting, Vec<ReportImage>), AppError> {
+    let m = &ready.model;
+    let cameras = &m.baked.scene.cameras;
+    if cameras.is_empty() && req.camera_preset().is_none() {
+        return Ok((req.lighting(m)?, vec![]));
     }
-    let o = req.options(&ready.model)?;
-    if given(&["camera"]) {
-        return Ok(vec![o]);
+    let RenderAsk {
+        lighting, options, ..
+    } = req.resolve(m)?;
+    if let Some(id) = req.camera_preset() {
+        let camera = id.to_string();
+        return Ok((lighting, vec![ReportImage { camera, options }]));
     }
-    let sized = given(&["w", "width", "h", "height"]);
-    let (w, h) = if sized {
-        (o.camera.width, o.camera.height)
+    let (w, h) = if req.has_size() {
+        (options.camera.width, options.camera.height)
     } else {
         IMAGE_SIZE
     };
-    Ok(scene
-        .cameras
+    let images = cameras
         .iter()
-        .map(|c| RenderOptions {
-            camera: Camera::from_def(c, w, h),
-            ..o.clone()
+        .map(|c| ReportImage {
+            camera: c.id.clone(),
+            options: RenderOptions {
+                camera: Camera::from_def(c, w, h),
+                ..options.clone()
+            },
         })
-        .collect())
+        .collect();
+    Ok((lighting, images))
 }
 
 /// `GET …/report?light.window_row=0.5&title=…&project=…&author=…`
@@ -115,32 +114,23 @@ pub(crate) async fn report(
     Query(q): Query<Vec<(String, String)>>,
 ) -> Result<Response, AppError> {
     let t0 = Instant::now();
-    let (meta, rest) = split_meta(&q)?;
-    let req = RenderRequest::from_query(&rest)?;
-    let lighting = req.lighting(&ready.model)?;
+    let (meta, req) = read(&q)?;
+    let (lighting, images) = resolve(&req, &ready)?;
     let Lighting::Groups(w) = lighting.clone() else {
         return Err(AppError::Internal(
             "report: the query gave an emission".into(),
         ));
     };
-    let images = image_options(&req, &rest, &ready)?;
     let m = &ready.model;
-    let points: u64 = m.grids.iter().map(|g| g.len() as u64).sum();
-    let renders = images.iter().map(|o| render_estimate(&state, &ready, o));
-    // One image at a time; every encoded image kept (PNG at most 4 bytes a pixel, and
-    // its base64 text); the grids' answers and the text.
-    let kept: u64 = images
+    let pixels: Vec<u64> = images
         .iter()
-        .map(|o| 10 * o.camera.width as u64 * o.camera.height as u64)
-        .sum();
-    let q = crate::model::query::IlluminanceQuery {
-        grids: (0..m.grids.len()).collect(),
-        ..Default::default()
-    };
-    let bytes = renders.max().unwrap_or(0)
-        + kept
-        + 2 * m.illuminance_bytes(&q)
-        + BYTES_PER_PLAN_POINT * points;
+        .map(|i| i.options.camera.width as u64 * i.options.camera.height as u64)
+        .collect();
+    let renders = images
+        .iter()
+        .map(|i| render_estimate(&state, &ready, &i.options, false));
+    let bytes = DesignReport::estimate_bytes(m, &pixels, renders.max().unwrap_or(0));
+    let points: usize = m.grids.iter().map(|g| g.len()).sum();
     let what = format!(
         "a design report ({} images, {points} grid points)",
         images.len()
@@ -149,11 +139,11 @@ pub(crate) async fn report(
     let html = state
         .heavy(bytes, &what, move |cancel| {
             let mut shots = Vec::with_capacity(images.len());
-            for o in &images {
+            for ReportImage { camera, options: o } in images {
                 cancel.check()?;
-                let r = render_image(&st, &ready, &lighting, None, o, cancel)?;
+                let r = render_image(&st, &ready, &lighting, None, &o, cancel)?;
                 shots.push(CameraImage {
-                    camera: camera_name(&ready, &o.camera),
+                    camera,
                     width: o.camera.width,
                     height: o.camera.height,
                     png: r.bytes,
@@ -169,21 +159,4 @@ pub(crate) async fn report(
         timing,
         None,
     ))
-}
-
-/// The preset id a camera came from (matched by position and target), else "view".
-fn camera_name(ready: &Ready, cam: &Camera) -> String {
-    let same = |a: [f64; 3], b: glam::Vec3| {
-        (a[0] as f32 - b.x).abs() < 1e-5
-            && (a[1] as f32 - b.y).abs() < 1e-5
-            && (a[2] as f32 - b.z).abs() < 1e-5
-    };
-    ready
-        .model
-        .baked
-        .scene
-        .cameras
-        .iter()
-        .find(|c| same(c.position, cam.position) && same(c.target, cam.target))
-        .map_or_else(|| "view".to_string(), |c| c.id.clone())
 }

@@ -381,7 +381,7 @@ impl Ctx<'_> {
         if height_above(a, b) <= tol || height_above(b, a) <= tol {
             return None;
         }
-        let f = directed(a, b, &self.quad[quadrature_level(a, b)]);
+        let f = directed(a, b, &self.quad, quadrature_level(a, b));
         if f <= 0.0 {
             return None;
         }

@@ -1,16 +1,16 @@
 //! The emitting surfaces' direct light: each emitting triangle's exact form factor times
-//! its visible share (a clear shaft, or stratified shadow rays), and the light samples a
-//! specular lobe takes of them.
+//! its visible share (a clear shaft, or stratified shadow rays). The light samples a
+//! specular lobe takes of them are [`super::super::glossy`]'s.
 
 use std::collections::BTreeMap;
 
 use glam::DVec3;
 
-use super::{GroupLights, Rays, Scratch, SIGNIFICANT};
+use super::{GroupLights, Rays, Scratch};
 use crate::color::{Rgb, Rgb64};
 use crate::geometry::ray_offset;
 use crate::geometry::shaft::Shaft;
-use crate::render::final_gather::specular::Lobe;
+use crate::render::final_gather::point::ShadowOrigin;
 use crate::render::final_gather::FinalScene;
 use crate::sampling::{stratified_on_triangle, Rng};
 use crate::transport::direct::visible;
@@ -21,57 +21,42 @@ use crate::transport::formfactor::point_to_polygon;
 /// four rays on the Cornell box, so a triangle given fewer traces them.
 const SHAFT_MIN_RAYS: u32 = 4;
 /// One emitting input triangle of a group.
-pub(super) struct Emitter {
+pub(in crate::render::final_gather) struct Emitter {
     /// Its index among the scene's triangles.
-    pub(super) source: u32,
+    pub(in crate::render::final_gather) source: u32,
     /// Area, m².
-    pub(super) area: f64,
-    pub(super) corners: [DVec3; 3],
+    pub(in crate::render::final_gather) area: f64,
+    pub(in crate::render::final_gather) corners: [DVec3; 3],
     pub(super) centroid: DVec3,
-    pub(super) normal: DVec3,
+    pub(in crate::render::final_gather) normal: DVec3,
     /// Exitance at unit group weight, lm/m².
-    pub(super) exitance: Rgb,
+    pub(in crate::render::final_gather) exitance: Rgb,
     /// Its luminous value.
     pub(super) luminous: f64,
     /// Its set of coplanar neighbours in [`super::Sources::sets`].
     pub(super) set: u32,
 }
-/// An emitting triangle that a specular lobe's light samples went to: the reflection
-/// rays that meet it weigh their share against these ([`Sampled::ray_weight`]).
+
+/// An emitting triangle whose front a point sees ([`GroupLights::candidates`]).
 #[derive(Debug, Clone, Copy)]
-pub(in crate::render::final_gather) struct Sampled {
-    /// Its index among the scene's triangles.
-    pub(in crate::render::final_gather) source: u32,
-    /// Light samples it got.
-    samples: u32,
-    /// Area, m².
-    area: f64,
-    /// Front normal.
-    normal: DVec3,
+pub(in crate::render::final_gather) struct EmitterCandidate {
+    /// Its light group.
+    pub(in crate::render::final_gather) group: u32,
+    /// Its index among the group's emitters ([`GroupLights::emitter`]).
+    pub(in crate::render::final_gather) emitter: u32,
+    /// The unoccluded form factor from the point to the triangle.
+    pub(in crate::render::final_gather) form_factor: f64,
+    /// Its unoccluded luminous light at the point: the form factor × its luminous value.
+    pub(in crate::render::final_gather) light: f64,
 }
 
-impl Sampled {
-    /// The balance-heuristic weight of a reflection ray drawn with density `pdf`
-    /// (1/sr) among `rays` that meets this triangle at distance `r` along `d`.
-    pub(in crate::render::final_gather) fn ray_weight(
-        &self,
-        d: DVec3,
-        r: f64,
-        pdf: f64,
-        rays: usize,
-    ) -> f64 {
-        let cos = -self.normal.dot(d);
-        if cos <= 0.0 {
-            return 1.0;
-        }
-        let light = self.samples as f64 * r * r / (self.area * cos);
-        let brdf = rays as f64 * pdf;
-        brdf / (brdf + light)
-    }
+/// Whether the shaft to one group's coplanar set was clear, kept for the current point.
+#[derive(Debug, Clone, Copy)]
+pub(super) struct ShaftMemo {
+    group: u32,
+    set: u32,
+    clear: bool,
 }
-
-/// Light samples per emitting triangle for a specular lobe (a 2 × 2 jittered grid).
-const SPECULAR_LIGHT_SAMPLES: u32 = 4;
 
 impl GroupLights<'_> {
     /// Emitting triangles of every group: exact form factor × visible share. The triangles
@@ -83,18 +68,17 @@ impl GroupLights<'_> {
     /// spend no rays on the panels of the rooms beyond its walls one by one.
     pub(super) fn emitters(
         &self,
-        at: (DVec3, DVec3, u32),
+        at: ShadowOrigin,
         rays: Rays,
         rng: &mut Rng,
         scratch: &mut Scratch,
         out: &mut [Rgb],
     ) {
-        let (x, n, _) = at;
         let cand = &mut scratch.emitters;
         let shafts = &mut scratch.shafts;
         shafts.clear();
-        self.candidates(x, n, cand);
-        let total: f64 = cand.iter().map(|c| c.3).sum();
+        self.candidates(at.position, at.normal, cand);
+        let total: f64 = cand.iter().map(|c| c.light).sum();
         if total <= 0.0 {
             return;
         }
@@ -103,17 +87,18 @@ impl GroupLights<'_> {
         let rays = rays.per_triangle();
         let budget = rays as f64;
         let mut tail = 0.0;
-        for &(k, i, ff, part) in cand.iter() {
+        for c in cand.iter() {
+            let (k, ff, part) = (c.group, c.form_factor, c.light);
             if part < cut {
                 tail += part;
                 continue;
             }
-            let e = &self.groups[k as usize].emitters[i as usize];
+            let e = self.emitter(c);
             let m = ((part / total * budget).ceil() as u32).clamp(1, rays);
             let seen = if m >= SHAFT_MIN_RAYS && self.shaft_clear(k, e.set, at, shafts) {
                 1.0
             } else {
-                self.seen(e, at, m, rng)
+                self.visible_share(e, at, m, rng)
             };
             out[k as usize] += (ff * seen) as f32 * e.exitance;
         }
@@ -124,27 +109,33 @@ impl GroupLights<'_> {
         for j in 0..draws {
             let mut r = rng.stratum(j as usize, draws as usize) * tail;
             let mut drawn = None;
-            for &(k, i, ff, part) in cand.iter() {
-                if part >= cut {
+            for c in cand.iter() {
+                if c.light >= cut {
                     continue;
                 }
-                drawn = Some((k, i, ff, part));
-                if r < part {
+                drawn = Some(c);
+                if r < c.light {
                     break;
                 }
-                r -= part;
+                r -= c.light;
             }
-            if let Some((k, i, ff, part)) = drawn {
-                let e = &self.groups[k as usize].emitters[i as usize];
-                let f = ff * self.seen(e, at, 1, rng) * tail / part / draws as f64;
-                out[k as usize] += f as f32 * e.exitance;
+            if let Some(c) = drawn {
+                let e = self.emitter(c);
+                let f = c.form_factor * self.visible_share(e, at, 1, rng) * tail
+                    / c.light
+                    / draws as f64;
+                out[c.group as usize] += f as f32 * e.exitance;
             }
         }
     }
 
-    /// Into `cand`, the emitting triangles whose front `x` (normal `n`) sees: (group,
-    /// triangle, form factor, luminous light).
-    fn candidates(&self, x: DVec3, n: DVec3, cand: &mut Vec<(u32, u32, f64, f64)>) {
+    /// Into `cand`, the emitting triangles whose front `x` (normal `n`) sees.
+    pub(in crate::render::final_gather) fn candidates(
+        &self,
+        x: DVec3,
+        n: DVec3,
+        cand: &mut Vec<EmitterCandidate>,
+    ) {
         cand.clear();
         for (k, g) in self.groups.iter().enumerate() {
             for (i, e) in g.emitters.iter().enumerate() {
@@ -153,109 +144,52 @@ impl GroupLights<'_> {
                 }
                 let ff = point_to_polygon(x, n, &e.corners);
                 if ff > 0.0 {
-                    cand.push((k as u32, i as u32, ff, ff * e.luminous));
+                    cand.push(EmitterCandidate {
+                        group: k as u32,
+                        emitter: i as u32,
+                        form_factor: ff,
+                        light: ff * e.luminous,
+                    });
                 }
             }
         }
     }
 
-    /// Adds to `out` (per group RGB, cd/m²) the light of the emitting triangles that
-    /// the specular `lobe` at `x` on patch `p` (normal `n`) reflects, from
-    /// [`SPECULAR_LIGHT_SAMPLES`] shadow rays to points on each triangle that gives at
-    /// least [`SIGNIFICANT`] of the point's diffuse light, weighted by the balance
-    /// heuristic against the `rays` reflection rays drawn from the lobe (a lobe too
-    /// narrow to be filtered takes no light samples). The triangles
-    /// sampled are left in `scratch.sampled`; the reflection rays that meet them take
-    /// the complementary weight ([`Sampled::ray_weight`]), the others' light in full.
-    pub(in crate::render::final_gather) fn specular_emitters(
-        &self,
-        (x, n, p): (DVec3, DVec3, u32),
-        (lobe, rays): (&Lobe, usize),
-        rng: &mut Rng,
-        scratch: &mut Scratch,
-        out: &mut [f32],
-    ) {
-        let skip = self.mesh.patches[p as usize].source;
-        scratch.sampled.clear();
-        if !lobe.filtered() {
-            // A near mirror: its reflection rays alone find the emitters, all but
-            // without noise; a light sample landing in its narrow peak would add one.
-            return;
-        }
-        let cand = &mut scratch.emitters;
-        self.candidates(x, n, cand);
-        let total: f64 = cand.iter().map(|c| c.3).sum();
-        if total <= 0.0 {
-            return;
-        }
-        let out = Rgb::column_mut(out);
-        let side = (SPECULAR_LIGHT_SAMPLES as f64).sqrt().ceil() as u32;
-        let m = side * side;
-        for &(k, i, _, part) in cand.iter() {
-            if part < SIGNIFICANT * total {
-                continue;
-            }
-            let e = &self.groups[k as usize].emitters[i as usize];
-            let sampled = Sampled {
-                source: e.source,
-                samples: m,
-                area: e.area,
-                normal: e.normal,
-            };
-            scratch.sampled.push(sampled);
-            let mut sum = Rgb::ZERO;
-            stratified_on_triangle(&e.corners, side as usize, rng, |y| {
-                let to = y - x;
-                let r = to.length();
-                let d = to / r;
-                let (cos_x, cos_y) = (n.dot(d), -e.normal.dot(d));
-                if !(cos_x > 0.0 && cos_y > 0.0) {
-                    return;
-                }
-                let f = lobe.brdf(d, 0.0);
-                if f.luminance() <= 0.0 || !visible(self.bvh, x, n, y, skip) {
-                    return;
-                }
-                // Density per solid angle of a uniform point on the triangle.
-                let light = r * r / (e.area * cos_y);
-                let w = 1.0 - sampled.ray_weight(d, r, lobe.pdf(d), rays);
-                sum += f * (cos_x / light * w / m as f64) as f32;
-            });
-            out[k as usize] += sum * e.exitance * std::f32::consts::FRAC_1_PI;
-        }
+    /// The emitting triangle `c` stands for.
+    pub(in crate::render::final_gather) fn emitter(&self, c: &EmitterCandidate) -> &Emitter {
+        &self.groups[c.group as usize].emitters[c.emitter as usize]
     }
 
-    /// Whether the shaft from `x` to group `k`'s coplanar set `set` is clear
+    /// Whether the shaft from `at` to group `k`'s coplanar set `set` is clear
     /// ([`crate::geometry::bvh::Bvh::clear_of`]): every shadow ray to its triangles is then free. Each set's
     /// answer is kept in `memo` for the point.
-    fn shaft_clear(
-        &self,
-        k: u32,
-        set: u32,
-        (x, n, skip): (DVec3, DVec3, u32),
-        memo: &mut Vec<(u32, u32, bool)>,
-    ) -> bool {
-        if let Some(&(_, _, clear)) = memo.iter().find(|m| m.0 == k && m.1 == set) {
-            return clear;
+    fn shaft_clear(&self, k: u32, set: u32, at: ShadowOrigin, memo: &mut Vec<ShaftMemo>) -> bool {
+        if let Some(m) = memo.iter().find(|m| m.group == k && m.set == set) {
+            return m.clear;
         }
+        let (x, n) = (at.position, at.normal);
         let (hull, normal) = &self.groups[k as usize].sets[set as usize];
         // The lift `visible` gives its rays.
         let lift = ray_offset(x);
         let clear = Shaft::new(x + n * lift, n, lift, hull, *normal)
-            .is_some_and(|shaft| self.bvh.clear_of(&shaft, [skip, u32::MAX]));
-        memo.push((k, set, clear));
+            .is_some_and(|shaft| self.bvh.clear_of(&shaft, [at.skip_triangle, u32::MAX]));
+        memo.push(ShaftMemo {
+            group: k,
+            set,
+            clear,
+        });
         clear
     }
 
-    /// The visible share of emitter `e`'s form factor at `x`: about `k` stratified points
+    /// The visible share of emitter `e`'s form factor at `at`: about `k` stratified points
     /// on the triangle (a `⌈√k⌉²` grid, jittered), each weighted by the form factor's
     /// kernel `cos θ cos θ' / r²`, so a hidden near corner of a large emitter counts for
     /// more than a hidden far one. The count never depends on what the rays find: an
     /// estimate refined only where its first rays disagree is biased (a small hidden part
     /// that the first rays miss reads as wholly visible).
-    fn seen(&self, e: &Emitter, at: (DVec3, DVec3, u32), k: u32, rng: &mut Rng) -> f64 {
+    fn visible_share(&self, e: &Emitter, at: ShadowOrigin, k: u32, rng: &mut Rng) -> f64 {
         let side = (k as f64).sqrt().ceil() as u32;
-        let mut sums = Seen::default();
+        let mut sums = KernelWeights::default();
         self.sample_emitter(e, at, side, rng, &mut sums);
         let all = sums.free + sums.hidden;
         if all > 0.0 {
@@ -270,11 +204,12 @@ impl GroupLights<'_> {
     fn sample_emitter(
         &self,
         e: &Emitter,
-        (x, n, skip): (DVec3, DVec3, u32),
+        at: ShadowOrigin,
         side: u32,
         rng: &mut Rng,
-        sums: &mut Seen,
+        sums: &mut KernelWeights,
     ) {
+        let (x, n, skip) = (at.position, at.normal, at.skip_triangle);
         stratified_on_triangle(&e.corners, side as usize, rng, |y| {
             let d = y - x;
             let r2 = d.length_squared();
@@ -291,9 +226,9 @@ impl GroupLights<'_> {
     }
 }
 
-/// Kernel-weighted sums of an emitter's sample points.
+/// Kernel-weighted sums of an emitter's sample points, visible and hidden.
 #[derive(Default)]
-struct Seen {
+struct KernelWeights {
     free: f64,
     hidden: f64,
 }
@@ -302,16 +237,19 @@ struct Seen {
 /// area-weighted mean of their patches' emission `e`, lm/m²).
 pub(super) fn emitters_of(scene: &FinalScene<'_>, k: usize, e: &[f32]) -> Vec<Emitter> {
     let mut by_source: BTreeMap<u32, (f64, Rgb64)> = BTreeMap::new();
-    for (patch, ej) in scene.mesh.patches.iter().zip(Rgb::column(e)) {
+    for (i, (patch, ej)) in scene.mesh.patches.iter().zip(Rgb::column(e)).enumerate() {
         if patch.group != Some(k as u32) {
             continue;
         }
         if ej.iter().all(|&v| v <= 0.0) {
             continue;
         }
-        let s = by_source.entry(patch.source).or_insert((0.0, Rgb64::ZERO));
-        s.0 += patch.area;
-        s.1 += patch.area * ej.to_f64();
+        // A cluster patch's elements come from several input triangles.
+        for f in scene.mesh.facets(i) {
+            let s = by_source.entry(f.source).or_insert((0.0, Rgb64::ZERO));
+            s.0 += f.area;
+            s.1 += f.area * ej.to_f64();
+        }
     }
     by_source
         .into_iter()

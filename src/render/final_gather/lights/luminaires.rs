@@ -7,6 +7,7 @@ use glam::DVec3;
 use super::{GroupLights, Rays, Scratch};
 use crate::color::Rgb;
 use crate::photometry::Luminaire;
+use crate::render::final_gather::point::ShadowOrigin;
 use crate::render::final_gather::specular::Lobe;
 use crate::sampling::Rng;
 use crate::transport::direct::{shadowed, visible};
@@ -76,6 +77,18 @@ impl Bounds {
         }
     }
 }
+/// A luminaire that lights a point ([`GroupLights::luminaires`]).
+#[derive(Debug, Clone, Copy)]
+pub(super) struct LuminaireCandidate {
+    group: u32,
+    /// Its index among the group's luminaires.
+    luminaire: u32,
+    /// A bound on its unoccluded illuminance at the point, lux (the exact value when near).
+    bound: f64,
+    /// The run of the scratch's opening points that stands for it when near, else empty.
+    points: (u32, u32),
+}
+
 impl GroupLights<'_> {
     /// Point luminaires of every group: those whose bound is at least
     /// [`Rays::significant`] of all groups' bounds together get their shadow rays and
@@ -87,13 +100,53 @@ impl GroupLights<'_> {
     /// rooms beyond its walls one by one.
     pub(super) fn luminaires(
         &self,
-        (x, n, skip): (DVec3, DVec3, u32),
+        at: ShadowOrigin,
         rays: Rays,
         rng: &mut Rng,
         scratch: &mut Scratch,
         out: &mut [Rgb],
         mut specular: Option<(&Lobe, &mut [Rgb])>,
     ) {
+        let total = self.luminaire_candidates(at, scratch);
+        let (cand, points) = (&scratch.candidates, &scratch.points[..]);
+        let cut = rays.significant() * total;
+        let mut tail = 0.0;
+        for c in cand.iter() {
+            if c.bound >= cut {
+                self.add_shadowed(c, 1.0, at, points, out, &mut specular);
+            } else {
+                tail += c.bound;
+            }
+        }
+        if tail <= 0.0 {
+            return;
+        }
+        let draws = rays.tail_draws();
+        for _ in 0..draws {
+            // The drawn one: where the running sum passes r (the last of the tail should
+            // rounding leave r unspent).
+            let r = rng.next_f64() * tail;
+            let mut sum = 0.0;
+            let mut drawn = None;
+            for c in cand.iter().filter(|c| c.bound < cut) {
+                drawn = Some(c);
+                sum += c.bound;
+                if r < sum {
+                    break;
+                }
+            }
+            if let Some(c) = drawn {
+                let weight = tail / (c.bound * draws as f64);
+                self.add_shadowed(c, weight, at, points, out, &mut specular);
+            }
+        }
+    }
+
+    /// Into `scratch.candidates`, every luminaire that lights `at`, with a bound on its
+    /// light ([`Bounds::lux`]), or where `at` is near, its exact light over the opening,
+    /// point by point into `scratch.points`; returns the sum of their bounds.
+    fn luminaire_candidates(&self, at: ShadowOrigin, scratch: &mut Scratch) -> f64 {
+        let (x, n) = (at.position, at.normal);
         let (cand, points) = (&mut scratch.candidates, &mut scratch.points);
         cand.clear();
         points.clear();
@@ -117,59 +170,49 @@ impl GroupLights<'_> {
                 (b as f64, (0, 0))
             };
             if c > 0.0 {
-                cand.push((k, i, c, run));
+                cand.push(LuminaireCandidate {
+                    group: k,
+                    luminaire: i,
+                    bound: c,
+                    points: run,
+                });
                 total += c;
             }
         }
-        let cut = rays.significant() * total;
-        let mut tail = 0.0;
-        let mut add = |k: u32, i: u32, run: (u32, u32), weight: f64| {
-            let l = &self.groups[k as usize].luminaires[i as usize];
-            let e = if run.0 == run.1 {
-                shadowed(self.bvh, l, x, n, skip).0
-            } else {
-                points[run.0 as usize..run.1 as usize]
-                    .iter()
-                    .filter(|(p, _)| visible(self.bvh, x, n, *p, skip))
-                    .map(|(_, e)| e)
-                    .sum()
-            };
-            let lux = (e * weight * l.color.to_f64()).to_f32();
-            out[k as usize] += lux;
-            if let Some((lobe, highlights)) = specular.as_mut() {
-                // The opening's half angle, halved again for the half vector.
-                let to = l.position - x;
-                let spread = 0.25 * l.opening.largest_dimension() / to.length().max(1e-9);
-                highlights[k as usize] += lux * lobe.brdf(to, spread);
-            }
+        total
+    }
+
+    /// Adds to `out` `weight` × luminaire `c`'s shadowed illuminance at `at` (over its
+    /// opening's `points` when near), and with a specular lobe, to its highlights the
+    /// light the lobe reflects of it.
+    fn add_shadowed(
+        &self,
+        c: &LuminaireCandidate,
+        weight: f64,
+        at: ShadowOrigin,
+        points: &[(DVec3, f64)],
+        out: &mut [Rgb],
+        specular: &mut Option<(&Lobe, &mut [Rgb])>,
+    ) {
+        let (x, n, skip) = (at.position, at.normal, at.skip_triangle);
+        let (k, run) = (c.group, c.points);
+        let l = &self.groups[k as usize].luminaires[c.luminaire as usize];
+        let e = if run.0 == run.1 {
+            shadowed(self.bvh, l, x, n, skip).0
+        } else {
+            points[run.0 as usize..run.1 as usize]
+                .iter()
+                .filter(|(p, _)| visible(self.bvh, x, n, *p, skip))
+                .map(|(_, e)| e)
+                .sum()
         };
-        for &(k, i, c, run) in cand.iter() {
-            if c >= cut {
-                add(k, i, run, 1.0);
-            } else {
-                tail += c;
-            }
-        }
-        if tail <= 0.0 {
-            return;
-        }
-        let draws = rays.tail_draws();
-        for _ in 0..draws {
-            // The drawn one: where the running sum passes r (the last of the tail should
-            // rounding leave r unspent).
-            let r = rng.next_f64() * tail;
-            let mut sum = 0.0;
-            let mut drawn = None;
-            for &(k, i, c, run) in cand.iter().filter(|&&(_, _, c, _)| c < cut) {
-                drawn = Some((k, i, c, run));
-                sum += c;
-                if r < sum {
-                    break;
-                }
-            }
-            if let Some((k, i, c, run)) = drawn {
-                add(k, i, run, tail / (c * draws as f64));
-            }
+        let lux = (e * weight * l.color.to_f64()).to_f32();
+        out[k as usize] += lux;
+        if let Some((lobe, highlights)) = specular.as_mut() {
+            // The opening's half angle, halved again for the half vector.
+            let to = l.position - x;
+            let spread = 0.25 * l.opening.largest_dimension() / to.length().max(1e-9);
+            highlights[k as usize] += lux * lobe.brdf(to, spread);
         }
     }
 }

@@ -25,6 +25,8 @@ mod luminaires;
 
 use glam::DVec3;
 
+use super::glossy::SampledEmitter;
+use super::point::ShadingPoint;
 use super::specular::Lobe;
 use super::FinalScene;
 use crate::color::Rgb;
@@ -34,9 +36,9 @@ use crate::geometry::shaft::coplanar_sets;
 use crate::photometry::Luminaire;
 use crate::sampling::Rng;
 
-pub(super) use emitters::Sampled;
-use emitters::{emitters_of, Emitter};
-use luminaires::Bounds;
+use emitters::{emitters_of, ShaftMemo};
+pub(super) use emitters::{Emitter, EmitterCandidate};
+use luminaires::{Bounds, LuminaireCandidate};
 
 /// A luminaire whose unoccluded illuminance is at least this share of the point's total
 /// gets its own shadow rays; the others are sampled.
@@ -113,22 +115,20 @@ pub(super) struct Scratch {
     pub(super) lux: Vec<f32>,
     /// The same at a point a gather ray landed on close by.
     pub(super) near: Vec<f32>,
-    /// Luminaires that light the point: (group, luminaire, bound on its lux, the run of
-    /// `points` that stands for it when near, else empty).
-    candidates: Vec<(u32, u32, f64, (u32, u32))>,
+    /// Luminaires that light the point.
+    candidates: Vec<LuminaireCandidate>,
     /// The opening points of the luminaires near the point, with each point's unoccluded
     /// illuminance (lux), computed once for both the choice and the shadowed light.
     points: Vec<(DVec3, f64)>,
     /// Per luminaire, its bound at the point ([`Bounds::lux`]).
     bound: Vec<f32>,
-    /// Emitting triangles seen: (group, triangle, form factor, luminous light).
-    emitters: Vec<(u32, u32, f64, f64)>,
-    /// The coplanar sets whose shaft was tested at the current point: (group, set,
-    /// whether it was clear).
-    shafts: Vec<(u32, u32, bool)>,
+    /// Emitting triangles seen.
+    pub(super) emitters: Vec<EmitterCandidate>,
+    /// The coplanar sets whose shaft was tested at the current point.
+    shafts: Vec<ShaftMemo>,
     /// The emitting triangles a specular lobe's light samples went to at the current
-    /// point ([`GroupLights::specular_emitters`]).
-    pub(super) sampled: Vec<Sampled>,
+    /// point ([`super::glossy`]).
+    pub(super) sampled: Vec<SampledEmitter>,
 }
 
 impl<'a> GroupLights<'a> {
@@ -188,21 +188,19 @@ impl<'a> GroupLights<'a> {
         self.groups[k].explicit
     }
 
-    /// Adds to `out` (per group RGB, lux) the direct illuminance at `x` on patch `p`
-    /// (normal `n`), with shadow rays as `rays` says; and with a specular `lobe`, to
-    /// `highlights` (per group RGB, cd/m²) the point luminaires' light it reflects
-    /// ([`super::specular`]).
+    /// Adds to `out` (per group RGB, lux) the direct illuminance at `at`, with shadow
+    /// rays as `rays` says; and with a specular `lobe`, to `highlights` (per group RGB,
+    /// cd/m²) the point luminaires' light it reflects ([`super::specular`]).
     pub(super) fn direct(
         &self,
-        (x, n, p): (DVec3, DVec3, u32),
+        at: ShadingPoint,
         rays: Rays,
         rng: &mut Rng,
         scratch: &mut Scratch,
         out: &mut [f32],
         specular: Option<(&Lobe, &mut [f32])>,
     ) {
-        // Below, the third member is the scene triangle the shadow rays skip.
-        let at = (x, n, self.mesh.patches[p as usize].source);
+        let at = at.shadow_origin(self.mesh);
         let out = Rgb::column_mut(out);
         let specular = specular.map(|(lobe, h)| (lobe, Rgb::column_mut(h)));
         self.luminaires(at, rays, rng, scratch, out, specular);
