@@ -159,7 +159,7 @@ impl PatchGeo {
 
     /// The patch's elements as facets: itself when it is a single triangle.
     pub(crate) fn facets(&self) -> impl Iterator<Item = Facet> + '_ {
-        let single = self.cluster.is_none().then(|| Facet {
+        let single = self.cluster.is_none().then_some(Facet {
             corners: self.c,
             normal: self.n,
             centroid: self.centroid,
