@@ -43,12 +43,20 @@ pub fn preview_mesh(scene: &Scene, fine: &Mesh) -> Option<(Mesh, Shading)> {
         .fold(0.0, f64::max);
     // Patch count scales with 1 / edge²; bisection meshes overshoot, so aim a bit low.
     let mut edge = longest * (triangles as f64 / PREVIEW_TRIANGLES as f64).sqrt();
+    let mut last = triangles;
     for _ in 0..8 {
         let coarse = Mesh::build_with(scene, edge);
-        if coarse.elements.len() <= 2 * PREVIEW_TRIANGLES {
+        let count = coarse.elements.len();
+        if count <= 2 * PREVIEW_TRIANGLES {
             let shading = Shading::new(&coarse);
             return Some((coarse, shading));
         }
+        // A model's own small triangles stay whatever the edge (cluster patches keep
+        // them): no coarser mesh to draw.
+        if count as f64 > 0.9 * last as f64 {
+            return None;
+        }
+        last = count;
         edge *= 1.4;
     }
     None

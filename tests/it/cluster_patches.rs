@@ -325,3 +325,23 @@ fn clusters_keep_to_one_material_and_one_orientation() {
     assert_eq!(flat.len(), flat.elements.len());
     assert_eq!(flat.elements.len(), mesh.elements.len());
 }
+
+#[test]
+fn a_real_furnished_apartment_meshes_at_the_lighting_resolution() {
+    let _gate = common::shared();
+    // benches/apartment: a SketchUp export of 177,934 triangles, every material two-sided,
+    // in one meshopt-compressed mesh. A patch per triangle side gave 359,846 patches.
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("benches/apartment/apartment");
+    let scene = relight::scene::Scene::load(&dir).unwrap();
+    assert_eq!(scene.surfaces.len(), 67);
+    let mesh = relight::geometry::mesh::Mesh::build(&scene);
+    assert!(mesh.len() <= 80_000, "{} patches", mesh.len());
+    assert!(
+        mesh.elements.len() >= 2 * 177_000,
+        "{} triangles",
+        mesh.elements.len()
+    );
+    let area: f64 = mesh.patches.iter().map(|p| p.area).sum();
+    let tri: f64 = (0..mesh.elements.len()).map(|e| mesh.facet(e).area).sum();
+    assert!((area / tri - 1.0).abs() < 1e-9, "{area} vs {tri}");
+}

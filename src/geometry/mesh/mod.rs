@@ -392,7 +392,9 @@ pub struct TooManyPatches {
 /// repair and the longest-edge propagation between neighbours only add patches. Longest-edge
 /// bisection typically leaves triangles of about `h²/5` (right isosceles shapes), so the
 /// real count is usually about 2× this bound; the bound never exceeds it, so a scene refused
-/// on the estimate could never have been meshed within the limit.
+/// on the estimate could never have been meshed within the limit. Small triangles, which
+/// may share a cluster patch, count their area over `h²` (a cluster fits in a box of
+/// diagonal `h` and faces one way within 25°, so its area is at most about `0.55 h²`).
 ///
 /// Returns `u64::MAX` when `max_edge` is not a positive finite length.
 pub fn estimate_patches(scene: &Scene, max_edge: f64) -> u64 {
@@ -403,22 +405,30 @@ pub fn estimate_patches(scene: &Scene, max_edge: f64) -> u64 {
     let h = max_edge * (1.0 + 1e-9);
     let tri_area = 3f64.sqrt() / 4.0 * h * h;
     let mut total = 0f64;
+    // Small triangles may share cluster patches: area over the largest cluster's.
+    let mut clustered = 0f64;
+    let small = SMALL_AREA_SHARE * max_edge * max_edge;
     for t in &scene.triangles {
         let [a, b, c] = t.p;
         let area = 0.5 * (b - a).cross(c - a).length();
         let longest = (b - a).length().max((c - b).length()).max((a - c).length());
-        let n = (area / tri_area).ceil().max((longest / h).ceil()).max(1.0);
         let sides = if is_two_sided(t, &scene.materials, &scene.surfaces) {
             2.0
         } else {
             1.0
         };
+        if scene.mesh.cluster && area <= small {
+            clustered += sides * area / (h * h);
+            continue;
+        }
+        let n = (area / tri_area).ceil().max((longest / h).ceil()).max(1.0);
         total += if n.is_finite() {
             n * sides
         } else {
             f64::INFINITY
         };
     }
+    total += clustered.ceil();
     if total >= u64::MAX as f64 || total.is_nan() {
         u64::MAX
     } else {

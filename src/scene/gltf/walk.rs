@@ -58,43 +58,63 @@ impl Reader<'_> {
             decoded: HashMap::new(),
         };
         let mut lights = LightNames::default();
-        let mut stack: Vec<(gltf::Node<'_>, DMat4)> = roots
+        // Each node with the name of its nearest named ancestor: optimizers (gltfpack)
+        // move meshes onto unnamed child nodes, which are named after it.
+        let mut stack: Vec<(gltf::Node<'_>, DMat4, Option<String>)> = roots
             .into_iter()
             .rev()
-            .map(|i| (all[i].clone(), DMat4::IDENTITY))
+            .map(|i| (all[i].clone(), DMat4::IDENTITY, None))
             .collect();
-        while let Some((node, parent)) = stack.pop() {
+        while let Some((node, parent, ancestor)) = stack.pop() {
             let local = node.transform().matrix().map(|c| c.map(f64::from));
             let world = parent * DMat4::from_cols_array_2d(&local);
             if !world.is_finite() {
                 return Err(self.err(format!("nodes[{}]: transform is not finite", node.index())));
             }
             if let Some(mesh) = node.mesh() {
-                self.mesh_parts(&node, &mesh, &world, &mut instances, out)?;
+                self.mesh_parts(
+                    &node,
+                    ancestor.as_deref(),
+                    &mesh,
+                    &world,
+                    &mut instances,
+                    out,
+                )?;
             }
             if let Some(light) = node.light() {
                 self.light(&node, &light, &world, &mut lights, out)?;
             }
+            let named = node
+                .name()
+                .map(str::trim)
+                .filter(|n| !n.is_empty())
+                .map(str::to_string)
+                .or(ancestor);
             for c in node.children().collect::<Vec<_>>().into_iter().rev() {
-                stack.push((c, world));
+                stack.push((c, world, named.clone()));
             }
         }
         self.warn_skipped(instances.skipped_modes, lights.skipped_directional);
         Ok(())
     }
 
-    /// The parts of `mesh` instanced by `node` at `world`.
+    /// The parts of `mesh` instanced by `node` at `world`. Its surfaces take the node's
+    /// name, else the mesh's, else `ancestor`'s (the nearest named one), else `node<i>`.
     fn mesh_parts(
         &mut self,
         node: &gltf::Node<'_>,
+        ancestor: Option<&str>,
         mesh: &gltf::Mesh<'_>,
         world: &DMat4,
         inst: &mut Instances<'_>,
         out: &mut GltfModel,
     ) -> Result<(), SceneError> {
-        let base = inst.surfaces.take(node.name().or(mesh.name()), || {
-            format!("node{}", node.index())
-        });
+        let name = [node.name(), mesh.name()]
+            .into_iter()
+            .flatten()
+            .find(|n| !n.trim().is_empty())
+            .or(ancestor);
+        let base = inst.surfaces.take(name, || format!("node{}", node.index()));
         let names = surface_names(&base, mesh, inst, &out.table);
         for prim in mesh.primitives() {
             let name = &names[&prim.material().index()];

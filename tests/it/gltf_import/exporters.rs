@@ -451,6 +451,14 @@ fn the_gallery_packed_by_gltfpack_loads_as_the_plain_gallery() {
     }
     let groups = |s: &Scene| s.lights.iter().map(|g| g.name.clone()).collect::<Vec<_>>();
     assert_eq!(groups(&packed), groups(&plain));
+    // gltfpack moves each mesh onto an unnamed child of its named node: the surfaces take
+    // the nearest named ancestor's name, as in the plain file.
+    let names = |s: &Scene| {
+        let mut v: Vec<String> = s.surfaces.iter().map(|x| x.name.clone()).collect();
+        v.sort();
+        v
+    };
+    assert_eq!(names(&packed), names(&plain));
     let (lo, hi) = plain.bounds();
     let (plo, phi) = packed.bounds();
     assert!((plo - lo).abs().max_element() < 1e-3 && (phi - hi).abs().max_element() < 1e-3);
