@@ -38,15 +38,19 @@ pub struct Hour {
     /// 1–24, the hour ending at this time (1 = 00:00–01:00).
     pub hour: u32,
     /// W/m² (mean over the hour).
-    pub global_horizontal_irradiance: f64,
-    pub direct_normal_irradiance: f64,
-    pub diffuse_horizontal_irradiance: f64,
-    /// Lux; None when the file marks it missing.
-    pub global_horizontal_illuminance: Option<f64>,
-    pub direct_normal_illuminance: Option<f64>,
-    pub diffuse_horizontal_illuminance: Option<f64>,
+    pub irradiance: Solar<f64>,
+    /// Lux; each None when the file marks it missing.
+    pub illuminance: Solar<Option<f64>>,
     /// Dew point temperature, °C; None when the file marks it missing (99.9).
     pub dew_point_c: Option<f64>,
+}
+
+/// The three solar components an EPW row gives of both irradiance and illuminance.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Solar<T> {
+    pub global_horizontal: T,
+    pub direct_normal: T,
+    pub diffuse_horizontal: T,
 }
 
 /// A weather file.
@@ -172,13 +176,24 @@ impl Row<'_> {
             month: self.int(2, "month", 1, 12)?,
             day: self.int(3, "day", 1, 31)?,
             hour: self.int(4, "hour", 1, 24)?,
-            global_horizontal_irradiance: self.radiation(14, "global horizontal radiation")?,
-            direct_normal_irradiance: self.radiation(15, "direct normal radiation")?,
-            diffuse_horizontal_irradiance: self.radiation(16, "diffuse horizontal radiation")?,
-            global_horizontal_illuminance: self.lux(17, "global horizontal illuminance")?,
-            direct_normal_illuminance: self.lux(18, "direct normal illuminance")?,
-            diffuse_horizontal_illuminance: self.lux(19, "diffuse horizontal illuminance")?,
+            irradiance: self.solar(14, "radiation", Row::radiation)?,
+            illuminance: self.solar(17, "illuminance", Row::lux)?,
             dew_point_c: self.dew_point()?,
+        })
+    }
+
+    /// Fields `k..k + 3`, the global horizontal, direct normal and diffuse horizontal
+    /// `what`, each read by `read`.
+    fn solar<T>(
+        &self,
+        k: usize,
+        what: &str,
+        read: impl Fn(&Self, usize, &str) -> Result<T, String>,
+    ) -> Result<Solar<T>, String> {
+        Ok(Solar {
+            global_horizontal: read(self, k, &format!("global horizontal {what}"))?,
+            direct_normal: read(self, k + 1, &format!("direct normal {what}"))?,
+            diffuse_horizontal: read(self, k + 2, &format!("diffuse horizontal {what}"))?,
         })
     }
 
@@ -247,7 +262,7 @@ mod tests {
     fn annual_kwh(w: &super::Weather) -> f64 {
         w.hours
             .iter()
-            .map(|h| h.global_horizontal_irradiance)
+            .map(|h| h.irradiance.global_horizontal)
             .sum::<f64>()
             / 1000.0
     }
@@ -279,8 +294,8 @@ mod tests {
         // Luminous efficacy of daylight, global: about 100–125 lm/W in the yearly mean.
         let (lux, wm2) = c.hours.iter().fold((0.0, 0.0), |(a, b), h| {
             (
-                a + h.global_horizontal_illuminance.unwrap_or(0.0),
-                b + h.global_horizontal_irradiance,
+                a + h.illuminance.global_horizontal.unwrap_or(0.0),
+                b + h.irradiance.global_horizontal,
             )
         });
         assert!((95.0..130.0).contains(&(lux / wm2)), "{} lm/W", lux / wm2);

@@ -180,11 +180,15 @@ mod tests {
 
     #[test]
     fn lux_labels_are_short_and_round() {
-        assert_eq!(lux_label(0.5), "0.5");
-        assert_eq!(lux_label(2.0), "2");
-        assert_eq!(lux_label(500.0), "500");
-        assert_eq!(lux_label(1000.0), "1k");
-        assert_eq!(lux_label(20000.0), "20k");
+        for (lux, label) in [
+            (0.5, "0.5"),
+            (2.0, "2"),
+            (500.0, "500"),
+            (1000.0, "1k"),
+            (20000.0, "20k"),
+        ] {
+            assert_eq!(lux_label(lux), label);
+        }
     }
 
     #[test]

@@ -156,10 +156,14 @@ mod tests {
 
     #[test]
     fn three_significant_digits() {
-        assert_eq!(sig3(12_000.0), "12000");
-        assert_eq!(sig3(12.3456), "12.3");
-        assert_eq!(sig3(0.031_24), "0.0312");
-        assert_eq!(sig3(3.0), "3");
-        assert_eq!(sig3(0.5), "0.5");
+        for (x, digits) in [
+            (12_000.0, "12000"),
+            (12.3456, "12.3"),
+            (0.031_24, "0.0312"),
+            (3.0, "3"),
+            (0.5, "0.5"),
+        ] {
+            assert_eq!(sig3(x), digits);
+        }
     }
 }

@@ -12,7 +12,7 @@
 
 use std::path::Path;
 
-use glam::DVec3;
+use glam::{DVec2, DVec3};
 use serde::{Deserialize, Serialize};
 
 use super::toml::GridToml;
@@ -435,15 +435,13 @@ fn place(
 }
 
 fn bounds(p: &[[f64; 2]]) -> ([f64; 2], [f64; 2]) {
-    let mut lo = [f64::INFINITY; 2];
-    let mut hi = [f64::NEG_INFINITY; 2];
-    for q in p {
-        for c in 0..2 {
-            lo[c] = lo[c].min(q[c]);
-            hi[c] = hi[c].max(q[c]);
-        }
-    }
-    (lo, hi)
+    let (lo, hi) = p
+        .iter()
+        .map(|&q| DVec2::from(q))
+        .fold((DVec2::INFINITY, DVec2::NEG_INFINITY), |(lo, hi), q| {
+            (lo.min(q), hi.max(q))
+        });
+    (lo.to_array(), hi.to_array())
 }
 
 /// Even–odd rule.

@@ -679,8 +679,8 @@ fn an_unobstructed_grid_gets_the_weather_files_global_illuminance_every_hour() {
         let alt = p.altitude_deg.to_radians();
         let dew = h.dew_point_c.unwrap_or(perez::DEFAULT_DEW_POINT_C);
         if let Some(c) = perez::conditions(
-            h.direct_normal_irradiance,
-            h.diffuse_horizontal_irradiance,
+            h.irradiance.direct_normal,
+            h.irradiance.diffuse_horizontal,
             alt,
             t.day_of_year(),
             dew,

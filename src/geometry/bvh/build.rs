@@ -48,6 +48,8 @@ impl Leaves<'_> {
     }
 }
 
+/// Builds the binary subtree over `ids` (the triangles `first..first + ids.len()` of the
+/// build's order, which it reorders) into `nodes[at]` and the nodes it appends.
 pub(super) fn build(
     nodes: &mut Vec<Node>,
     at: usize,
@@ -57,71 +59,24 @@ pub(super) fn build(
     lo: &[Vec3A],
     hi: &[Vec3A],
 ) {
-    let mut blo = Vec3A::splat(f32::INFINITY);
-    let mut bhi = Vec3A::splat(f32::NEG_INFINITY);
-    let mut clo = blo;
-    let mut chi = bhi;
-    for &i in ids.iter() {
-        blo = blo.min(lo[i as usize]);
-        bhi = bhi.max(hi[i as usize]);
-        clo = clo.min(cent[i as usize]);
-        chi = chi.max(cent[i as usize]);
-    }
-    nodes[at].lo = blo;
-    nodes[at].hi = bhi;
+    let b = Bounds::of(ids, cent, lo, hi);
+    nodes[at].lo = b.lo;
+    nodes[at].hi = b.hi;
     if ids.len() <= LEAF_MAX {
         nodes[at].first = first;
         nodes[at].count = ids.len() as u32;
         return;
     }
-    // Binned SAH over every axis the centroids spread along.
-    let ext = chi - clo;
-    let mut best = (f32::INFINITY, 0usize, 0usize);
-    for axis in 0..3 {
-        if ext[axis] <= 0.0 {
-            continue;
-        }
-        let scale = BINS as f32 / ext[axis];
-        let bin_of =
-            |i: u32| (((cent[i as usize][axis] - clo[axis]) * scale) as usize).min(BINS - 1);
-        let (cost, split) = best_split(ids, &bin_of, lo, hi);
-        if cost < best.0 {
-            best = (cost, split, axis);
-        }
-    }
-    let (cost, split, axis) = best;
+    let (cost, split, axis) = sah_split(ids, &b, cent, lo, hi);
     // A leaf where splitting costs more than testing every triangle (one box test
     // against one triangle test), as long as the leaf stays within a child code's count.
-    let leaf_cost = ids.len() as f32 * half_area(blo, bhi);
+    let leaf_cost = ids.len() as f32 * half_area(b.lo, b.hi);
     if cost >= leaf_cost && ids.len() <= Child::MAX_COUNT as usize {
         nodes[at].first = first;
         nodes[at].count = ids.len() as u32;
         return;
     }
-    // No split on the bins (all centroids in one bin or on one point): the median of
-    // the widest axis, so leaves stay small even for stacked duplicates.
-    let mid = if split == 0 {
-        let axis = ext.max_position();
-        ids.sort_unstable_by(|&a, &b| cent[a as usize][axis].total_cmp(&cent[b as usize][axis]));
-        ids.len() / 2
-    } else {
-        let scale = BINS as f32 / ext[axis];
-        let bin_of =
-            |i: u32| (((cent[i as usize][axis] - clo[axis]) * scale) as usize).min(BINS - 1);
-        let mut m = 0;
-        for k in 0..ids.len() {
-            if bin_of(ids[k]) < split {
-                ids.swap(k, m);
-                m += 1;
-            }
-        }
-        m
-    };
-    let mid = if mid == 0 || mid == ids.len() {
-        ids.len() / 2
-    } else {
-        mid
-    };
+    let mid = partition(ids, &b, cent, split, axis);
     let left = nodes.len();
     nodes[at].first = left as u32;
     nodes[at].count = 0;
@@ -136,6 +91,90 @@ pub(super) fn build(
     let (l, r) = ids.split_at_mut(mid);
     build(nodes, left, l, first, cent, lo, hi);
     build(nodes, left + 1, r, first + mid as u32, cent, lo, hi);
+}
+
+/// The boxes around a node's triangles and around their centroids.
+struct Bounds {
+    lo: Vec3A,
+    hi: Vec3A,
+    /// The centroids' box.
+    clo: Vec3A,
+    chi: Vec3A,
+}
+
+impl Bounds {
+    fn of(ids: &[u32], cent: &[Vec3A], lo: &[Vec3A], hi: &[Vec3A]) -> Bounds {
+        let mut b = Bounds {
+            lo: Vec3A::splat(f32::INFINITY),
+            hi: Vec3A::splat(f32::NEG_INFINITY),
+            clo: Vec3A::splat(f32::INFINITY),
+            chi: Vec3A::splat(f32::NEG_INFINITY),
+        };
+        for &i in ids.iter() {
+            b.lo = b.lo.min(lo[i as usize]);
+            b.hi = b.hi.max(hi[i as usize]);
+            b.clo = b.clo.min(cent[i as usize]);
+            b.chi = b.chi.max(cent[i as usize]);
+        }
+        b
+    }
+
+    /// The bin of `BINS` along `axis` that each triangle's centroid falls in.
+    fn bin_of<'a>(&self, cent: &'a [Vec3A], axis: usize) -> impl Fn(u32) -> usize + 'a {
+        let scale = BINS as f32 / (self.chi - self.clo)[axis];
+        let clo = self.clo[axis];
+        move |i: u32| (((cent[i as usize][axis] - clo) * scale) as usize).min(BINS - 1)
+    }
+}
+
+/// Binned SAH over every axis the centroids spread along: (cost, first bin of the
+/// right side, axis); (∞, 0, 0) when no axis has a split.
+fn sah_split(
+    ids: &[u32],
+    b: &Bounds,
+    cent: &[Vec3A],
+    lo: &[Vec3A],
+    hi: &[Vec3A],
+) -> (f32, usize, usize) {
+    let ext = b.chi - b.clo;
+    let mut best = (f32::INFINITY, 0usize, 0usize);
+    for axis in 0..3 {
+        if ext[axis] <= 0.0 {
+            continue;
+        }
+        let (cost, split) = best_split(ids, &b.bin_of(cent, axis), lo, hi);
+        if cost < best.0 {
+            best = (cost, split, axis);
+        }
+    }
+    best
+}
+
+/// Reorders `ids` into the two children's runs; the length of the left one, never 0
+/// nor all of `ids`. The bins `..split` along `axis` go left; with no split on the
+/// bins (all centroids in one bin or on one point), the median of the widest axis, so
+/// leaves stay small even for stacked duplicates.
+fn partition(ids: &mut [u32], b: &Bounds, cent: &[Vec3A], split: usize, axis: usize) -> usize {
+    let mid = if split == 0 {
+        let axis = (b.chi - b.clo).max_position();
+        ids.sort_unstable_by(|&a, &b| cent[a as usize][axis].total_cmp(&cent[b as usize][axis]));
+        ids.len() / 2
+    } else {
+        let bin_of = b.bin_of(cent, axis);
+        let mut m = 0;
+        for k in 0..ids.len() {
+            if bin_of(ids[k]) < split {
+                ids.swap(k, m);
+                m += 1;
+            }
+        }
+        m
+    };
+    if mid == 0 || mid == ids.len() {
+        ids.len() / 2
+    } else {
+        mid
+    }
 }
 
 /// Collapses the binary subtrees `roots` (at most [`WIDTH`]) into one wide node appended

@@ -220,60 +220,15 @@ impl Bvh {
         }
         let ray = Ray8::new(o, d.recip());
         let tri_ray = TriRay::new(o, d);
-        // Pending children (codes) and where the ray enters them, the nearest on top.
-        // Left uninitialised: zeroing 2 KB per query was a tenth of
-        // an occlusion test's time. Entries below `sp` are written.
-        let mut stack = [const { MaybeUninit::<(u32, f32)>::uninit() }; STACK];
-        let mut spill: Vec<(u32, f32)> = Vec::new();
-        let mut sp = 0usize;
+        let mut pending = Pending::new();
         let mut node = 0usize;
         loop {
             let n = &self.nodes[node];
-            let (mut mask, t) = enter8(n, &ray, tmin, far());
-            // Push the lanes entered, then order the pushed run so the nearest is on top.
-            let base = sp;
-            if sp + WIDTH <= STACK {
-                while mask != 0 {
-                    let lane = mask.trailing_zeros() as usize;
-                    mask &= mask - 1;
-                    stack[sp].write((n.child[lane], t[lane]));
-                    sp += 1;
-                }
-            } else {
-                while mask != 0 {
-                    let lane = mask.trailing_zeros() as usize;
-                    mask &= mask - 1;
-                    let entry = (n.child[lane], t[lane]);
-                    if sp < STACK {
-                        stack[sp].write(entry);
-                        sp += 1;
-                    } else {
-                        // A tree deeper than the stack (a very skewed scene) spills over
-                        // into the heap rather than losing a subtree.
-                        spill.push(entry);
-                    }
-                }
-            }
-            for i in base + 1..sp {
-                // SAFETY: entries below `sp` are written.
-                let e = unsafe { stack[i].assume_init() };
-                let mut j = i;
-                // SAFETY: as above, `j - 1 < i < sp`.
-                while j > base && unsafe { stack[j - 1].assume_init() }.1 < e.1 {
-                    stack[j] = stack[j - 1];
-                    j -= 1;
-                }
-                stack[j].write(e);
-            }
+            let (mask, t) = enter8(n, &ray, tmin, far());
+            pending.push_nearest_on_top(n, mask, &t);
             // Pop until an inner node to open, visiting the leaves on the way.
             loop {
-                let (code, enter) = if let Some(top) = spill.pop() {
-                    top
-                } else if sp > 0 {
-                    sp -= 1;
-                    // SAFETY: entries below the old `sp` are written.
-                    unsafe { stack[sp].assume_init() }
-                } else {
+                let Some((code, enter)) = pending.pop() else {
                     return;
                 };
                 // The far end may have shrunk since this box was pushed.
@@ -458,5 +413,82 @@ impl Bvh {
             }
         });
         best.map(|(t, id, _)| (t, id))
+    }
+}
+
+/// The pending children of a nearest-first walk (codes) and where the ray enters them,
+/// the nearest on top.
+struct Pending {
+    /// Left uninitialised: zeroing 2 KB per query was a tenth of an occlusion test's
+    /// time. Entries below `sp` are written.
+    stack: [MaybeUninit<(u32, f32)>; STACK],
+    sp: usize,
+    /// A tree deeper than the stack (a very skewed scene) spills over into the heap
+    /// rather than losing a subtree; the spill is popped first.
+    spill: Vec<(u32, f32)>,
+}
+
+impl Pending {
+    #[inline(always)]
+    fn new() -> Pending {
+        Pending {
+            stack: [const { MaybeUninit::<(u32, f32)>::uninit() }; STACK],
+            sp: 0,
+            spill: Vec::new(),
+        }
+    }
+
+    /// Pushes the children of `n` in `mask` with their entry distances `t`, then orders
+    /// the pushed run so the nearest is on top.
+    #[inline(always)]
+    fn push_nearest_on_top(&mut self, n: &Wide, mut mask: u32, t: &[f32; WIDTH]) {
+        let base = self.sp;
+        let stack = &mut self.stack;
+        if self.sp + WIDTH <= STACK {
+            while mask != 0 {
+                let lane = mask.trailing_zeros() as usize;
+                mask &= mask - 1;
+                stack[self.sp].write((n.child[lane], t[lane]));
+                self.sp += 1;
+            }
+        } else {
+            while mask != 0 {
+                let lane = mask.trailing_zeros() as usize;
+                mask &= mask - 1;
+                let entry = (n.child[lane], t[lane]);
+                if self.sp < STACK {
+                    stack[self.sp].write(entry);
+                    self.sp += 1;
+                } else {
+                    self.spill.push(entry);
+                }
+            }
+        }
+        // Insertion sort of the pushed run, farthest at the bottom.
+        for i in base + 1..self.sp {
+            // SAFETY: entries below `sp` are written.
+            let e = unsafe { stack[i].assume_init() };
+            let mut j = i;
+            // SAFETY: as above, `j - 1 < i < sp`.
+            while j > base && unsafe { stack[j - 1].assume_init() }.1 < e.1 {
+                stack[j] = stack[j - 1];
+                j -= 1;
+            }
+            stack[j].write(e);
+        }
+    }
+
+    /// The next pending child: the spill's last, else the top of the stack.
+    #[inline(always)]
+    fn pop(&mut self) -> Option<(u32, f32)> {
+        if let Some(top) = self.spill.pop() {
+            Some(top)
+        } else if self.sp > 0 {
+            self.sp -= 1;
+            // SAFETY: entries below the old `sp` are written.
+            Some(unsafe { self.stack[self.sp].assume_init() })
+        } else {
+            None
+        }
     }
 }

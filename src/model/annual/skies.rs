@@ -74,8 +74,8 @@ fn hour_sky(
     let daylight = alt > 0.0;
     let dew = h.dew_point_c.unwrap_or(perez::DEFAULT_DEW_POINT_C);
     let Some(c) = perez::conditions(
-        h.direct_normal_irradiance,
-        h.diffuse_horizontal_irradiance,
+        h.irradiance.direct_normal,
+        h.irradiance.diffuse_horizontal,
         alt,
         t.day_of_year(),
         dew,
