@@ -125,6 +125,10 @@ pub(crate) struct PatchGeo {
     pub cluster: Option<Box<[(Facet, f64)]>>,
 }
 
+/// Distances beyond this many element sizes (√(2 × area)) take a cluster element as a
+/// differential area in [`PatchGeo::seen_from`].
+const FAR_ELEMENT: f64 = 8.0;
+
 /// A point of a patch with the normal and scene triangle of the element it lies on.
 #[derive(Debug, Clone, Copy)]
 pub(crate) struct PatchPoint {
@@ -181,9 +185,19 @@ impl PatchGeo {
                 0.0
             };
         }
+        // An element far from x (beyond FAR_ELEMENT × its size) as a differential area:
+        // the same factor to within (size / distance)², without the contour integral.
         self.facets()
             .filter(|f| f.normal.dot(x - f.centroid) > 0.0)
-            .map(|f| point_to_polygon(x, n, &f.corners))
+            .map(|f| {
+                let d = f.centroid - x;
+                let r2 = d.length_squared();
+                if r2 > FAR_ELEMENT * FAR_ELEMENT * 2.0 * f.area {
+                    n.dot(d).max(0.0) * (-f.normal.dot(d)).max(0.0) * f.area / (PI * r2 * r2)
+                } else {
+                    point_to_polygon(x, n, &f.corners)
+                }
+            })
             .sum()
     }
 }
@@ -206,8 +220,10 @@ pub(crate) fn directed(a: &PatchGeo, b: &PatchGeo, quad: &[Vec<DVec3>; 5], level
         }
         return s / pts.len() as f64;
     }
-    // The area-weighted mean over a's elements of the factor to all of b's.
-    let budget = quad[level].len() as f64;
+    // The area-weighted mean over a's elements of the factor to all of b's, with the
+    // level's points shared among a's elements and fewer of them the more elements b has.
+    let nb = b.cluster.as_ref().map_or(1, |e| e.len()) as f64;
+    let budget = quad[level].len() as f64 * (8.0 / nb).min(1.0);
     let mut s = 0.0;
     for fa in a.facets() {
         let share = budget * fa.area / a.area;
