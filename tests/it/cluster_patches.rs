@@ -52,42 +52,7 @@ fn fine_quad(name: &str, mat: &str, p: [[f64; 3]; 4], normal: [f64; 3], n: usize
 
 /// The six faces of a box, each an `n` × `n` grid, fronts inward (a room) or outward.
 fn fine_box(prefix: &str, mat: &str, lo: [f64; 3], hi: [f64; 3], inward: bool, n: usize) -> String {
-    let s = if inward { -1.0 } else { 1.0 };
-    let [x0, y0, z0] = lo;
-    let [x1, y1, z1] = hi;
-    let faces = [
-        (
-            "-x",
-            [[x0, y0, z0], [x0, y1, z0], [x0, y1, z1], [x0, y0, z1]],
-            [-s, 0., 0.],
-        ),
-        (
-            "+x",
-            [[x1, y0, z0], [x1, y1, z0], [x1, y1, z1], [x1, y0, z1]],
-            [s, 0., 0.],
-        ),
-        (
-            "-y",
-            [[x0, y0, z0], [x1, y0, z0], [x1, y0, z1], [x0, y0, z1]],
-            [0., -s, 0.],
-        ),
-        (
-            "+y",
-            [[x0, y1, z0], [x1, y1, z0], [x1, y1, z1], [x0, y1, z1]],
-            [0., s, 0.],
-        ),
-        (
-            "-z",
-            [[x0, y0, z0], [x1, y0, z0], [x1, y1, z0], [x0, y1, z0]],
-            [0., 0., -s],
-        ),
-        (
-            "+z",
-            [[x0, y0, z1], [x1, y0, z1], [x1, y1, z1], [x0, y1, z1]],
-            [0., 0., s],
-        ),
-    ];
-    faces
+    box_quads(lo, hi, inward)
         .iter()
         .map(|(k, p, nn)| fine_quad(&format!("{prefix}{k}"), mat, *p, *nn, n))
         .collect()

@@ -117,13 +117,17 @@ pub fn polygon(name: &str, mat: &str, p: &[[f64; 3]]) -> String {
     s + "\n"
 }
 
-/// The six faces of an axis-aligned box, fronts inward (a room) or outward (a block).
-/// Face names are `prefix` + one of -x +x -y +y -z +z.
-pub fn box_faces(prefix: &str, mat: &str, lo: [f64; 3], hi: [f64; 3], inward: bool) -> String {
+/// The six faces of an axis-aligned box as (name suffix -x +x -y +y -z +z, corners in
+/// order around the face, the front's normal), fronts inward (a room) or outward.
+pub fn box_quads(
+    lo: [f64; 3],
+    hi: [f64; 3],
+    inward: bool,
+) -> [(&'static str, [[f64; 3]; 4], [f64; 3]); 6] {
     let s = if inward { -1.0 } else { 1.0 };
     let [x0, y0, z0] = lo;
     let [x1, y1, z1] = hi;
-    let faces = [
+    [
         (
             "-x",
             [[x0, y0, z0], [x0, y1, z0], [x0, y1, z1], [x0, y0, z1]],
@@ -154,8 +158,13 @@ pub fn box_faces(prefix: &str, mat: &str, lo: [f64; 3], hi: [f64; 3], inward: bo
             [[x0, y0, z1], [x1, y0, z1], [x1, y1, z1], [x0, y1, z1]],
             [0.0, 0.0, s],
         ),
-    ];
-    faces
+    ]
+}
+
+/// The six faces of an axis-aligned box, fronts inward (a room) or outward (a block).
+/// Face names are `prefix` + one of -x +x -y +y -z +z.
+pub fn box_faces(prefix: &str, mat: &str, lo: [f64; 3], hi: [f64; 3], inward: bool) -> String {
+    box_quads(lo, hi, inward)
         .iter()
         .map(|(k, p, n)| quad(&format!("{prefix}{k}"), mat, *p, *n))
         .collect()
