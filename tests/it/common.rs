@@ -117,13 +117,12 @@ pub fn polygon(name: &str, mat: &str, p: &[[f64; 3]]) -> String {
     s + "\n"
 }
 
+/// A box face: its name suffix, corners in order around it, and its front's normal.
+pub type BoxFace = (&'static str, [[f64; 3]; 4], [f64; 3]);
+
 /// The six faces of an axis-aligned box as (name suffix -x +x -y +y -z +z, corners in
 /// order around the face, the front's normal), fronts inward (a room) or outward.
-pub fn box_quads(
-    lo: [f64; 3],
-    hi: [f64; 3],
-    inward: bool,
-) -> [(&'static str, [[f64; 3]; 4], [f64; 3]); 6] {
+pub fn box_quads(lo: [f64; 3], hi: [f64; 3], inward: bool) -> [BoxFace; 6] {
     let s = if inward { -1.0 } else { 1.0 };
     let [x0, y0, z0] = lo;
     let [x1, y1, z1] = hi;
