@@ -2,7 +2,7 @@
 """Path-traced reference for the panel floor (benches/floor/make_scene.py), with Mitsuba 3.
 
 Usage: reference.py SCENE_DIR OUT_DIR [--points N] [--passes P] [--spp S] [--width W --height H]
-                    [--views ID,ID] [--no-surfaces] [--no-views]
+                    [--views ID,ID] [--no-surfaces] [--no-views] [--groups-rgb A,B,C]
 
 Environment: MI_VARIANT (default llvm_ad_rgb; cuda_ad_rgb on a GPU). A JIT variant is
 needed: the surface estimates are wavefronts of Dr.Jit arrays.
@@ -18,6 +18,12 @@ Writes to OUT_DIR:
 - <view>.npy: float32 H x W x 3 radiance images of the cameras in cameras.json (pinhole,
   vertical fov, box filter), the mean of P passes; <view>_stderr.npy (float16) the
   per-pixel standard error of that mean.
+
+--groups-rgb A,B,C: only the panels of light groups A, B and C emit (surfaces
+"A_panels", ...), A in red, B in green, C in blue, each at the panel's exitance; every
+other panel is a black blocker. On a scene written with make_scene.py --grey the three
+channels are then the three groups' own irradiances (each group alone, at full output):
+compare_groups.py reads them.
 
 Conventions (as relight): diffuse BSDFs (one-sided, black behind), one-sided area
 emitters with radiance = exitance / π, face normals, path integrator max_depth 100.
@@ -48,6 +54,7 @@ ap.add_argument("--brute", default="", help="surfaces to check with a second est
                 "pi x the path integrator's radiance along cosine rays (emission included)")
 ap.add_argument("--brute-points", type=int, default=1 << 22)
 ap.add_argument("--ply-dir", default="/tmp/floor-reference-ply", help="where the meshes are written")
+ap.add_argument("--groups-rgb", default="", help="A,B,C: only these groups emit, in R, G, B")
 ap.add_argument("--chunk", type=int, default=1 << 22, help="most points per wavefront")
 args = ap.parse_args()
 
@@ -103,6 +110,9 @@ for n, ((s, m), tl) in enumerate(tris.items()):
     ply = os.path.join(ply_dir, f"{n}.ply")
     mesh.write_ply(ply)
     kd, ke = mtl[m]["Kd"], mtl[m]["Ke"]
+    if args.groups_rgb and max(ke) > 0:
+        chans = [f"{g}_panels" for g in args.groups_rgb.split(",")]
+        ke = tuple(max(ke) if s == name else 0.0 for name in (chans + ["", "", ""])[:3])
     shape = {"type": "ply", "filename": ply, "face_normals": True,
              "bsdf": {"type": "diffuse", "reflectance": {"type": "rgb", "value": list(kd)}}}
     if max(ke) > 0:
@@ -266,6 +276,7 @@ if not args.no_surfaces:
     se = means.std(axis=0, ddof=1) / math.sqrt(args.passes) if args.passes > 1 else np.zeros_like(mean)
     out = {"estimator": "direct: one sample per emitting triangle; indirect: path integrator along "
                         "one cosine ray less the first hit's emission",
+           "groups_rgb": args.groups_rgb.split(",") if args.groups_rgb else None,
            "points_per_pass": n_pts, "passes": args.passes, "variant": mi.variant(),
            "seconds": time.time() - t0,
            "surfaces": {s: {"area": float(areas[i].sum()), "irradiance": mean[i].tolist(),
