@@ -15,7 +15,10 @@ answers and references: both sides are linear in the groups' intensities.
 For each state: every non-emitting surface of at least --min-area m², its luminous
 illuminance (Y) against the reference's, the worst error, how many surfaces are off by 2 %
 or more, and how many of those are also off by more than three of the reference's standard
-errors (the ones the reference's noise cannot explain).
+errors (the ones the reference's noise cannot explain). The last columns split those by how
+brightly the state lights the surface, against the state's area-mean illuminance M: lit
+(>= 0.1 M), dim (0.001 M to 0.1 M: a room lit through one opening) and dark (< 0.001 M:
+through two openings or more).
 """
 import argparse
 import glob
@@ -63,7 +66,8 @@ STATES += [
 
 report, total_over, total_real = {}, 0, 0
 print(f"{args.name}: {len(groups)} groups; surfaces of >= {args.min_area:g} m² (panels left out)")
-print(f"  {'state':36s} {'worst %':>8s} {'surface':24s} {'>=2 %':>6s} {'>3 se':>6s} {'mean |e| %':>10s} {'balance':>9s}")
+print(f"  {'state':36s} {'worst %':>8s} {'surface':24s} {'>=2 %':>6s} {'>3 se':>6s} {'mean |e| %':>10s} {'balance':>9s}"
+      f"   past 2 % and 3 se: {'lit':>4s} {'dim':>4s} {'dark':>4s}   worst lit/dim")
 for label, w in STATES:
     rows = []
     for s, (area, _, _) in ref[groups[0]].items():
@@ -84,11 +88,17 @@ for label, w in STATES:
     worst = max(rows, key=lambda x: abs(x[4]))
     over = [x for x in rows if abs(x[4]) >= 2.0]
     real = [x for x in over if abs(x[4]) > 3 * x[5]]
+    m = sum(x[1] * x[3] for x in rows) / area
+    tier = lambda x: "lit" if x[3] >= 0.1 * m else "dim" if x[3] >= 1e-3 * m else "dark"
+    tiers = {t: sum(1 for x in real if tier(x) == t) for t in ("lit", "dim", "dark")}
+    lit_dim = [x for x in rows if tier(x) != "dark"]
+    worst_ld = max(lit_dim, key=lambda x: abs(x[4]))
     total_over += len(over)
     total_real += len(real)
-    print(f"  {label:36s} {worst[4]:+8.2f} {worst[0]:24s} {len(over):6d} {len(real):6d} {mean:10.2f} {gap:+9.1e}")
+    print(f"  {label:36s} {worst[4]:+8.2f} {worst[0]:24s} {len(over):6d} {len(real):6d} {mean:10.2f} {gap:+9.1e}"
+          f"   {'':18s} {tiers['lit']:4d} {tiers['dim']:4d} {tiers['dark']:4d}   {worst_ld[4]:+6.2f} {worst_ld[0]}")
     report[label] = {"worst_pct": worst[4], "worst": worst[0], "over_2pct": len(over),
-                     "over_2pct_beyond_noise": len(real), "mean_abs_pct": mean, "balance": gap,
+                     "over_2pct_beyond_noise": len(real), "beyond_noise_by_tier": tiers, "mean_abs_pct": mean, "balance": gap,
                      "surfaces": {x[0]: {"area": x[1], "relight": x[2], "reference": x[3],
                                          "error_pct": x[4], "ref_se_pct": x[5]} for x in rows}}
 print(f"  in all: {total_over} surface-states off by >= 2 %, {total_real} of them beyond 3 standard errors")
