@@ -54,7 +54,6 @@ pub mod optimize;
 pub mod query;
 pub mod report;
 pub mod sky_state;
-pub mod sun;
 
 pub use error::QueryError;
 pub use lighting::{LightSetting, LightState, Lighting};

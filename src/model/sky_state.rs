@@ -8,7 +8,7 @@
 use glam::DVec3;
 use serde::{Deserialize, Serialize};
 
-use super::sun::nearest_sky_patches;
+use super::daylight::sun_on_patches::nearest_sky_patches;
 use super::QueryError;
 use crate::daylight::sky_luminance::{Sky, Sun};
 use crate::daylight::sun::{self, LocalTime};

@@ -12,7 +12,7 @@ use crate::daylight::epw::{self, Weather};
 use crate::daylight::sun::{self, LocalTime};
 use crate::daylight::tregenza::Subdivision;
 use crate::daylight::{perez, Site};
-use crate::model::sun::sky_direction;
+use crate::model::daylight::sun_on_patches::sky_direction;
 
 /// One hour's sky: patch luminances, the sun spread over patches, and the exact sun.
 pub(super) struct HourSky {

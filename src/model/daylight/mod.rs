@@ -35,6 +35,7 @@ use crate::transport::sky_view::{self, Reach};
 mod gather;
 mod patches;
 mod points;
+pub mod sun_on_patches;
 
 pub use gather::{
     GatherCache, PointGather, GATHER_CACHE_MAX_BYTES, GATHER_CACHE_MIN_BYTES, GATHER_CACHE_POINTS,

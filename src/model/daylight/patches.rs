@@ -8,8 +8,8 @@ use glam::DVec3;
 
 use crate::color::Rgb;
 use crate::daylight::Site;
+use crate::model::daylight::sun_on_patches::{fit_sun_spread, SunOnPatches};
 use crate::model::sky_state::SkyState;
-use crate::model::sun::{fit_sun_spread, SunOnPatches};
 use crate::model::{Model, QueryError};
 use crate::transport::sky_view;
 use crate::transport::transfer::weighted_sum;

@@ -28,7 +28,7 @@ pub struct SunOnPatches {
 
 /// The unit vector of sky position (`altitude`, `azimuth`), radians, in the sky's own frame
 /// (x east, y north, z up).
-pub(super) fn sky_direction(altitude: f64, azimuth: f64) -> DVec3 {
+pub(crate) fn sky_direction(altitude: f64, azimuth: f64) -> DVec3 {
     DVec3::new(
         altitude.cos() * azimuth.sin(),
         altitude.cos() * azimuth.cos(),
@@ -38,7 +38,7 @@ pub(super) fn sky_direction(altitude: f64, azimuth: f64) -> DVec3 {
 
 /// The sky patches of `sub` (not the ground) by closeness to sky position (`altitude`,
 /// `azimuth`), radians: (cosine of the angle to the patch centre, patch), nearest first.
-pub(super) fn nearest_sky_patches(
+pub(crate) fn nearest_sky_patches(
     sub: &Subdivision,
     altitude: f64,
     azimuth: f64,
