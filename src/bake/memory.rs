@@ -33,9 +33,11 @@ pub const HIER_BYTES_PER_PATCH_GROUP: u64 = 160;
 /// patches share one factorization; see [`memory_estimate`]).
 ///
 /// - **Both modes** hold the dense form factors `F`: 4·n² bytes (f32, n × n).
-/// - **Factored** adds one LU of `(I − ρF)ᵀ` per distinct channel, 4·n² bytes each, all alive
-///   with `F` at the end of the solve (and while the cache entry is written, which streams
-///   them without copies): `4·n²·(1 + lu_count)`.
+/// - **Factored** adds one LU of `(I − ρF)ᵀ` per distinct channel, 4·n² bytes each, and
+///   then turns each into its irradiance response `K = F (I − ρF)⁻¹` (4·n², the LU
+///   dropped once its response is made): `F`, the LUs and one response more than the LUs
+///   dropped are alive at once, `4·n²·(2 + lu_count)`. The cache entry is written from the
+///   responses alone, streamed without copies.
 /// - **Columns** keeps only `F` (Jacobi needs no factorization): `4·n²`.
 /// - **Hierarchical** holds no n × n matrix: [`HIER_LINKS_PER_PATCH`] links per patch at
 ///   [`HIER_BAKE_BYTES_PER_LINK`] bytes, and [`HIER_BYTES_PER_PATCH_GROUP`] per patch and
@@ -53,7 +55,7 @@ pub fn estimate_bake_bytes(
     let n = patches as u64;
     let square = 4u64.saturating_mul(n).saturating_mul(n);
     let matrices = match mode {
-        TransferMode::Factored => square.saturating_mul(1 + lu_count.clamp(1, 3) as u64),
+        TransferMode::Factored => square.saturating_mul(2 + lu_count.clamp(1, 3) as u64),
         TransferMode::Columns => square,
         TransferMode::Hierarchical => {
             return n
@@ -75,9 +77,9 @@ pub fn estimate_bake_bytes(
         .saturating_add(BAKE_BYTES_BASE)
 }
 
-/// Estimated peak memory of loading a baked transfer from the cache: in factored mode `F`
-/// and the LUs (read straight into their final buffers), `4·n²·(1 + lu_count)`; in columns
-/// mode only the group columns. Plus the same per-patch, per-group and base terms as
+/// Estimated peak memory of loading a baked transfer from the cache: in factored mode the
+/// irradiance responses (read straight into their final buffers), `4·n²·lu_count`; in
+/// columns mode only the group columns. Plus the same per-patch, per-group and base terms as
 /// [`estimate_bake_bytes`].
 pub fn estimate_load_bytes(
     patches: usize,
@@ -86,7 +88,13 @@ pub fn estimate_load_bytes(
     lu_count: usize,
 ) -> u64 {
     match mode {
-        TransferMode::Factored => estimate_bake_bytes(patches, mode, groups, lu_count),
+        TransferMode::Factored => {
+            let square = 4u64
+                .saturating_mul(patches as u64)
+                .saturating_mul(patches as u64);
+            estimate_bake_bytes(patches, mode, groups, lu_count)
+                .saturating_sub(square.saturating_mul(2))
+        }
         TransferMode::Hierarchical => {
             let n = patches as u64;
             n.saturating_mul(HIER_LINKS_PER_PATCH * BYTES_PER_LINK)

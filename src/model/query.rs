@@ -3,7 +3,7 @@
 //! calculation grids (lux), and the luminaires' flux (lm) and power (W).
 //!
 //! Group states are weighted sums of precomputed columns (microseconds); a per-patch
-//! emission is an exact solve with the stored factors (factored transfer only).
+//! emission is an exact product with the stored irradiance responses (factored transfer).
 
 use std::collections::BTreeMap;
 

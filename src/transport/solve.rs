@@ -123,6 +123,31 @@ impl ChannelLu {
     }
 }
 
+impl ChannelLu {
+    /// The channel's irradiance response `K = F (I − ρF)⁻¹`, as `Kᵀ` column-major (which
+    /// is `K` row-major): `K_ij` at `(j, i)`. `K_ij` is the illuminance (lux) patch i
+    /// gathers per lm/m² that patch j emits, every interreflection included, so any
+    /// emission `E` gives `H = K E` and `B = E + ρ H` by one product.
+    ///
+    /// One multi-right-hand-side solve: the factorization is of `M = (I − ρF)ᵀ`, and
+    /// `Kᵀ = M⁻¹ Fᵀ`, where `Fᵀ` column-major is the row-major `f` as it is.
+    pub fn irradiance_response(&self, f: &[f32]) -> Mat<f32> {
+        let n = self.lu.nrows();
+        let mut kt = MatRef::from_column_major_slice(f, n, n).to_owned();
+        let perm = PermRef::new_checked(&self.perm, &self.perm_inv, n);
+        let mut mem = MemBuffer::new(lusolve::solve_in_place_scratch::<usize, f32>(n, n, par()));
+        lusolve::solve_in_place(
+            self.lu.as_ref(),
+            self.lu.as_ref(),
+            perm,
+            kt.as_mut(),
+            par(),
+            MemStack::new(&mut mem),
+        );
+        kt
+    }
+}
+
 /// `F · X` for row-major `f` (n×n) and column-major `x` (n×k).
 pub fn apply_f(f: &[f32], n: usize, x: MatRef<'_, f32>) -> Mat<f32> {
     let fm = MatRef::from_row_major_slice(f, n, n);

@@ -10,7 +10,7 @@ use crate::transport::transfer::{SolveInfo, TransferMode};
 /// The first 8 bytes of every cache file.
 pub(super) const MAGIC: &[u8; 8] = b"RLTRANS\0";
 /// Bump when the file layout changes.
-pub(super) const FORMAT_VERSION: u32 = 5;
+pub(super) const FORMAT_VERSION: u32 = 6;
 /// Bump when the numbers a bake produces change (meshing, form factors, solver,
 /// photometry: 3 applies IES tilt data and no longer scales LM-63-2019 tables by their file
 /// generation type).
@@ -46,8 +46,10 @@ pub struct Header {
     /// Per group: luminaire flux and its part landing on patches, lm per channel.
     #[serde(default)]
     pub group_flux: Vec<[[f64; 3]; 2]>,
-    pub channel_lu: Option<[u8; 3]>,
-    pub lu_count: usize,
+    /// Factored mode: which irradiance response serves each of R, G, B, and how many
+    /// distinct responses there are (sections `resp0`, `resp1`, …).
+    pub channel_response: Option<[u8; 3]>,
+    pub response_count: usize,
     pub info: SolveInfo,
     /// Hierarchical mode: the number of links, and how the hierarchy was built.
     #[serde(default)]
@@ -69,8 +71,8 @@ pub struct Header {
 pub(super) enum Kind {
     /// f32 values.
     Floats,
-    /// An n × n column-major LU (read straight into its matrix).
-    Lu,
+    /// An n × n column-major matrix (read straight into it).
+    Matrix,
 }
 
 /// Sections by name, with their kinds and exact lengths in bytes.
@@ -100,19 +102,17 @@ pub(super) fn expected_sections(h: &Header) -> Option<Sections> {
     sky_sections(h, &mut out)?;
     match h.mode {
         TransferMode::Columns => {
-            if h.lu_count != 0 {
+            if h.response_count != 0 {
                 return None;
             }
         }
         TransferMode::Hierarchical => hierarchy_sections(h, &mut out)?,
         TransferMode::Factored => {
-            if !(1..=3).contains(&h.lu_count) {
+            if !(1..=3).contains(&h.response_count) {
                 return None;
             }
-            out.push(("f".to_string(), Kind::Floats, square));
-            for k in 0..h.lu_count {
-                out.push((format!("lu{k}"), Kind::Lu, square));
-                out.push((format!("perm{k}"), Kind::Floats, vec1));
+            for k in 0..h.response_count {
+                out.push((format!("resp{k}"), Kind::Matrix, square));
             }
         }
     }
@@ -161,7 +161,7 @@ fn sky_sections(h: &Header, out: &mut Sections) -> Option<()> {
 /// Adds the hierarchy's sections (its tree and links); None for an inconsistent header.
 fn hierarchy_sections(h: &Header, out: &mut Sections) -> Option<()> {
     let n = h.patch_count as u64;
-    if h.lu_count != 0 || n == 0 {
+    if h.response_count != 0 || n == 0 {
         return None;
     }
     let links = h.links;

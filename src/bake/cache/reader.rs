@@ -16,7 +16,6 @@ use super::format::{
 use super::CacheError;
 use crate::color::{Rgb, Rgb64};
 use crate::transport::hierarchy::{Hierarchy, StoredLinks};
-use crate::transport::solve::ChannelLu;
 use crate::transport::transfer::{Factored, GroupColumns, SkyColumns, Transfer, TransferMode};
 
 /// The file at `path`, opened, and its size in bytes.
@@ -168,10 +167,10 @@ fn plan_sections<'h>(
     Ok(plan)
 }
 
-/// The sections' contents by name: f32 arrays, and n × n LU matrices.
+/// The sections' contents by name: f32 arrays, and n × n matrices.
 struct Sections {
     floats: HashMap<String, Vec<f32>>,
-    lus: HashMap<String, faer::Mat<f32>>,
+    matrices: HashMap<String, faer::Mat<f32>>,
 }
 
 /// Reads the planned sections, verifying each one's checksum; `n` is the patch count.
@@ -187,7 +186,7 @@ fn read_sections(
     };
     let mut out = Sections {
         floats: HashMap::new(),
-        lus: HashMap::new(),
+        matrices: HashMap::new(),
     };
     for (s, kind) in plan {
         let mut hasher = Xxh3::new();
@@ -200,7 +199,7 @@ fn read_sections(
                 hasher.update(bytemuck::cast_slice(&v));
                 out.floats.insert(s.name.clone(), v);
             }
-            Kind::Lu => {
+            Kind::Matrix => {
                 let mut m = faer::Mat::<f32>::zeros(n, n);
                 for j in 0..n {
                     let col = m.col_as_slice_mut(j);
@@ -208,7 +207,7 @@ fn read_sections(
                         .map_err(truncated)?;
                     hasher.update(bytemuck::cast_slice(m.col_as_slice(j)));
                 }
-                out.lus.insert(s.name.clone(), m);
+                out.matrices.insert(s.name.clone(), m);
             }
         }
         if format!("{:016x}", hasher.digest()) != s.xxh3 {
@@ -270,7 +269,7 @@ fn assemble(path: &Path, h: &Header, mut s: Sections) -> Result<Transfer, CacheE
     };
     let factored = match h.mode {
         TransferMode::Columns | TransferMode::Hierarchical => None,
-        TransferMode::Factored => Some(factored(h, &mut take, &mut s.lus, &corrupt)?),
+        TransferMode::Factored => Some(factored(h, &mut s.matrices, &corrupt)?),
     };
     let hierarchy = match h.mode {
         TransferMode::Hierarchical => Some(hierarchy(h, &area, &mut take, &corrupt)?),
@@ -320,35 +319,25 @@ fn hierarchy(
         .ok_or_else(|| corrupt("the hierarchy's links are inconsistent".into()))
 }
 
-/// The factorization of a factored entry: its LUs with their permutations, the channel
-/// map and the form-factor matrix.
+/// The irradiance responses of a factored entry, with the channel map.
 fn factored(
     h: &Header,
-    take: &mut impl FnMut(&str) -> Result<Vec<f32>, CacheError>,
-    lu_mats: &mut HashMap<String, faer::Mat<f32>>,
+    matrices: &mut HashMap<String, faer::Mat<f32>>,
     corrupt: &impl Fn(String) -> CacheError,
 ) -> Result<Factored, CacheError> {
-    let f = take("f")?;
-    let mut lus = Vec::new();
-    for k in 0..h.lu_count {
-        let lu = lu_mats
-            .remove(&format!("lu{k}"))
-            .ok_or_else(|| corrupt(format!("missing section 'lu{k}'")))?;
-        let perm_f = take(&format!("perm{k}"))?;
-        let perm: Vec<usize> = bytemuck::cast_slice::<f32, u32>(&perm_f)
-            .iter()
-            .map(|&p| p as usize)
-            .collect();
-        lus.push(
-            ChannelLu::from_lu(lu, perm)
-                .ok_or_else(|| corrupt(format!("permutation {k} is invalid")))?,
+    let mut responses = Vec::new();
+    for k in 0..h.response_count {
+        responses.push(
+            matrices
+                .remove(&format!("resp{k}"))
+                .ok_or_else(|| corrupt(format!("missing section 'resp{k}'")))?,
         );
     }
-    let channel_lu = h
-        .channel_lu
+    let channel = h
+        .channel_response
         .ok_or_else(|| corrupt("factored entry without channel map".into()))?;
-    if channel_lu.iter().any(|&c| c as usize >= lus.len()) {
-        return Err(corrupt("channel map names a missing factorization".into()));
+    if channel.iter().any(|&c| c as usize >= responses.len()) {
+        return Err(corrupt("channel map names a missing response".into()));
     }
-    Ok(Factored { lus, channel_lu, f })
+    Ok(Factored { responses, channel })
 }

@@ -13,15 +13,15 @@ use super::format::{
     grid_section, sky_section, Header, Section, ALGORITHM_VERSION, FORMAT_VERSION, MAGIC,
 };
 use super::CacheError;
-use crate::transport::solve::ChannelLu;
 use crate::transport::transfer::Transfer;
+use faer::Mat;
 
 /// One section's data, as it is written.
 enum Data<'a> {
     Bytes(Vec<u8>),
     Slice(&'a [u8]),
-    /// An LU, streamed column by column from its matrix (no copy of n² floats).
-    Lu(&'a ChannelLu),
+    /// An n × n matrix, streamed column by column (no copy of n² floats).
+    Matrix(&'a Mat<f32>),
 }
 
 impl Data<'_> {
@@ -29,7 +29,7 @@ impl Data<'_> {
         match self {
             Data::Bytes(b) => b.len() as u64,
             Data::Slice(b) => b.len() as u64,
-            Data::Lu(lu) => 4 * (lu.lu.nrows() as u64) * (lu.lu.ncols() as u64),
+            Data::Matrix(m) => 4 * (m.nrows() as u64) * (m.ncols() as u64),
         }
     }
 
@@ -37,9 +37,9 @@ impl Data<'_> {
         match self {
             Data::Bytes(b) => f(b),
             Data::Slice(b) => f(b),
-            Data::Lu(lu) => {
-                for j in 0..lu.lu.ncols() {
-                    f(bytemuck::cast_slice(lu.lu.col_as_slice(j)))?;
+            Data::Matrix(m) => {
+                for j in 0..m.ncols() {
+                    f(bytemuck::cast_slice(m.col_as_slice(j)))?;
                 }
                 Ok(())
             }
@@ -85,8 +85,8 @@ pub fn write(
         mode: t.mode,
         groups: t.groups.len(),
         group_flux: t.groups.iter().map(|g| [g.flux.0, g.landed.0]).collect(),
-        channel_lu: t.factored.as_ref().map(|f| f.channel_lu),
-        lu_count: t.factored.as_ref().map_or(0, |f| f.lus.len()),
+        channel_response: t.factored.as_ref().map(|f| f.channel),
+        response_count: t.factored.as_ref().map_or(0, |f| f.responses.len()),
         info: t.info,
         links: t.hierarchy.as_ref().map_or(0, |h| h.src.len() as u64),
         hierarchy: t.hierarchy.as_ref().map(|h| h.stats),
@@ -117,13 +117,8 @@ fn sections_of(t: &Transfer) -> Vec<(String, Data<'_>)> {
         Data::Bytes(bytemuck::cast_slice(&t.rho).to_vec()),
     ));
     if let Some(f) = &t.factored {
-        for (k, lu) in f.lus.iter().enumerate() {
-            all.push((format!("lu{k}"), Data::Lu(lu)));
-            let perm: Vec<u32> = lu.perm.iter().map(|&p| p as u32).collect();
-            all.push((
-                format!("perm{k}"),
-                Data::Bytes(bytemuck::cast_slice(&perm).to_vec()),
-            ));
+        for (k, m) in f.responses.iter().enumerate() {
+            all.push((format!("resp{k}"), Data::Matrix(m)));
         }
     }
     all.push(("area".into(), Data::Slice(bytemuck::cast_slice(&t.area))));
@@ -149,9 +144,6 @@ fn sections_of(t: &Transfer) -> Vec<(String, Data<'_>)> {
         for (k, col) in sky.indirect.iter().enumerate() {
             all.push((sky_section(k), Data::Slice(bytemuck::cast_slice(col))));
         }
-    }
-    if let Some(f) = &t.factored {
-        all.push(("f".into(), Data::Slice(bytemuck::cast_slice(&f.f))));
     }
     if let Some(h) = &t.hierarchy {
         all.push((

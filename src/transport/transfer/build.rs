@@ -287,7 +287,16 @@ impl Build<'_> {
             let indirect = (0..d.k).map(|k| rgb(&h, 3 * (g + k))).collect();
             SkyColumns::new(d, indirect)
         });
-        let factored = lus.map(|(lus, channel_lu)| Factored { lus, channel_lu, f });
+        // The LUs and F give way to the responses K = F (I − ρF)⁻¹, one per LU (each LU
+        // dropped once its response is made).
+        let factored = lus.map(|(lus, channel)| Factored {
+            responses: lus
+                .into_iter()
+                .map(|lu| lu.irradiance_response(&f))
+                .collect(),
+            channel,
+        });
+        drop(f);
         (self.progress)(1.0);
         Transfer {
             sky,

@@ -1,9 +1,10 @@
 //! The baked transfer: everything needed to relight a scene, immutable once built.
 //!
 //! Three modes:
-//! - **factored**: an LU factorization of `(I − ρF)` per distinct reflectance channel,
-//!   plus `F` itself. Any per-patch emission vector is solved exactly
-//!   ([`Transfer::solve`]); light groups are served from precomputed columns as well.
+//! - **factored**: the irradiance response `K = F (I − ρF)⁻¹` per distinct reflectance
+//!   channel, n × n. Any per-patch emission vector is answered exactly by one product
+//!   ([`Transfer::solve`]), in time proportional to its nonzero patches when it is
+//!   sparse; light groups are served from precomputed columns as well.
 //! - **columns**: only the response columns of the light groups (from Jacobi iteration to
 //!   a relative tolerance of [`COLUMN_TOL`]); `F` is not kept.
 //! - **hierarchical**: no n × n matrix at all. The form factors are links of a cluster
@@ -24,7 +25,6 @@ use crate::color::{Rgb, Rgb64};
 use crate::geometry::mesh::Mesh;
 use crate::scene::{Scene, TransferChoice};
 use crate::transport::hierarchy::Hierarchy;
-use crate::transport::solve::{self, ChannelLu};
 
 mod build;
 pub use build::{all_sources, group_emission, group_sources, patch_rho, solve_refined};
@@ -49,13 +49,13 @@ pub const HIERARCHY_MAX_SWEEPS: usize = 1000;
 /// near [`SOLVE_BYTES_PER_STATE`] · n · 128 (50 MB for the 5,498-patch Cornell box).
 pub const SOLVE_CHUNK: usize = 128;
 /// Memory of [`Transfer::solve_many`] per state and patch, bytes, an upper estimate over
-/// the modes: the emission vector (12), the working columns (factored: B, a
-/// per-factorization copy of it and H, 36; hierarchical: the sources, B and the gather
+/// the modes: the emission vector (12), the working columns (factored: E, a
+/// per-response copy of it and H, 36; hierarchical: the sources, B and the gather
 /// over about 2n nodes, and H, 72) and the answer's e, b and h (36).
 pub const SOLVE_BYTES_PER_STATE: u64 = 12 + 72 + 36;
 
-/// How a transfer is kept: `factored` (LU factors: any per-patch emission is solved
-/// exactly) or `columns` (the light groups' response columns only).
+/// How a transfer is kept: `factored` (irradiance responses: any per-patch emission is
+/// answered exactly) or `columns` (the light groups' response columns only).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, serde::Deserialize)]
 #[cfg_attr(feature = "server", derive(utoipa::ToSchema))]
 #[serde(rename_all = "lowercase")]
@@ -142,15 +142,15 @@ impl SkyColumns {
     }
 }
 
-/// Factored-mode data.
+/// Factored-mode data: per distinct reflectance channel, the irradiance response
+/// `K = F (I − ρF)⁻¹` ([`solve::ChannelLu::irradiance_response`]).
 #[derive(Clone)]
 pub struct Factored {
-    /// Distinct channel factorizations.
-    pub lus: Vec<ChannelLu>,
-    /// Which factorization serves each of R, G, B.
-    pub channel_lu: [u8; 3],
-    /// The form-factor matrix, row-major n × n.
-    pub f: Vec<f32>,
+    /// Distinct channel responses, each `Kᵀ` column-major (n × n): `K_ij`, the
+    /// illuminance (lux) at patch i per lm/m² emitted by patch j, at `(j, i)`.
+    pub responses: Vec<Mat<f32>>,
+    /// Which response serves each of R, G, B.
+    pub channel: [u8; 3],
 }
 
 /// How the bake-time solve went.
@@ -208,10 +208,8 @@ impl Transfer {
         b += self.grids.iter().flatten().map(f32s).sum::<u64>();
         b += self.sky.as_ref().map_or(0, |s| s.bytes());
         if let Some(f) = &self.factored {
-            b += f32s(&f.f);
-            for lu in &f.lus {
-                b += 4 * (lu.lu.nrows() * lu.lu.ncols()) as u64
-                    + 8 * (lu.perm.capacity() + lu.perm_inv.capacity()) as u64;
+            for k in &f.responses {
+                b += 4 * (k.nrows() * k.ncols()) as u64;
             }
         }
         b
@@ -296,7 +294,7 @@ impl Transfer {
     }
 
     /// Solution for an arbitrary per-patch emission (lm/m², n × 3 interleaved): exact
-    /// with the stored factors (factored mode), or by sweeps over the links to
+    /// with the stored responses (factored mode), or by sweeps over the links to
     /// [`HIERARCHY_TOL`] (hierarchical mode); `None` in columns mode.
     pub fn solve(&self, emission: &[f32]) -> Option<Solution> {
         self.solve_many(&[emission])?.pop()
@@ -304,9 +302,9 @@ impl Transfer {
 
     /// Solutions for many per-patch emissions at once (each n × 3 interleaved), in order;
     /// `None` in columns mode or when a vector is not 3n long. In factored mode the m
-    /// emissions form one n × 3m matrix (column 3j + c is state j's channel c), solved by
-    /// one multi-right-hand-side triangular solve per distinct channel factorization and
-    /// multiplied by `F` in one product, so m states cost far less than m solves. In
+    /// emissions form one n × 3m matrix E (column 3j + c is state j's channel c):
+    /// `H = K E` by one product per distinct channel response ([`Factored::irradiance`]),
+    /// and `B = E + ρ H`. In
     /// hierarchical mode the 3m columns are swept together (until all have converged).
     /// The working memory is about [`SOLVE_BYTES_PER_STATE`] · n bytes per state; callers
     /// bound m (see [`SOLVE_CHUNK`]).
@@ -367,8 +365,13 @@ impl Transfer {
                 .subcols_mut(3 * j, 3)
                 .copy_from(faer::MatRef::from_row_major_slice(e, n, 3));
         }
-        fac.solve_cols(x.as_mut());
-        let h = solve::apply_f(&fac.f, n, x.as_ref());
+        let h = fac.irradiance(x.as_ref());
+        for k in 0..c {
+            let (hk, xk) = (h.col(k), x.as_mut().col_mut(k));
+            for (i, v) in xk.iter_mut().enumerate() {
+                *v += self.rho[i][k % 3] * hk[i];
+            }
+        }
         let out = |y: &Mat<f32>, j: usize| {
             let mut v = vec![0f32; 3 * n];
             faer::MatMut::from_row_major_slice_mut(&mut v, n, 3).copy_from(y.subcols(3 * j, 3));
@@ -430,10 +433,69 @@ pub fn weighted_sum<'a>(cols: impl Iterator<Item = &'a [f32]>, weights: &[Rgb], 
     }
 }
 
+/// Emissions whose nonzero patches are at most this share of all patches are answered
+/// column by column of K ([`Factored::irradiance`]): work k·n for k such patches, where
+/// the product reads all n².
+const SPARSE_SHARE: usize = 8;
+
 impl Factored {
-    /// Solves in place; column k is solved with the factorization of channel k % 3.
-    pub fn solve_cols(&self, x: faer::MatMut<'_, f32>) {
-        build::solve_cols(&self.lus, self.channel_lu, x)
+    /// `H = K X` (lux) for per-patch emissions `x` (lm/m², n × c, column k in channel
+    /// k % 3). Dense columns go through one matrix product per distinct response; when
+    /// at most n / [`SPARSE_SHARE`] rows of `x` are nonzero, each patch's H sums only
+    /// those rows' entries of K (its row of K is a contiguous column of `Kᵀ`).
+    pub fn irradiance(&self, x: faer::MatRef<'_, f32>) -> Mat<f32> {
+        use rayon::prelude::*;
+        let (n, c) = (x.nrows(), x.ncols());
+        let lit: Vec<usize> = (0..n)
+            .filter(|&i| (0..c).any(|k| x[(i, k)] != 0.0))
+            .collect();
+        let mut h = Mat::<f32>::zeros(n, c);
+        for (u, kt) in self.responses.iter().enumerate() {
+            let cols: Vec<usize> = (0..c)
+                .filter(|&k| self.channel[k % 3] as usize == u)
+                .collect();
+            if cols.is_empty() {
+                continue;
+            }
+            if lit.len() * SPARSE_SHARE <= n {
+                // Row-major n × |cols| answers, one patch per row.
+                let mut rows = vec![0f32; n * cols.len()];
+                rows.par_chunks_mut(cols.len())
+                    .enumerate()
+                    .for_each(|(i, out)| {
+                        let k_row = kt.col_as_slice(i);
+                        for &j in &lit {
+                            let kij = k_row[j];
+                            for (o, &k) in out.iter_mut().zip(&cols) {
+                                *o += kij * x[(j, k)];
+                            }
+                        }
+                    });
+                for (a, &k) in cols.iter().enumerate() {
+                    for i in 0..n {
+                        h[(i, k)] = rows[i * cols.len() + a];
+                    }
+                }
+                continue;
+            }
+            let mut xs = Mat::<f32>::zeros(n, cols.len());
+            for (a, &k) in cols.iter().enumerate() {
+                xs.as_mut().col_mut(a).copy_from(x.col(k));
+            }
+            let mut hs = Mat::<f32>::zeros(n, cols.len());
+            faer::linalg::matmul::matmul(
+                hs.as_mut(),
+                faer::Accum::Replace,
+                kt.as_ref().transpose(),
+                xs.as_ref(),
+                1.0,
+                faer::Par::rayon(0),
+            );
+            for (a, &k) in cols.iter().enumerate() {
+                h.as_mut().col_mut(k).copy_from(hs.col(a));
+            }
+        }
+        h
     }
 }
 
@@ -443,7 +505,7 @@ mod tests {
 
     /// A factored transfer over a synthetic coupling: n patches, row sums of F below 1,
     /// reflectances with R and B equal (one shared factorization) and G distinct.
-    fn factored(n: usize) -> Transfer {
+    fn factored(n: usize) -> (Transfer, Vec<f32>) {
         let mut seed = 0x9e37_79b9_7f4a_7c15u64;
         let mut next = move || {
             seed ^= seed << 13;
@@ -465,27 +527,29 @@ mod tests {
             })
             .collect();
         let rho_ch: [Vec<f32>; 3] = std::array::from_fn(|c| rho.iter().map(|r| r[c]).collect());
-        let (lus, channel_lu) = build::factor_channels(&f, &rho_ch, n, &|_| {});
+        let (lus, channel) = build::factor_channels(&f, &rho_ch, n, &|_| {});
         assert_eq!(lus.len(), 2);
-        Transfer {
+        let responses = lus.iter().map(|lu| lu.irradiance_response(&f)).collect();
+        let t = Transfer {
             mode: TransferMode::Factored,
             n,
             rho,
             area: vec![1.0; n],
             escape: vec![0.1; n],
             groups: vec![],
-            factored: Some(Factored { lus, channel_lu, f }),
+            factored: Some(Factored { responses, channel }),
             hierarchy: None,
             grids: vec![],
             sky: None,
             info: SolveInfo::default(),
-        }
+        };
+        (t, f)
     }
 
     #[test]
     fn many_emissions_solved_together_equal_the_single_solves() {
         let n = 300;
-        let t = factored(n);
+        let (t, f) = factored(n);
         // Single patches (white and coloured), and a dense emission.
         let mut emissions: Vec<Vec<f32>> = (0..40)
             .map(|k| {
@@ -499,7 +563,6 @@ mod tests {
         let refs: Vec<&[f32]> = emissions.iter().map(|e| e.as_slice()).collect();
         let together = t.solve_many(&refs).unwrap();
         assert_eq!(together.len(), emissions.len());
-        let fac = t.factored.as_ref().unwrap();
         for (e, s) in emissions.iter().zip(&together) {
             let one = t.solve(e).unwrap();
             assert_eq!(&s.e, e);
@@ -512,9 +575,7 @@ mod tests {
             let (b, h) = (Rgb::column(&s.b), Rgb::column(&s.h));
             let off = |x: Rgb, want: Rgb64| (x.to_f64() - want).map(f64::abs).max_component();
             for i in 0..n {
-                let fb: Rgb64 = (0..n)
-                    .map(|j| fac.f[i * n + j] as f64 * b[j].to_f64())
-                    .sum();
+                let fb: Rgb64 = (0..n).map(|j| f[i * n + j] as f64 * b[j].to_f64()).sum();
                 assert!(off(h[i], fb) <= 1e-5 * scale as f64);
                 let want = Rgb::column(e)[i].to_f64() + t.rho[i].to_f64() * fb;
                 assert!(off(b[i], want) <= 1e-5 * scale as f64);
