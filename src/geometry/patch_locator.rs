@@ -64,6 +64,47 @@ struct Frame {
     sides: [Side; 2],
 }
 
+/// A ray traced for the patch it meets ([`PatchLocator::nearest`]): `origin + t·dir`,
+/// t > 0.
+#[derive(Clone, Copy, Debug)]
+pub struct PatchRay {
+    pub origin: DVec3,
+    pub dir: DVec3,
+    /// The scene triangle the ray leaves, which it passes through.
+    pub own: Option<u32>,
+    /// Whether a side facing away from the ray is never met, even where its triangle has
+    /// no facing side (a one-sided surface seen from behind is then passed through).
+    pub cull_back: bool,
+}
+
+impl PatchRay {
+    /// A ray leaving scene triangle `own`: it meets any other triangle's facing side, else
+    /// its side facing away.
+    pub fn leaving(own: u32, origin: DVec3, dir: DVec3) -> PatchRay {
+        PatchRay {
+            origin,
+            dir,
+            own: Some(own),
+            cull_back: false,
+        }
+    }
+
+    /// A camera ray: it meets facing sides only.
+    pub fn camera(origin: DVec3, dir: DVec3) -> PatchRay {
+        PatchRay {
+            origin,
+            dir,
+            own: None,
+            cull_back: true,
+        }
+    }
+
+    /// The point at distance parameter `t`.
+    pub fn at(&self, t: f32) -> DVec3 {
+        self.origin + self.dir * t as f64
+    }
+}
+
 /// Finds the patch under a point of a scene triangle, and the patch a ray meets.
 pub struct PatchLocator {
     frames: Vec<Frame>,
@@ -396,49 +437,33 @@ impl PatchLocator {
         best.map(|(j, w, _)| (j, w))
     }
 
-    /// The nearest patch the ray `o + t·d` (t > 0) meets, with its distance parameter,
-    /// traced on `bvh` (the scene BVH: ids are scene triangles). Of the two sides of a
-    /// triangle the one facing the ray is met; the side facing away is met where the
-    /// triangle has no facing side (a one-sided surface seen from behind), unless
-    /// `cull_back`. `own`, the triangle the ray leaves, is passed through. At equal
+    /// The nearest patch `ray` meets, with its distance parameter, traced on `bvh` (the
+    /// scene BVH: ids are scene triangles). Of the two sides of a triangle the one facing
+    /// the ray is met; the side facing away is met where the triangle has no facing side
+    /// (a one-sided surface seen from behind), unless [`PatchRay::cull_back`]. At equal
     /// distances a facing side wins over a side facing away.
-    pub fn nearest(
-        &self,
-        bvh: &Bvh,
-        o: DVec3,
-        d: DVec3,
-        own: Option<u32>,
-        cull_back: bool,
-    ) -> Option<(f32, u32)> {
-        self.nearest_weighted(bvh, o, d, own, cull_back)
+    pub fn nearest(&self, bvh: &Bvh, ray: PatchRay) -> Option<(f32, u32)> {
+        self.nearest_weighted(bvh, ray)
             .map(|(t, j, _)| (t, self.patch_of[j as usize]))
     }
 
     /// As [`Self::nearest`], naming the element met, with the hit's barycentric weights
     /// on its corners ([`Self::locate_weighted`]).
-    pub fn nearest_weighted(
-        &self,
-        bvh: &Bvh,
-        o: DVec3,
-        d: DVec3,
-        own: Option<u32>,
-        cull_back: bool,
-    ) -> Option<(f32, u32, [f32; 3])> {
-        let (t, s, back) = self.nearest_side(bvh, o, d, own, cull_back)?;
-        self.locate_weighted(s, back, o + d * t as f64)
+    pub fn nearest_weighted(&self, bvh: &Bvh, ray: PatchRay) -> Option<(f32, u32, [f32; 3])> {
+        let (t, s, back) = self.nearest_side(bvh, ray)?;
+        self.locate_weighted(s, back, ray.at(t))
             .map(|(j, w)| (t, j, w))
     }
 
     /// As [`Self::nearest`], naming the side met instead of its patch: (distance
     /// parameter, scene triangle, back side).
-    pub fn nearest_side(
-        &self,
-        bvh: &Bvh,
-        o: DVec3,
-        d: DVec3,
-        own: Option<u32>,
-        cull_back: bool,
-    ) -> Option<(f32, u32, bool)> {
+    pub fn nearest_side(&self, bvh: &Bvh, ray: PatchRay) -> Option<(f32, u32, bool)> {
+        let PatchRay {
+            origin: o,
+            dir: d,
+            own,
+            cull_back,
+        } = ray;
         let d32 = Vec3A::from(d.as_vec3());
         let rank = |s: u32| -> u8 {
             if Some(s) == own {
@@ -599,7 +624,7 @@ mod tests {
                     }
                 },
             );
-            let got = loc.nearest_weighted(&bvh, o, d, Some(mesh.patches[p].source), false);
+            let got = loc.nearest_weighted(&bvh, PatchRay::leaving(mesh.patches[p].source, o, d));
             assert_eq!(got.is_some(), want.is_some(), "from patch {p} along {d}");
             if let (Some((tg, jg, w)), Some((tw, jw))) = (got, want) {
                 hits += 1;

@@ -56,7 +56,7 @@ use super::{Camera, GroupImages, Shading};
 use crate::color::Rgb;
 use crate::geometry::bvh::Bvh;
 use crate::geometry::mesh::Mesh;
-use crate::geometry::patch_locator::{max_grid_corners, PatchLocator};
+use crate::geometry::patch_locator::{max_grid_corners, PatchLocator, PatchRay};
 use crate::model::{Cancel, QueryError};
 use crate::sampling::{shuffle, Rng};
 use crate::scene::{LightGroup, Material, Triangle};
@@ -598,7 +598,9 @@ impl Tracer<'_> {
     /// The nearest patch whose front the camera ray along `d` meets.
     fn primary(&self, d: DVec3) -> Option<(f32, u32)> {
         let o = self.rays.origin();
-        self.scene.patches.nearest(self.scene.bvh, o, d, None, true)
+        self.scene
+            .patches
+            .nearest(self.scene.bvh, PatchRay::camera(o, d))
     }
 
     /// The patch the camera ray along `d`, which meets `hit`, shows: none where a
