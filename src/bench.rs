@@ -13,6 +13,7 @@ use crate::bake::{load_or_bake, BakeOptions, CachePolicy};
 use crate::color::Rgb;
 use crate::geometry::bvh::Bvh;
 use crate::geometry::mesh::Mesh;
+use crate::geometry::patch_locator::PatchRay;
 use crate::sampling::{sample_triangle, Rng};
 use crate::transport::transfer::TransferMode;
 
@@ -113,7 +114,7 @@ pub fn nearest_throughput(
         return 0.0;
     }
     let mut rng = Rng::new(3, 4);
-    let queries: Vec<(glam::DVec3, glam::DVec3, u32)> = (0..rays)
+    let queries: Vec<PatchRay> = (0..rays)
         .map(|_| {
             let (x, i) = random_patch_point(mesh, &mut rng);
             let nrm = mesh.patches[i].normal;
@@ -122,13 +123,13 @@ pub fn nearest_throughput(
             let (r, phi) = (u1.sqrt(), std::f64::consts::TAU * u2);
             let d = t * (r * phi.cos()) + b * (r * phi.sin()) + nrm * (1.0 - u1).sqrt();
             let o = x + nrm * 1e-6 * (1.0 + x.abs().max_element());
-            (o, d, mesh.patches[i].source)
+            PatchRay::leaving(mesh.patches[i].source, o, d)
         })
         .collect();
-    per_second(&queries, |&(o, d, own)| {
+    per_second(&queries, |&ray| {
         patches
-            .nearest_side(bvh, o, d, Some(own), false)
-            .and_then(|(t, tri, back)| patches.grid_weights(tri, back, o + d * t as f64))
+            .nearest_side(bvh, ray)
+            .and_then(|(t, tri, back)| patches.grid_weights(tri, back, ray.at(t)))
             .is_some()
     })
 }

@@ -40,7 +40,7 @@ pub struct BatchPlan {
 /// push through the tree) × the expected sweeps.
 pub fn hierarchy_sweep_work(t: &Transfer, states: usize) -> u64 {
     let Some(h) = &t.hierarchy else { return 0 };
-    let per_sweep = h.src.len() as u64 + 2 * h.nodes() as u64;
+    let per_sweep = h.links.src.len() as u64 + 2 * h.nodes() as u64;
     3 * states as u64 * per_sweep * expected_sweeps(t)
 }
 

@@ -203,9 +203,9 @@ fn hierarchical_solves_per_patch_emission_and_survives_the_cache() {
         a.transfer.hierarchy.as_ref().unwrap(),
         b.transfer.hierarchy.as_ref().unwrap(),
     );
-    assert_eq!(ha.src, hb.src);
-    assert_eq!(ha.k, hb.k);
-    assert_eq!(ha.vis, hb.vis);
+    assert_eq!(ha.links.src, hb.links.src);
+    assert_eq!(ha.links.k, hb.links.k);
+    assert_eq!(ha.links.vis, hb.links.vis);
     assert_eq!(ha.stats, hb.stats);
     assert_eq!(a.transfer.groups[0].b, b.transfer.groups[0].b);
     // The lamp's emission as a per-patch vector, solved by sweeps, equals its group column.
@@ -338,10 +338,10 @@ fn parts_of_a_hierarchical_bake_assemble_to_the_same_bits() {
         let b = h.solve(&rho, &src, 3, 1e-6, 1000, &|_| {}).b;
         let bits = |v: &[f32]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
         let got = (
-            h.offsets.clone(),
-            h.src.clone(),
-            bits(&h.k),
-            h.vis.clone(),
+            h.links.offsets.clone(),
+            h.links.src.clone(),
+            bits(&h.links.k),
+            h.links.vis.clone(),
             bits(&h.sigma),
             bits(&escape),
             bits(&b),

@@ -15,7 +15,7 @@ use super::format::{
 };
 use super::CacheError;
 use crate::color::{Rgb, Rgb64};
-use crate::transport::hierarchy::{Hierarchy, StoredLinks};
+use crate::transport::hierarchy::{Hierarchy, Links};
 use crate::transport::transfer::{Factored, GroupColumns, SkyColumns, Transfer, TransferMode};
 
 /// The file at `path`, opened, and its size in bytes.
@@ -308,7 +308,7 @@ fn hierarchy(
     let mut vis = bytemuck::cast_slice::<f32, u8>(&take("vis")?).to_vec();
     vis.truncate(src.len());
     let sigma = take("sigma")?;
-    let links = StoredLinks {
+    let links = Links {
         offsets,
         src,
         k,

@@ -88,7 +88,7 @@ pub fn write(
         channel_response: t.factored.as_ref().map(|f| f.channel),
         response_count: t.factored.as_ref().map_or(0, |f| f.responses.len()),
         info: t.info,
-        links: t.hierarchy.as_ref().map_or(0, |h| h.src.len() as u64),
+        links: t.hierarchy.as_ref().map_or(0, |h| h.links.src.len() as u64),
         hierarchy: t.hierarchy.as_ref().map(|h| h.stats),
         grid_points: t
             .grids
@@ -152,13 +152,16 @@ fn sections_of(t: &Transfer) -> Vec<(String, Data<'_>)> {
         ));
         all.push((
             "offsets".into(),
-            Data::Slice(bytemuck::cast_slice(&h.offsets)),
+            Data::Slice(bytemuck::cast_slice(&h.links.offsets)),
         ));
-        all.push(("src".into(), Data::Slice(bytemuck::cast_slice(&h.src))));
-        all.push(("k".into(), Data::Slice(bytemuck::cast_slice(&h.k))));
+        all.push((
+            "src".into(),
+            Data::Slice(bytemuck::cast_slice(&h.links.src)),
+        ));
+        all.push(("k".into(), Data::Slice(bytemuck::cast_slice(&h.links.k))));
         // Padded with zeros to whole 4-byte words.
-        let mut vis = h.vis.clone();
-        vis.resize(h.vis.len().div_ceil(4) * 4, 0);
+        let mut vis = h.links.vis.clone();
+        vis.resize(h.links.vis.len().div_ceil(4) * 4, 0);
         all.push(("vis".into(), Data::Bytes(vis)));
         all.push(("sigma".into(), Data::Slice(bytemuck::cast_slice(&h.sigma))));
     }

@@ -78,18 +78,21 @@ impl Tri4 {
     }
 }
 
-/// A ray prepared for the box tests: origin and reciprocal direction by axis, lane-wide.
+/// A ray prepared for the vector tests, lane-wide by axis: origin and direction (the
+/// triangle tests), and the reciprocal direction (the box tests).
 #[derive(Clone, Copy)]
-pub(super) struct Ray8 {
+pub(super) struct LaneRay {
     pub(super) o: [f32; 3],
+    pub(super) d: [f32; 3],
     pub(super) inv: [f32; 3],
 }
 
-impl Ray8 {
-    pub(super) fn new(o: Vec3A, inv: Vec3A) -> Ray8 {
-        Ray8 {
+impl LaneRay {
+    pub(super) fn new(o: Vec3A, d: Vec3A) -> LaneRay {
+        LaneRay {
             o: o.to_array(),
-            inv: inv.to_array(),
+            d: d.to_array(),
+            inv: d.recip().to_array(),
         }
     }
 }
@@ -100,7 +103,7 @@ impl Ray8 {
 /// lane-by-lane version does.
 #[cfg(all(target_arch = "x86_64", target_feature = "avx"))]
 #[inline(always)]
-pub(super) fn enter8(n: &Wide, r: &Ray8, tmin: f32, tmax: f32) -> (u32, [f32; WIDTH]) {
+pub(super) fn enter8(n: &Wide, r: &LaneRay, tmin: f32, tmax: f32) -> (u32, [f32; WIDTH]) {
     use std::arch::x86_64::*;
     // SAFETY: AVX is enabled for this build (cfg above); the loads read 8 f32 from
     // arrays of 8 f32, and `Wide` is 64-byte aligned, so every row is 32-byte aligned.
@@ -125,7 +128,7 @@ pub(super) fn enter8(n: &Wide, r: &Ray8, tmin: f32, tmax: f32) -> (u32, [f32; WI
 
 #[cfg(not(all(target_arch = "x86_64", target_feature = "avx")))]
 #[inline(always)]
-pub(super) fn enter8(n: &Wide, r: &Ray8, tmin: f32, tmax: f32) -> (u32, [f32; WIDTH]) {
+pub(super) fn enter8(n: &Wide, r: &LaneRay, tmin: f32, tmax: f32) -> (u32, [f32; WIDTH]) {
     enter8_lanes(n, r, tmin, tmax)
 }
 
@@ -133,7 +136,7 @@ pub(super) fn enter8(n: &Wide, r: &Ray8, tmin: f32, tmax: f32) -> (u32, [f32; WI
 /// `max` return their second operand when either is NaN).
 #[cfg_attr(all(target_arch = "x86_64", target_feature = "avx"), allow(dead_code))]
 #[inline(always)]
-pub(super) fn enter8_lanes(n: &Wide, r: &Ray8, tmin: f32, tmax: f32) -> (u32, [f32; WIDTH]) {
+pub(super) fn enter8_lanes(n: &Wide, r: &LaneRay, tmin: f32, tmax: f32) -> (u32, [f32; WIDTH]) {
     let min = |a: f32, b: f32| if a < b { a } else { b };
     let max = |a: f32, b: f32| if a > b { a } else { b };
     let mut t = [0f32; WIDTH];
@@ -155,22 +158,6 @@ pub(super) fn enter8_lanes(n: &Wide, r: &Ray8, tmin: f32, tmax: f32) -> (u32, [f
     (hit & ((1u32 << n.lanes) - 1), t)
 }
 
-/// A ray prepared for the triangle tests.
-#[derive(Clone, Copy)]
-pub(super) struct TriRay {
-    pub(super) o: [f32; 3],
-    pub(super) d: [f32; 3],
-}
-
-impl TriRay {
-    pub(super) fn new(o: Vec3A, d: Vec3A) -> TriRay {
-        TriRay {
-            o: o.to_array(),
-            d: d.to_array(),
-        }
-    }
-}
-
 /// Barycentric slack of the triangle test: rays through a shared edge meet both sides.
 pub(super) const EDGE: f32 = 1e-6;
 
@@ -178,7 +165,7 @@ pub(super) const EDGE: f32 = 1e-6;
 /// and the mask of lanes it meets. Each lane computes exactly what [`hit_lane`] does.
 #[cfg(all(target_arch = "x86_64", target_feature = "fma"))]
 #[inline(always)]
-pub(super) fn hit4(b: &Tri4, r: &TriRay, tmin: f32, tmax: f32) -> (u32, [f32; 4]) {
+pub(super) fn hit4(b: &Tri4, r: &LaneRay, tmin: f32, tmax: f32) -> (u32, [f32; 4]) {
     use std::arch::x86_64::*;
     // SAFETY: SSE is part of every x86-64 and FMA is enabled (cfg above); the loads read 4 f32 from 16-byte aligned
     // arrays of 4 (`Tri4` is `align(16)` and its rows are 16 bytes).
@@ -239,7 +226,7 @@ pub(super) fn hit4(b: &Tri4, r: &TriRay, tmin: f32, tmax: f32) -> (u32, [f32; 4]
 
 #[cfg(not(all(target_arch = "x86_64", target_feature = "fma")))]
 #[inline(always)]
-pub(super) fn hit4(b: &Tri4, r: &TriRay, tmin: f32, tmax: f32) -> (u32, [f32; 4]) {
+pub(super) fn hit4(b: &Tri4, r: &LaneRay, tmin: f32, tmax: f32) -> (u32, [f32; 4]) {
     let mut out = [0f32; 4];
     let mut hits = 0;
     for (lane, out) in out.iter_mut().enumerate() {
@@ -253,7 +240,7 @@ pub(super) fn hit4(b: &Tri4, r: &TriRay, tmin: f32, tmax: f32) -> (u32, [f32; 4]
 
 /// [`hit4`] for one lane, with the same operations in the same order.
 #[cfg_attr(all(target_arch = "x86_64", target_feature = "fma"), allow(dead_code))]
-pub(super) fn hit_lane(b: &Tri4, lane: usize, r: &TriRay, tmin: f32, tmax: f32) -> Option<f32> {
+pub(super) fn hit_lane(b: &Tri4, lane: usize, r: &LaneRay, tmin: f32, tmax: f32) -> Option<f32> {
     let get = |m: &[[f32; 4]; 3]| [m[0][lane], m[1][lane], m[2][lane]];
     let dot = |a: [f32; 3], b: [f32; 3]| a[0].mul_add(b[0], a[1].mul_add(b[1], a[2] * b[2]));
     let cross = |a: [f32; 3], b: [f32; 3]| {

@@ -26,7 +26,7 @@ use glam::Vec3A;
 
 use super::shaft::Shaft;
 use build::{build, collapse, Leaves, Node};
-use lanes::{enter8, hit4, Child, Ray8, Tri4, TriRay, Wide, WIDTH};
+use lanes::{enter8, hit4, Child, LaneRay, Tri4, Wide, WIDTH};
 
 /// A BVH over triangles given as corner triples.
 pub struct Bvh {
@@ -127,8 +127,7 @@ impl Bvh {
         }
         let (o, d) = (from, to - from);
         let (tmin, tmax) = (TRIM, 1.0 - TRIM);
-        let ray = Ray8::new(o, d.recip());
-        let tri_ray = TriRay::new(o, d);
+        let ray = LaneRay::new(o, d);
         // Pending children's codes. Left uninitialised: entries below `sp` are written.
         let mut stack = [const { MaybeUninit::<u32>::uninit() }; STACK];
         let mut spill: Vec<u32> = Vec::new();
@@ -137,7 +136,7 @@ impl Bvh {
         loop {
             match Child::triangles(code) {
                 Some(leaf) => {
-                    if self.visit_leaf(leaf, &tri_ray, tmin, &|| tmax, &mut visit) {
+                    if self.visit_leaf(leaf, &ray, tmin, &|| tmax, &mut visit) {
                         return true;
                     }
                 }
@@ -181,7 +180,7 @@ impl Bvh {
     fn visit_leaf(
         &self,
         (first, count): (usize, usize),
-        ray: &TriRay,
+        ray: &LaneRay,
         tmin: f32,
         far: &impl Fn() -> f32,
         visit: &mut impl FnMut(usize, f32) -> bool,
@@ -218,8 +217,7 @@ impl Bvh {
         if self.nodes.is_empty() {
             return;
         }
-        let ray = Ray8::new(o, d.recip());
-        let tri_ray = TriRay::new(o, d);
+        let ray = LaneRay::new(o, d);
         let mut pending = Pending::new();
         let mut node = 0usize;
         loop {
@@ -237,7 +235,7 @@ impl Bvh {
                 }
                 match Child::triangles(code) {
                     Some(leaf) => {
-                        self.visit_leaf(leaf, &tri_ray, tmin, &far, &mut |k, t| {
+                        self.visit_leaf(leaf, &ray, tmin, &far, &mut |k, t| {
                             visit(k, t);
                             false
                         });

@@ -17,7 +17,7 @@
 
 use glam::Vec3A;
 
-use super::lanes::{Child, Ray8, TriRay, WIDTH};
+use super::lanes::{Child, LaneRay, WIDTH};
 use super::{Bvh, TRIM};
 
 /// Sample segments per tree, at most, and per triangle.
@@ -55,9 +55,7 @@ impl Bvh {
         let mut stats = vec![[Lane::default(); WIDTH]; self.nodes.len()];
         for (from, to, skip) in sample_segments(tris, SEED) {
             let (o, d) = (from, to - from);
-            let ray = Ray8::new(o, d.recip());
-            let tri_ray = TriRay::new(o, d);
-            self.probe(0, 0, &ray, &tri_ray, skip, &mut stats);
+            self.probe(0, 0, &LaneRay::new(o, d), skip, &mut stats);
         }
         for (node, lanes) in self.nodes.iter_mut().zip(&stats) {
             let used = node.lanes as usize;
@@ -93,8 +91,7 @@ impl Bvh {
         &self,
         node: usize,
         depth: usize,
-        ray: &Ray8,
-        tri_ray: &TriRay,
+        ray: &LaneRay,
         skip: [u32; 2],
         stats: &mut [[Lane; WIDTH]],
     ) -> (bool, f32) {
@@ -109,15 +106,13 @@ impl Bvh {
             let (m, c) = match Child::triangles(code) {
                 Some(leaf @ (_, count)) => {
                     // Whether a triangle other than the skipped ones meets the segment.
-                    let m = self.visit_leaf(leaf, tri_ray, tmin, &|| tmax, &mut |k, _| {
+                    let m = self.visit_leaf(leaf, ray, tmin, &|| tmax, &mut |k, _| {
                         let id = self.ids[k];
                         id != skip[0] && id != skip[1]
                     });
                     (m, BLOCK_COST * count.div_ceil(4) as f32)
                 }
-                None if depth < MAX_DEPTH => {
-                    self.probe(code as usize, depth + 1, ray, tri_ray, skip, stats)
-                }
+                None if depth < MAX_DEPTH => self.probe(code as usize, depth + 1, ray, skip, stats),
                 // Too deep to score: counted as one node that ends nothing.
                 None => (false, NODE_COST),
             };
@@ -196,8 +191,7 @@ mod tests {
     /// highest lane first), in [`NODE_COST`] and [`BLOCK_COST`]; and its answer.
     fn occlusion_work(bvh: &Bvh, from: Vec3A, to: Vec3A, skip: [u32; 2]) -> (f32, bool) {
         let (o, d) = (from, to - from);
-        let ray = Ray8::new(o, d.recip());
-        let tri_ray = TriRay::new(o, d);
+        let ray = LaneRay::new(o, d);
         let (mut work, mut stack) = (0.0, vec![0u32]);
         while let Some(code) = stack.pop() {
             match Child::triangles(code) {
@@ -207,7 +201,7 @@ mod tests {
                         .enumerate()
                     {
                         work += BLOCK_COST;
-                        let (mut hits, _) = hit4(block, &tri_ray, TRIM, 1.0 - TRIM);
+                        let (mut hits, _) = hit4(block, &ray, TRIM, 1.0 - TRIM);
                         while hits != 0 {
                             let l = hits.trailing_zeros() as usize;
                             hits &= hits - 1;

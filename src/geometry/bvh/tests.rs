@@ -105,7 +105,7 @@ fn soup(r: &mut impl FnMut() -> f32, n: usize) -> Vec<[Vec3A; 3]> {
 fn hit_t(t: &[Vec3A; 3], o: Vec3A, d: Vec3A, tmin: f32, tmax: f32) -> Option<f32> {
     let mut block = Tri4::default();
     block.set(0, t);
-    let ray = TriRay::new(o, d);
+    let ray = LaneRay::new(o, d);
     hit_lane(&block, 0, &ray, tmin, tmax)
 }
 
@@ -189,7 +189,7 @@ fn the_vector_box_test_is_the_lane_by_lane_one() {
         if k % 3 == 0 {
             d.x = 0.0;
         }
-        let ray = Ray8::new(o, d.recip());
+        let ray = LaneRay::new(o, d);
         let (m1, t1) = enter8(&node, &ray, 0.0, 3.0);
         let (m2, t2) = enter8_lanes(&node, &ray, 0.0, 3.0);
         assert_eq!(m1, m2, "{o} {d}");
@@ -219,10 +219,7 @@ fn the_vector_triangle_test_is_the_lane_by_lane_one() {
         // From a random point toward a point near the first triangle's first corner.
         let o = Vec3A::new(r(), r(), r()) * 4.0 - 2.0;
         let aim = block.corners(0)[0] + Vec3A::new(r(), r(), r()) * 0.5;
-        let ray = TriRay {
-            o: o.to_array(),
-            d: (aim - o).to_array(),
-        };
+        let ray = LaneRay::new(o, aim - o);
         let (mask, t) = hit4(&block, &ray, 0.0, 4.0);
         for (lane, &t) in t.iter().enumerate() {
             let one = hit_lane(&block, lane, &ray, 0.0, 4.0);

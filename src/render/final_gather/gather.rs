@@ -21,7 +21,7 @@ use super::point::ShadingPoint;
 use super::FinalScene;
 use crate::color::Rgb;
 use crate::geometry::lifted;
-use crate::geometry::patch_locator::PatchLocator;
+use crate::geometry::patch_locator::{PatchLocator, PatchRay};
 use crate::sampling::Rng;
 
 /// Reads the reflected radiosity at a point where a gather ray landed close by: `(point,
@@ -375,7 +375,7 @@ impl Reflected {
             let d = t * (r * cos_phi) + b * (r * sin_phi) + n * (1.0 - u1).max(0.0).sqrt();
             let hit = scene
                 .patches
-                .nearest_side(scene.bvh, o, d, Some(own), false);
+                .nearest_side(scene.bvh, PatchRay::leaving(own, o, d));
             if let Some((th, _, _)) = hit {
                 inverse_distances += 1.0 / (th as f64).max(1e-9);
             }

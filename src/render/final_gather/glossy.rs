@@ -26,6 +26,7 @@ use super::specular::Lobe;
 use super::{LightParts, Tracer};
 use crate::color::Rgb;
 use crate::geometry::lifted;
+use crate::geometry::patch_locator::PatchRay;
 use crate::sampling::{stratified_on_triangle, Rng};
 use crate::transport::direct::visible;
 
@@ -177,7 +178,7 @@ impl Tracer<'_> {
                 continue;
             };
             let weight = weight * (1.0 / count as f32);
-            let hit = patches.nearest_side(scene.bvh, o, d, Some(own), false);
+            let hit = patches.nearest_side(scene.bvh, PatchRay::leaving(own, o, d));
             read.iter_mut().for_each(|v| *v = 0.0);
             match hit {
                 None => {

@@ -12,10 +12,7 @@ use utoipa::openapi::RefOr;
 use utoipa::ToSchema;
 
 use super::lighting::{Direction, Position};
-use super::{
-    deserialize_by, grid_ids, lit_request, names, object_only, raw, schema_ref, some,
-    visit_numbers, Resolve,
-};
+use super::{deserialize_by, names, object_only, raw, schema_ref, some, visit_numbers, Resolve};
 use crate::input_limits::{MAX_REQUEST_COORD_M, MAX_REQUEST_POINTS};
 use crate::model::query::{Factors, IlluminanceQuery};
 use crate::model::{Lighting, Model};
@@ -43,25 +40,61 @@ pub(super) fn report_surfaces() -> RefOr<Schema> {
     names("Surfaces to report (default: all when no points or grids are asked for).")
 }
 
-lit_request! {
-    /// A lighting state and where to report illuminance.
-    IlluminanceRequest, "a JSON object" {
-        #[serde(default, deserialize_with = "some")]
-        #[schema(schema_with = report_surfaces)]
-        surfaces: Option<Vec<String>>,
-        #[serde(default)]
-        #[schema(schema_with = points_schema)]
-        points: Vec<Point>,
-        #[serde(default)]
-        #[schema(schema_with = grid_ids)]
-        grids: Vec<String>,
-        #[serde(default, deserialize_with = "some")]
-        #[schema(schema_with = maintenance_schema)]
-        maintenance_factor: Option<MaintenanceFactor>,
-        /// Requirements per grid id (EN 12464-1), replacing the scene's; a grid named here is
-        /// reported.
-        #[serde(default)]
-        requirements: BTreeMap<String, crate::scene::Requirements>,
+/// Declares, through `$declare` ([`super::request`] or [`super::lit_request`]), a request
+/// body that reports illuminance at receivers: the fields of the first `{ … }`, then the
+/// receivers `surfaces`, `points` and `grids`, then the fields of the second; and
+/// `fn report_query`, the receivers checked ([`report_query`]).
+macro_rules! report_request {
+    ($declare:ident! {
+        $(#[$m:meta])* $name:ident, $expecting:literal { $($before:tt)* } { $($after:tt)* }
+    }) => {
+        $crate::server::requests::$declare! {
+            $(#[$m])*
+            $name, $expecting {
+                $($before)*
+                #[serde(default, deserialize_with = "crate::server::requests::some")]
+                #[schema(schema_with = $crate::server::requests::illuminance::report_surfaces)]
+                surfaces: Option<Vec<String>>,
+                #[serde(default)]
+                #[schema(schema_with = $crate::server::requests::illuminance::points_schema)]
+                points: Vec<$crate::server::requests::illuminance::Point>,
+                #[serde(default)]
+                #[schema(schema_with = $crate::server::requests::grid_ids)]
+                grids: Vec<String>,
+                $($after)*
+            }
+        }
+
+        impl $name {
+            /// Where to report illuminance, checked; nothing asked for means every surface.
+            fn report_query(
+                &self,
+                model: &$crate::model::Model,
+            ) -> Result<$crate::model::query::IlluminanceQuery, $crate::server::AppError> {
+                $crate::server::requests::illuminance::report_query(
+                    self.surfaces.as_deref(),
+                    &self.grids,
+                    &self.points,
+                    model,
+                )
+            }
+        }
+    };
+}
+pub(super) use report_request;
+
+report_request! {
+    lit_request! {
+        /// A lighting state and where to report illuminance.
+        IlluminanceRequest, "a JSON object" {} {
+            #[serde(default, deserialize_with = "some")]
+            #[schema(schema_with = maintenance_schema)]
+            maintenance_factor: Option<MaintenanceFactor>,
+            /// Requirements per grid id (EN 12464-1), replacing the scene's; a grid named here is
+            /// reported.
+            #[serde(default)]
+            requirements: BTreeMap<String, crate::scene::Requirements>,
+        }
     }
 }
 
@@ -77,7 +110,7 @@ impl Resolve for IlluminanceRequest {
     /// The lighting state and the query; nothing asked for means every surface.
     fn resolve(&self, model: &Model) -> Result<IlluminanceAsk, AppError> {
         let lighting = self.lighting(model)?;
-        let mut q = report_query(self.surfaces.as_deref(), &self.grids, &self.points, model)?;
+        let mut q = self.report_query(model)?;
         q.maintenance = self
             .maintenance_factor
             .as_ref()

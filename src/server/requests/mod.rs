@@ -79,26 +79,40 @@ macro_rules! object_only {
 }
 pub(crate) use object_only;
 
-/// Declares a request body that carries a lighting state: the struct, with the optional
-/// `lights` (group settings) and `emission` (per-patch exitance) before its own fields,
-/// both never `null`; its object-only `Deserialize`; and `fn lighting`, which resolves the
-/// state (at most one of the two).
-macro_rules! lit_request {
+/// Declares a request body: the struct, deserialized strictly (unknown fields refused),
+/// and its object-only `Deserialize`.
+macro_rules! request {
     ($(#[$m:meta])* $name:ident, $expecting:literal { $($fields:tt)* }) => {
         $(#[$m])*
         #[derive(Debug, serde::Deserialize, utoipa::ToSchema)]
         #[serde(remote = "Self", deny_unknown_fields)]
         pub(crate) struct $name {
-            #[serde(default, deserialize_with = "crate::server::requests::some")]
-            #[schema(nullable = false)]
-            lights: Option<$crate::server::requests::lighting::Lights>,
-            #[serde(default, deserialize_with = "crate::server::requests::some")]
-            #[schema(nullable = false)]
-            emission: Option<$crate::server::requests::lighting::Emission>,
             $($fields)*
         }
 
         $crate::server::requests::object_only!($name, $expecting);
+    };
+}
+pub(crate) use request;
+
+/// Declares a request body that carries a lighting state ([`request`]), with the optional
+/// `lights` (group settings) and `emission` (per-patch exitance) before its own fields,
+/// both never `null`; and `fn lighting`, which resolves the state (at most one of the
+/// two).
+macro_rules! lit_request {
+    ($(#[$m:meta])* $name:ident, $expecting:literal { $($fields:tt)* }) => {
+        $crate::server::requests::request! {
+            $(#[$m])*
+            $name, $expecting {
+                #[serde(default, deserialize_with = "crate::server::requests::some")]
+                #[schema(nullable = false)]
+                lights: Option<$crate::server::requests::lighting::Lights>,
+                #[serde(default, deserialize_with = "crate::server::requests::some")]
+                #[schema(nullable = false)]
+                emission: Option<$crate::server::requests::lighting::Emission>,
+                $($fields)*
+            }
+        }
 
         impl $name {
             /// The lighting state: group weights, or a per-patch emission.

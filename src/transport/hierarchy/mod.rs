@@ -62,13 +62,7 @@ pub struct Hierarchy {
     pub n: usize,
     /// Children of internal node `n + k`; parents come after their children.
     pub children: Vec<[u32; 2]>,
-    /// Links of receiver node r are `offsets[r] .. offsets[r + 1]`.
-    pub offsets: Vec<u32>,
-    pub src: Vec<u32>,
-    /// Factor of each link: irradiance at the receiver (lux) per lm/m² of the source.
-    pub k: Vec<f32>,
-    /// Visible fraction of each link, 0..=255.
-    pub vis: Vec<u8>,
+    pub links: Links,
     /// Closure scale of each patch's gathered irradiance.
     pub sigma: Vec<f32>,
     /// Area of every node, m² (from the patches; not stored).
@@ -76,12 +70,31 @@ pub struct Hierarchy {
     pub stats: HierarchyStats,
 }
 
-/// The links of a [`Hierarchy`] as the cache stores them (the fields of the same names).
-pub struct StoredLinks {
+/// The links of a [`Hierarchy`] by receiver node (compressed rows), as the cache stores
+/// them (under the fields' names).
+#[derive(Clone)]
+pub struct Links {
+    /// Links of receiver node r are `offsets[r] .. offsets[r + 1]`.
     pub offsets: Vec<u32>,
     pub src: Vec<u32>,
+    /// Factor of each link: irradiance at the receiver (lux) per lm/m² of the source.
     pub k: Vec<f32>,
+    /// Visible fraction of each link, 0..=255.
     pub vis: Vec<u8>,
+}
+
+impl Links {
+    /// The links of receiver node `r`.
+    #[inline]
+    fn of(&self, r: usize) -> std::ops::Range<usize> {
+        self.offsets[r] as usize..self.offsets[r + 1] as usize
+    }
+
+    /// Bytes held.
+    fn bytes(&self) -> u64 {
+        4 * (self.offsets.capacity() + self.src.capacity() + self.k.capacity()) as u64
+            + self.vis.capacity() as u64
+    }
 }
 
 /// A solve's result, per patch and column (row-major n × C).
@@ -101,27 +114,27 @@ impl Hierarchy {
     pub fn from_parts(
         leaf_area: &[f32],
         children: Vec<[u32; 2]>,
-        links: StoredLinks,
+        links: Links,
         sigma: Vec<f32>,
         stats: HierarchyStats,
     ) -> Option<Hierarchy> {
-        let StoredLinks {
+        let Links {
             offsets,
             src,
             k,
             vis,
-        } = links;
+        } = &links;
         let n = leaf_area.len();
         let nodes = n + children.len();
-        let links = src.len();
+        let count = src.len();
         let ok = n > 0
             && children.len() + 1 == n
             && offsets.len() == nodes + 1
             && offsets.first() == Some(&0)
-            && offsets.last().map(|&x| x as usize) == Some(links)
+            && offsets.last().map(|&x| x as usize) == Some(count)
             && offsets.windows(2).all(|w| w[0] <= w[1])
-            && k.len() == links
-            && vis.len() == links
+            && k.len() == count
+            && vis.len() == count
             && sigma.len() == n
             && src.iter().all(|&s| (s as usize) < nodes)
             && children
@@ -138,10 +151,7 @@ impl Hierarchy {
         Some(Hierarchy {
             n,
             children,
-            offsets,
-            src,
-            k,
-            vis,
+            links,
             sigma,
             area,
             stats,
@@ -155,8 +165,7 @@ impl Hierarchy {
     /// Bytes held.
     pub fn bytes(&self) -> u64 {
         8 * self.children.capacity() as u64
-            + 4 * (self.offsets.capacity() + self.src.capacity() + self.k.capacity()) as u64
-            + self.vis.capacity() as u64
+            + self.links.bytes()
             + 4 * (self.sigma.capacity() + self.area.capacity()) as u64
     }
 
@@ -164,8 +173,10 @@ impl Hierarchy {
     pub fn factor_sums(&self) -> Vec<f64> {
         let mut g = vec![0f64; self.nodes()];
         g.par_iter_mut().enumerate().for_each(|(r, g)| {
-            let (a, b) = (self.offsets[r] as usize, self.offsets[r + 1] as usize);
-            *g = self.k[a..b].iter().map(|&k| k as f64).sum();
+            *g = self.links.k[self.links.of(r)]
+                .iter()
+                .map(|&k| k as f64)
+                .sum();
         });
         for k in (0..self.children.len()).rev() {
             let p = g[self.n + k];
@@ -206,9 +217,9 @@ impl Hierarchy {
             .enumerate()
             .with_min_len(256)
             .for_each(|(r, acc)| {
-                let (a, b) = (self.offsets[r] as usize, self.offsets[r + 1] as usize);
-                for l in a..b {
-                    let (k, s) = (self.k[l], self.src[l] as usize * c);
+                let links = &self.links;
+                for l in links.of(r) {
+                    let (k, s) = (links.k[l], links.src[l] as usize * c);
                     for (o, &v) in acc.iter_mut().zip(&x[s..s + c]) {
                         *o += k * v;
                     }
@@ -458,7 +469,7 @@ impl Plan {
         let gaps: Vec<f64> = sums.iter().zip(hits).map(|(s, h)| (s - h).abs()).collect();
         h.stats = HierarchyStats {
             nodes: tree.nodes() as u64,
-            links: h.src.len() as u64,
+            links: h.links.src.len() as u64,
             leaf_links,
             closure_mean: gaps.iter().sum::<f64>() / gaps.len().max(1) as f64,
             closure_max: gaps.iter().copied().fold(0.0, f64::max),
@@ -559,10 +570,12 @@ impl Hierarchy {
         Hierarchy {
             n: tree.n,
             children: tree.children.clone(),
-            offsets,
-            src: kept().map(|l| l.s).collect(),
-            k: kept().map(|l| l.k).collect(),
-            vis: kept().map(|l| l.vis).collect(),
+            links: Links {
+                offsets,
+                src: kept().map(|l| l.s).collect(),
+                k: kept().map(|l| l.k).collect(),
+                vis: kept().map(|l| l.vis).collect(),
+            },
             sigma: vec![1.0; tree.n],
             area: tree.area.iter().map(|&a| a as f32).collect(),
             stats: HierarchyStats::default(),

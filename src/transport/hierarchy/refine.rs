@@ -162,11 +162,7 @@ pub(crate) fn refine(
             out
         })
         .collect();
-    let mut links = Vec::with_capacity(parts.iter().map(Vec::len).sum());
-    for p in parts {
-        links.extend(p);
-    }
-    links
+    joined(parts)
 }
 
 /// The dark-room pass ([`super::importance`]): every link of `links` whose first-pass
@@ -199,6 +195,12 @@ pub(crate) fn refine_again(
             out
         })
         .collect();
+    joined(parts)
+}
+
+/// The parts' links in one vector, each part freed as soon as it is moved (the peak is
+/// about one copy of the links, not two).
+fn joined(parts: Vec<Vec<Link>>) -> Vec<Link> {
     let mut out = Vec::with_capacity(parts.iter().map(Vec::len).sum());
     for p in parts {
         out.extend(p);

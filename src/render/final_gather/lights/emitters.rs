@@ -6,7 +6,7 @@ use std::collections::BTreeMap;
 
 use glam::DVec3;
 
-use super::{GroupLights, Rays, Scratch};
+use super::{GroupLights, Pass};
 use crate::color::{Rgb, Rgb64};
 use crate::geometry::ray_offset;
 use crate::geometry::shaft::Shaft;
@@ -60,22 +60,16 @@ pub(super) struct ShaftMemo {
 
 impl GroupLights<'_> {
     /// Emitting triangles of every group: exact form factor × visible share. The triangles
-    /// that give at least [`Rays::significant`] of the light of all groups together get
+    /// that give at least [`super::Rays::significant`] of the light of all groups together get
     /// up to `rays` shadow rays each (by their share); the rest, the tail, one triangle
     /// drawn in proportion to its light, weighted by the tail's total over its own (an
     /// unbiased estimate of their sum). Shares are of the unit-weight light, so the rays
     /// depend on the geometry alone and each group's image stays linear; a room's panels
     /// spend no rays on the panels of the rooms beyond its walls one by one.
-    pub(super) fn emitters(
-        &self,
-        at: ShadowOrigin,
-        rays: Rays,
-        rng: &mut Rng,
-        scratch: &mut Scratch,
-        out: &mut [Rgb],
-    ) {
-        let cand = &mut scratch.emitters;
-        let shafts = &mut scratch.shafts;
+    pub(super) fn emitters(&self, pass: &mut Pass, out: &mut [Rgb]) {
+        let (at, rays, rng) = (pass.at, pass.rays, &mut *pass.rng);
+        let cand = &mut pass.scratch.emitters;
+        let shafts = &mut pass.scratch.shafts;
         shafts.clear();
         self.candidates(at.position, at.normal, cand);
         let total: f64 = cand.iter().map(|c| c.light).sum();

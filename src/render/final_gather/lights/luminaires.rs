@@ -4,12 +4,11 @@
 
 use glam::DVec3;
 
-use super::{GroupLights, Rays, Scratch};
+use super::{GroupLights, Pass, Scratch};
 use crate::color::Rgb;
 use crate::photometry::Luminaire;
 use crate::render::final_gather::point::ShadowOrigin;
 use crate::render::final_gather::specular::Lobe;
-use crate::sampling::Rng;
 use crate::transport::direct::{shadowed, visible};
 
 /// Bands of the cosine to a luminaire's aim in its [`Bounds`].
@@ -91,8 +90,8 @@ pub(super) struct LuminaireCandidate {
 
 impl GroupLights<'_> {
     /// Point luminaires of every group: those whose bound is at least
-    /// [`Rays::significant`] of all groups' bounds together get their shadow rays and
-    /// exact light; the rest, the tail, [`Rays::tail_draws`] luminaires drawn in
+    /// [`super::Rays::significant`] of all groups' bounds together get their shadow rays and
+    /// exact light; the rest, the tail, [`super::Rays::tail_draws`] luminaires drawn in
     /// proportion to their bounds, each weighted by the tail's sum over its bound and the
     /// number of draws (an unbiased estimate of the tail's light per group). The bounds
     /// are of the unit-weight light, so the rays depend on the geometry alone and each
@@ -100,15 +99,13 @@ impl GroupLights<'_> {
     /// rooms beyond its walls one by one.
     pub(super) fn luminaires(
         &self,
-        at: ShadowOrigin,
-        rays: Rays,
-        rng: &mut Rng,
-        scratch: &mut Scratch,
+        pass: &mut Pass,
         out: &mut [Rgb],
         mut specular: Option<(&Lobe, &mut [Rgb])>,
     ) {
-        let total = self.luminaire_candidates(at, scratch);
-        let (cand, points) = (&scratch.candidates, &scratch.points[..]);
+        let (at, rays) = (pass.at, pass.rays);
+        let total = self.luminaire_candidates(at, pass.scratch);
+        let (cand, points) = (&pass.scratch.candidates, &pass.scratch.points[..]);
         let cut = rays.significant() * total;
         let mut tail = 0.0;
         for c in cand.iter() {
@@ -125,7 +122,7 @@ impl GroupLights<'_> {
         for _ in 0..draws {
             // The drawn one: where the running sum passes r (the last of the tail should
             // rounding leave r unspent).
-            let r = rng.next_f64() * tail;
+            let r = pass.rng.next_f64() * tail;
             let mut sum = 0.0;
             let mut drawn = None;
             for c in cand.iter().filter(|c| c.bound < cut) {
@@ -220,6 +217,7 @@ impl GroupLights<'_> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::sampling::Rng;
 
     /// The bounds that choose the shadow rays bound the exact unoccluded illuminance of
     /// each of office-floor's 91 luminaires (two IES files, rectangular openings), at

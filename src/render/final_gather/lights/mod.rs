@@ -26,7 +26,7 @@ mod luminaires;
 use glam::DVec3;
 
 use super::glossy::SampledEmitter;
-use super::point::ShadingPoint;
+use super::point::{ShadingPoint, ShadowOrigin};
 use super::specular::Lobe;
 use super::FinalScene;
 use crate::color::Rgb;
@@ -106,6 +106,15 @@ pub(super) struct GroupLights<'a> {
     groups: Vec<Sources<'a>>,
     /// Every group's luminaires' bounds.
     bounds: Bounds,
+}
+
+/// One point's direct light, as each kind of source takes it: where its shadow rays leave
+/// from, how many it takes, and the thread's random numbers and buffers.
+struct Pass<'p> {
+    at: ShadowOrigin,
+    rays: Rays,
+    rng: &'p mut Rng,
+    scratch: &'p mut Scratch,
 }
 
 /// Reused buffers of one thread.
@@ -200,10 +209,15 @@ impl<'a> GroupLights<'a> {
         out: &mut [f32],
         specular: Option<(&Lobe, &mut [f32])>,
     ) {
-        let at = at.shadow_origin(self.mesh);
+        let mut pass = Pass {
+            at: at.shadow_origin(self.mesh),
+            rays,
+            rng,
+            scratch,
+        };
         let out = Rgb::column_mut(out);
         let specular = specular.map(|(lobe, h)| (lobe, Rgb::column_mut(h)));
-        self.luminaires(at, rays, rng, scratch, out, specular);
-        self.emitters(at, rays, rng, scratch, out);
+        self.luminaires(&mut pass, out, specular);
+        self.emitters(&mut pass, out);
     }
 }
