@@ -148,6 +148,87 @@ impl ChannelLu {
     }
 }
 
+/// Solves `A X = RHS` in place for a general square `a` (column-major), by LU with
+/// partial pivoting.
+pub fn solve_general_in_place(mut a: Mat<f32>, rhs: MatMut<'_, f32>) {
+    let n = a.nrows();
+    let mut perm = vec![0usize; n];
+    let mut perm_inv = vec![0usize; n];
+    let mut mem = MemBuffer::new(factor::lu_in_place_scratch::<usize, f32>(
+        n,
+        n,
+        par(),
+        Default::default(),
+    ));
+    factor::lu_in_place(
+        a.as_mut(),
+        &mut perm,
+        &mut perm_inv,
+        par(),
+        MemStack::new(&mut mem),
+        Default::default(),
+    );
+    let p = PermRef::new_checked(&perm, &perm_inv, n);
+    let mut mem = MemBuffer::new(lusolve::solve_in_place_scratch::<usize, f32>(
+        n,
+        rhs.ncols(),
+        par(),
+    ));
+    lusolve::solve_in_place(
+        a.as_ref(),
+        a.as_ref(),
+        p,
+        rhs,
+        par(),
+        MemStack::new(&mut mem),
+    );
+}
+
+/// The irradiance response of reflectances `rho` from `kt`, the response `Kᵀ` of
+/// reflectances `rho0` (both as [`ChannelLu::irradiance_response`] stores them), where
+/// the two differ on the patches `d` only (k of them): a rank-k update, in O(n² k)
+/// instead of the O(n³) of a factorization and a solve.
+///
+/// With `Δ = diag(ρ − ρ₀)` on `d`, `I − ρF = (I − ρ₀F) − Δ F`, and Woodbury's identity
+/// gives `K = K₀ + K₀[:, d] Δ W⁻¹ K₀[d, :]` with `W = I − K₀[d, d] Δ` (k × k). Stored
+/// transposed: `Kᵀ = K₀ᵀ + K₀ᵀ[:, d] Z`, where `Wᵀ Z = Δ K₀ᵀ[d, :]` and
+/// `Wᵀ = I − Δ K₀ᵀ[d, d]`.
+pub fn updated_response(kt: &Mat<f32>, rho0: &[f32], rho: &[f32], d: &[usize]) -> Mat<f32> {
+    let n = kt.nrows();
+    let k = d.len();
+    let delta: Vec<f32> = d.iter().map(|&i| rho[i] - rho0[i]).collect();
+    // Wᵀ = I − Δ K₀ᵀ[d, d], and R = Δ K₀ᵀ[d, :] (k × n), which the solve turns into Z.
+    let mut wt = Mat::<f32>::zeros(k, k);
+    for (b, &j) in d.iter().enumerate() {
+        for (a, &i) in d.iter().enumerate() {
+            wt[(a, b)] = if a == b { 1.0 } else { 0.0 } - delta[a] * kt[(i, j)];
+        }
+    }
+    let mut z = Mat::<f32>::zeros(k, n);
+    for j in 0..n {
+        let src = kt.col_as_slice(j);
+        for (a, &i) in d.iter().enumerate() {
+            z[(a, j)] = delta[a] * src[i];
+        }
+    }
+    solve_general_in_place(wt, z.as_mut());
+    // Kᵀ = K₀ᵀ + K₀ᵀ[:, d] Z.
+    let mut cols = Mat::<f32>::zeros(n, k);
+    for (b, &j) in d.iter().enumerate() {
+        cols.col_mut(b).copy_from(kt.col(j));
+    }
+    let mut out = kt.clone();
+    faer::linalg::matmul::matmul(
+        out.as_mut(),
+        Accum::Add,
+        cols.as_ref(),
+        z.as_ref(),
+        1.0,
+        par(),
+    );
+    out
+}
+
 /// `F · X` for row-major `f` (n×n) and column-major `x` (n×k).
 pub fn apply_f(f: &[f32], n: usize, x: MatRef<'_, f32>) -> Mat<f32> {
     let fm = MatRef::from_row_major_slice(f, n, n);

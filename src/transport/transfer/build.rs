@@ -1,8 +1,8 @@
 //! Building a [`Transfer`]: the sources of the light groups, then the dense solves
-//! (factored: LU per reflectance channel with one step of refinement; columns: Jacobi) or
+//! (factored: the irradiance responses, and solves through them with one step of
+//! refinement; columns: Jacobi) or
 //! the sweeps over the links (hierarchical).
 
-use faer::prelude::{Reborrow, ReborrowMut};
 use faer::Mat;
 
 use super::*;
@@ -95,30 +95,50 @@ fn source_matrix(
     Mat::from_fn(rho.len(), 3 * s.len(), |i, k| s[k / 3][3 * i + k % 3])
 }
 
-/// One LU of `(I − ρF)ᵀ` per distinct reflectance channel, and each channel's LU index.
-pub(super) fn factor_channels(
+/// The factored mode's irradiance responses `K = F (I − ρF)⁻¹`, one per distinct
+/// reflectance channel ([`Factored`]). The first channel's is made from its LU
+/// ([`ChannelLu::irradiance_response`]). Each other channel's is a rank-k update of it
+/// ([`solve::updated_response`]) when the channels differ on few enough patches (a
+/// colour on a few surfaces, as the Cornell box's red and green walls); otherwise it is
+/// made from its own LU. Each LU is dropped once its response is made.
+pub(super) fn factor_responses(
     f: &[f32],
     rho_ch: &[Vec<f32>; 3],
     n: usize,
     progress: &(dyn Fn(f64) + Sync),
-) -> (Vec<ChannelLu>, [u8; 3]) {
-    let mut channel_lu = [0u8; 3];
+) -> Factored {
+    let mut channel = [0u8; 3];
     let mut distinct: Vec<usize> = Vec::new();
     for c in 0..3 {
         match distinct.iter().position(|&d| rho_ch[d] == rho_ch[c]) {
-            Some(k) => channel_lu[c] = k as u8,
+            Some(k) => channel[c] = k as u8,
             None => {
-                channel_lu[c] = distinct.len() as u8;
+                channel[c] = distinct.len() as u8;
                 distinct.push(c);
             }
         }
     }
-    let mut lus = Vec::new();
-    for (k, &c) in distinct.iter().enumerate() {
-        lus.push(ChannelLu::factor(f, &rho_ch[c], n));
-        progress(0.9 * (k + 1) as f64 / distinct.len() as f64);
+    let first = distinct[0];
+    let k0 = ChannelLu::factor(f, &rho_ch[first], n).irradiance_response(f);
+    progress(0.9 / distinct.len() as f64);
+    let mut responses = vec![k0];
+    for (u, &c) in distinct.iter().enumerate().skip(1) {
+        let d: Vec<usize> = (0..n)
+            .filter(|&i| rho_ch[c][i] != rho_ch[first][i])
+            .collect();
+        // Work of the update (a k × n solve and an n × k × n product) against a
+        // factorization and a solve with n right-hand sides.
+        let (k, nf) = (d.len() as f64, n as f64);
+        let update = 2.0 * k * k * nf + 2.0 * nf * nf * k + k * k * k;
+        let k_c = if update < (2.0 / 3.0 + 2.0) * nf * nf * nf {
+            solve::updated_response(&responses[0], &rho_ch[first], &rho_ch[c], &d)
+        } else {
+            ChannelLu::factor(f, &rho_ch[c], n).irradiance_response(f)
+        };
+        responses.push(k_c);
+        progress(0.9 * (u + 1) as f64 / distinct.len() as f64);
     }
-    (lus, channel_lu)
+    Factored { responses, channel }
 }
 
 /// The largest relative residual `‖E − (B − ρ F B)‖∞ / ‖E‖∞` over the columns.
@@ -258,11 +278,11 @@ impl Build<'_> {
         let e = source_matrix(&self.emission, self.direct, sky.as_ref(), &self.rho);
         let rho_of_col: Vec<&[f32]> = (0..e.ncols()).map(|k| rho_ch[k % 3].as_slice()).collect();
 
-        let (b, lus, sweeps) = match mode {
+        let (b, factored, sweeps) = match mode {
             TransferMode::Factored => {
-                let (lus, channel_lu) = factor_channels(&f, &rho_ch, n, self.progress);
-                let b = solve_refined(&lus, channel_lu, &f, e.as_ref(), &rho_of_col);
-                (b, Some((lus, channel_lu)), 0)
+                let fac = factor_responses(&f, &rho_ch, n, self.progress);
+                let b = solve_refined(&fac, &f, e.as_ref(), &rho_of_col);
+                (b, Some(fac), 0)
             }
             TransferMode::Columns | TransferMode::Hierarchical => {
                 let (b, sweeps) = solve::jacobi(
@@ -286,15 +306,6 @@ impl Build<'_> {
         let sky = sky.map(|d| {
             let indirect = (0..d.k).map(|k| rgb(&h, 3 * (g + k))).collect();
             SkyColumns::new(d, indirect)
-        });
-        // The LUs and F give way to the responses K = F (I − ρF)⁻¹, one per LU (each LU
-        // dropped once its response is made).
-        let factored = lus.map(|(lus, channel)| Factored {
-            responses: lus
-                .into_iter()
-                .map(|lu| lu.irradiance_response(&f))
-                .collect(),
-            channel,
         });
         drop(f);
         (self.progress)(1.0);
@@ -335,19 +346,28 @@ impl Build<'_> {
     }
 }
 
-/// Solves `(I − ρF) X = E` for the columns of `e` (column k uses channel k % 3), with one
-/// step of iterative refinement.
+/// Solves `(I − ρF) X = E` for the columns of `e` (column k uses channel k % 3) with the
+/// irradiance responses: `X = E + ρ K E`, then one step of iterative refinement with `F`.
 pub fn solve_refined(
-    lus: &[ChannelLu],
-    channel_lu: [u8; 3],
+    fac: &Factored,
     f: &[f32],
     e: faer::MatRef<'_, f32>,
     rho_of_col: &[&[f32]],
 ) -> Mat<f32> {
     let n = e.nrows();
-    let mut x = e.to_owned();
-    solve_cols(lus, channel_lu, x.as_mut());
-    // r = E − (X − ρ F X); X += (I − ρF)⁻¹ r
+    let through = |x: faer::MatRef<'_, f32>| -> Mat<f32> {
+        // T x = x + ρ K x
+        let mut out = fac.irradiance(x);
+        for k in 0..x.ncols() {
+            let rho = rho_of_col[k];
+            for i in 0..n {
+                out[(i, k)] = x[(i, k)] + rho[i] * out[(i, k)];
+            }
+        }
+        out
+    };
+    let mut x = through(e);
+    // r = E − (X − ρ F X); X += T r
     let fx = solve::apply_f(f, n, x.as_ref());
     let mut r = Mat::<f32>::zeros(n, e.ncols());
     for k in 0..e.ncols() {
@@ -356,39 +376,11 @@ pub fn solve_refined(
             r[(i, k)] = e[(i, k)] - (x[(i, k)] - rho[i] * fx[(i, k)]);
         }
     }
-    solve_cols(lus, channel_lu, r.as_mut());
+    let dx = through(r.as_ref());
     for k in 0..e.ncols() {
         for i in 0..n {
-            x[(i, k)] += r[(i, k)];
+            x[(i, k)] += dx[(i, k)];
         }
     }
     x
-}
-
-/// Solves in place; column k is solved with the factorization of channel k % 3. The
-/// columns of each distinct factorization are solved together (one multi-right-hand-side
-/// solve), in place when one factorization serves every column.
-pub(super) fn solve_cols(lus: &[ChannelLu], channel_lu: [u8; 3], mut x: faer::MatMut<'_, f32>) {
-    let (n, k) = (x.nrows(), x.ncols());
-    for (u, lu) in lus.iter().enumerate() {
-        let cols: Vec<usize> = (0..k)
-            .filter(|&j| channel_lu[j % 3] as usize == u)
-            .collect();
-        if cols.is_empty() {
-            continue;
-        }
-        if cols.len() == k {
-            lu.solve_in_place(x.rb_mut());
-            continue;
-        }
-        // Gather the factorization's columns, solve them together, scatter back.
-        let mut m = Mat::<f32>::zeros(n, cols.len());
-        for (a, &j) in cols.iter().enumerate() {
-            m.as_mut().col_mut(a).copy_from(x.rb().col(j));
-        }
-        lu.solve_in_place(m.as_mut());
-        for (a, &j) in cols.iter().enumerate() {
-            x.rb_mut().col_mut(j).copy_from(m.col(a));
-        }
-    }
 }

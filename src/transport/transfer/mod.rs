@@ -527,9 +527,8 @@ mod tests {
             })
             .collect();
         let rho_ch: [Vec<f32>; 3] = std::array::from_fn(|c| rho.iter().map(|r| r[c]).collect());
-        let (lus, channel) = build::factor_channels(&f, &rho_ch, n, &|_| {});
-        assert_eq!(lus.len(), 2);
-        let responses = lus.iter().map(|lu| lu.irradiance_response(&f)).collect();
+        let factored = build::factor_responses(&f, &rho_ch, n, &|_| {});
+        assert_eq!(factored.responses.len(), 2);
         let t = Transfer {
             mode: TransferMode::Factored,
             n,
@@ -537,13 +536,44 @@ mod tests {
             area: vec![1.0; n],
             escape: vec![0.1; n],
             groups: vec![],
-            factored: Some(Factored { responses, channel }),
+            factored: Some(factored),
             hierarchy: None,
             grids: vec![],
             sky: None,
             info: SolveInfo::default(),
         };
         (t, f)
+    }
+
+    /// A channel that differs from the first on a few patches gets its response by a
+    /// rank-k update of the first's: the same as its own factorization's, to f32
+    /// rounding.
+    #[test]
+    fn a_colour_on_a_few_patches_updates_the_first_channels_response() {
+        let n = 240;
+        let (t, f) = factored(n);
+        let mut rho_ch: [Vec<f32>; 3] =
+            std::array::from_fn(|c| t.rho.iter().map(|r| r[c]).collect());
+        // Green = red except on every 9th patch (27 patches), blue = red.
+        rho_ch[1] = rho_ch[0]
+            .iter()
+            .enumerate()
+            .map(|(i, &r)| if i % 9 == 0 { 0.9 - 0.8 * r } else { r })
+            .collect();
+        rho_ch[2] = rho_ch[0].clone();
+        let fac = build::factor_responses(&f, &rho_ch, n, &|_| {});
+        assert_eq!(fac.channel, [0, 1, 0]);
+        let direct =
+            crate::transport::solve::ChannelLu::factor(&f, &rho_ch[1], n).irradiance_response(&f);
+        let scale = (0..n)
+            .flat_map(|j| direct.col_as_slice(j).iter().copied())
+            .fold(0f32, f32::max);
+        for j in 0..n {
+            for i in 0..n {
+                let (a, b) = (fac.responses[1][(i, j)], direct[(i, j)]);
+                assert!((a - b).abs() <= 1e-5 * scale, "K[{j}][{i}]: {a} vs {b}");
+            }
+        }
     }
 
     #[test]
