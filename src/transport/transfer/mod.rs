@@ -442,7 +442,8 @@ impl Factored {
     /// `H = K X` (lux) for per-patch emissions `x` (lm/m², n × c, column k in channel
     /// k % 3). Dense columns go through one matrix product per distinct response; when
     /// at most n / [`SPARSE_SHARE`] rows of `x` are nonzero, each patch's H sums only
-    /// those rows' entries of K (its row of K is a contiguous column of `Kᵀ`).
+    /// the nonzero entries' terms (its row of K is a contiguous column of `Kᵀ`): work n
+    /// per nonzero entry.
     pub fn irradiance(&self, x: faer::MatRef<'_, f32>) -> Mat<f32> {
         use rayon::prelude::*;
         let (n, c) = (x.nrows(), x.ncols());
@@ -458,17 +459,24 @@ impl Factored {
                 continue;
             }
             if lit.len() * SPARSE_SHARE <= n {
-                // Row-major n × |cols| answers, one patch per row.
+                // The nonzero entries (lit patch, answer column, value), and the answers
+                // row-major n × |cols|, one patch per row.
+                let terms: Vec<(usize, usize, f32)> = lit
+                    .iter()
+                    .flat_map(|&j| {
+                        cols.iter()
+                            .enumerate()
+                            .map(move |(a, &k)| (j, a, x[(j, k)]))
+                            .filter(|t| t.2 != 0.0)
+                    })
+                    .collect();
                 let mut rows = vec![0f32; n * cols.len()];
                 rows.par_chunks_mut(cols.len())
                     .enumerate()
                     .for_each(|(i, out)| {
                         let k_row = kt.col_as_slice(i);
-                        for &j in &lit {
-                            let kij = k_row[j];
-                            for (o, &k) in out.iter_mut().zip(&cols) {
-                                *o += kij * x[(j, k)];
-                            }
+                        for &(j, a, v) in &terms {
+                            out[a] += k_row[j] * v;
                         }
                     });
                 for (a, &k) in cols.iter().enumerate() {
