@@ -40,26 +40,34 @@ pub fn system_transposed(f: &[f32], rho: &[f32], n: usize) -> Mat<f32> {
     m
 }
 
+/// Factors the square `a` in place as `P a = L U` (partial pivoting, L\U stored in `a`);
+/// returns the row permutation and its inverse.
+fn lu_in_place(a: &mut Mat<f32>) -> (Vec<usize>, Vec<usize>) {
+    let n = a.nrows();
+    let mut perm = vec![0usize; n];
+    let mut perm_inv = vec![0usize; n];
+    let mut mem = MemBuffer::new(factor::lu_in_place_scratch::<usize, f32>(
+        n,
+        n,
+        par(),
+        Default::default(),
+    ));
+    factor::lu_in_place(
+        a.as_mut(),
+        &mut perm,
+        &mut perm_inv,
+        par(),
+        MemStack::new(&mut mem),
+        Default::default(),
+    );
+    (perm, perm_inv)
+}
+
 impl ChannelLu {
     /// Factors the system for reflectances `rho` (one per patch).
     pub fn factor(f: &[f32], rho: &[f32], n: usize) -> ChannelLu {
         let mut lu = system_transposed(f, rho, n);
-        let mut perm = vec![0usize; n];
-        let mut perm_inv = vec![0usize; n];
-        let mut mem = MemBuffer::new(factor::lu_in_place_scratch::<usize, f32>(
-            n,
-            n,
-            par(),
-            Default::default(),
-        ));
-        factor::lu_in_place(
-            lu.as_mut(),
-            &mut perm,
-            &mut perm_inv,
-            par(),
-            MemStack::new(&mut mem),
-            Default::default(),
-        );
+        let (perm, perm_inv) = lu_in_place(&mut lu);
         ChannelLu { lu, perm, perm_inv }
     }
 
@@ -152,22 +160,7 @@ impl ChannelLu {
 /// partial pivoting.
 pub fn solve_general_in_place(mut a: Mat<f32>, rhs: MatMut<'_, f32>) {
     let n = a.nrows();
-    let mut perm = vec![0usize; n];
-    let mut perm_inv = vec![0usize; n];
-    let mut mem = MemBuffer::new(factor::lu_in_place_scratch::<usize, f32>(
-        n,
-        n,
-        par(),
-        Default::default(),
-    ));
-    factor::lu_in_place(
-        a.as_mut(),
-        &mut perm,
-        &mut perm_inv,
-        par(),
-        MemStack::new(&mut mem),
-        Default::default(),
-    );
+    let (perm, perm_inv) = lu_in_place(&mut a);
     let p = PermRef::new_checked(&perm, &perm_inv, n);
     let mut mem = MemBuffer::new(lusolve::solve_in_place_scratch::<usize, f32>(
         n,

@@ -355,17 +355,8 @@ pub fn solve_refined(
     rho_of_col: &[&[f32]],
 ) -> Mat<f32> {
     let n = e.nrows();
-    let through = |x: faer::MatRef<'_, f32>| -> Mat<f32> {
-        // T x = x + ρ K x
-        let mut out = fac.irradiance(x);
-        for k in 0..x.ncols() {
-            let rho = rho_of_col[k];
-            for i in 0..n {
-                out[(i, k)] = x[(i, k)] + rho[i] * out[(i, k)];
-            }
-        }
-        out
-    };
+    // T x = x + ρ K x
+    let through = |x: faer::MatRef<'_, f32>| fac.radiosity(x, rho_of_col).0;
     let mut x = through(e);
     // r = E − (X − ρ F X); X += T r
     let fx = solve::apply_f(f, n, x.as_ref());

@@ -365,13 +365,10 @@ impl Transfer {
                 .subcols_mut(3 * j, 3)
                 .copy_from(faer::MatRef::from_row_major_slice(e, n, 3));
         }
-        let h = fac.irradiance(x.as_ref());
-        for k in 0..c {
-            let (hk, xk) = (h.col(k), x.as_mut().col_mut(k));
-            for (i, v) in xk.iter_mut().enumerate() {
-                *v += self.rho[i][k % 3] * hk[i];
-            }
-        }
+        let rho_ch: [Vec<f32>; 3] =
+            std::array::from_fn(|ch| self.rho.iter().map(|r| r[ch]).collect());
+        let rho_of_col: Vec<&[f32]> = (0..c).map(|k| rho_ch[k % 3].as_slice()).collect();
+        let (x, h) = fac.radiosity(x.as_ref(), &rho_of_col);
         let out = |y: &Mat<f32>, j: usize| {
             let mut v = vec![0f32; 3 * n];
             faer::MatMut::from_row_major_slice_mut(&mut v, n, 3).copy_from(y.subcols(3 * j, 3));
@@ -439,6 +436,23 @@ pub fn weighted_sum<'a>(cols: impl Iterator<Item = &'a [f32]>, weights: &[Rgb], 
 const SPARSE_SHARE: usize = 8;
 
 impl Factored {
+    /// Radiosity `B = E + ρ K E` (lm/m²) and incident illuminance `H = K E` (lux) for
+    /// per-patch emissions `e` (n × c, column k with reflectances `rho_of_col[k]`).
+    pub fn radiosity(
+        &self,
+        e: faer::MatRef<'_, f32>,
+        rho_of_col: &[&[f32]],
+    ) -> (Mat<f32>, Mat<f32>) {
+        let h = self.irradiance(e);
+        let mut b = e.to_owned();
+        for (k, rho) in rho_of_col.iter().enumerate() {
+            for (i, v) in b.as_mut().col_mut(k).iter_mut().enumerate() {
+                *v += rho[i] * h[(i, k)];
+            }
+        }
+        (b, h)
+    }
+
     /// `H = K X` (lux) for per-patch emissions `x` (lm/m², n × c, column k in channel
     /// k % 3). Dense columns go through one matrix product per distinct response; when
     /// at most n / [`SPARSE_SHARE`] rows of `x` are nonzero, each patch's H sums only
