@@ -47,6 +47,12 @@ pub enum BakeError {
     #[error("{scene}: {message}")]
     BadOption { scene: String, message: String },
     #[error(
+        "{scene}: the radiosity solve did not converge (relative residual {residual:e}); \
+         nothing was cached. Check the model for overlapping two-sided faces, or bake \
+         with --transfer factored at a coarser [mesh] max_edge"
+    )]
+    Diverged { scene: String, residual: f64 },
+    #[error(
         "{scene}: no baked transfer in the cache ({}) and the server is read-only: \
          run `relight bake` first",
         file_name(path)

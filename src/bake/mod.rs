@@ -20,8 +20,9 @@ pub use error::BakeError;
 pub use memory::*;
 
 use crate::geometry::mesh::Mesh;
-use crate::scene::{Scene, TransferChoice};
+use crate::scene::{is_two_sided, Scene, TransferChoice};
 use crate::transport::formfactor::{self, FormFactorOptions};
+use crate::transport::hierarchy::closure::Sides;
 use crate::transport::hierarchy::{HierarchyOptions, Plan};
 use crate::transport::transfer::{Coupling, Transfer, TransferMode};
 use cache::CacheError;
@@ -30,6 +31,11 @@ use cache::CacheError;
 /// (about 1 KiB per patch). The real limit of a scene is the memory budget, checked from
 /// the estimated patch count before meshing and from the real one after.
 pub const DEFAULT_MAX_PATCHES: usize = 4_000_000;
+
+/// Largest relative residual a bake accepts (`‖S − (B − ρH)‖∞ / ‖S‖∞` over the group
+/// columns). Converged solves end near 1e-6; a larger or non-finite residual means the
+/// solve diverged, and the bake fails with [`BakeError::Diverged`] instead of caching it.
+pub const MAX_RESIDUAL: f64 = 1e-2;
 
 pub use crate::budget::human_bytes;
 
@@ -166,12 +172,19 @@ pub fn scene_glazing(scene: &Scene) -> Glazing {
     )
 }
 
-/// Unit front normals of the scene's triangles (counter-clockwise), for the closure rays.
-pub fn triangle_fronts(scene: &Scene) -> Vec<glam::DVec3> {
+/// The sides of each scene triangle that are patches, for the closure rays: the front
+/// (counter-clockwise), or both for a two-sided surface.
+pub fn triangle_sides(scene: &Scene) -> Vec<Sides> {
     scene
         .triangles
         .iter()
-        .map(|t| (t.p[1] - t.p[0]).cross(t.p[2] - t.p[0]).normalize_or_zero())
+        .map(|t| {
+            if is_two_sided(t, &scene.materials, &scene.surfaces) {
+                Sides::Both
+            } else {
+                Sides::Front((t.p[1] - t.p[0]).cross(t.p[2] - t.p[0]).normalize_or_zero())
+            }
+        })
         .collect()
 }
 
@@ -387,8 +400,8 @@ fn dark_room_pass<'a>(
 }
 
 /// The hierarchical mode's starting point (tree, geometry, the sources' glow) and the
-/// scene triangles' front normals for the closure rays.
-fn hierarchy_plan(p: &Prepared, direct: &[Option<Vec<f32>>]) -> (Plan, Vec<glam::DVec3>) {
+/// scene triangles' patch sides for the closure rays.
+fn hierarchy_plan(p: &Prepared, direct: &[Option<Vec<f32>>]) -> (Plan, Vec<Sides>) {
     let rho = crate::transport::transfer::patch_rho(&p.scene, &p.mesh);
     let mut sources = crate::transport::transfer::all_sources(&p.scene, &p.mesh, direct);
     let mut emission = vec![0f64; p.mesh.len()];
@@ -404,7 +417,7 @@ fn hierarchy_plan(p: &Prepared, direct: &[Option<Vec<f32>>]) -> (Plan, Vec<glam:
     }
     (
         Plan::new(&p.mesh, &rho, &sources).per_group_accuracy(p.scene.per_group_accuracy),
-        triangle_fronts(&p.scene),
+        triangle_sides(&p.scene),
     )
 }
 
@@ -446,6 +459,13 @@ fn finish(
         crate::transport::probe::grid_columns(&p.scene, &p.mesh, &p.bvh, &transfer.groups);
     stats.solve_s = t1.elapsed().as_secs_f64();
     stats.residual = transfer.info.residual;
+    let residual = transfer.info.residual;
+    if residual.is_nan() || residual > MAX_RESIDUAL {
+        return Err(BakeError::Diverged {
+            scene: p.scene.id.clone(),
+            residual: transfer.info.residual,
+        });
+    }
     if let (Some((path, key)), Some(dir), false) = (
         &p.entry,
         cache_policy.dir(),

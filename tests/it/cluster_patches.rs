@@ -310,3 +310,56 @@ fn a_real_furnished_apartment_meshes_at_the_lighting_resolution() {
     let tri: f64 = (0..mesh.elements.len()).map(|e| mesh.facet(e).area).sum();
     assert!((area / tri - 1.0).abs() < 1e-9, "{area} vs {tri}");
 }
+
+/// Regression: the closure rays counted a hit on the back of a two-sided surface as light
+/// leaving the scene, so in hierarchical mode every patch that sees such a back was scaled
+/// down (σ < 1). A closed furnace room with a two-sided plate in it: every patch, both
+/// sides of the plate included, must read E / (1 − ρ).
+#[test]
+fn closure_counts_the_back_of_a_two_sided_surface_as_a_surface() {
+    let _gate = common::shared();
+    let mut obj = fine_box("room", "glow", [0., 0., 0.], [3., 2.5, 2.], true, 8);
+    // A horizontal plate at 1.2 m, front up: the floor below sees its back.
+    obj += &quad(
+        "plate",
+        "glow",
+        [
+            [0.5, 1.2, 0.4],
+            [2.5, 1.2, 0.4],
+            [2.5, 1.2, 1.6],
+            [0.5, 1.2, 1.6],
+        ],
+        [0., 1., 0.],
+    );
+    let s = write_scene(
+        &obj,
+        "newmtl glow\nKd 0.5 0.5 0.5\nKe 10 10 10\n",
+        Some("[mesh]\ntarget_patches = 600\n\n[surface.plate]\ntwo_sided = true\n"),
+    );
+    let b = bake(s.path(), Some(TransferMode::Hierarchical));
+    let plate = b
+        .scene
+        .surfaces
+        .iter()
+        .position(|x| x.name == "plate")
+        .unwrap();
+    let r = b.mesh.surface_patches[plate].clone();
+    assert!(
+        b.mesh.patches[r.start as usize..r.end as usize]
+            .iter()
+            .any(|p| p.normal.y < -0.9),
+        "the plate has a patch on its back"
+    );
+    let sol = b.transfer.relight(&[Rgb::ONE]);
+    let (worst, at) = sol
+        .b
+        .iter()
+        .enumerate()
+        .map(|(i, &x)| ((x as f64 / 20.0 - 1.0).abs(), i))
+        .fold((0.0, 0), |a, b| if b.0 > a.0 { b } else { a });
+    assert!(
+        worst < 0.01,
+        "patch {at} ({}) off E/(1−ρ) by {worst:.4}",
+        b.scene.surfaces[b.mesh.patches[at].surface as usize].name
+    );
+}

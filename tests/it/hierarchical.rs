@@ -306,7 +306,7 @@ fn parts_of_a_hierarchical_bake_assemble_to_the_same_bits() {
     let scene = relight::scene::Scene::load(s.path()).unwrap();
     let mesh = relight::geometry::mesh::Mesh::build(&scene);
     let bvh = relight::bake::scene_bvh(&scene);
-    let front = relight::bake::triangle_fronts(&scene);
+    let front = relight::bake::triangle_sides(&scene);
     let direct = relight::transport::direct::group_direct(&scene, &mesh, &bvh);
     let rho = relight::transport::transfer::patch_rho(&scene, &mesh);
     let sources = relight::transport::transfer::all_sources(&scene, &mesh, &direct);

@@ -56,7 +56,11 @@ pub(super) fn clusters(
     let n = r.tris.len();
     let mut small = vec![false; n];
     let mut info: Vec<Option<Facet>> = vec![None; n];
-    for &t in front.iter().filter(|&&t| t < input) {
+    let source_small = |t: usize| {
+        let [a, b, c] = scene.triangles[r.src[t] as usize].p;
+        0.5 * (b - a).cross(c - a).length() <= small_area
+    };
+    for &t in front.iter().filter(|&&t| t < input || source_small(t)) {
         let c = r.corners(t as u32);
         let nn = (c[1] - c[0]).cross(c[2] - c[0]);
         if 0.5 * nn.length() <= small_area && nn.length() > 0.0 {

@@ -4,13 +4,22 @@
 //!
 //! The links estimate `S_i` with an error of about ε per link. An independent estimate of
 //! `1 − escape_i` comes from [`super::HierarchyOptions::closure_rays`] stratified,
-//! cosine-distributed rays from stratified points of the patch: the fraction that hits the
-//! front of some triangle (a ray that leaves the scene or hits a back face carries light
-//! that no patch receives). The two are combined by their variances (the rays' binomial
+//! cosine-distributed rays from stratified points of the patch: the fraction that hits a
+//! side of some triangle that is a patch (its front, or either side of a two-sided
+//! surface): a ray that leaves the scene or hits a one-sided surface's back carries light
+//! that no patch receives. The two are combined by their variances (the rays' binomial
 //! variance, and 1 % of `S_i` for the links), and the patch's gathered irradiance is scaled
 //! by `σ_i = combined / S_i`. Where no ray escapes, the scene is closed around the patch:
 //! the combined value is exactly 1, so in a closed scene every patch's form factors sum to
 //! 1 up to float rounding.
+//!
+//! σ stays within `[1 / MAX_CLOSURE_SCALE, MAX_CLOSURE_SCALE]`. The links' error is about
+//! ε per link, far below a factor of two; a larger disagreement is geometry the links
+//! cannot resolve, not an error to scale away. Typically a face pressed against another
+//! (a rug on a floor, the back of a two-sided panel against a wall): the rays, lifted off
+//! the face, all hit the other, while its links see almost nothing. Scaling such a patch's
+//! irradiance by 1/S_i (10⁶ and more on a real model) amplified stray light between the
+//! two faces until the solve diverged.
 
 use glam::{DVec3, Vec3A};
 use rayon::prelude::*;
@@ -23,13 +32,35 @@ use crate::transport::formfactor::PatchGeo;
 /// Relative standard deviation assumed for a patch's link sum.
 const LINK_SUM_REL_SD: f64 = 0.01;
 
-/// For each patch of `patches`: the fraction of cosine-weighted rays that hit the front of
-/// a triangle. `front[t]` is the unit front normal of scene triangle t. Each patch's rays
-/// depend on its index only, so any subset gives the same values.
+/// The largest factor by which closure scales a patch's gathered irradiance, up or down.
+pub const MAX_CLOSURE_SCALE: f64 = 2.0;
+
+/// The sides of a scene triangle that are patches: what a closure ray counts as a hit.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Sides {
+    /// The front only, facing along this unit normal (counter-clockwise).
+    Front(DVec3),
+    /// Both sides (a two-sided surface: a patch per side).
+    Both,
+}
+
+impl Sides {
+    /// True when a ray travelling along `d` that hits the triangle lands on a patch.
+    fn receives(self, d: DVec3) -> bool {
+        match self {
+            Sides::Front(n) => n.dot(d) < 0.0,
+            Sides::Both => true,
+        }
+    }
+}
+
+/// For each patch of `patches`: the fraction of cosine-weighted rays that hit a patch
+/// side of a triangle. `sides[t]` says which sides of scene triangle t are patches. Each
+/// patch's rays depend on its index only, so any subset gives the same values.
 pub(crate) fn hit_fraction(
     geo: &[PatchGeo],
     bvh: &Bvh,
-    front: &[DVec3],
+    sides: &[Sides],
     rays: u32,
     patches: &[u32],
 ) -> Vec<f64> {
@@ -67,7 +98,7 @@ pub(crate) fn hit_fraction(
                         f32::INFINITY,
                     );
                     if let Some((_, t)) = hit {
-                        if t != p.source && front.get(t as usize).is_some_and(|n| n.dot(d) < 0.0) {
+                        if t != p.source && sides.get(t as usize).is_some_and(|s| s.receives(d)) {
                             hits += 1;
                         }
                     }
@@ -102,8 +133,45 @@ pub fn combine(s: &[f64], h: &[f64], rays: u32) -> (Vec<f32>, Vec<f32>) {
             } else {
                 (s / vs + h / vh) / (1.0 / vs + 1.0 / vh)
             };
-            let sigma = if s > 0.0 { closed / s } else { 1.0 };
+            let sigma = if s > 0.0 {
+                // And never more than the whole hemisphere: σ·S ≤ 1.
+                (closed / s)
+                    .clamp(1.0 / MAX_CLOSURE_SCALE, MAX_CLOSURE_SCALE)
+                    .min(1.0 / s)
+            } else {
+                1.0
+            };
             (sigma as f32, (1.0 - closed).max(0.0) as f32)
         })
         .unzip()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_closed_patch_sums_to_one() {
+        let (sigma, escape) = combine(&[0.97], &[1.0], 256);
+        assert!((sigma[0] as f64 * 0.97 - 1.0).abs() < 1e-6);
+        assert_eq!(escape[0], 0.0);
+    }
+
+    #[test]
+    fn a_face_pressed_against_another_is_not_scaled_past_the_bound() {
+        // Links that see almost nothing while every ray hits: 1/S would be 10⁷.
+        let (sigma, _) = combine(&[1e-7], &[1.0], 256);
+        assert_eq!(sigma[0] as f64, MAX_CLOSURE_SCALE);
+        // Links that overshoot: scaled down, at most to the bound, and σ·S ≤ 1.
+        let (sigma, _) = combine(&[3.0], &[0.5], 256);
+        assert!((sigma[0] as f64 - 1.0 / 3.0).abs() < 1e-6, "{}", sigma[0]);
+    }
+
+    #[test]
+    fn the_back_of_a_two_sided_triangle_receives() {
+        let d = DVec3::new(0.0, 0.0, 1.0);
+        assert!(Sides::Front(DVec3::new(0.0, 0.0, -1.0)).receives(d));
+        assert!(!Sides::Front(DVec3::new(0.0, 0.0, 1.0)).receives(d));
+        assert!(Sides::Both.receives(d));
+    }
 }

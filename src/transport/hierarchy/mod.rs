@@ -20,7 +20,6 @@ pub mod tree;
 
 use std::time::Instant;
 
-use glam::DVec3;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
@@ -389,7 +388,7 @@ impl Plan {
         &self,
         roots: &[u32],
         bvh: &Bvh,
-        front: &[DVec3],
+        sides: &[closure::Sides],
         opts: HierarchyOptions,
         ff: FormFactorOptions,
         progress: &(dyn Fn(f64) + Sync),
@@ -408,7 +407,7 @@ impl Plan {
         let patches: Vec<u32> = (0..t.n as u32)
             .filter(|&i| mine[t.plane[i as usize] as usize])
             .collect();
-        let hits = closure::hit_fraction(&self.geo, bvh, front, opts.closure_rays, &patches);
+        let hits = closure::hit_fraction(&self.geo, bvh, sides, opts.closure_rays, &patches);
         Part {
             roots: roots.to_vec(),
             links,
