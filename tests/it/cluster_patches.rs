@@ -300,7 +300,8 @@ fn a_real_furnished_apartment_meshes_at_the_lighting_resolution() {
     let scene = relight::scene::Scene::load(&dir).unwrap();
     assert_eq!(scene.surfaces.len(), 67);
     let mesh = relight::geometry::mesh::Mesh::build(&scene);
-    assert!(mesh.len() <= 80_000, "{} patches", mesh.len());
+    // The target (#48): at most 60,000 patches at the default settings.
+    assert!(mesh.len() <= 60_000, "{} patches", mesh.len());
     assert!(
         mesh.elements.len() >= 2 * 177_000,
         "{} triangles",

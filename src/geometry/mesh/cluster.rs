@@ -3,11 +3,14 @@
 //! exporter's tessellation.
 //!
 //! A triangle may join a cluster when it is *small*, of at most [`SMALL_AREA_SHARE`] ×
-//! `max_edge²`, and the model's own: refinement never split it. (Longest-edge bisection
-//! leaves patches with a longest edge above `max_edge / 2`, which from a well-shaped
-//! triangle is more than `max_edge² / 20`; contact refinement follows a contact line on
+//! `max_edge²`, and the model's own: refinement never split it, or it is a piece of a
+//! small model triangle. (Longest-edge bisection leaves patches with a longest edge above
+//! `max_edge / 2`, which from a well-shaped triangle is more than `max_edge² / 20`; the
+//! pieces of a large triangle that contact refinement cut follow a contact line on
 //! purpose.) Small triangles are the model's own detail: furniture, fittings, curved trim
-//! and the slivers exporters write along long edges.
+//! and the slivers exporters write along long edges, which refinement cuts into pieces
+//! (at most `max_edge` long, `max_edge / CONTACT_DIVISOR` where another surface cuts them):
+//! on a real apartment model, 24,000 of its 77,000 patches were such pieces, each alone.
 //!
 //! Clusters grow greedily, in refinement order, from the first small triangle not yet
 //! taken, across shared edges. A neighbour joins when it is small, of the same material
@@ -40,8 +43,8 @@ pub const MAX_CLUSTER_TURN_DEG: f64 = 25.0;
 /// The patches of one surface as lists of the refiner's live triangles, in the order of
 /// their first triangle in `front` (the live triangles in refinement order). Triangles
 /// `input..` were made by refinement. A triangle that is not small, or made by
-/// refinement, is a list of one, so a surface without small triangles keeps its
-/// patches and their order. `cut` says whether another scene triangle cuts a triangle.
+/// refinement from a triangle of the model that is not small, is a list of one, so a
+/// surface without small triangles keeps its patches and their order. `cut` says whether another scene triangle cuts a triangle.
 pub(super) fn clusters(
     r: &Refiner,
     front: &[usize],
