@@ -12,6 +12,40 @@ use crate::input_limits::{MAX_TEXTURE_PIXELS, MAX_TEXTURE_SIDE};
 /// The alpha-weighted mean linear RGB of the encoded image `bytes`, or why it cannot be
 /// read.
 pub(crate) fn mean_linear_rgb(bytes: &[u8]) -> Result<Rgb, String> {
+    summary(bytes).map(|s| s.mean)
+}
+
+/// What a material takes from a texture: its colour as seen from afar, and how its alpha
+/// is spread (for glTF's `alphaMode`).
+#[derive(Debug, Clone)]
+pub(crate) struct Summary {
+    /// The alpha-weighted mean linear RGB.
+    pub mean: Rgb,
+    /// Texels per 8-bit alpha value.
+    pub alpha: Box<[u64; 256]>,
+}
+
+impl Summary {
+    /// The share of texels whose alpha times `factor` is at least `cutoff`: the opaque
+    /// part of a glTF `MASK` material.
+    pub fn coverage(&self, factor: f64, cutoff: f64) -> f64 {
+        let (mut kept, mut count) = (0u64, 0u64);
+        for (k, &c) in self.alpha.iter().enumerate() {
+            if factor * (k as f64 / 255.0) >= cutoff {
+                kept += c;
+            }
+            count += c;
+        }
+        if count == 0 {
+            1.0
+        } else {
+            kept as f64 / count as f64
+        }
+    }
+}
+
+/// The [`Summary`] of the encoded image `bytes`, or why it cannot be read.
+pub(crate) fn summary(bytes: &[u8]) -> Result<Summary, String> {
     let reader = image::ImageReader::new(std::io::Cursor::new(bytes))
         .with_guessed_format()
         .map_err(|e| e.to_string())?;
@@ -46,7 +80,9 @@ pub(crate) fn mean_linear_rgb(bytes: &[u8]) -> Result<Rgb, String> {
     let img = reader.decode().map_err(|e| e.to_string())?.to_rgba8();
     let lut: [f64; 256] = std::array::from_fn(|k| srgb_to_linear(k as f64 / 255.0));
     let (mut sum, mut weight, mut plain) = (Rgb64::ZERO, 0f64, Rgb64::ZERO);
+    let mut alpha = Box::new([0u64; 256]);
     for px in img.pixels() {
+        alpha[px[3] as usize] += 1;
         let a = px[3] as f64 / 255.0;
         let v = Rgb64::new(
             lut[px[0] as usize],
@@ -58,11 +94,12 @@ pub(crate) fn mean_linear_rgb(bytes: &[u8]) -> Result<Rgb, String> {
         weight += a;
     }
     let texels = img.pixels().len() as f64;
-    Ok(if weight > 0.0 {
+    let mean = if weight > 0.0 {
         (sum / weight).to_f32()
     } else {
         (plain / texels).to_f32()
-    })
+    };
+    Ok(Summary { mean, alpha })
 }
 
 /// The sRGB transfer function inverted (IEC 61966-2-1).
@@ -110,6 +147,21 @@ mod tests {
         // Pure colours stay apart.
         let red = png(1, 1, |_, _| [255, 0, 0, 255]);
         assert_eq!(mean_linear_rgb(&red).unwrap(), [1.0, 0.0, 0.0]);
+    }
+
+    #[test]
+    fn coverage_counts_the_texels_at_or_above_the_cutoff() {
+        // A leaf card: a quarter of the texels opaque, a quarter at alpha 128, half clear.
+        let leaf = png(4, 1, |x, _| match x {
+            0 => [40, 90, 30, 255],
+            1 => [40, 90, 30, 128],
+            _ => [0, 0, 0, 0],
+        });
+        let s = summary(&leaf).unwrap();
+        assert_eq!(s.coverage(1.0, 0.5), 0.5);
+        assert_eq!(s.coverage(1.0, 0.6), 0.25);
+        // The factor scales the texels' alpha first.
+        assert_eq!(s.coverage(0.5, 0.5), 0.25);
     }
 
     #[test]

@@ -119,10 +119,20 @@ pub(crate) struct PatchGeo {
     pub area: f64,
     /// The longest edge of a triangle; the bounding box's diagonal of a cluster.
     pub size: f64,
+    /// The largest distance from the centroid to a corner: a sphere around `centroid`
+    /// that holds the patch.
+    pub radius: f64,
     pub source: u32,
-    /// The elements of a cluster patch, with the cumulative share of the area up to and
-    /// including each; None for a single triangle.
-    pub cluster: Option<Box<[(Facet, f64)]>>,
+    /// The elements of a cluster patch; None for a single triangle.
+    pub cluster: Option<Elements>,
+}
+
+/// The elements of a cluster patch. The cumulative area shares are kept apart from the
+/// facets, so that picking an element by area reads one compact array.
+pub(crate) struct Elements {
+    pub facets: Box<[Facet]>,
+    /// The share of the patch's area up to and including each element (the last is 1).
+    pub cum: Box<[f64]>,
 }
 
 /// Distances beyond this many element sizes (√(2 × area)) take a cluster element as a
@@ -148,11 +158,10 @@ impl PatchGeo {
                 source: self.source,
             };
         };
-        let k = elems
-            .partition_point(|&(_, cum)| cum <= u)
-            .min(elems.len() - 1);
-        let lo = if k == 0 { 0.0 } else { elems[k - 1].1 };
-        let (f, hi) = elems[k];
+        let cum = &elems.cum;
+        let k = cum.partition_point(|&c| c <= u).min(cum.len() - 1);
+        let lo = if k == 0 { 0.0 } else { cum[k - 1] };
+        let (f, hi) = (&elems.facets[k], cum[k]);
         let u = ((u - lo) / (hi - lo).max(1e-300)).clamp(0.0, 1.0);
         PatchPoint {
             x: sample_triangle(&f.corners, u, v),
@@ -172,7 +181,7 @@ impl PatchGeo {
         });
         single
             .into_iter()
-            .chain(self.cluster.iter().flat_map(|e| e.iter().map(|&(f, _)| f)))
+            .chain(self.cluster.iter().flat_map(|e| e.facets.iter().copied()))
     }
 
     /// The unoccluded factor from a point `x` with normal `n` to the whole patch: the
@@ -185,9 +194,14 @@ impl PatchGeo {
                 0.0
             };
         }
+        let Some(elems) = &self.cluster else {
+            return 0.0;
+        };
         // An element far from x (beyond FAR_ELEMENT × its size) as a differential area:
         // the same factor to within (size / distance)², without the contour integral.
-        self.facets()
+        elems
+            .facets
+            .iter()
             .filter(|f| f.normal.dot(x - f.centroid) > 0.0)
             .map(|f| {
                 let d = f.centroid - x;
@@ -222,7 +236,7 @@ pub(crate) fn directed(a: &PatchGeo, b: &PatchGeo, quad: &[Vec<DVec3>; 5], level
     }
     // The area-weighted mean over a's elements of the factor to all of b's, with the
     // level's points shared among a's elements and fewer of them the more elements b has.
-    let nb = b.cluster.as_ref().map_or(1, |e| e.len()) as f64;
+    let nb = b.cluster.as_ref().map_or(1, |e| e.facets.len()) as f64;
     let budget = quad[level].len() as f64 * (8.0 / nb).min(1.0);
     let mut s = 0.0;
     for fa in a.facets() {
@@ -242,25 +256,42 @@ pub(crate) fn directed(a: &PatchGeo, b: &PatchGeo, quad: &[Vec<DVec3>; 5], level
     s / a.area
 }
 
-/// Largest signed height of `b`'s corners above `a`'s plane (above the plane of any of
-/// `a`'s elements, for a cluster).
-pub(crate) fn height_above(a: &PatchGeo, b: &PatchGeo) -> f64 {
-    if a.cluster.is_none() && b.cluster.is_none() {
-        return b
-            .c
-            .iter()
-            .map(|p| a.n.dot(*p - a.centroid))
-            .fold(f64::NEG_INFINITY, f64::max);
-    }
-    let mut h = f64::NEG_INFINITY;
-    for fa in a.facets() {
-        for fb in b.facets() {
-            for p in fb.corners {
-                h = h.max(fa.normal.dot(p - fa.centroid));
-            }
+/// True when some corner of `b` lies more than `tol` above `a`'s plane (above the plane of
+/// some element of `a`, for a cluster).
+///
+/// For a cluster, `b`'s bounding sphere decides each element of `a` whose plane it does
+/// not cross, and only the rest compare `b`'s corners one by one: the answer is the exact
+/// one, in time about the elements of `a` plus those of `b`, not their product.
+pub(crate) fn above(a: &PatchGeo, b: &PatchGeo, tol: f64) -> bool {
+    let corners_above = |n: DVec3, o: DVec3| -> bool {
+        match &b.cluster {
+            None => b.c.iter().any(|p| n.dot(*p - o) > tol),
+            Some(e) => e
+                .facets
+                .iter()
+                .any(|f| f.corners.iter().any(|p| n.dot(*p - o) > tol)),
         }
-    }
-    h
+    };
+    let Some(elems) = &a.cluster else {
+        return corners_above(a.n, a.centroid);
+    };
+    elems.facets.iter().any(|fa| {
+        let h = fa.normal.dot(b.centroid - fa.centroid);
+        if h - b.radius > tol {
+            true
+        } else if h + b.radius <= tol {
+            false
+        } else {
+            corners_above(fa.normal, fa.centroid)
+        }
+    })
+}
+
+/// True when each of `a` and `b` has a corner in front of the other (by more than a
+/// rounding tolerance): the pair can exchange light.
+pub(crate) fn face_each_other(a: &PatchGeo, b: &PatchGeo) -> bool {
+    let tol = 1e-9 + 1e-7 * (a.size + b.size);
+    above(a, b, tol) && above(b, a, tol)
 }
 
 /// Computes the dense form-factor matrix. `progress` receives the finished fraction
@@ -314,37 +345,45 @@ pub(crate) fn patch_geometry(mesh: &Mesh) -> Vec<PatchGeo> {
                 let size = (0..3)
                     .map(|k| c[k].distance(c[(k + 1) % 3]))
                     .fold(0.0, f64::max);
+                let radius = c.iter().map(|q| q.distance(p.centroid)).fold(0.0, f64::max);
                 return PatchGeo {
                     c,
                     centroid: p.centroid,
                     n: p.normal,
                     area: p.area,
                     size,
+                    radius,
                     source: p.source,
                     cluster: None,
                 };
             }
             let (mut lo, mut hi) = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
-            let mut cum = 0.0;
-            let elems: Box<[(Facet, f64)]> = mesh
+            let mut radius = 0f64;
+            let mut share = 0.0;
+            let (facets, cum): (Vec<Facet>, Vec<f64>) = mesh
                 .facets(i)
                 .map(|f| {
                     for q in f.corners {
                         lo = lo.min(q);
                         hi = hi.max(q);
+                        radius = radius.max(q.distance(p.centroid));
                     }
-                    cum += f.area / p.area;
-                    (f, cum)
+                    share += f.area / p.area;
+                    (f, share)
                 })
-                .collect();
+                .unzip();
             PatchGeo {
-                c: elems[0].0.corners,
+                c: facets[0].corners,
                 centroid: p.centroid,
                 n: p.normal,
                 area: p.area,
                 size: (hi - lo).length(),
+                radius,
                 source: p.source,
-                cluster: Some(elems),
+                cluster: Some(Elements {
+                    facets: facets.into(),
+                    cum: cum.into(),
+                }),
             }
         })
         .collect()
@@ -361,8 +400,7 @@ fn coupling(
     quad: &[Vec<DVec3>; 5],
 ) -> f32 {
     let (a, b) = (&geo[i], &geo[j]);
-    let tol = 1e-9 + 1e-7 * (a.size + b.size);
-    if height_above(a, b) <= tol || height_above(b, a) <= tol {
+    if !face_each_other(a, b) {
         return 0.0;
     }
     let fij = directed(a, b, quad, quadrature_level(a, b));

@@ -11,6 +11,17 @@ use crate::input_limits::{MAX_EXITANCE, MAX_KD, MAX_MATERIALS, MAX_TEXTURES, MAX
 use crate::scene::materials::{Gloss, Material, MaterialTable};
 use crate::scene::{files, mtl, texture, SceneError};
 
+/// A cut-out (`alphaMode` MASK) opaque over at least this share of its area stays an
+/// opaque surface; below it, it is a see-through pane passing the rest.
+pub const MASK_OPAQUE_SHARE: f64 = 0.5;
+
+/// A material's base colour: the factor tinted by its texture's mean, and the texture's
+/// summary (for `alphaMode`).
+struct Base {
+    colour: Rgb,
+    texture: Option<texture::Summary>,
+}
+
 /// Where material textures come from: the document's images, the buffers, and the files
 /// read (a texture file is added); `count` textures read so far.
 struct Textures<'b> {
@@ -43,7 +54,7 @@ impl Reader<'_> {
             let name = names.take(m.name(), || format!("material{i}"));
             let (kd, gloss, base) = self.reflectance(&m, &name, textures)?;
             let ke = self.emission(&m, &name, textures)?;
-            let glass = self.transmittance(&m, &name, base)?;
+            let glass = self.transmittance(&m, &name, &base)?;
             let two_sided =
                 m.double_sided() || self.cfg.material.get(&name).is_some_and(|o| o.two_sided);
             let index = table.push(
@@ -72,7 +83,7 @@ impl Reader<'_> {
         m: &gltf::Material<'_>,
         name: &str,
         textures: &mut Textures<'_>,
-    ) -> Result<(Rgb, Option<Gloss>, Rgb), SceneError> {
+    ) -> Result<(Rgb, Option<Gloss>, Base), SceneError> {
         let pbr = m.pbr_metallic_roughness();
         let base = pbr.base_color_factor();
         let metallic = pbr.metallic_factor();
@@ -84,12 +95,12 @@ impl Reader<'_> {
             )));
         }
         let metallic = metallic.clamp(0.0, 1.0);
-        let base = self.tinted(
-            Rgb::new(base[0], base[1], base[2]),
-            pbr.base_color_texture(),
-            name,
-            textures,
-        )?;
+        let texture = match pbr.base_color_texture() {
+            Some(info) => self.texture_summary(info.texture(), name, textures)?,
+            None => None,
+        };
+        let factor = Rgb::new(base[0], base[1], base[2]);
+        let base = texture.as_ref().map_or(factor, |t| factor * t.mean);
         if base.iter().any(|x| !x.is_finite() || *x < 0.0) {
             return Err(self.err(format!(
                 "material '{name}': base colour {base:?} must be finite and ≥ 0"
@@ -123,27 +134,60 @@ impl Reader<'_> {
             ));
             kd = k;
         }
-        Ok((kd, gloss, base))
+        Ok((
+            kd,
+            gloss,
+            Base {
+                colour: base,
+                texture,
+            },
+        ))
     }
 
     /// The glazing transmittance of material `m` (named `name`, of texture-tinted `base`
     /// colour), if the file makes it see-through: `(1 − α) + α · t · Y(base)`, where α is
-    /// the base colour factor's alpha under `alphaMode` BLEND (under MASK 0 when it is
-    /// below `alphaCutoff`, else 1; 1 for OPAQUE), t the
-    /// `KHR_materials_transmission` factor (0 without it) and Y the base colour's
-    /// luminance (thin-walled glass tints what it transmits by its base colour). The
-    /// alpha of the base colour texture and the transmission texture are not read. None
-    /// for an opaque material (α = 1 and t = 0).
+    /// the opaque share of its area, t the `KHR_materials_transmission` factor (0 without
+    /// it) and Y the base colour's luminance (thin-walled glass tints what it transmits by
+    /// its base colour). α is:
+    /// - under `alphaMode` BLEND, the base colour factor's alpha;
+    /// - under MASK, the share of the base colour texture's texels whose alpha (times the
+    ///   factor's) reaches `alphaCutoff` ([`texture::Summary::coverage`]; without a
+    ///   texture 0 or 1). A cut-out that is opaque over [`MASK_OPAQUE_SHARE`] of its area
+    ///   or more (a perforated panel) stays an opaque surface, with a warning: see-through
+    ///   materials are not patches, and such a surface reflects more light than it passes;
+    /// - 1 under OPAQUE.
+    ///
+    /// The transmission texture is not read. None for an opaque material (α = 1 and
+    /// t = 0).
     fn transmittance(
-        &self,
+        &mut self,
         m: &gltf::Material<'_>,
         name: &str,
-        base: Rgb,
+        base: &Base,
     ) -> Result<Option<f64>, SceneError> {
         let factor = m.pbr_metallic_roughness().base_color_factor()[3];
+        let cutoff = m.alpha_cutoff().unwrap_or(0.5);
         let alpha = match m.alpha_mode() {
             gltf::material::AlphaMode::Blend => factor,
-            gltf::material::AlphaMode::Mask if factor < m.alpha_cutoff().unwrap_or(0.5) => 0.0,
+            gltf::material::AlphaMode::Mask => {
+                let covered = match &base.texture {
+                    Some(t) if factor.is_finite() && cutoff.is_finite() => {
+                        t.coverage(factor as f64, cutoff as f64) as f32
+                    }
+                    _ if factor < cutoff => 0.0,
+                    _ => 1.0,
+                };
+                if covered >= MASK_OPAQUE_SHARE as f32 && covered < 1.0 {
+                    self.warnings.push(format!(
+                        "{}: material '{name}': alphaMode MASK, {:.0} % of its texture                          opaque: kept an opaque surface (set [material.{name}]                          transmittance to make it a see-through pane)",
+                        self.shown.display(),
+                        100.0 * covered
+                    ));
+                    1.0
+                } else {
+                    covered
+                }
+            }
             _ => 1.0,
         };
         let t = m.transmission().map_or(0.0, |x| x.transmission_factor());
@@ -153,7 +197,7 @@ impl Reader<'_> {
             )));
         }
         let (alpha, t) = (alpha.clamp(0.0, 1.0) as f64, t.clamp(0.0, 1.0) as f64);
-        let y = (base.luminance() as f64).clamp(0.0, 1.0);
+        let y = (base.colour.luminance() as f64).clamp(0.0, 1.0);
         let tr = (1.0 - alpha) + alpha * t * y;
         Ok((alpha < 1.0 || t > 0.0).then_some(tr.clamp(0.0, 1.0)))
     }
@@ -197,21 +241,21 @@ impl Reader<'_> {
             return Ok(c);
         };
         Ok(
-            match self.texture_mean(info.texture(), material, textures)? {
-                Some(mean) => c * mean,
+            match self.texture_summary(info.texture(), material, textures)? {
+                Some(t) => c * t.mean,
                 None => c,
             },
         )
     }
 
-    /// The mean linear colour of a texture's image, or None (with a warning) when it
-    /// cannot be read and the load is lenient.
-    fn texture_mean(
+    /// The mean linear colour and the alpha spread of a texture's image, or None (with a
+    /// warning) when it cannot be read and the load is lenient.
+    fn texture_summary(
         &mut self,
         tex: gltf::Texture<'_>,
         material: &str,
         textures: &mut Textures<'_>,
-    ) -> Result<Option<Rgb>, SceneError> {
+    ) -> Result<Option<texture::Summary>, SceneError> {
         textures.count += 1;
         if textures.count > MAX_TEXTURES {
             return Err(self.err(format!("more than {MAX_TEXTURES} textures")));
@@ -252,8 +296,8 @@ impl Reader<'_> {
                 }
             }
         }?;
-        match texture::mean_linear_rgb(&bytes) {
-            Ok(m) => Ok(Some(m)),
+        match texture::summary(&bytes) {
+            Ok(t) => Ok(Some(t)),
             Err(e) if self.cfg.strict => Err(self.err(format!(
                 "{what} (material '{material}') cannot be read: {e} (strict = true)"
             ))),

@@ -16,10 +16,10 @@
 //!   the mean linear colour of `baseColorTexture` (alpha-weighted). The radiosity
 //!   solution is diffuse, so a metal reflects no diffuse light. A channel of 1 or more is
 //!   scaled to [`MAX_KD`] with a warning (`strict`: an error).
-//! - **Glass**: `alphaMode` BLEND (or MASK below the cutoff) and
-//!   `KHR_materials_transmission` make a material glazing, its transmittance
-//!   `(1 − α) + α · t · Y(base)` (see `materials.rs`); `scene.toml` may override it or
-//!   keep the material `opaque`.
+//! - **Glass**: `alphaMode` BLEND, MASK cut-outs (the base colour texture's texels below
+//!   the cutoff, when they are most of it) and `KHR_materials_transmission` make a
+//!   material glazing, its transmittance `(1 − α) + α · t · Y(base)` (see
+//!   `materials.rs`); `scene.toml` may override it or keep the material `opaque`.
 //! - **Compression**: `EXT_meshopt_compression` views are decoded ([`meshopt`]) and
 //!   `KHR_mesh_quantization` positions read as integers and dequantized by the node
 //!   transforms.

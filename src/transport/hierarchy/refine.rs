@@ -48,7 +48,7 @@ use super::Plan;
 use crate::geometry::bvh::Bvh;
 use crate::sampling::Rng;
 use crate::transport::formfactor::{
-    directed, height_above, quadrature_level, quadrature_tables, visible_fraction,
+    directed, face_each_other, quadrature_level, quadrature_tables, visible_fraction,
     FormFactorOptions, PatchGeo, PatchPoint,
 };
 
@@ -379,8 +379,7 @@ impl Ctx<'_> {
     /// Patch to patch, as the dense mode computes it.
     fn leaf_link(&self, r: u32, s: u32) -> Option<Link> {
         let (a, b) = (&self.geo[r as usize], &self.geo[s as usize]);
-        let tol = 1e-9 + 1e-7 * (a.size + b.size);
-        if height_above(a, b) <= tol || height_above(b, a) <= tol {
+        if !face_each_other(a, b) {
             return None;
         }
         let f = directed(a, b, &self.quad, quadrature_level(a, b));

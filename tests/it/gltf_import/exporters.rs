@@ -62,8 +62,12 @@ fn surface_area(s: &Scene, name: &str) -> f64 {
 /// The room as one node holding one mesh with a primitive per material (as SketchUp-style
 /// exporters write it), materials `mats`; `ext` adds top-level fields (extensionsUsed, …).
 fn one_mesh_room(mats: Value, ext: Value) -> Vec<u8> {
+    one_mesh_room_in(Doc::default(), mats, ext)
+}
+
+/// [`one_mesh_room`] written after what `d` already holds (texture images).
+fn one_mesh_room_in(mut d: Doc, mats: Value, ext: Value) -> Vec<u8> {
     let quads = room_quads();
-    let mut d = Doc::default();
     let mut prims = Vec::new();
     for m in 0..3 {
         let mine: Vec<&[[f32; 3]; 4]> = quads.iter().filter(|q| q.0 == m).map(|q| &q.1).collect();
@@ -267,6 +271,55 @@ fn alpha_blending_and_masks_set_the_transmittance() {
     let s = load(dir.path());
     assert!(s.glazing.is_empty());
     assert!(warned(&s, &["'Glass'", "emits"]), "{:?}", s.warnings);
+}
+
+#[test]
+fn mask_cut_outs_pass_light_through_their_clear_texels() {
+    // A leaf card's texture: 3 of 10 texels opaque, the rest clear. Under MASK, 30 % of
+    // the pane is leaf and 70 % of the daylight passes. A perforated panel (8 of 10
+    // opaque) stays an opaque surface, with a warning.
+    let texture = |opaque: u32| {
+        let img = image::RgbaImage::from_fn(10, 1, |x, _| {
+            image::Rgba(if x < opaque {
+                [60, 110, 40, 255]
+            } else {
+                [0, 0, 0, 0]
+            })
+        });
+        let mut out = std::io::Cursor::new(Vec::new());
+        img.write_to(&mut out, image::ImageFormat::Png).unwrap();
+        out.into_inner()
+    };
+    for (opaque, want) in [(3, Some(0.7)), (8, None)] {
+        let mut d = Doc::default();
+        let view = d.view(&texture(opaque));
+        let mask = json!({"name": "Glass", "alphaMode": "MASK", "pbrMetallicRoughness":
+            {"baseColorFactor": [1, 1, 1, 1], "metallicFactor": 0, "baseColorTexture": {"index": 0}}});
+        let images = json!({"images": [{"bufferView": view, "mimeType": "image/png"}],
+                            "textures": [{"source": 0}]});
+        let dir = folder(&[("room.glb", &one_mesh_room_in(d, materials(mask), images))]);
+        let s = load(dir.path());
+        match want {
+            Some(t) => {
+                assert_eq!(s.glazing.len(), 2, "{opaque} opaque texels");
+                assert!(
+                    s.glazing
+                        .iter()
+                        .all(|p| (p.transmittance as f64 - t).abs() < 1e-6),
+                    "{:?}",
+                    s.glazing
+                        .iter()
+                        .map(|p| p.transmittance)
+                        .collect::<Vec<_>>()
+                );
+            }
+            None => {
+                assert!(s.glazing.is_empty());
+                assert!(s.surface_index("Room / Glass").is_some());
+                assert!(warned(&s, &["'Glass'", "MASK", "80 %"]), "{:?}", s.warnings);
+            }
+        }
+    }
 }
 
 /// The room as one mesh whose positions are `KHR_mesh_quantization` unsigned shorts
