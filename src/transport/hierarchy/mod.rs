@@ -211,7 +211,18 @@ impl Hierarchy {
 
     /// `σ · Σ_links k · x_s` at every patch, links of ancestors included (push).
     fn gather(&self, x: &[f32], c: usize) -> Vec<f32> {
-        let mut g = vec![0f32; self.nodes() * c];
+        let mut g = Vec::new();
+        self.gather_into(x, c, &mut g);
+        g.truncate(self.n * c);
+        g
+    }
+
+    /// [`Hierarchy::gather`] into `g` (resized to nodes × c; the patches' rows come
+    /// first), so that sweeps reuse one buffer: at a few hundred columns it is hundreds of
+    /// MB, and a fresh one per sweep cost as much time in page faults as in arithmetic.
+    fn gather_into(&self, x: &[f32], c: usize, g: &mut Vec<f32>) {
+        g.clear();
+        g.resize(self.nodes() * c, 0.0);
         g.par_chunks_mut(c)
             .enumerate()
             .with_min_len(256)
@@ -233,11 +244,10 @@ impl Hierarchy {
                 }
             }
         }
-        g.truncate(self.n * c);
-        g.par_chunks_mut(c)
+        g[..self.n * c]
+            .par_chunks_mut(c)
             .zip(&self.sigma)
             .for_each(|(row, &s)| row.iter_mut().for_each(|v| *v *= s));
-        g
     }
 
     /// Solves `B = S + ρ H`, `H = σ K B` for `c` columns of sources `s` (n × c row-major,
@@ -257,10 +267,10 @@ impl Hierarchy {
         let mut x = vec![0f32; self.nodes() * c];
         x[..n * c].copy_from_slice(&s[..n * c]);
         let mut sweeps = 0;
-        let mut h;
+        let mut h = Vec::new();
         loop {
             self.pull(&mut x, c);
-            h = self.gather(&x, c);
+            self.gather_into(&x, c, &mut h);
             if sweeps >= max_sweeps {
                 break;
             }
@@ -296,11 +306,12 @@ impl Hierarchy {
             progress((sweeps as f64 / 60.0).min(0.99));
             if converged {
                 self.pull(&mut x, c);
-                h = self.gather(&x, c);
+                self.gather_into(&x, c, &mut h);
                 break;
             }
         }
         x.truncate(n * c);
+        h.truncate(n * c);
         let residual = residual(&x, s, &h, rho, c);
         HierarchySolution {
             b: x,
