@@ -140,6 +140,31 @@ fn editing_the_scene_makes_the_entry_stale() {
     assert_eq!(std::fs::read_dir(cache.path()).unwrap().count(), 1);
 }
 
+/// Regression: the cache key hashed scene.toml whole, so adding a camera (which only
+/// places a view) rebaked a real model for 8 minutes. Cameras keep the entry; anything
+/// else in scene.toml (here the mesh resolution) still makes it stale.
+#[test]
+fn adding_a_camera_keeps_the_baked_transfer() {
+    let _gate = common::shared();
+    let s = small_scene();
+    let cache = tempfile::tempdir().unwrap();
+    load(s.path(), CachePolicy::ReadWrite(cache.path())).unwrap();
+    let toml = s.path().join("scene.toml");
+    let text = std::fs::read_to_string(&toml).unwrap();
+    let with_camera = format!(
+        "{text}\n[[cameras]]\nid = \"corner\"\nposition = [0.2, 1.5, 0.2]\ntarget = [1, 1, 1]\nfov_deg = 60\n"
+    );
+    std::fs::write(&toml, &with_camera).unwrap();
+    let b = load(s.path(), CachePolicy::ReadOnly(cache.path())).unwrap();
+    assert!(b.stats.from_cache);
+    assert_eq!(b.scene.cameras.len(), 1);
+    std::fs::write(&toml, with_camera.replace("600", "500")).unwrap();
+    assert!(matches!(
+        load(s.path(), CachePolicy::ReadOnly(cache.path())),
+        Err(BakeError::NotCached { .. })
+    ));
+}
+
 #[test]
 fn foreign_and_future_files_are_rejected_with_a_clear_message() {
     let _gate = common::shared();

@@ -64,7 +64,9 @@ pub(crate) fn temp_path(dir: &Path, path: &Path) -> PathBuf {
     ))
 }
 
-/// Hash of everything that determines a bake.
+/// Hash of everything that determines a bake: the scene's files and the settings.
+/// `scene.toml` counts without its `[[cameras]]`, which only place views: adding or
+/// moving a camera keeps the baked transfer.
 pub fn cache_key(files: &[PathBuf], settings: &serde_json::Value) -> std::io::Result<String> {
     let mut h = Xxh3::new();
     h.update(b"relight-cache");
@@ -73,12 +75,32 @@ pub fn cache_key(files: &[PathBuf], settings: &serde_json::Value) -> std::io::Re
     for f in files {
         let name = f.file_name().unwrap_or_default().to_string_lossy();
         h.update(name.as_bytes());
-        let bytes = crate::scene::read_regular_file(f, crate::input_limits::MAX_OBJ_BYTES)?;
+        let mut bytes = crate::scene::read_regular_file(f, crate::input_limits::MAX_OBJ_BYTES)?;
+        if name == "scene.toml" {
+            bytes = without_cameras(bytes);
+        }
         h.update(&(bytes.len() as u64).to_le_bytes());
         h.update(&bytes);
     }
     h.update(settings.to_string().as_bytes());
     Ok(format!("{:032x}", h.digest128()))
+}
+
+/// `scene.toml` text without its cameras, in a canonical form (the parsed table written
+/// back), or the bytes unchanged when they do not parse (the scene's load reports that).
+fn without_cameras(bytes: Vec<u8>) -> Vec<u8> {
+    let parsed = std::str::from_utf8(&bytes)
+        .ok()
+        .and_then(|s| s.parse::<toml::Table>().ok());
+    match parsed {
+        Some(mut t) => {
+            t.remove("cameras");
+            let mut out = b"scene.toml without cameras\n".to_vec();
+            out.extend_from_slice(t.to_string().as_bytes());
+            out
+        }
+        None => bytes,
+    }
 }
 
 /// Path of the cache entry for a scene and key.
