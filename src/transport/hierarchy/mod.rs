@@ -8,14 +8,18 @@
 //! - [`closure`]: each patch's factor sum checked against rays and rescaled.
 //! - [`importance`]: the dark-room pass: after a first solve, links refined again where
 //!   their error is large next to what their receiver gathers in some light group.
-//! - [`Hierarchy::solve`]: gather, push and pull (Jacobi) to a stated tolerance.
+//! - `glow.rs`: each patch's expected brightness, which weighs the refinement's errors.
+//! - `sweeps.rs`: [`Hierarchy::solve`], gather, push and pull (Jacobi) to a stated
+//!   tolerance.
 //!
 //! Storage is compact: per link a u32 source, an f32 factor and a u8 visibility, grouped
 //! by receiver (CSR offsets); per internal node its two children; per patch σ.
 
 pub mod closure;
+mod glow;
 pub mod importance;
 pub mod refine;
+mod sweeps;
 pub mod tree;
 
 use std::time::Instant;
@@ -27,8 +31,10 @@ use crate::color::Rgb;
 use crate::geometry::bvh::Bvh;
 use crate::geometry::mesh::Mesh;
 use crate::transport::formfactor::{patch_geometry, FormFactorOptions};
+pub use glow::{emitter_bounce, GLOW_EMITTERS};
 pub use importance::DarkRoomPass;
 pub use refine::HierarchyOptions;
+pub use sweeps::HierarchySolution;
 use tree::Tree;
 
 /// Bytes per link in memory and in the cache: source u32, factor f32, visibility u8, and
@@ -94,17 +100,6 @@ impl Links {
         4 * (self.offsets.capacity() + self.src.capacity() + self.k.capacity()) as u64
             + self.vis.capacity() as u64
     }
-}
-
-/// A solve's result, per patch and column (row-major n × C).
-pub struct HierarchySolution {
-    /// Radiosity, lm/m².
-    pub b: Vec<f32>,
-    /// Irradiance gathered through the links, lux (direct light not included).
-    pub h: Vec<f32>,
-    pub sweeps: usize,
-    /// Largest relative residual `‖S − (B − ρH)‖∞ / ‖S‖∞` over the columns.
-    pub residual: f64,
 }
 
 impl Hierarchy {
@@ -186,140 +181,6 @@ impl Hierarchy {
         g.truncate(self.n);
         g
     }
-
-    /// The irradiance `H = σ K B` (n × c) that the patch radiosities `b` (n × c) give.
-    pub fn irradiance(&self, b: &[f32], c: usize) -> Vec<f32> {
-        let mut x = vec![0f32; self.nodes() * c];
-        x[..self.n * c].copy_from_slice(&b[..self.n * c]);
-        self.pull(&mut x, c);
-        self.gather(&x, c)
-    }
-
-    /// Area means of `c` columns from the leaves up (`x` is nodes × c; leaves filled).
-    fn pull(&self, x: &mut [f32], c: usize) {
-        for (k, ch) in self.children.iter().enumerate() {
-            let node = self.n + k;
-            let (wa, wb) = (self.area[ch[0] as usize], self.area[ch[1] as usize]);
-            let inv = 1.0 / self.area[node].max(f32::MIN_POSITIVE);
-            let (lo, hi) = x.split_at_mut(node * c);
-            let (a, b) = (ch[0] as usize * c, ch[1] as usize * c);
-            for j in 0..c {
-                hi[j] = (wa * lo[a + j] + wb * lo[b + j]) * inv;
-            }
-        }
-    }
-
-    /// `σ · Σ_links k · x_s` at every patch, links of ancestors included (push).
-    fn gather(&self, x: &[f32], c: usize) -> Vec<f32> {
-        let mut g = Vec::new();
-        self.gather_into(x, c, &mut g);
-        g.truncate(self.n * c);
-        g
-    }
-
-    /// [`Hierarchy::gather`] into `g` (resized to nodes × c; the patches' rows come
-    /// first), so that sweeps reuse one buffer: at a few hundred columns it is hundreds of
-    /// MB, and a fresh one per sweep cost as much time in page faults as in arithmetic.
-    fn gather_into(&self, x: &[f32], c: usize, g: &mut Vec<f32>) {
-        g.clear();
-        g.resize(self.nodes() * c, 0.0);
-        g.par_chunks_mut(c)
-            .enumerate()
-            .with_min_len(256)
-            .for_each(|(r, acc)| {
-                let links = &self.links;
-                for l in links.of(r) {
-                    let (k, s) = (links.k[l], links.src[l] as usize * c);
-                    for (o, &v) in acc.iter_mut().zip(&x[s..s + c]) {
-                        *o += k * v;
-                    }
-                }
-            });
-        for k in (0..self.children.len()).rev() {
-            let p = (self.n + k) * c;
-            for ch in self.children[k] {
-                let q = ch as usize * c;
-                for j in 0..c {
-                    g[q + j] += g[p + j];
-                }
-            }
-        }
-        g[..self.n * c]
-            .par_chunks_mut(c)
-            .zip(&self.sigma)
-            .for_each(|(row, &s)| row.iter_mut().for_each(|v| *v *= s));
-    }
-
-    /// Solves `B = S + ρ H`, `H = σ K B` for `c` columns of sources `s` (n × c row-major,
-    /// lm/m²); column j uses the reflectance channel j % 3. Jacobi sweeps until, in every
-    /// column, the largest change is at most `tol` of the largest reflected radiosity ρH
-    /// (emitters' own exitance does not set the scale), at most `max_sweeps`.
-    pub fn solve(
-        &self,
-        rho: &[Rgb],
-        s: &[f32],
-        c: usize,
-        tol: f64,
-        max_sweeps: usize,
-        progress: &(dyn Fn(f64) + Sync),
-    ) -> HierarchySolution {
-        let n = self.n;
-        let mut x = vec![0f32; self.nodes() * c];
-        x[..n * c].copy_from_slice(&s[..n * c]);
-        let mut sweeps = 0;
-        let mut h = Vec::new();
-        loop {
-            self.pull(&mut x, c);
-            self.gather_into(&x, c, &mut h);
-            if sweeps >= max_sweeps {
-                break;
-            }
-            sweeps += 1;
-            // Per column: the largest change and the largest reflected radiosity ρH.
-            let zero = || (vec![0f32; c], vec![0f32; c]);
-            let (change, top) = x[..n * c]
-                .par_chunks_mut(c)
-                .zip(s.par_chunks(c))
-                .zip(h.par_chunks(c))
-                .zip(rho.par_iter())
-                .fold(zero, |(mut ch, mut top), (((b, s), h), r)| {
-                    for j in 0..c {
-                        let reflected = r[j % 3] * h[j];
-                        let v = s[j] + reflected;
-                        ch[j] = ch[j].max((v - b[j]).abs());
-                        top[j] = top[j].max(reflected.abs());
-                        b[j] = v;
-                    }
-                    (ch, top)
-                })
-                .reduce(zero, |mut a, b| {
-                    for j in 0..c {
-                        a.0[j] = a.0[j].max(b.0[j]);
-                        a.1[j] = a.1[j].max(b.1[j]);
-                    }
-                    a
-                });
-            let converged = change
-                .iter()
-                .zip(&top)
-                .all(|(&ch, &t)| ch as f64 <= tol * t as f64);
-            progress((sweeps as f64 / 60.0).min(0.99));
-            if converged {
-                self.pull(&mut x, c);
-                self.gather_into(&x, c, &mut h);
-                break;
-            }
-        }
-        x.truncate(n * c);
-        h.truncate(n * c);
-        let residual = residual(&x, s, &h, rho, c);
-        HierarchySolution {
-            b: x,
-            h,
-            sweeps,
-            residual,
-        }
-    }
 }
 
 /// The receivers' share of a hierarchical bake: the links of the receivers under some
@@ -354,7 +215,7 @@ impl Plan {
         Plan {
             tree: Tree::build(mesh),
             geo: patch_geometry(mesh),
-            glow: glow(mesh, rho, sources),
+            glow: glow::glow(mesh, rho, sources),
             per_group: false,
         }
     }
@@ -591,118 +452,4 @@ impl Hierarchy {
             stats: HierarchyStats::default(),
         }
     }
-}
-
-/// Most emitting scene triangles whose first reflection enters the glow estimate
-/// ([`emitter_bounce`]): the brightest by flux.
-pub const GLOW_EMITTERS: usize = 64;
-
-/// Visibility rays per patch and emitting triangle in [`emitter_bounce`].
-const GLOW_RAYS: u32 = 4;
-
-/// The first reflection of the emitting surfaces' light, `ρ̄_i Σ_t M_t F(x_i → t) v_it`
-/// (lm/m², channel mean, all groups at intensity 1), estimated at each patch's centroid
-/// with the exact point-to-triangle factor and [`GLOW_RAYS`] visibility rays, from the
-/// [`GLOW_EMITTERS`] brightest emitting scene triangles. Only the refinement uses it (as
-/// part of the glow, where luminaires' direct light already is), so an estimate does.
-pub fn emitter_bounce(
-    scene: &crate::scene::Scene,
-    mesh: &Mesh,
-    bvh: &Bvh,
-    rho: &[Rgb],
-    emission: &[f64],
-) -> Vec<f64> {
-    // Emitting scene triangles with their exitance (the mean over their patches).
-    let mut tri_m: std::collections::BTreeMap<u32, (f64, f64)> = Default::default();
-    for (p, &e) in mesh.patches.iter().zip(emission) {
-        if e > 0.0 {
-            let t = tri_m.entry(p.source).or_default();
-            t.0 += e * p.area;
-            t.1 += p.area;
-        }
-    }
-    let mut emitters: Vec<(u32, f64, f64)> = tri_m
-        .into_iter()
-        .filter(|(_, (flux, area))| *flux > 0.0 && *area > 0.0)
-        .map(|(t, (flux, area))| (t, flux, flux / area))
-        .collect();
-    emitters.sort_by(|a, b| b.1.total_cmp(&a.1).then(a.0.cmp(&b.0)));
-    emitters.truncate(GLOW_EMITTERS);
-    if emitters.is_empty() {
-        return vec![0.0; mesh.len()];
-    }
-    let geo = patch_geometry(mesh);
-    (0..mesh.len())
-        .into_par_iter()
-        .with_min_len(64)
-        .map(|i| {
-            let g = &geo[i];
-            let r = &rho[i];
-            let rho_mean = (r[0] + r[1] + r[2]) as f64 / 3.0;
-            if rho_mean <= 0.0 {
-                return 0.0;
-            }
-            let mut rng = crate::sampling::Rng::new(i, usize::MAX - 1);
-            let mut h = 0.0;
-            for &(t, _, m) in &emitters {
-                if t == g.source {
-                    continue;
-                }
-                let c = scene.triangles[t as usize].p;
-                let front = (c[1] - c[0]).cross(c[2] - c[0]);
-                if front.dot(g.centroid - c[0]) <= 0.0 {
-                    continue;
-                }
-                let f = crate::transport::formfactor::point_to_polygon(g.centroid, g.n, &c);
-                if f <= 0.0 {
-                    continue;
-                }
-                let x = glam::Vec3A::from((g.centroid + g.n * (1e-6 * g.size)).as_vec3());
-                let free = (0..GLOW_RAYS)
-                    .filter(|_| {
-                        let y =
-                            crate::sampling::sample_triangle(&c, rng.next_f64(), rng.next_f64());
-                        !bvh.occluded(x, glam::Vec3A::from(y.as_vec3()), [g.source, t])
-                    })
-                    .count();
-                h += m * f * free as f64 / GLOW_RAYS as f64;
-            }
-            rho_mean * h
-        })
-        .collect()
-}
-
-/// Each patch's source term over the scene's mean radiosity, estimated as the sources'
-/// flux over the area, divided by (1 − ρ̄) for the interreflections (ρ̄ the area mean of
-/// the reflectance, at most 0.9).
-fn glow(mesh: &Mesh, rho: &[Rgb], sources: &[f64]) -> Vec<f32> {
-    let (mut flux, mut area, mut rho_a) = (0.0, 0.0, 0.0);
-    for ((p, s), r) in mesh.patches.iter().zip(sources).zip(rho) {
-        flux += p.area * s;
-        area += p.area;
-        rho_a += p.area * (r[0] + r[1] + r[2]) as f64 / 3.0;
-    }
-    if flux <= 0.0 || area <= 0.0 {
-        return vec![0.0; mesh.len()];
-    }
-    let mean = flux / area / (1.0 - (rho_a / area).min(0.9));
-    sources.iter().map(|&s| (s / mean) as f32).collect()
-}
-
-/// Largest relative residual `‖S − (B − ρH)‖∞ / ‖S‖∞` over the columns.
-fn residual(b: &[f32], s: &[f32], h: &[f32], rho: &[Rgb], c: usize) -> f64 {
-    let mut worst = 0f64;
-    for j in 0..c {
-        let (mut num, mut den) = (0f64, 0f64);
-        for (i, rh) in rho.iter().enumerate() {
-            let k = i * c + j;
-            let r = s[k] as f64 - (b[k] as f64 - rh[j % 3] as f64 * h[k] as f64);
-            num = num.max(r.abs());
-            den = den.max(s[k].abs() as f64);
-        }
-        if den > 0.0 {
-            worst = worst.max(num / den);
-        }
-    }
-    worst
 }
