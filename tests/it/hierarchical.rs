@@ -519,3 +519,43 @@ fn rooms_lit_only_through_a_door_or_a_window_read_low_in_hierarchical_mode() {
     let ratio = lux("c_floor") / lux("a_floor");
     assert!(ratio < 3e-3, "room C gets {ratio:.1e} of room A");
 }
+
+/// `auto` picked the columns mode from 6,000 to 15,000 patches, and that mode refuses
+/// per-patch emission (so request-time light too): every mode `auto` picks answers it.
+#[test]
+fn auto_transfer_above_the_factored_limit_answers_per_patch_emission() {
+    use relight::scene::TransferChoice;
+    use relight::transport::transfer::AUTO_FACTORED_MAX;
+    for n in [
+        1,
+        AUTO_FACTORED_MAX,
+        AUTO_FACTORED_MAX + 1,
+        10_000,
+        15_001,
+        2_000_000,
+    ] {
+        assert_ne!(
+            TransferMode::resolve(TransferChoice::Auto, n),
+            TransferMode::Columns,
+            "at {n} patches"
+        );
+    }
+    let _gate = common::shared();
+    let s = closed_room_of(8000);
+    let b = load_or_bake(
+        s.path(),
+        CachePolicy::Off,
+        &BakeOptions::default(),
+        &|_, _| {},
+    )
+    .unwrap();
+    assert!(b.mesh.len() > AUTO_FACTORED_MAX, "{} patches", b.mesh.len());
+    assert_eq!(b.transfer.mode, TransferMode::Hierarchical);
+    // The lamp as an emission vector gives the lamp group's column.
+    let relit = b.transfer.relight(&[Rgb::ONE]);
+    let solved = b.transfer.solve(&relit.e).expect("emission is answered");
+    let scale = relit.b.iter().fold(0f32, |m, x| m.max(x.abs()));
+    for k in 0..relit.b.len() {
+        assert!((relit.b[k] - solved.b[k]).abs() < 1e-5 * scale, "B at {k}");
+    }
+}

@@ -29,7 +29,8 @@ pub struct SceneToml {
     pub(crate) units: Option<String>,
     /// Explicit factor from OBJ units to metres; overrides `units`.
     pub(crate) scale: Option<f64>,
-    /// "auto" (default), "factored" or "columns".
+    /// "auto" (default: factored up to 6,000 patches, hierarchical beyond), "factored",
+    /// "columns" (light groups only) or "hierarchical".
     pub(crate) transfer: Option<TransferChoice>,
     /// Hierarchical mode: refine the links again after a first solve, so that each light
     /// group alone is right in rooms it lights only through openings (default false).

@@ -31,13 +31,10 @@ pub use build::{all_sources, group_emission, group_sources, patch_rho, solve_ref
 
 /// Relative tolerance of the iterative column solver.
 pub const COLUMN_TOL: f64 = 1e-7;
-/// Largest patch count for which `auto` picks the factored mode.
+/// Largest patch count for which `auto` picks the factored mode; above it, hierarchical.
+/// `auto` never picks the columns mode, which answers light groups only: every mode it
+/// picks answers any per-patch emission (and so request-time light) as well.
 pub const AUTO_FACTORED_MAX: usize = 6000;
-/// Largest patch count for which `auto` picks the columns mode; above it, hierarchical.
-/// Measured on 8-group rooms (`benches/sizing.sh`): columns bake 14,464 patches in 42 s
-/// and 845 MB, but 21,952 in 76 s and 1.9 GB, where the hierarchical mode takes 13 s and
-/// 115 MB; below this the dense modes' better accuracy is worth their cost.
-pub const AUTO_COLUMNS_MAX: usize = 15_000;
 /// Relative tolerance of the hierarchical sweeps (per column, the largest change over the
 /// largest reflected radiosity).
 pub const HIERARCHY_TOL: f64 = 1e-6;
@@ -82,7 +79,6 @@ impl TransferMode {
             TransferChoice::Columns => TransferMode::Columns,
             TransferChoice::Hierarchical => TransferMode::Hierarchical,
             TransferChoice::Auto if n <= AUTO_FACTORED_MAX => TransferMode::Factored,
-            TransferChoice::Auto if n <= AUTO_COLUMNS_MAX => TransferMode::Columns,
             TransferChoice::Auto => TransferMode::Hierarchical,
         }
     }
