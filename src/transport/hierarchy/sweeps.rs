@@ -54,6 +54,25 @@ impl Hierarchy {
     fn gather_into(&self, x: &[f32], c: usize, g: &mut Vec<f32>) {
         g.clear();
         g.resize(self.nodes() * c, 0.0);
+        if c == 3 {
+            // One RGB column (an emission answer): a loop the compiler keeps in registers.
+            let xs = Rgb::column(x);
+            let links = &self.links;
+            Rgb::column_mut(g)
+                .par_iter_mut()
+                .enumerate()
+                .with_min_len(256)
+                .for_each(|(r, acc)| {
+                    let range = links.of(r);
+                    let mut sum = Rgb::ZERO;
+                    for (&s, &k) in links.src[range.clone()].iter().zip(&links.k[range]) {
+                        sum += xs[s as usize] * k;
+                    }
+                    *acc = sum;
+                });
+            self.push_sigma(g, c);
+            return;
+        }
         g.par_chunks_mut(c)
             .enumerate()
             .with_min_len(256)
@@ -66,6 +85,12 @@ impl Hierarchy {
                     }
                 }
             });
+        self.push_sigma(g, c);
+    }
+
+    /// Pushes the irradiance `g` (nodes × c) of every node down to the patches under it
+    /// and scales the patches' rows by σ.
+    fn push_sigma(&self, g: &mut [f32], c: usize) {
         for k in (0..self.children.len()).rev() {
             let p = (self.n + k) * c;
             for ch in self.children[k] {
