@@ -364,7 +364,8 @@ export class Viewer {
     const w = m[3] * p[0] + m[7] * p[1] + m[11] * p[2] + m[15];
     if (w <= 1e-9) return null;
     const c = this.canvas;
-    return [((x / w + 1) / 2) * c.clientWidth, ((1 - y / w) / 2) * c.clientHeight];
+    // Screen x and y in CSS pixels, and the clip w (the distance along the view axis).
+    return [((x / w + 1) / 2) * c.clientWidth, ((1 - y / w) / 2) * c.clientHeight, w];
   }
 
   get aspect() {

@@ -116,40 +116,58 @@ function luxColour(hi) {
   };
 }
 
-/** Draws every grid point visible in the w × h view; returns how many were drawn. */
+/** Label box of a point at screen (x, y), CSS pixels: 30 × 13 above the point. */
+const LABEL = { w: 30, h: 13, above: 16 };
+/** Least free space between two labels, CSS pixels. */
+const LABEL_GAP = 3;
+
+/** Draws every grid point visible in the w × h view; returns how many were drawn. Lux
+ *  labels go to the nearest points first, each only where its box keeps LABEL_GAP from
+ *  every label already placed, so labels never overlap from any viewpoint and the nearest
+ *  keep theirs as the camera moves (window.relight.stats.labelBoxes lists the boxes). */
 function drawPoints(g2, w, h, color) {
-  const taken = new Set();
   g2.font = "11px system-ui, sans-serif";
   g2.textAlign = "center";
-  let drawn = 0;
+  const seen = [];
   for (const g of state.details.grids) {
     const s = state.gridStats[g.id];
     if (!s) continue;
     g.points.forEach((p, i) => {
       const q = viewer.project(p);
       if (!q || q[0] < 0 || q[1] < 0 || q[0] > w || q[1] > h) return;
-      const v = s.values[i];
-      g2.beginPath();
-      g2.arc(q[0], q[1], 2.5, 0, 2 * Math.PI);
-      drawn++;
-      if (v == null) {
-        // Left out of the statistics (inside an object): hollow, no label.
-        g2.strokeStyle = "rgba(255,255,255,0.8)";
-        g2.lineWidth = 1;
-        g2.stroke();
-        return;
-      }
-      g2.fillStyle = color(v);
-      g2.fill();
-      const key = `${Math.floor(q[0] / 40)},${Math.floor(q[1] / 18)}`;
-      if (taken.has(key)) return;
-      taken.add(key);
-      const text = fmtLux(v);
-      g2.fillStyle = "rgba(0,0,0,0.65)";
-      g2.fillRect(q[0] - 15, q[1] - 16, 30, 13);
-      g2.fillStyle = "#fff";
-      g2.fillText(text, q[0], q[1] - 6);
+      seen.push({ x: q[0], y: q[1], depth: q[2], v: s.values[i] });
     });
   }
-  return drawn;
+  for (const p of seen) {
+    g2.beginPath();
+    g2.arc(p.x, p.y, 2.5, 0, 2 * Math.PI);
+    if (p.v == null) {
+      // Left out of the statistics (inside an object): hollow, no label.
+      g2.strokeStyle = "rgba(255,255,255,0.8)";
+      g2.lineWidth = 1;
+      g2.stroke();
+    } else {
+      g2.fillStyle = color(p.v);
+      g2.fill();
+    }
+  }
+  const boxes = [];
+  const free = (b) =>
+    boxes.every(
+      (o) =>
+        b.x + b.w + LABEL_GAP <= o.x || o.x + o.w + LABEL_GAP <= b.x ||
+        b.y + b.h + LABEL_GAP <= o.y || o.y + o.h + LABEL_GAP <= b.y,
+    );
+  const labelled = seen.filter((p) => p.v != null).sort((a, b) => a.depth - b.depth);
+  for (const p of labelled) {
+    const b = { x: p.x - LABEL.w / 2, y: p.y - LABEL.above, w: LABEL.w, h: LABEL.h };
+    if (!free(b)) continue;
+    boxes.push(b);
+    g2.fillStyle = "rgba(0,0,0,0.65)";
+    g2.fillRect(b.x, b.y, b.w, b.h);
+    g2.fillStyle = "#fff";
+    g2.fillText(fmtLux(p.v), p.x, p.y - 6);
+  }
+  window.relight.stats.labelBoxes = boxes;
+  return seen.length;
 }

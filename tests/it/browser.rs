@@ -410,6 +410,28 @@ async fn the_page_relights_live_in_headless_chromium() {
     assert!(note.as_str().unwrap().contains("MF 0.80"), "{note}");
     let shown = s.js("return window.relight.stats.overlayPoints;").await;
     assert!(shown.as_u64().unwrap() > 100, "overlay points: {shown}");
+    // The lux labels never overlap (dozens piled up in this view), from the first view and
+    // after the camera moves.
+    let overlaps = "const b = window.relight.stats.labelBoxes || []; let o = 0; \
+         for (let i = 0; i < b.length; i++) for (let j = 0; j < i; j++) { \
+           const p = b[i], q = b[j]; \
+           if (p.x < q.x + q.w && q.x < p.x + p.w && p.y < q.y + q.h && q.y < p.y + p.h) o++; } \
+         return [b.length, o];";
+    for step in 0..3 {
+        let r = s.js(overlaps).await;
+        let (labels, overlapping) = (r[0].as_u64().unwrap(), r[1].as_u64().unwrap());
+        assert!(labels >= 5, "view {step}: {labels} labels");
+        assert_eq!(overlapping, 0, "view {step}: {overlapping} of {labels} labels overlap");
+        s.js("window.relight.oldBoxes = window.relight.stats.labelBoxes; \
+              document.querySelector('#gl').dispatchEvent( \
+                new WheelEvent('wheel', {deltaY: 240, bubbles: true, cancelable: true}));")
+            .await;
+        s.wait_for(
+            "window.relight.stats.labelBoxes !== window.relight.oldBoxes",
+            "the overlay redrawn after the camera moved",
+        )
+        .await;
+    }
     s.click("#optimizer summary").await;
     s.click("#opt-run").await;
     s.wait_for(
