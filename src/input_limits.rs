@@ -135,6 +135,11 @@ pub const MAX_STATE_EMISSION: f64 = 1e9;
 pub const MAX_BATCH_STATES: usize = 1000;
 /// Most points in one illuminance request.
 pub const MAX_REQUEST_POINTS: usize = 10_000;
+/// Most luminaires placed, moved or removed by one lighting state (`luminaires`; each
+/// adds shadow rays to every patch and point).
+pub const MAX_REQUEST_LUMINAIRES: usize = 1_000;
+/// Largest inline photometric text (IES or EULUMDAT) of a request's luminaire, bytes.
+pub const MAX_INLINE_PHOTOMETRY_BYTES: usize = 1 << 20;
 /// Largest coordinate accepted in a request (points, cameras, observers), metres.
 pub const MAX_REQUEST_COORD_M: f64 = 1e6;
 

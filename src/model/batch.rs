@@ -162,7 +162,7 @@ impl Model {
                 .iter()
                 .filter_map(|l| match l {
                     Lighting::Emission(e) => Some(e.as_slice()),
-                    Lighting::Groups(_) => None,
+                    Lighting::Groups(_) | Lighting::Placed(_) => None,
                 })
                 .collect();
             emitted += emissions.len();
@@ -188,6 +188,8 @@ impl Model {
             for (k, l) in (start..end).zip(lightings) {
                 let sol = match &l {
                     Lighting::Groups(w) => t.relight(w),
+                    // Each traced and solved on its own (planned as an emission state).
+                    Lighting::Placed(_) => self.solve(&l)?,
                     Lighting::Emission(_) => solved.next().ok_or_else(|| {
                         QueryError::Invalid("an emission state was left unsolved".into())
                     })?,

@@ -12,7 +12,8 @@ pub enum QueryError {
     /// A per-patch emission on a scene baked without the factored transfer.
     #[error(
         "scene '{scene}' uses the {mode} transfer, which answers light groups only; per-patch \
-         emission needs transfer = \"factored\" or \"hierarchical\" in scene.toml"
+         emission and luminaires placed per request need transfer = \"factored\", \
+         \"hierarchical\" or \"auto\" in scene.toml"
     )]
     NeedsFactored { scene: String, mode: &'static str },
     /// Anything else the query names or sets wrongly, with a message saying what.

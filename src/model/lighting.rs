@@ -173,6 +173,9 @@ pub enum Lighting {
     Groups(Vec<Rgb>),
     /// Per patch, RGB emission in lm/m², n × 3 interleaved (factored transfer only).
     Emission(Vec<f32>),
+    /// Group weights with luminaires placed, moved or removed for this request
+    /// ([`super::placed`]; factored and hierarchical transfers).
+    Placed(super::placed::Placed),
 }
 
 impl Lighting {
@@ -180,7 +183,7 @@ impl Lighting {
     pub fn weights(&self) -> Option<&[Rgb]> {
         match self {
             Lighting::Groups(w) => Some(w),
-            Lighting::Emission(_) => None,
+            Lighting::Emission(_) | Lighting::Placed(_) => None,
         }
     }
 }

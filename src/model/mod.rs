@@ -51,6 +51,7 @@ pub mod grid;
 pub mod info;
 pub mod lighting;
 pub mod optimize;
+pub mod placed;
 pub mod query;
 pub mod report;
 pub mod sky_state;

@@ -207,13 +207,46 @@ impl Model {
     /// The full solution (emission, radiosity, illuminance per patch).
     pub fn solve(&self, l: &Lighting) -> Result<Solution, QueryError> {
         let t = &self.baked.transfer;
+        let unsolvable =
+            || QueryError::Invalid("this scene's transfer cannot solve an emission".into());
         match l {
             Lighting::Groups(w) => Ok(t.relight(w)),
             Lighting::Emission(e) => {
                 self.check_emission(e)?;
-                t.solve(e).ok_or_else(|| {
-                    QueryError::Invalid("this scene's transfer cannot solve an emission".into())
-                })
+                t.solve(e).ok_or_else(unsolvable)
+            }
+            Lighting::Placed(p) => {
+                self.require_factored()?;
+                let base = t.relight(&p.weights);
+                if p.changes.is_empty() {
+                    return Ok(base);
+                }
+                // The changes' direct light D, its first reflection ρD as a source, and the
+                // interreflection of that: B = base + solve(ρD), H = base + D + solve's H.
+                let k = &self.baked;
+                let d = crate::transport::direct::weighted_direct(&k.mesh, &k.bvh, p.luminaires());
+                let mut source = d.clone();
+                for (s, rho) in Rgb::column_mut(&mut source).iter_mut().zip(&t.rho) {
+                    *s *= *rho;
+                }
+                let extra = t.solve(&source).ok_or_else(unsolvable)?;
+                let mut sol = base;
+                for (b, x) in sol.b.iter_mut().zip(&extra.b) {
+                    *b += x;
+                }
+                for ((h, x), dd) in sol.h.iter_mut().zip(&extra.h).zip(&d) {
+                    *h += x + dd;
+                }
+                let mut landed = Rgb64::ZERO;
+                for (&a, dd) in t.area.iter().zip(Rgb::column(&d)) {
+                    landed += a as f64 * dd.to_f64();
+                }
+                let flux = p.flux();
+                sol.luminaire_flux += flux;
+                // Sampled direct light may land a hair more than the flux: never below
+                // zero, as for the groups.
+                sol.direct_escaped = (sol.direct_escaped + flux - landed).map(|v| v.max(0.0));
+                Ok(sol)
             }
         }
     }
@@ -281,6 +314,24 @@ impl Model {
         let mut e = crate::transport::probe::illuminance_at(&k.mesh, &k.bvh, b, x, n);
         self.add_luminaires(w.unwrap_or(&[]), x, n, &mut e);
         e
+    }
+
+    /// [`Model::point_illuminance`] for a lighting state: the groups' luminaires at their
+    /// weights and a request's placed luminaires add their direct light.
+    pub fn lit_point_illuminance(&self, l: &Lighting, b: &[f32], x: DVec3, n: DVec3) -> Rgb64 {
+        match l {
+            Lighting::Placed(p) => {
+                let mut e = self.point_illuminance(b, Some(&p.weights), x, n);
+                e += crate::transport::direct::weighted_point_illuminance(
+                    &self.baked.bvh,
+                    p.luminaires(),
+                    x,
+                    n,
+                );
+                e
+            }
+            _ => self.point_illuminance(b, l.weights(), x, n),
+        }
     }
 
     /// Adds to `e` (RGB lux) the direct light of the luminaires of group weights `w` at
@@ -536,7 +587,7 @@ impl Model {
             if cancel.is_cancelled() {
                 Rgb64::ZERO
             } else {
-                self.point_illuminance(&sol.b, None, x, n)
+                self.lit_point_illuminance(l, &sol.b, x, n)
             }
         };
         let points: Vec<Lux> = q

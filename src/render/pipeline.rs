@@ -316,6 +316,11 @@ pub fn needs_groups(lighting: &Lighting) -> Result<(), QueryError> {
              at quality 'fast'"
                 .into(),
         )),
+        Lighting::Placed(_) => Err(QueryError::Invalid(
+            "quality 'final' renders light-group states (lights); luminaires placed per request \
+             render at quality 'fast'"
+                .into(),
+        )),
     }
 }
 

@@ -21,7 +21,7 @@
 pub mod archive;
 mod cameras;
 mod extent;
-mod files;
+pub(crate) mod files;
 mod gltf;
 pub mod grids;
 mod lights;

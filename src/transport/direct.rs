@@ -155,30 +155,67 @@ pub fn group_direct(scene: &Scene, mesh: &Mesh, bvh: &Bvh) -> Vec<Option<Vec<f32
             if g.luminaires.is_empty() {
                 return None;
             }
-            let per_patch: Vec<Rgb64> = (0..mesh.len())
-                .into_par_iter()
-                .with_min_len(64)
-                .map(|j| {
-                    let mut acc = Rgb64::ZERO;
-                    for l in &g.luminaires {
-                        let e = patch_illuminance(mesh, bvh, l, j, &coarse, &fine);
-                        acc += e * l.color.to_f64();
-                    }
-                    acc
-                })
-                .collect();
-            Some(per_patch.iter().flat_map(|a| a.to_f32().0).collect())
+            Some(patches_direct(
+                mesh,
+                bvh,
+                g.luminaires.iter().map(|l| (l, Rgb::ONE)),
+                &coarse,
+                &fine,
+            ))
         })
         .collect()
+}
+
+/// The direct illuminance of `luminaires`, each at its RGB weight, on every patch (lux,
+/// n × 3 interleaved, coloured by each luminaire's colour), as the bake computes a
+/// group's: a request's placed luminaires get exactly the light they would get baked.
+pub fn weighted_direct<'a>(
+    mesh: &Mesh,
+    bvh: &Bvh,
+    luminaires: impl Iterator<Item = (&'a Luminaire, Rgb)> + Clone + Sync,
+) -> Vec<f32> {
+    patches_direct(mesh, bvh, luminaires, &sub_centroids(1), &sub_centroids(3))
+}
+
+fn patches_direct<'a>(
+    mesh: &Mesh,
+    bvh: &Bvh,
+    luminaires: impl Iterator<Item = (&'a Luminaire, Rgb)> + Clone + Sync,
+    coarse: &[(f64, f64)],
+    fine: &[(f64, f64)],
+) -> Vec<f32> {
+    let per_patch: Vec<Rgb64> = (0..mesh.len())
+        .into_par_iter()
+        .with_min_len(64)
+        .map(|j| {
+            let mut acc = Rgb64::ZERO;
+            for (l, w) in luminaires.clone() {
+                let e = patch_illuminance(mesh, bvh, l, j, coarse, fine);
+                acc += e * (l.color * w).to_f64();
+            }
+            acc
+        })
+        .collect();
+    per_patch.iter().flat_map(|a| a.to_f32().0).collect()
 }
 
 /// Direct illuminance (lux per channel) of `luminaires` at point `x` on a receiver facing
 /// `n`, per point, with shadows (sampled over near luminous openings).
 pub fn point_illuminance(bvh: &Bvh, luminaires: &[Luminaire], x: DVec3, n: DVec3) -> Rgb64 {
+    weighted_point_illuminance(bvh, luminaires.iter().map(|l| (l, Rgb::ONE)), x, n)
+}
+
+/// [`point_illuminance`] of luminaires each at an RGB weight.
+pub fn weighted_point_illuminance<'a>(
+    bvh: &Bvh,
+    luminaires: impl Iterator<Item = (&'a Luminaire, Rgb)>,
+    x: DVec3,
+    n: DVec3,
+) -> Rgb64 {
     let mut acc = Rgb64::ZERO;
-    for l in luminaires {
+    for (l, w) in luminaires {
         let (e, _, _) = shadowed(bvh, l, x, n, u32::MAX);
-        acc += e * l.color.to_f64();
+        acc += e * (l.color * w).to_f64();
     }
     acc
 }

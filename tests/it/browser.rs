@@ -421,11 +421,16 @@ async fn the_page_relights_live_in_headless_chromium() {
         let r = s.js(overlaps).await;
         let (labels, overlapping) = (r[0].as_u64().unwrap(), r[1].as_u64().unwrap());
         assert!(labels >= 5, "view {step}: {labels} labels");
-        assert_eq!(overlapping, 0, "view {step}: {overlapping} of {labels} labels overlap");
-        s.js("window.relight.oldBoxes = window.relight.stats.labelBoxes; \
+        assert_eq!(
+            overlapping, 0,
+            "view {step}: {overlapping} of {labels} labels overlap"
+        );
+        s.js(
+            "window.relight.oldBoxes = window.relight.stats.labelBoxes; \
               document.querySelector('#gl').dispatchEvent( \
-                new WheelEvent('wheel', {deltaY: 240, bubbles: true, cancelable: true}));")
-            .await;
+                new WheelEvent('wheel', {deltaY: 240, bubbles: true, cancelable: true}));",
+        )
+        .await;
         s.wait_for(
             "window.relight.stats.labelBoxes !== window.relight.oldBoxes",
             "the overlay redrawn after the camera moved",

@@ -24,6 +24,7 @@ mod hierarchical;
 mod http;
 mod lenient;
 mod luminaires;
+mod placed_luminaires;
 mod render;
 mod report_pdf;
 mod saturation;

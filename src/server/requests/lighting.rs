@@ -15,6 +15,7 @@ use super::{deserialize_by, raw, schema_ref, some, visit_numbers};
 use crate::color::{Rgb, Rgb64};
 use crate::input_limits::{MAX_REQUEST_COORD_M, MAX_STATE_EMISSION, MAX_STATE_INTENSITY};
 use crate::model::lighting::LightState;
+use crate::model::placed::{place, LuminairePlacement, Photometry};
 use crate::model::sky_state::{SkySpec, SkyState};
 use crate::model::Lighting;
 use crate::model::Model;
@@ -290,17 +291,122 @@ pub(crate) fn sky_state(
     spec.map(|s| Ok(s.resolve(model.site()?)?)).transpose()
 }
 
-/// A lighting state from a request's `lights` and `emission` (at most one of them).
+/// A lighting state from a request's `lights`, `emission` and `luminaires` (`emission`
+/// with neither of the others).
 pub(crate) fn lighting(
     lights: Option<&Lights>,
     emission: Option<&Emission>,
+    luminaires: Option<&[LuminaireEntry]>,
     model: &Model,
 ) -> Result<Lighting, AppError> {
-    match (lights, emission) {
-        (Some(_), Some(_)) => Err(AppError::Invalid(
+    match (lights, emission, luminaires) {
+        (Some(_), Some(_), _) => Err(AppError::Invalid(
             "give either 'lights' (group settings) or 'emission' (per patch), not both".into(),
         )),
-        (_, Some(e)) => Ok(Lighting::Emission(emission_vector(e, model)?)),
-        (l, None) => Ok(Lighting::Groups(light_weights(l, model)?)),
+        (_, Some(_), Some(_)) => Err(AppError::Invalid(
+            "'luminaires' go with 'lights' (group settings), not with 'emission' (per patch)"
+                .into(),
+        )),
+        (_, Some(e), None) => Ok(Lighting::Emission(emission_vector(e, model)?)),
+        (l, None, Some(list)) => {
+            model.require_factored()?;
+            let weights = light_weights(l, model)?;
+            let edits: Vec<LuminairePlacement> = list.iter().map(|e| e.placement()).collect();
+            Ok(Lighting::Placed(place(
+                &model.baked.scene,
+                weights,
+                &edits,
+            )?))
+        }
+        (l, None, None) => Ok(Lighting::Groups(light_weights(l, model)?)),
+    }
+}
+
+super::request! {
+    /// A luminaire for this request only. An `id` the scene does not have adds a luminaire
+    /// (it needs a `position`, and `lumens` unless its photometry is in absolute candela);
+    /// one of the scene's luminaires is moved, re-aimed, swapped or recoloured by the
+    /// fields given (the rest keep the scene's values), or taken out with `remove`.
+    LuminaireEntry, "an object {id, position, aim, c0, photometry | ies | ldt, lumens, cct | color, group, watts, remove}" {
+        /// Luminaire id: a new one, or one of the scene's.
+        id: String,
+        /// Photometric centre, metres; inside the scene's bounds.
+        #[serde(default, deserialize_with = "some")]
+        #[schema(nullable = false)]
+        position: Option<Position>,
+        /// Photometric axis (default straight down, −Y).
+        #[serde(default, deserialize_with = "some")]
+        #[schema(nullable = false)]
+        aim: Option<Direction>,
+        /// Direction of C = 0°.
+        #[serde(default, deserialize_with = "some")]
+        #[schema(nullable = false)]
+        c0: Option<Direction>,
+        /// An IES or EULUMDAT (.ldt) file of the scene folder.
+        #[serde(default, deserialize_with = "some")]
+        #[schema(nullable = false)]
+        photometry: Option<String>,
+        /// Inline IES LM-63 text, at most 1 MB.
+        #[serde(default, deserialize_with = "some")]
+        #[schema(nullable = false)]
+        ies: Option<String>,
+        /// Inline EULUMDAT text, at most 1 MB.
+        #[serde(default, deserialize_with = "some")]
+        #[schema(nullable = false)]
+        ldt: Option<String>,
+        /// Total flux, lm, in [0, 1e9].
+        #[serde(default, deserialize_with = "some")]
+        #[schema(nullable = false)]
+        lumens: Option<f64>,
+        /// Colour temperature, K, in [1000, 40000] (or `color`).
+        #[serde(default, deserialize_with = "some")]
+        #[schema(nullable = false)]
+        cct: Option<f64>,
+        #[serde(default, deserialize_with = "some")]
+        #[schema(nullable = false)]
+        color: Option<Color>,
+        /// Light group whose setting scales it (default: a new one counts at 1, a scene
+        /// luminaire keeps its group).
+        #[serde(default, deserialize_with = "some")]
+        #[schema(nullable = false)]
+        group: Option<String>,
+        /// Electrical power, W, in [0, 1e7].
+        #[serde(default, deserialize_with = "some")]
+        #[schema(nullable = false)]
+        watts: Option<f64>,
+        /// Take the scene's luminaire out.
+        #[serde(default)]
+        #[schema(default = false)]
+        remove: bool,
+    }
+}
+
+impl LuminaireEntry {
+    /// The entry in the model's terms (numbers checked by [`place`]).
+    fn placement(&self) -> LuminairePlacement {
+        let photometry = match (&self.photometry, &self.ies, &self.ldt) {
+            (Some(f), _, _) => Some(Photometry::File(f.clone())),
+            (None, Some(t), _) => Some(Photometry::Ies(t.clone())),
+            (None, None, Some(t)) => Some(Photometry::Ldt(t.clone())),
+            (None, None, None) => None,
+        };
+        LuminairePlacement {
+            id: self.id.clone(),
+            position: self.position.map(|p| p.0 .0),
+            aim: self.aim.map(|p| p.0 .0),
+            c0: self.c0.map(|p| p.0 .0),
+            photometry,
+            lumens: self.lumens,
+            cct: self.cct,
+            color: self.color.map(|c| c.0 .0),
+            group: self.group.clone(),
+            watts: self.watts,
+            remove: self.remove,
+            several_photometries: [&self.photometry, &self.ies, &self.ldt]
+                .iter()
+                .filter(|x| x.is_some())
+                .count()
+                > 1,
+        }
     }
 }

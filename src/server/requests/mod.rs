@@ -96,9 +96,9 @@ macro_rules! request {
 pub(crate) use request;
 
 /// Declares a request body that carries a lighting state ([`request`]), with the optional
-/// `lights` (group settings) and `emission` (per-patch exitance) before its own fields,
-/// both never `null`; and `fn lighting`, which resolves the state (at most one of the
-/// two).
+/// `lights` (group settings), `emission` (per-patch exitance) and `luminaires` (placed
+/// for the request) before its own fields, never `null`; and `fn lighting`, which
+/// resolves the state (`emission` goes with neither of the others).
 macro_rules! lit_request {
     ($(#[$m:meta])* $name:ident, $expecting:literal { $($fields:tt)* }) => {
         $crate::server::requests::request! {
@@ -110,6 +110,12 @@ macro_rules! lit_request {
                 #[serde(default, deserialize_with = "crate::server::requests::some")]
                 #[schema(nullable = false)]
                 emission: Option<$crate::server::requests::lighting::Emission>,
+                /// Luminaires added, moved, re-aimed, swapped or removed for this request
+                /// only (with `lights`, not `emission`; factored and hierarchical
+                /// transfers), at most 1,000.
+                #[serde(default, deserialize_with = "crate::server::requests::some")]
+                #[schema(nullable = false, max_items = 1000)]
+                luminaires: Option<Vec<$crate::server::requests::lighting::LuminaireEntry>>,
                 $($fields)*
             }
         }
@@ -123,6 +129,7 @@ macro_rules! lit_request {
                 $crate::server::requests::lighting::lighting(
                     self.lights.as_ref(),
                     self.emission.as_ref(),
+                    self.luminaires.as_deref(),
                     model,
                 )
             }

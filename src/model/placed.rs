@@ -1,0 +1,346 @@
+//! Luminaires placed for one request: added, moved, re-aimed, swapped or removed without a
+//! bake.
+//!
+//! The scene's light groups stay as baked. A request's `luminaires` become a list of
+//! [`LuminaireChange`]s, each a luminaire with the RGB weight its light counts at: an added
+//! one at its group's weight (1 without a group), a scene luminaire that is moved, swapped
+//! or removed once at minus its group's weight (its baked light taken out) and, unless
+//! removed, once more as rebuilt at the weight of its group. The changes' direct light is
+//! traced per request, on patches as the bake does and exactly at points, and its
+//! interreflection solved through the transfer ([`crate::model::Model::solve`]): light is
+//! linear, so the answer is the groups' plus the changes'.
+
+use glam::DVec3;
+
+use super::error::{known_list, shorten, QueryError};
+use crate::color::{Rgb, Rgb64};
+use crate::input_limits::{
+    MAX_CCT, MAX_COLOR, MAX_INLINE_PHOTOMETRY_BYTES, MAX_LUMENS, MAX_REQUEST_LUMINAIRES,
+    MAX_TEXT_BYTES, MAX_WATTS, MIN_CCT,
+};
+use crate::photometry::{
+    cct_to_rgb, parse_ies_file, parse_ldt_file, Distribution, Luminaire, LuminaireSpec,
+};
+use crate::scene::Scene;
+
+/// Where a placed luminaire's photometry comes from.
+#[derive(Debug, Clone)]
+pub enum Photometry {
+    /// An IES or EULUMDAT (`.ldt`) file of the scene folder.
+    File(String),
+    /// IES LM-63 text.
+    Ies(String),
+    /// EULUMDAT text.
+    Ldt(String),
+}
+
+/// One entry of a request's `luminaires`: a new luminaire (an id the scene does not have),
+/// or changes to one of the scene's (its id). What an edit leaves out keeps the scene
+/// luminaire's value; a new one needs a position, and lumens unless its photometry gives
+/// absolute candela.
+#[derive(Debug, Clone, Default)]
+pub struct LuminairePlacement {
+    pub id: String,
+    /// Photometric centre, metres.
+    pub position: Option<[f64; 3]>,
+    /// Photometric axis (default straight down, −Y).
+    pub aim: Option<[f64; 3]>,
+    /// Direction of C = 0°.
+    pub c0: Option<[f64; 3]>,
+    pub photometry: Option<Photometry>,
+    /// Total flux, lm.
+    pub lumens: Option<f64>,
+    /// Colour temperature, K (or `color`).
+    pub cct: Option<f64>,
+    /// Linear RGB colour.
+    pub color: Option<[f64; 3]>,
+    /// Light group whose setting scales it (a new luminaire without one counts at 1).
+    pub group: Option<String>,
+    /// Electrical power, W.
+    pub watts: Option<f64>,
+    /// Take the scene's luminaire out.
+    pub remove: bool,
+    /// The request gave more than one of `photometry`, `ies` and `ldt` (refused).
+    pub several_photometries: bool,
+}
+
+/// A luminaire's light counted at an RGB weight (negative for light taken out).
+#[derive(Debug, Clone)]
+pub struct LuminaireChange {
+    pub luminaire: Luminaire,
+    pub weight: Rgb,
+}
+
+/// A lighting state with luminaires placed for the request: the groups' weights and the
+/// changes.
+#[derive(Debug, Clone)]
+pub struct Placed {
+    pub weights: Vec<Rgb>,
+    pub changes: Vec<LuminaireChange>,
+}
+
+impl Placed {
+    /// The luminaires of the changes, with their weights (for the direct light).
+    pub fn luminaires(&self) -> impl Iterator<Item = (&Luminaire, Rgb)> + Clone + Sync {
+        self.changes.iter().map(|c| (&c.luminaire, c.weight))
+    }
+
+    /// Σ weight × lumens × colour over the changes, lm per channel.
+    pub fn flux(&self) -> Rgb64 {
+        self.luminaires()
+            .map(|(l, w)| w.to_f64() * l.color.to_f64() * l.lumens)
+            .sum()
+    }
+}
+
+/// The scene luminaire `id`: its group and itself.
+fn scene_luminaire<'a>(scene: &'a Scene, id: &str) -> Option<(usize, &'a Luminaire)> {
+    scene
+        .lights
+        .iter()
+        .enumerate()
+        .find_map(|(g, group)| group.luminaires.iter().find(|l| l.id == id).map(|l| (g, l)))
+}
+
+/// Resolves a request's `luminaires` against `scene` under group weights `weights`.
+/// Every problem is a [`QueryError::Invalid`] naming the entry (`luminaires[i]`) and field;
+/// nothing is traced before every entry has passed.
+pub fn place(
+    scene: &Scene,
+    weights: Vec<Rgb>,
+    edits: &[LuminairePlacement],
+) -> Result<Placed, QueryError> {
+    if edits.len() > MAX_REQUEST_LUMINAIRES {
+        return Err(QueryError::Invalid(format!(
+            "luminaires: {} entries; at most {MAX_REQUEST_LUMINAIRES} per request",
+            edits.len()
+        )));
+    }
+    let mut changes = Vec::with_capacity(2 * edits.len());
+    let mut seen = std::collections::HashSet::new();
+    for (i, e) in edits.iter().enumerate() {
+        let at = format!("luminaires[{i}]");
+        let bad = |m: String| QueryError::Invalid(format!("{at} ('{}'): {m}", shorten(&e.id)));
+        if e.id.is_empty() || !seen.insert(e.id.as_str()) {
+            return Err(bad("id is empty or used twice in this request".into()));
+        }
+        check_numbers(scene, e).map_err(bad)?;
+        let group_weight = |id: &str| {
+            scene.light_index(id).map(|g| weights[g]).ok_or_else(|| {
+                bad(format!(
+                    "group '{}' is not a light group of the scene (known: {})",
+                    shorten(id),
+                    known_list(scene.lights.iter().map(|l| l.id.as_str()))
+                ))
+            })
+        };
+        match scene_luminaire(scene, &e.id) {
+            Some((g, old)) => {
+                changes.push(LuminaireChange {
+                    luminaire: old.clone(),
+                    weight: weights[g] * -1.0,
+                });
+                if e.remove {
+                    continue;
+                }
+                let weight = match &e.group {
+                    Some(id) => group_weight(id)?,
+                    None => weights[g],
+                };
+                let luminaire = rebuild(scene, old, e, &at).map_err(bad)?;
+                changes.push(LuminaireChange { luminaire, weight });
+            }
+            None if e.remove => {
+                return Err(bad(format!(
+                    "is not a luminaire of the scene, so it cannot be removed (known: {})",
+                    known_list(
+                        scene
+                            .lights
+                            .iter()
+                            .flat_map(|g| g.luminaires.iter().map(|l| l.id.as_str()))
+                    )
+                )))
+            }
+            None => {
+                let weight = match &e.group {
+                    Some(id) => group_weight(id)?,
+                    None => Rgb::ONE,
+                };
+                let luminaire = build(scene, e, &at).map_err(bad)?;
+                changes.push(LuminaireChange { luminaire, weight });
+            }
+        }
+    }
+    Ok(Placed { weights, changes })
+}
+
+/// Ranges of an entry's numbers, and its position inside the scene's bounds.
+fn check_numbers(scene: &Scene, e: &LuminairePlacement) -> Result<(), String> {
+    let finite3 = |v: &Option<[f64; 3]>| v.is_none_or(|v| v.iter().all(|x| x.is_finite()));
+    if !finite3(&e.position) || !finite3(&e.aim) || !finite3(&e.c0) {
+        return Err("position, aim and c0 must be finite numbers".into());
+    }
+    if let Some(p) = e.position {
+        let (lo, hi) = scene.bounds();
+        let margin = 1e-3 * (hi - lo).length();
+        let p = DVec3::from_array(p);
+        if p.cmplt(lo - margin).any() || p.cmpgt(hi + margin).any() {
+            return Err(format!(
+                "position {:?} m is outside the scene's bounds {:?} .. {:?} m",
+                p.to_array(),
+                lo.to_array(),
+                hi.to_array()
+            ));
+        }
+    }
+    let in_range = |name: &str, v: Option<f64>, lo: f64, hi: f64| match v {
+        Some(x) if !(x.is_finite() && (lo..=hi).contains(&x)) => {
+            Err(format!("{name} = {x}: must be in [{lo}, {hi}]"))
+        }
+        _ => Ok(()),
+    };
+    in_range("lumens", e.lumens, 0.0, MAX_LUMENS)?;
+    in_range("watts", e.watts, 0.0, MAX_WATTS)?;
+    in_range("cct", e.cct, MIN_CCT, MAX_CCT)?;
+    if let Some(c) = e.color {
+        if c.iter()
+            .any(|x| !(x.is_finite() && (0.0..=MAX_COLOR).contains(x)))
+        {
+            return Err(format!(
+                "color {c:?}: each channel must be in [0, {MAX_COLOR}]"
+            ));
+        }
+    }
+    if e.several_photometries {
+        return Err("give one of photometry, ies and ldt".into());
+    }
+    if e.color.is_some() && e.cct.is_some() {
+        return Err("give color or cct, not both".into());
+    }
+    Ok(())
+}
+
+/// The entry's colour, if it gives one.
+fn color_of(e: &LuminairePlacement) -> Option<Rgb> {
+    match (e.color, e.cct) {
+        (Some(c), _) => Some(Rgb64(c).to_f32()),
+        (None, Some(k)) => Some(cct_to_rgb(k)),
+        (None, None) => None,
+    }
+}
+
+/// The distribution of a request's photometry (`at` names the entry in messages).
+fn distribution(scene: &Scene, p: &Photometry, at: &str) -> Result<Distribution, String> {
+    let too_long = |what: &str, len: usize| {
+        format!("{what}: {len} bytes of photometry; at most {MAX_INLINE_PHOTOMETRY_BYTES}")
+    };
+    let table = match p {
+        Photometry::Ies(text) => {
+            if text.len() > MAX_INLINE_PHOTOMETRY_BYTES {
+                return Err(too_long("ies", text.len()));
+            }
+            parse_ies_file(std::path::Path::new(&format!("{at}.ies")), text)
+        }
+        Photometry::Ldt(text) => {
+            if text.len() > MAX_INLINE_PHOTOMETRY_BYTES {
+                return Err(too_long("ldt", text.len()));
+            }
+            parse_ldt_file(std::path::Path::new(&format!("{at}.ldt")), text, None)
+        }
+        Photometry::File(name) => {
+            let dir = crate::scene::files::SceneDir::open(&scene.dir).map_err(|e| e.to_string())?;
+            let path = dir
+                .resolve(
+                    name,
+                    std::path::Path::new("request"),
+                    0,
+                    &format!("{at}.photometry"),
+                )
+                .map_err(|e| e.to_string())?;
+            let bytes = dir.read(&path, MAX_TEXT_BYTES).map_err(|e| e.to_string())?;
+            let text = String::from_utf8_lossy(&bytes);
+            let shown = dir.display(&path);
+            let ldt = path
+                .extension()
+                .is_some_and(|x| x.eq_ignore_ascii_case("ldt"));
+            if ldt {
+                parse_ldt_file(&shown, &text, None)
+            } else {
+                parse_ies_file(&shown, &text)
+            }
+        }
+    };
+    Ok(Distribution::Table(Box::new(
+        table.map_err(|e| e.to_string())?,
+    )))
+}
+
+/// A new luminaire from its entry.
+fn build(scene: &Scene, e: &LuminairePlacement, at: &str) -> Result<Luminaire, String> {
+    let position = e
+        .position
+        .ok_or("a new luminaire needs a position (or name one of the scene's by id)")?;
+    let distribution = match &e.photometry {
+        Some(p) => distribution(scene, p, at)?,
+        None => Distribution::Isotropic,
+    };
+    let v = |a: [f64; 3]| DVec3::from_array(a);
+    let mut l = Luminaire::new(LuminaireSpec {
+        id: &e.id,
+        position: v(position),
+        aim: v(e.aim.unwrap_or([0.0, -1.0, 0.0])),
+        c0: e.c0.map(v),
+        distribution,
+        lumens: e.lumens,
+        color: color_of(e).unwrap_or(Rgb::ONE),
+        watts: None,
+    })?;
+    if e.watts.is_some() {
+        l.watts = e.watts;
+    }
+    Ok(l)
+}
+
+/// Scene luminaire `old` with the entry's changes.
+fn rebuild(
+    scene: &Scene,
+    old: &Luminaire,
+    e: &LuminairePlacement,
+    at: &str,
+) -> Result<Luminaire, String> {
+    let distribution = match &e.photometry {
+        Some(p) => distribution(scene, p, at)?,
+        None => old.distribution.clone(),
+    };
+    // A swapped photometry brings its own flux unless lumens are given; a kept one keeps
+    // the scene's (before the tilt factor of the old aim).
+    let lumens = match (e.lumens, &e.photometry) {
+        (Some(l), _) => Some(l),
+        (None, Some(_)) => None,
+        (None, None) => Some(old.lumens / old.tilt_factor),
+    };
+    let v = |a: [f64; 3]| DVec3::from_array(a);
+    let aim = e.aim.map_or(old.aim, v);
+    // A new aim keeps the old C = 0° where it still stands apart from the aim.
+    let c0 = match e.c0 {
+        Some(c) => Some(v(c)),
+        None if old.c0.dot(aim.normalize_or_zero()).abs() < 0.99 => Some(old.c0),
+        None => None,
+    };
+    let mut l = Luminaire::new(LuminaireSpec {
+        id: &old.id,
+        position: e.position.map_or(old.position, v),
+        aim,
+        c0,
+        distribution,
+        lumens,
+        color: color_of(e).unwrap_or(old.color),
+        watts: None,
+    })?;
+    l.watts = e.watts.or(if e.photometry.is_some() {
+        l.watts
+    } else {
+        old.watts
+    });
+    Ok(l)
+}

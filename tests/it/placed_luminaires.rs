@@ -1,0 +1,230 @@
+//! Luminaires placed per request (added, moved, removed) against the same luminaires
+//! written into scene.toml and baked; superposition with the groups' light.
+
+use relight::bake::{load_or_bake, BakeOptions, Baked, CachePolicy};
+use relight::color::Rgb;
+use relight::model::lighting::Lighting;
+use relight::model::placed::{place, LuminairePlacement, Photometry};
+use relight::model::query::IlluminanceQuery;
+use relight::model::report::surface_averages;
+use relight::model::{Cancel, Model};
+use relight::transport::transfer::{Solution, TransferMode};
+
+use crate::common::{self, box_faces, write_scene, TempScene};
+
+const IES: &str = include_str!("../../scenes/office-floor/downlight.ies");
+
+/// A closed 4 × 2.8 × 3 m room (Y up) with a desk, a downlight `l1` in group `ceiling`,
+/// `extra` scene.toml lines (more luminaires) and a work-plane grid.
+fn room(extra: &str, mode: &str) -> TempScene {
+    room_at([1.5, 2.75, 1.5], extra, mode)
+}
+
+/// [`room`] with `l1` at `l1`.
+fn room_at(l1: [f64; 3], extra: &str, mode: &str) -> TempScene {
+    let mut obj = box_faces("room", "white", [0., 0., 0.], [4., 2.8, 3.], true);
+    obj += &box_faces("desk", "wood", [1.0, 0.0, 1.0], [2.2, 0.75, 1.8], false);
+    let mtl = "newmtl white\nKd 0.7 0.7 0.7\nnewmtl wood\nKd 0.5 0.35 0.2\n";
+    let toml = format!(
+        r#"transfer = "{mode}"
+[mesh]
+target_patches = 1500
+[[luminaires]]
+id = "l1"
+group = "ceiling"
+photometry = "down.ies"
+position = [{}, {}, {}]
+{extra}
+[[grids]]
+id = "work"
+min = [0.25, 0.25]
+max = [3.75, 2.75]
+height = 0.8
+spacing = 0.5
+"#,
+        l1[0], l1[1], l1[2]
+    );
+    let s = write_scene(&obj, mtl, Some(&toml));
+    std::fs::write(s.path().join("down.ies"), IES).unwrap();
+    s
+}
+
+/// The scene's model; the folder stays (a request reads its photometric files).
+fn bake(s: TempScene) -> (TempScene, Model) {
+    let b: Baked = load_or_bake(
+        s.path(),
+        CachePolicy::Off,
+        &BakeOptions::default(),
+        &|_, _| {},
+    )
+    .unwrap();
+    (s, Model::new(b))
+}
+
+fn new_downlight(id: &str, position: [f64; 3]) -> LuminairePlacement {
+    LuminairePlacement {
+        id: id.into(),
+        position: Some(position),
+        photometry: Some(Photometry::File("down.ies".into())),
+        ..Default::default()
+    }
+}
+
+/// Largest |a − b| over the values, relative to the largest |b|.
+fn worst(a: &[f32], b: &[f32]) -> f64 {
+    let scale = b.iter().fold(0f32, |m, x| m.max(x.abs())) as f64;
+    a.iter()
+        .zip(b)
+        .map(|(x, y)| (x - y).abs() as f64 / scale)
+        .fold(0.0, f64::max)
+}
+
+/// Per surface of ≥ 1 m², the largest relative difference of the mean illuminance.
+fn worst_surface(a: &Model, sa: &Solution, b: &Model, sb: &Solution) -> f64 {
+    let (x, y) = (
+        surface_averages(&a.baked.scene, &a.baked.mesh, sa),
+        surface_averages(&b.baked.scene, &b.baked.mesh, sb),
+    );
+    let mut w = 0f64;
+    for (k, v) in &y {
+        if v.area >= 1.0 {
+            let r = (x[k].illuminance_y() - v.illuminance_y()) / v.illuminance_y();
+            w = w.max(r.abs());
+        }
+    }
+    w
+}
+
+fn grid(m: &Model, l: &Lighting) -> Vec<f64> {
+    let q = IlluminanceQuery {
+        grids: vec![m.grid_index("work").unwrap()],
+        ..Default::default()
+    };
+    let a = m.illuminance(l, &q, &Cancel::default()).unwrap();
+    a.grids["work"]
+        .values
+        .iter()
+        .map(|v| v.unwrap_or(0.0) as f64)
+        .collect()
+}
+
+/// A luminaire added per request gives what the same luminaire baked from scene.toml gives:
+/// the same direct light on every patch, every surface within 0.5 %, grid points within
+/// 1 %; the same with the scene's own luminaire moved.
+#[test]
+fn a_luminaire_placed_per_request_equals_the_same_luminaire_baked() {
+    let _gate = common::shared();
+    let (_base_dir, base) = bake(room("", "factored"));
+    let (_baked_dir, baked) = bake(room(
+        "[[luminaires]]\nid = \"l2\"\ngroup = \"spare\"\nphotometry = \"down.ies\"\nposition = [3.0, 2.75, 2.0]\n",
+        "factored",
+    ));
+    assert_eq!(base.baked.transfer.mode, TransferMode::Factored);
+    let placed = place(
+        &base.baked.scene,
+        vec![Rgb::ONE],
+        &[new_downlight("l2", [3.0, 2.75, 2.0])],
+    )
+    .unwrap();
+    let lit = Lighting::Placed(placed);
+    let got = base.solve(&lit).unwrap();
+    let want = baked.solve(&Lighting::Groups(vec![Rgb::ONE; 2])).unwrap();
+    let (b, h) = (worst(&got.b, &want.b), worst(&got.h, &want.h));
+    assert!(b < 1e-4 && h < 1e-4, "per patch: B {b:.2e}, H {h:.2e}");
+    let s = worst_surface(&base, &got, &baked, &want);
+    assert!(s < 0.005, "worst surface {s:.4}");
+    let (ga, gb) = (
+        grid(&base, &lit),
+        grid(&baked, &Lighting::Groups(vec![Rgb::ONE; 2])),
+    );
+    for (x, y) in ga.iter().zip(&gb) {
+        assert!((x - y).abs() <= 0.01 * y, "grid point: {x} against {y}");
+    }
+    // The flux balance counts the new luminaire: emitted = absorbed + escaped.
+    let p = base.baked.transfer.power(&got);
+    let emitted = p.emitted.luminance();
+    let twice = baked.baked.transfer.power(&want).emitted.luminance();
+    assert!(
+        (emitted - twice).abs() < 1e-6 * twice,
+        "emitted {emitted} against {twice}"
+    );
+    // The same balance as the bake's (the direct light's sampling and the closure of the
+    // form factors leave a few 1e-3 in this closed room, the same either way).
+    let lost = |p: relight::transport::transfer::Power| {
+        (p.emitted.luminance() - p.absorbed.luminance() - p.escaped.luminance())
+            / p.emitted.luminance()
+    };
+    let (lp, lb) = (lost(p), lost(baked.baked.transfer.power(&want)));
+    assert!(
+        lp.abs() < 5e-3 && (lp - lb).abs() < 1e-5,
+        "balance {lp:.2e}, baked {lb:.2e}"
+    );
+
+    // Moving the scene's own luminaire equals baking it at the new place.
+    let (_moved_dir, moved) = bake(room_at([2.5, 2.75, 0.8], "", "factored"));
+    let edit = LuminairePlacement {
+        id: "l1".into(),
+        position: Some([2.5, 2.75, 0.8]),
+        ..Default::default()
+    };
+    let placed = place(&base.baked.scene, vec![Rgb::ONE], &[edit]).unwrap();
+    let got = base.solve(&Lighting::Placed(placed)).unwrap();
+    let want = moved.solve(&Lighting::Groups(vec![Rgb::ONE])).unwrap();
+    let (b, h) = (worst(&got.b, &want.b), worst(&got.h, &want.h));
+    assert!(
+        b < 1e-4 && h < 1e-4,
+        "moved, per patch: B {b:.2e}, H {h:.2e}"
+    );
+}
+
+/// Light adds up: a group state plus a placed luminaire is the sum of the two answers, and
+/// removing the scene's only luminaire leaves the room dark.
+#[test]
+fn placed_luminaires_superpose_with_the_groups_and_removing_one_takes_its_light_out() {
+    let _gate = common::shared();
+    let (_m_dir, m) = bake(room("", "factored"));
+    let scene = &m.baked.scene;
+    let w = vec![Rgb::new(0.4, 0.5, 0.6)];
+    let lum = [new_downlight("new", [3.0, 2.75, 2.0])];
+    let both = m
+        .solve(&Lighting::Placed(place(scene, w.clone(), &lum).unwrap()))
+        .unwrap();
+    let groups = m.solve(&Lighting::Groups(w.clone())).unwrap();
+    let alone = m
+        .solve(&Lighting::Placed(
+            place(scene, vec![Rgb::ZERO], &lum).unwrap(),
+        ))
+        .unwrap();
+    let sum: Vec<f32> = groups.b.iter().zip(&alone.b).map(|(a, b)| a + b).collect();
+    assert!(worst(&both.b, &sum) < 1e-5, "{:.2e}", worst(&both.b, &sum));
+    let removed = LuminairePlacement {
+        id: "l1".into(),
+        remove: true,
+        ..Default::default()
+    };
+    let dark = m
+        .solve(&Lighting::Placed(place(scene, w, &[removed]).unwrap()))
+        .unwrap();
+    let left = dark.b.iter().fold(0f32, |a, x| a.max(x.abs()));
+    let was = groups.b.iter().fold(0f32, |a, x| a.max(x.abs()));
+    assert!(left < 1e-5 * was, "left {left} of {was}");
+}
+
+/// The hierarchical transfer answers a placed luminaire too, within its accuracy of the
+/// factored answer.
+#[test]
+fn hierarchical_scenes_answer_placed_luminaires() {
+    let _gate = common::shared();
+    let (_f_dir, f) = bake(room("", "factored"));
+    let (_h_dir, h) = bake(room("", "hierarchical"));
+    let lum = [new_downlight("new", [3.0, 2.75, 2.0])];
+    let solve = |m: &Model| {
+        m.solve(&Lighting::Placed(
+            place(&m.baked.scene, vec![Rgb::ONE], &lum).unwrap(),
+        ))
+        .unwrap()
+    };
+    let (sf, sh) = (solve(&f), solve(&h));
+    let s = worst_surface(&h, &sh, &f, &sf);
+    assert!(s < 0.02, "worst surface {s:.4}");
+}
