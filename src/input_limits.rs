@@ -138,6 +138,12 @@ pub const MAX_REQUEST_POINTS: usize = 10_000;
 /// Most luminaires placed, moved or removed by one lighting state (`luminaires`; each
 /// adds shadow rays to every patch and point).
 pub const MAX_REQUEST_LUMINAIRES: usize = 1_000;
+/// Most luminaire × patch pairs whose direct light one request traces (placed luminaires,
+/// with a moved or removed scene luminaire counted twice): each pair costs 4 to 64 shadow
+/// rays, so this bounds a request's tracing at some seconds on two cores (office-floor's
+/// 177,222 patches: 282 luminaires). A batch counts its states' luminaires together
+/// against [`MAX_REQUEST_LUMINAIRES`].
+pub const MAX_PLACED_LUMINAIRE_PATCHES: u64 = 50_000_000;
 /// Largest inline photometric text (IES or EULUMDAT) of a request's luminaire, bytes.
 pub const MAX_INLINE_PHOTOMETRY_BYTES: usize = 1 << 20;
 /// Largest coordinate accepted in a request (points, cameras, observers), metres.

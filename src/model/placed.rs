@@ -15,8 +15,8 @@ use glam::DVec3;
 use super::error::{known_list, shorten, QueryError};
 use crate::color::{Rgb, Rgb64};
 use crate::input_limits::{
-    MAX_CCT, MAX_COLOR, MAX_INLINE_PHOTOMETRY_BYTES, MAX_LUMENS, MAX_REQUEST_LUMINAIRES,
-    MAX_TEXT_BYTES, MAX_WATTS, MIN_CCT,
+    MAX_CCT, MAX_COLOR, MAX_INLINE_PHOTOMETRY_BYTES, MAX_LUMENS, MAX_PLACED_LUMINAIRE_PATCHES,
+    MAX_REQUEST_LUMINAIRES, MAX_TEXT_BYTES, MAX_WATTS, MIN_CCT,
 };
 use crate::photometry::{
     cct_to_rgb, parse_ies_file, parse_ldt_file, Distribution, Luminaire, LuminaireSpec,
@@ -102,11 +102,13 @@ fn scene_luminaire<'a>(scene: &'a Scene, id: &str) -> Option<(usize, &'a Luminai
         .find_map(|(g, group)| group.luminaires.iter().find(|l| l.id == id).map(|l| (g, l)))
 }
 
-/// Resolves a request's `luminaires` against `scene` under group weights `weights`.
-/// Every problem is a [`QueryError::Invalid`] naming the entry (`luminaires[i]`) and field;
-/// nothing is traced before every entry has passed.
+/// Resolves a request's `luminaires` against `scene` (of `patches` patches) under group
+/// weights `weights`. Every problem is a [`QueryError::Invalid`] naming the entry
+/// (`luminaires[i]`) and field; nothing is traced before every entry has passed, and the
+/// tracing is bounded by [`MAX_PLACED_LUMINAIRE_PATCHES`].
 pub fn place(
     scene: &Scene,
+    patches: usize,
     weights: Vec<Rgb>,
     edits: &[LuminairePlacement],
 ) -> Result<Placed, QueryError> {
@@ -170,6 +172,14 @@ pub fn place(
                 changes.push(LuminaireChange { luminaire, weight });
             }
         }
+    }
+    let work = changes.len() as u64 * patches as u64;
+    if work > MAX_PLACED_LUMINAIRE_PATCHES {
+        return Err(QueryError::Invalid(format!(
+            "luminaires: {} luminaire changes × {patches} patches = {work} direct-light \
+             traces; at most {MAX_PLACED_LUMINAIRE_PATCHES} per request",
+            changes.len()
+        )));
     }
     Ok(Placed { weights, changes })
 }

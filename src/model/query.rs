@@ -14,6 +14,7 @@ use serde::Serialize;
 use super::compliance::{self, Achieved, Compliance, ObserverUgr};
 use super::grid::{self, GridStats};
 use super::lighting::{LightState, Lighting};
+use super::placed::Placed;
 use super::report::{surface_illuminance, Lux, SurfaceIlluminance};
 use super::{Cancel, Model, QueryError};
 use crate::color::{Rgb, Rgb64};
@@ -215,40 +216,111 @@ impl Model {
                 self.check_emission(e)?;
                 t.solve(e).ok_or_else(unsolvable)
             }
-            Lighting::Placed(p) => {
-                self.require_factored()?;
-                let base = t.relight(&p.weights);
-                if p.changes.is_empty() {
-                    return Ok(base);
-                }
-                // The changes' direct light D, its first reflection ρD as a source, and the
-                // interreflection of that: B = base + solve(ρD), H = base + D + solve's H.
-                let k = &self.baked;
-                let d = crate::transport::direct::weighted_direct(&k.mesh, &k.bvh, p.luminaires());
-                let mut source = d.clone();
-                for (s, rho) in Rgb::column_mut(&mut source).iter_mut().zip(&t.rho) {
-                    *s *= *rho;
-                }
-                let extra = t.solve(&source).ok_or_else(unsolvable)?;
-                let mut sol = base;
-                for (b, x) in sol.b.iter_mut().zip(&extra.b) {
-                    *b += x;
-                }
-                for ((h, x), dd) in sol.h.iter_mut().zip(&extra.h).zip(&d) {
-                    *h += x + dd;
-                }
-                let mut landed = Rgb64::ZERO;
-                for (&a, dd) in t.area.iter().zip(Rgb::column(&d)) {
-                    landed += a as f64 * dd.to_f64();
-                }
-                let flux = p.flux();
-                sol.luminaire_flux += flux;
-                // Sampled direct light may land a hair more than the flux: never below
-                // zero, as for the groups.
-                sol.direct_escaped = (sol.direct_escaped + flux - landed).map(|v| v.max(0.0));
-                Ok(sol)
-            }
+            Lighting::Placed(p) => Ok(self.placed_parts(p)?.0),
         }
+    }
+
+    /// The solution of a state with luminaires placed for the request, and the radiosity
+    /// (n × 3) of the changes' light alone: the changes' direct light D, its first
+    /// reflection ρD as a source, and the interreflection of that, added to the groups':
+    /// B = base + solve(ρD), H = base + D + solve's H.
+    fn placed_parts(&self, p: &Placed) -> Result<(Solution, Vec<f32>), QueryError> {
+        self.require_factored()?;
+        let t = &self.baked.transfer;
+        let base = t.relight(&p.weights);
+        if p.changes.is_empty() {
+            let none = vec![0f32; base.b.len()];
+            return Ok((base, none));
+        }
+        let k = &self.baked;
+        let d = crate::transport::direct::weighted_direct(&k.mesh, &k.bvh, p.luminaires());
+        let mut source = d.clone();
+        for (s, rho) in Rgb::column_mut(&mut source).iter_mut().zip(&t.rho) {
+            *s *= *rho;
+        }
+        let extra = t.solve(&source).ok_or_else(|| {
+            QueryError::Invalid("this scene's transfer cannot solve an emission".into())
+        })?;
+        let mut sol = base;
+        for (b, x) in sol.b.iter_mut().zip(&extra.b) {
+            *b += x;
+        }
+        for ((h, x), dd) in sol.h.iter_mut().zip(&extra.h).zip(&d) {
+            *h += x + dd;
+        }
+        let mut landed = Rgb64::ZERO;
+        for (&a, dd) in t.area.iter().zip(Rgb::column(&d)) {
+            landed += a as f64 * dd.to_f64();
+        }
+        let flux = p.flux();
+        sol.luminaire_flux += flux;
+        // Sampled direct light may land a hair more than the flux: never below zero, as
+        // for the groups.
+        sol.direct_escaped = (sol.direct_escaped + flux - landed).map(|v| v.max(0.0));
+        Ok((sol, extra.b))
+    }
+
+    /// Grid `gi`'s luminous illuminance (lx) at every point under a placed state: the
+    /// groups' stored responses at their weights, the changes' direct light traced per
+    /// point, and their interreflected light gathered from `extra_b` over the patches it
+    /// reaches (a patch below [`PLACED_GATHER_CUTOFF`] of the brightest is left out).
+    fn placed_grid_values(
+        &self,
+        gi: usize,
+        p: &Placed,
+        extra_b: &[f32],
+        cancel: &Cancel,
+    ) -> Vec<f32> {
+        let k = &self.baked;
+        let g = &self.grids[gi];
+        let mut base = vec![0f32; 3 * g.len()];
+        crate::transport::transfer::weighted_sum(
+            g.per_group.iter().map(|c| c.as_slice()),
+            &p.weights,
+            &mut base,
+        );
+        let top = Rgb::column(extra_b)
+            .iter()
+            .fold(0f32, |m, b| m.max(b.luminance().abs()));
+        let importance: Vec<f32> = Rgb::column(extra_b)
+            .iter()
+            .flat_map(|b| {
+                let keep = b.luminance().abs() > PLACED_GATHER_CUTOFF * top;
+                b.0.map(|v| {
+                    if keep {
+                        v.abs().max(f32::MIN_POSITIVE)
+                    } else {
+                        0.0
+                    }
+                })
+            })
+            .collect();
+        let n = DVec3::from_array(g.grid.normal);
+        let extra = Rgb::column(extra_b);
+        g.grid
+            .points
+            .par_iter()
+            .zip(Rgb::column(&base).par_iter())
+            .map(|(x, b)| {
+                if cancel.is_cancelled() {
+                    return 0.0;
+                }
+                let x = DVec3::from_array(*x);
+                let mut e = b.to_f64();
+                e += crate::transport::direct::weighted_point_illuminance(
+                    &k.bvh,
+                    p.luminaires(),
+                    x,
+                    n,
+                );
+                for (j, w) in
+                    crate::transport::probe::gather_weights(&k.mesh, &k.bvh, &importance, x, n)
+                {
+                    e += w * extra[j as usize].to_f64();
+                }
+                e.luminance() as f32
+            })
+            .collect()
     }
 
     /// Refuses an emission vector that this scene's transfer cannot solve or that is not
@@ -582,7 +654,13 @@ impl Model {
         q: &IlluminanceQuery,
         cancel: &Cancel,
     ) -> Result<IlluminanceAnswer, QueryError> {
-        let sol = self.solve(l)?;
+        let (sol, extra_b) = match l {
+            Lighting::Placed(p) => {
+                let (sol, extra) = self.placed_parts(p)?;
+                (sol, Some((p, extra)))
+            }
+            _ => (self.solve(l)?, None),
+        };
         let at = |x: DVec3, n: DVec3| -> Rgb64 {
             if cancel.is_cancelled() {
                 Rgb64::ZERO
@@ -603,11 +681,14 @@ impl Model {
                 let excluded = &self.grids[gi].excluded;
                 let g = &self.grids[gi].grid;
                 let n = DVec3::from_array(g.normal);
-                let values: Vec<f32> = g
-                    .points
-                    .par_iter()
-                    .map(|p| at(DVec3::from_array(*p), n).luminance() as f32)
-                    .collect();
+                let values: Vec<f32> = match &extra_b {
+                    Some((p, extra)) => self.placed_grid_values(gi, p, extra, cancel),
+                    None => g
+                        .points
+                        .par_iter()
+                        .map(|p| at(DVec3::from_array(*p), n).luminance() as f32)
+                        .collect(),
+                };
                 (g.id.clone(), grid_answer(g, grid::stats(values, excluded)))
             })
             .collect();
@@ -639,6 +720,13 @@ impl Model {
         })
     }
 }
+
+/// Under luminaires placed for a request, a grid point gathers the changes' interreflected
+/// light only from patches whose change of radiosity is at least this share of the
+/// brightest change: the rest adds at most this share of the brightest radiosity to any
+/// point (0.1 % in a room the change lights), and leaving out the far rooms the change
+/// barely reaches keeps the gather to the rooms it lights.
+pub const PLACED_GATHER_CUTOFF: f32 = 1e-3;
 
 /// Bytes a per-patch answer may hold per patch: the solution (b, h, e: 36), the values
 /// copied out (12) and JSON text (3 numbers of up to 16 characters, 50).

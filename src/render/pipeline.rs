@@ -232,6 +232,11 @@ pub fn render_daylit(
         b.iter_mut().zip(&more).for_each(|(a, x)| *a += x);
         t.illuminance_into(w, &mut more);
         h.iter_mut().zip(&more).for_each(|(a, x)| *a += x);
+    } else {
+        // Emission or luminaires placed for the request: solved, then added the same way.
+        let s = model.solve(lighting)?;
+        b.iter_mut().zip(&s.b).for_each(|(a, x)| *a += x);
+        h.iter_mut().zip(&s.h).for_each(|(a, x)| *a += x);
     }
     let site = model.site()?;
     let scene = super::daylight::DaylightScene {

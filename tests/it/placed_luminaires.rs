@@ -122,6 +122,7 @@ fn a_luminaire_placed_per_request_equals_the_same_luminaire_baked() {
     assert_eq!(base.baked.transfer.mode, TransferMode::Factored);
     let placed = place(
         &base.baked.scene,
+        base.patches(),
         vec![Rgb::ONE],
         &[new_downlight("l2", [3.0, 2.75, 2.0])],
     )
@@ -167,7 +168,7 @@ fn a_luminaire_placed_per_request_equals_the_same_luminaire_baked() {
         position: Some([2.5, 2.75, 0.8]),
         ..Default::default()
     };
-    let placed = place(&base.baked.scene, vec![Rgb::ONE], &[edit]).unwrap();
+    let placed = place(&base.baked.scene, base.patches(), vec![Rgb::ONE], &[edit]).unwrap();
     let got = base.solve(&Lighting::Placed(placed)).unwrap();
     let want = moved.solve(&Lighting::Groups(vec![Rgb::ONE])).unwrap();
     let (b, h) = (worst(&got.b, &want.b), worst(&got.h, &want.h));
@@ -187,12 +188,14 @@ fn placed_luminaires_superpose_with_the_groups_and_removing_one_takes_its_light_
     let w = vec![Rgb::new(0.4, 0.5, 0.6)];
     let lum = [new_downlight("new", [3.0, 2.75, 2.0])];
     let both = m
-        .solve(&Lighting::Placed(place(scene, w.clone(), &lum).unwrap()))
+        .solve(&Lighting::Placed(
+            place(scene, m.patches(), w.clone(), &lum).unwrap(),
+        ))
         .unwrap();
     let groups = m.solve(&Lighting::Groups(w.clone())).unwrap();
     let alone = m
         .solve(&Lighting::Placed(
-            place(scene, vec![Rgb::ZERO], &lum).unwrap(),
+            place(scene, m.patches(), vec![Rgb::ZERO], &lum).unwrap(),
         ))
         .unwrap();
     let sum: Vec<f32> = groups.b.iter().zip(&alone.b).map(|(a, b)| a + b).collect();
@@ -203,7 +206,9 @@ fn placed_luminaires_superpose_with_the_groups_and_removing_one_takes_its_light_
         ..Default::default()
     };
     let dark = m
-        .solve(&Lighting::Placed(place(scene, w, &[removed]).unwrap()))
+        .solve(&Lighting::Placed(
+            place(scene, m.patches(), w, &[removed]).unwrap(),
+        ))
         .unwrap();
     let left = dark.b.iter().fold(0f32, |a, x| a.max(x.abs()));
     let was = groups.b.iter().fold(0f32, |a, x| a.max(x.abs()));
@@ -220,7 +225,7 @@ fn hierarchical_scenes_answer_placed_luminaires() {
     let lum = [new_downlight("new", [3.0, 2.75, 2.0])];
     let solve = |m: &Model| {
         m.solve(&Lighting::Placed(
-            place(&m.baked.scene, vec![Rgb::ONE], &lum).unwrap(),
+            place(&m.baked.scene, m.patches(), vec![Rgb::ONE], &lum).unwrap(),
         ))
         .unwrap()
     };

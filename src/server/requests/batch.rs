@@ -7,7 +7,7 @@ use utoipa::openapi::RefOr;
 use utoipa::ToSchema;
 
 use super::{lit_request, names, object_only, raw, schema_ref, some, Resolve};
-use crate::input_limits::MAX_BATCH_STATES;
+use crate::input_limits::{MAX_BATCH_STATES, MAX_REQUEST_LUMINAIRES};
 use crate::model::batch::BatchReport;
 use crate::model::Model;
 use crate::server::parse::{grid_list, surface_list};
@@ -19,8 +19,15 @@ lit_request! {
 }
 
 impl LightingState {
+    /// How many luminaires the state places.
+    pub(crate) fn luminaire_count(&self) -> usize {
+        self.luminaires.as_ref().map_or(0, |l| l.len())
+    }
+
+    /// Whether the state needs a solve (a per-patch emission or placed luminaires), which
+    /// the batch's work limit counts.
     pub(crate) fn is_emission(&self) -> bool {
-        self.emission.is_some()
+        self.emission.is_some() || self.luminaires.is_some()
     }
 }
 
@@ -71,6 +78,12 @@ impl Resolve for BatchRequest {
             return Err(AppError::Invalid(format!(
                 "'states' has {} entries; give 1 to {MAX_BATCH_STATES}",
                 self.states.len()
+            )));
+        }
+        let placed: usize = self.states.iter().map(|s| s.luminaire_count()).sum();
+        if placed > MAX_REQUEST_LUMINAIRES {
+            return Err(AppError::Invalid(format!(
+                "the states place {placed} luminaires in all; at most {MAX_REQUEST_LUMINAIRES} per batch"
             )));
         }
         let surfaces = match &self.surfaces {

@@ -314,6 +314,7 @@ pub(crate) fn lighting(
             let edits: Vec<LuminairePlacement> = list.iter().map(|e| e.placement()).collect();
             Ok(Lighting::Placed(place(
                 &model.baked.scene,
+                model.patches(),
                 weights,
                 &edits,
             )?))

@@ -89,7 +89,7 @@ pub(crate) async fn batch(
                     } else {
                         let Lighting::Groups(w) = l else {
                             return Err(at(k, AppError::Invalid(
-                                "grids need light-group states (per-patch emission has no grid columns)".into(),
+                                "grids need light-group states (per-patch emission and placed luminaires have no grid columns)".into(),
                             )));
                         };
                         Some(m.grid_answers(&report.grids, &w))

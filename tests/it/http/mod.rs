@@ -8,6 +8,7 @@ mod export;
 mod glare;
 mod illuminance;
 mod optimize;
+mod placed;
 mod radiosity;
 mod render;
 mod report;

@@ -1,0 +1,155 @@
+//! Luminaires placed per request over HTTP: the answer equals the library's, and bad input
+//! gets a 422 that names the field before any work.
+
+use axum::http::StatusCode;
+use relight::color::Rgb;
+use relight::model::lighting::Lighting;
+use relight::model::placed::{place, LuminairePlacement, Photometry};
+use serde_json::{json, Value};
+
+use super::{app, post, ready};
+use crate::common;
+
+const IES: &str = include_str!("../../../scenes/office-floor/downlight.ies");
+
+/// A downlight over the desk, inline IES, both groups of the desk room off.
+fn over_the_desk() -> Value {
+    json!({"id": "task", "position": [1.2, 2.6, 2.4], "ies": IES, "lumens": 1200, "cct": 3000})
+}
+
+#[tokio::test]
+async fn a_luminaire_placed_over_http_equals_the_library_answer() {
+    let _gate = common::shared();
+    let body = json!({"lights": {"ceiling": 0, "lamp": 0}, "luminaires": [over_the_desk()],
+                      "surfaces": ["desk_top", "floor"]});
+    let (s, _, v) = post(app(), "/api/scenes/desk-room/illuminance", body.to_string()).await;
+    assert_eq!(s, StatusCode::OK, "{v}");
+    let got = v["surfaces"]["desk_top"]["avg"]["lux"].as_f64().unwrap();
+    // The same state through the library.
+    let r = ready("desk-room");
+    let m = &r.model;
+    let lum = LuminairePlacement {
+        id: "task".into(),
+        position: Some([1.2, 2.6, 2.4]),
+        photometry: Some(Photometry::Ies(IES.into())),
+        lumens: Some(1200.0),
+        cct: Some(3000.0),
+        ..Default::default()
+    };
+    let placed = place(&m.baked.scene, m.patches(), vec![Rgb::ZERO; 2], &[lum]).unwrap();
+    let sol = m.solve(&Lighting::Placed(placed)).unwrap();
+    let want = relight::model::report::surface_averages(&m.baked.scene, &m.baked.mesh, &sol)
+        ["desk_top"]
+        .illuminance_y();
+    assert!(want > 50.0, "the desk is lit: {want} lx");
+    assert!((got - want).abs() < 1e-6 * want, "{got} against {want}");
+    // The groups' light and the luminaire's add up.
+    let groups = json!({"surfaces": ["desk_top"]});
+    let both = json!({"luminaires": [over_the_desk()], "surfaces": ["desk_top"]});
+    let avg = |v: &Value| v["surfaces"]["desk_top"]["avg"]["lux"].as_f64().unwrap();
+    let (_, _, g) = post(
+        app(),
+        "/api/scenes/desk-room/illuminance",
+        groups.to_string(),
+    )
+    .await;
+    let (s, _, b) = post(app(), "/api/scenes/desk-room/illuminance", both.to_string()).await;
+    assert_eq!(s, StatusCode::OK, "{b}");
+    assert!(
+        (avg(&b) - avg(&g) - got).abs() < 1e-4 * avg(&b),
+        "{} ≠ {} + {got}",
+        avg(&b),
+        avg(&g)
+    );
+}
+
+#[tokio::test]
+async fn placed_luminaires_with_bad_input_get_a_422_naming_the_field() {
+    let _gate = common::shared();
+    let with = |l: Value| json!({"luminaires": [l]}).to_string();
+    let mut bad_ies = over_the_desk();
+    bad_ies["ies"] = json!(IES.replace("TILT=NONE\n1 2500", "TILT=NONE\n1 lots"));
+    let mut huge = over_the_desk();
+    huge["ies"] = json!(format!("{IES}{}", " ".repeat(1 << 20)));
+    let many: Vec<Value> = (0..1001)
+        .map(|i| json!({"id": format!("l{i}"), "position": [1, 2, 1], "lumens": 10}))
+        .collect();
+    let cases: Vec<(&str, String, &str)> = vec![
+        (
+            "outside the bounds",
+            with(json!({"id": "x", "position": [9, 2, 1], "lumens": 100})),
+            "outside the scene's bounds",
+        ),
+        (
+            "photometry that does not parse",
+            with(bad_ies),
+            "luminaires[0].ies:8: 'lots' is not a number",
+        ),
+        ("inline photometry over 1 MB", with(huge), "at most 1048576"),
+        (
+            "too many",
+            json!({ "luminaires": many }).to_string(),
+            "at most 1000 per request",
+        ),
+        (
+            "an unknown group",
+            with(json!({"id": "x", "position": [1, 2, 1], "lumens": 100, "group": "sun"})),
+            "group 'sun' is not a light group",
+        ),
+        (
+            "removing what the scene does not have",
+            with(json!({"id": "x", "remove": true})),
+            "cannot be removed",
+        ),
+        (
+            "a new luminaire without a position",
+            with(json!({"id": "x", "lumens": 100})),
+            "needs a position",
+        ),
+        (
+            "negative lumens",
+            with(json!({"id": "x", "position": [1, 2, 1], "lumens": -5})),
+            "lumens = -5",
+        ),
+        (
+            "an isotropic one without lumens",
+            with(json!({"id": "x", "position": [1, 2, 1]})),
+            "lumens is required",
+        ),
+        (
+            "with an emission",
+            json!({"emission": {"0": [1, 1, 1]}, "luminaires": [over_the_desk()]}).to_string(),
+            "not with 'emission'",
+        ),
+    ];
+    for (what, body, says) in cases {
+        let (s, _, v) = post(app(), "/api/scenes/desk-room/illuminance", body).await;
+        assert_eq!(s, StatusCode::UNPROCESSABLE_ENTITY, "{what}: {v}");
+        let detail = v["detail"].as_str().unwrap_or_default();
+        assert!(detail.contains(says), "{what}: {detail}");
+        assert!(
+            detail.contains("luminaires"),
+            "{what} names the field: {detail}"
+        );
+    }
+    // An infinite coordinate does not parse as a number.
+    let (s, _, v) = post(
+        app(),
+        "/api/scenes/desk-room/radiosity",
+        r#"{"luminaires": [{"id": "x", "position": [1e999, 2, 1], "lumens": 100}]}"#,
+    )
+    .await;
+    assert!(s.is_client_error(), "{s}: {v}");
+    // The columns transfer answers light groups only.
+    let (s, _, v) = post(
+        app(),
+        "/api/scenes/office/radiosity",
+        with(json!({"id": "x", "position": [1, 2, 1], "lumens": 100})),
+    )
+    .await;
+    assert_eq!(s, StatusCode::UNPROCESSABLE_ENTITY, "{v}");
+    assert!(
+        v["detail"].as_str().unwrap().contains("columns transfer"),
+        "{v}"
+    );
+}
