@@ -69,6 +69,9 @@ pub struct LuminairePlacement {
 pub struct LuminaireChange {
     pub luminaire: Luminaire,
     pub weight: Rgb,
+    /// The light group whose setting and maintenance factor it takes (none for a new
+    /// luminaire given no group).
+    pub group: Option<usize>,
 }
 
 /// A lighting state with luminaires placed for the request: the groups' weights and the
@@ -83,6 +86,23 @@ impl Placed {
     /// The luminaires of the changes, with their weights (for the direct light).
     pub fn luminaires(&self) -> impl Iterator<Item = (&Luminaire, Rgb)> + Clone + Sync {
         self.changes.iter().map(|c| (&c.luminaire, c.weight))
+    }
+
+    /// The state under maintenance factors: each group's weight × its factor `groups[g]`,
+    /// each change's × its group's (or `other` for a luminaire without a group).
+    pub fn maintained(&self, groups: &[f64], other: f64) -> Placed {
+        let mf = |g: Option<usize>| g.and_then(|g| groups.get(g).copied()).unwrap_or(other);
+        Placed {
+            weights: super::compliance::maintained_weights(&self.weights, groups),
+            changes: self
+                .changes
+                .iter()
+                .map(|c| LuminaireChange {
+                    weight: (c.weight.to_f64() * mf(c.group)).to_f32(),
+                    ..c.clone()
+                })
+                .collect(),
+        }
     }
 
     /// Σ weight × lumens × colour over the changes, lm per channel.
@@ -128,29 +148,37 @@ pub fn place(
         }
         check_numbers(scene, e).map_err(bad)?;
         let group_weight = |id: &str| {
-            scene.light_index(id).map(|g| weights[g]).ok_or_else(|| {
-                bad(format!(
-                    "group '{}' is not a light group of the scene (known: {})",
-                    shorten(id),
-                    known_list(scene.lights.iter().map(|l| l.id.as_str()))
-                ))
-            })
+            scene
+                .light_index(id)
+                .map(|g| (weights[g], Some(g)))
+                .ok_or_else(|| {
+                    bad(format!(
+                        "group '{}' is not a light group of the scene (known: {})",
+                        shorten(id),
+                        known_list(scene.lights.iter().map(|l| l.id.as_str()))
+                    ))
+                })
         };
         match scene_luminaire(scene, &e.id) {
             Some((g, old)) => {
                 changes.push(LuminaireChange {
                     luminaire: old.clone(),
                     weight: weights[g] * -1.0,
+                    group: Some(g),
                 });
                 if e.remove {
                     continue;
                 }
-                let weight = match &e.group {
+                let (weight, group) = match &e.group {
                     Some(id) => group_weight(id)?,
-                    None => weights[g],
+                    None => (weights[g], Some(g)),
                 };
                 let luminaire = rebuild(scene, old, e, &at).map_err(bad)?;
-                changes.push(LuminaireChange { luminaire, weight });
+                changes.push(LuminaireChange {
+                    luminaire,
+                    weight,
+                    group,
+                });
             }
             None if e.remove => {
                 return Err(bad(format!(
@@ -164,12 +192,16 @@ pub fn place(
                 )))
             }
             None => {
-                let weight = match &e.group {
+                let (weight, group) = match &e.group {
                     Some(id) => group_weight(id)?,
-                    None => Rgb::ONE,
+                    None => (Rgb::ONE, None),
                 };
                 let luminaire = build(scene, e, &at).map_err(bad)?;
-                changes.push(LuminaireChange { luminaire, weight });
+                changes.push(LuminaireChange {
+                    luminaire,
+                    weight,
+                    group,
+                });
             }
         }
     }

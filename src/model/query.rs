@@ -139,7 +139,8 @@ pub struct IlluminanceAnswer {
     #[cfg_attr(feature = "server", schema(required = true))]
     pub power: Option<LuminairePower>,
     /// The maintenance factor MF of each light group, 0..1 (for a per-patch emission, the
-    /// scene's under the key `emission`).
+    /// scene's under the key `emission`; with luminaires placed for the request, also the
+    /// scene's under `placed`, which placed luminaires without a group take).
     pub maintenance_factors: BTreeMap<String, f64>,
     /// The same answers maintained: each group's light × its MF.
     pub maintained: Maintained,
@@ -482,10 +483,39 @@ impl Model {
         q: &IlluminanceQuery,
         cancel: &Cancel,
     ) -> Result<IlluminanceAnswer, QueryError> {
-        match l.weights() {
-            Some(w) => self.group_illuminance(w, q, cancel),
-            None => self.solved_illuminance(l, q, cancel),
+        match l {
+            Lighting::Groups(w) => self.group_illuminance(w, q, cancel),
+            Lighting::Emission(_) => self.solved_illuminance(l, q, cancel),
+            Lighting::Placed(p) => self.placed_illuminance(p, q, cancel),
         }
+    }
+
+    /// [`Model::illuminance`] with luminaires placed for the request: the state solved as
+    /// it is and again under the maintenance factors (each group's weight and each change
+    /// by its group's factor, a luminaire without a group by the scene's), which the
+    /// maintained answers and the compliance read.
+    fn placed_illuminance(
+        &self,
+        p: &Placed,
+        q: &IlluminanceQuery,
+        cancel: &Cancel,
+    ) -> Result<IlluminanceAnswer, QueryError> {
+        let factors = self.factors(q);
+        let mut a = self.solved_illuminance(&Lighting::Placed(p.clone()), q, cancel)?;
+        let pm = p.maintained(&factors.groups, factors.emission);
+        let m = self.solved_illuminance(&Lighting::Placed(pm), q, cancel)?;
+        a.maintained = Maintained {
+            points: m.points,
+            surfaces: m.surfaces,
+            grids: m.grids,
+        };
+        a.compliance = self.compliance(q, None, &a.maintained.grids, cancel)?;
+        let groups = self.baked.scene.lights.iter().map(|g| g.id.clone());
+        a.maintenance_factors = groups
+            .zip(factors.groups)
+            .chain([("placed".to_string(), factors.emission)])
+            .collect();
+        Ok(a)
     }
 
     /// [`Model::illuminance`] for group weights `w`: weighted sums, and the points'

@@ -233,3 +233,36 @@ fn hierarchical_scenes_answer_placed_luminaires() {
     let s = worst_surface(&h, &sh, &f, &sf);
     assert!(s < 0.02, "worst surface {s:.4}");
 }
+
+/// Maintained answers take each placed luminaire's own maintenance factor: its group's, or
+/// the scene's for a luminaire without a group.
+#[test]
+fn placed_luminaires_are_maintained_by_their_groups_factor() {
+    let _gate = common::shared();
+    let (_dir, m) = bake(room(
+        "[[lights]]\nid = \"ceiling\"\nmaintenance_factor = 0.8\n",
+        "factored",
+    ));
+    let q = IlluminanceQuery {
+        grids: vec![m.grid_index("work").unwrap()],
+        ..Default::default()
+    };
+    let ratio = |group: Option<&str>| {
+        let mut lum = new_downlight("new", [3.0, 2.75, 2.0]);
+        lum.group = group.map(String::from);
+        // The scene's own luminaire taken out: only the placed one lights the room.
+        let out = LuminairePlacement {
+            id: "l1".into(),
+            remove: true,
+            ..Default::default()
+        };
+        let p = place(&m.baked.scene, m.patches(), vec![Rgb::ONE], &[lum, out]).unwrap();
+        let a = m
+            .illuminance(&Lighting::Placed(p), &q, &Cancel::default())
+            .unwrap();
+        a.maintained.grids["work"].avg / a.grids["work"].avg
+    };
+    let (grouped, alone) = (ratio(Some("ceiling")), ratio(None));
+    assert!((grouped - 0.8).abs() < 1e-6, "in the group: {grouped}");
+    assert!((alone - 1.0).abs() < 1e-6, "without a group: {alone}");
+}
