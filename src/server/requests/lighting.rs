@@ -330,6 +330,7 @@ super::request! {
     /// fields given (the rest keep the scene's values), or taken out with `remove`.
     LuminaireEntry, "an object {id, position, aim, c0, photometry | ies | ldt, lumens, cct | color, group, watts, remove}" {
         /// Luminaire id: a new one, or one of the scene's.
+        #[schema(min_length = 1)]
         id: String,
         /// Photometric centre, metres; inside the scene's bounds.
         #[serde(default, deserialize_with = "some")]
@@ -345,7 +346,7 @@ super::request! {
         c0: Option<Direction>,
         /// An IES or EULUMDAT (.ldt) file of the scene folder.
         #[serde(default, deserialize_with = "some")]
-        #[schema(nullable = false)]
+        #[schema(nullable = false, min_length = 1)]
         photometry: Option<String>,
         /// Inline IES LM-63 text, at most 1 MB.
         #[serde(default, deserialize_with = "some")]
@@ -369,7 +370,7 @@ super::request! {
         /// Light group whose setting scales it (default: a new one counts at 1, a scene
         /// luminaire keeps its group).
         #[serde(default, deserialize_with = "some")]
-        #[schema(nullable = false)]
+        #[schema(nullable = false, min_length = 1)]
         group: Option<String>,
         /// Electrical power, W, in [0, 1e7].
         #[serde(default, deserialize_with = "some")]
