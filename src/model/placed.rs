@@ -292,13 +292,14 @@ fn distribution(scene: &Scene, p: &Photometry, at: &str) -> Result<Distribution,
         Photometry::File(name) => {
             let dir = crate::scene::files::SceneDir::open(&scene.dir).map_err(|e| e.to_string())?;
             let path = dir
-                .resolve(
-                    name,
-                    std::path::Path::new("request"),
-                    0,
-                    &format!("{at}.photometry"),
-                )
-                .map_err(|e| e.to_string())?;
+                .resolve(name, std::path::Path::new("request"), 0, "photometry")
+                .map_err(|e| match e {
+                    // Not a line of a file: the caller names the entry.
+                    crate::scene::SceneError::Reference { name, problem, .. } => {
+                        format!("photometry '{}' {problem}", shorten(&name))
+                    }
+                    other => other.to_string(),
+                })?;
             let bytes = dir.read(&path, MAX_TEXT_BYTES).map_err(|e| e.to_string())?;
             let text = String::from_utf8_lossy(&bytes);
             let shown = dir.display(&path);

@@ -92,6 +92,18 @@ async fn placed_luminaires_with_bad_input_get_a_422_naming_the_field() {
             "at most 1000 per request",
         ),
         (
+            "a photometric file the scene does not have",
+            with(json!({"id": "x", "position": [1, 2, 1], "photometry": "missing.ies"})),
+            "photometry 'missing.ies'",
+        ),
+        (
+            "a photometric file outside the scene folder",
+            with(
+                json!({"id": "x", "position": [1, 2, 1], "photometry": "../office/downlight.ies"}),
+            ),
+            "photometry '../office/downlight.ies'",
+        ),
+        (
             "an unknown group",
             with(json!({"id": "x", "position": [1, 2, 1], "lumens": 100, "group": "sun"})),
             "group 'sun' is not a light group",
