@@ -49,6 +49,17 @@ pub(crate) struct SceneIdParam {
     id: String,
 }
 
+/// The `{id}` of the routes whose documented example names the office's grids and groups
+/// (`/optimize`): its example is the office, so that example and id go together.
+#[derive(IntoParams)]
+#[into_params(parameter_in = Path)]
+#[allow(dead_code)]
+pub(crate) struct OfficeIdParam {
+    /// Scene id: the scene's folder name, as listed by GET /api/scenes.
+    #[param(example = "office", min_length = 1)]
+    id: String,
+}
+
 /// Constraints between fields, which the derived schemas cannot say.
 struct Constraints;
 

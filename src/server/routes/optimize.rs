@@ -4,14 +4,14 @@
 use axum::Json;
 
 use crate::model::optimize::OptimizeAnswer;
-use crate::server::openapi::{PostErrors, SceneIdParam};
+use crate::server::openapi::{OfficeIdParam, PostErrors};
 use crate::server::parse::ScenePost;
 use crate::server::requests::{OptimizeRequest, Resolve};
 use crate::server::AppError;
 
 #[utoipa::path(post, path = "/api/scenes/{id}/optimize", operation_id = "optimize", tags = ["scenes"],
     summary = "Dimming levels (0..1 per free group, modelled colours) that meet grid targets with the least emitted flux: a linear program over the precomputed grid responses. 422 explains unreachable targets.",
-    params(SceneIdParam),
+    params(OfficeIdParam),
     request_body(content = OptimizeRequest, content_type = "application/json",
         description = "Targets per grid, the free groups and the state of the others.",
         example = json!({"targets": [{"grid": "desk", "eavg_min": 500, "u0_min": 0.6}]})),
