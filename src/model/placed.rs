@@ -11,6 +11,12 @@
 //! linear, so the answer is the groups' plus the changes'.
 
 use glam::DVec3;
+use rayon::prelude::*;
+
+use super::lighting::Lighting;
+use super::query::{IlluminanceAnswer, IlluminanceQuery, Maintained};
+use super::{Cancel, Model};
+use crate::transport::transfer::Solution;
 
 use super::error::{known_list, shorten, QueryError};
 use crate::color::{Rgb, Rgb64};
@@ -147,63 +153,7 @@ pub fn place(
             return Err(bad("id is empty or used twice in this request".into()));
         }
         check_numbers(scene, e).map_err(bad)?;
-        let group_weight = |id: &str| {
-            scene
-                .light_index(id)
-                .map(|g| (weights[g], Some(g)))
-                .ok_or_else(|| {
-                    bad(format!(
-                        "group '{}' is not a light group of the scene (known: {})",
-                        shorten(id),
-                        known_list(scene.lights.iter().map(|l| l.id.as_str()))
-                    ))
-                })
-        };
-        match scene_luminaire(scene, &e.id) {
-            Some((g, old)) => {
-                changes.push(LuminaireChange {
-                    luminaire: old.clone(),
-                    weight: weights[g] * -1.0,
-                    group: Some(g),
-                });
-                if e.remove {
-                    continue;
-                }
-                let (weight, group) = match &e.group {
-                    Some(id) => group_weight(id)?,
-                    None => (weights[g], Some(g)),
-                };
-                let luminaire = rebuild(scene, old, e, &at).map_err(bad)?;
-                changes.push(LuminaireChange {
-                    luminaire,
-                    weight,
-                    group,
-                });
-            }
-            None if e.remove => {
-                return Err(bad(format!(
-                    "is not a luminaire of the scene, so it cannot be removed (known: {})",
-                    known_list(
-                        scene
-                            .lights
-                            .iter()
-                            .flat_map(|g| g.luminaires.iter().map(|l| l.id.as_str()))
-                    )
-                )))
-            }
-            None => {
-                let (weight, group) = match &e.group {
-                    Some(id) => group_weight(id)?,
-                    None => (Rgb::ONE, None),
-                };
-                let luminaire = build(scene, e, &at).map_err(bad)?;
-                changes.push(LuminaireChange {
-                    luminaire,
-                    weight,
-                    group,
-                });
-            }
-        }
+        entry_changes(scene, &weights, e, &at, &mut changes).map_err(bad)?;
     }
     let work = changes.len() as u64 * patches as u64;
     if work > MAX_PLACED_LUMINAIRE_PATCHES {
@@ -214,6 +164,70 @@ pub fn place(
         )));
     }
     Ok(Placed { weights, changes })
+}
+
+/// The changes of one checked entry (`at` names it), pushed onto `changes`: a scene
+/// luminaire's light taken out and, unless removed, put back rebuilt; or a new luminaire.
+fn entry_changes(
+    scene: &Scene,
+    weights: &[Rgb],
+    e: &LuminairePlacement,
+    at: &str,
+    changes: &mut Vec<LuminaireChange>,
+) -> Result<(), String> {
+    let group_weight = |id: &str| {
+        scene
+            .light_index(id)
+            .map(|g| (weights[g], Some(g)))
+            .ok_or_else(|| {
+                format!(
+                    "group '{}' is not a light group of the scene (known: {})",
+                    shorten(id),
+                    known_list(scene.lights.iter().map(|l| l.id.as_str()))
+                )
+            })
+    };
+    let (luminaire, (weight, group)) = match scene_luminaire(scene, &e.id) {
+        Some((g, old)) => {
+            changes.push(LuminaireChange {
+                luminaire: old.clone(),
+                weight: weights[g] * -1.0,
+                group: Some(g),
+            });
+            if e.remove {
+                return Ok(());
+            }
+            let weight = match &e.group {
+                Some(id) => group_weight(id)?,
+                None => (weights[g], Some(g)),
+            };
+            (rebuild(scene, old, e, at)?, weight)
+        }
+        None if e.remove => {
+            return Err(format!(
+                "is not a luminaire of the scene, so it cannot be removed (known: {})",
+                known_list(
+                    scene
+                        .lights
+                        .iter()
+                        .flat_map(|g| g.luminaires.iter().map(|l| l.id.as_str()))
+                )
+            ))
+        }
+        None => {
+            let weight = match &e.group {
+                Some(id) => group_weight(id)?,
+                None => (Rgb::ONE, None),
+            };
+            (build(scene, e, at)?, weight)
+        }
+    };
+    changes.push(LuminaireChange {
+        luminaire,
+        weight,
+        group,
+    });
+    Ok(())
 }
 
 /// Ranges of an entry's numbers, and its position inside the scene's bounds.
@@ -386,4 +400,144 @@ fn rebuild(
         old.watts
     });
     Ok(l)
+}
+
+/// Under luminaires placed for a request, a grid point gathers the changes' interreflected
+/// light only from patches whose change of radiosity is at least this share of the
+/// brightest change: the rest adds at most this share of the brightest radiosity to any
+/// point (0.1 % in a room the change lights), and leaving out the far rooms the change
+/// barely reaches keeps the gather to the rooms it lights.
+pub const PLACED_GATHER_CUTOFF: f32 = 1e-3;
+
+impl Model {
+    /// The solution of a state with luminaires placed for the request, and the radiosity
+    /// (n × 3) of the changes' light alone: the changes' direct light D, its first
+    /// reflection ρD as a source, and the interreflection of that, added to the groups':
+    /// B = base + solve(ρD), H = base + D + solve's H.
+    pub(super) fn placed_parts(&self, p: &Placed) -> Result<(Solution, Vec<f32>), QueryError> {
+        self.require_factored()?;
+        let t = &self.baked.transfer;
+        let base = t.relight(&p.weights);
+        if p.changes.is_empty() {
+            let none = vec![0f32; base.b.len()];
+            return Ok((base, none));
+        }
+        let k = &self.baked;
+        let d = crate::transport::direct::weighted_direct(&k.mesh, &k.bvh, p.luminaires());
+        let mut source = d.clone();
+        for (s, rho) in Rgb::column_mut(&mut source).iter_mut().zip(&t.rho) {
+            *s *= *rho;
+        }
+        let extra = t.solve(&source).ok_or_else(|| {
+            QueryError::Invalid("this scene's transfer cannot solve an emission".into())
+        })?;
+        let mut sol = base;
+        for (b, x) in sol.b.iter_mut().zip(&extra.b) {
+            *b += x;
+        }
+        for ((h, x), dd) in sol.h.iter_mut().zip(&extra.h).zip(&d) {
+            *h += x + dd;
+        }
+        let mut landed = Rgb64::ZERO;
+        for (&a, dd) in t.area.iter().zip(Rgb::column(&d)) {
+            landed += a as f64 * dd.to_f64();
+        }
+        let flux = p.flux();
+        sol.luminaire_flux += flux;
+        // Sampled direct light may land a hair more than the flux: never below zero, as
+        // for the groups.
+        sol.direct_escaped = (sol.direct_escaped + flux - landed).map(|v| v.max(0.0));
+        Ok((sol, extra.b))
+    }
+
+    /// Grid `gi`'s luminous illuminance (lx) at every point under a placed state: the
+    /// groups' stored responses at their weights, the changes' direct light traced per
+    /// point, and their interreflected light gathered from `extra_b` over the patches it
+    /// reaches (a patch below [`PLACED_GATHER_CUTOFF`] of the brightest is left out).
+    pub(super) fn placed_grid_values(
+        &self,
+        gi: usize,
+        p: &Placed,
+        extra_b: &[f32],
+        cancel: &Cancel,
+    ) -> Vec<f32> {
+        let k = &self.baked;
+        let g = &self.grids[gi];
+        let mut base = vec![0f32; 3 * g.len()];
+        crate::transport::transfer::weighted_sum(
+            g.per_group.iter().map(|c| c.as_slice()),
+            &p.weights,
+            &mut base,
+        );
+        let top = Rgb::column(extra_b)
+            .iter()
+            .fold(0f32, |m, b| m.max(b.luminance().abs()));
+        let importance: Vec<f32> = Rgb::column(extra_b)
+            .iter()
+            .flat_map(|b| {
+                let keep = b.luminance().abs() > PLACED_GATHER_CUTOFF * top;
+                b.0.map(|v| {
+                    if keep {
+                        v.abs().max(f32::MIN_POSITIVE)
+                    } else {
+                        0.0
+                    }
+                })
+            })
+            .collect();
+        let n = DVec3::from_array(g.grid.normal);
+        let extra = Rgb::column(extra_b);
+        g.grid
+            .points
+            .par_iter()
+            .zip(Rgb::column(&base).par_iter())
+            .map(|(x, b)| {
+                if cancel.is_cancelled() {
+                    return 0.0;
+                }
+                let x = DVec3::from_array(*x);
+                let mut e = b.to_f64();
+                e += crate::transport::direct::weighted_point_illuminance(
+                    &k.bvh,
+                    p.luminaires(),
+                    x,
+                    n,
+                );
+                for (j, w) in
+                    crate::transport::probe::gather_weights(&k.mesh, &k.bvh, &importance, x, n)
+                {
+                    e += w * extra[j as usize].to_f64();
+                }
+                e.luminance() as f32
+            })
+            .collect()
+    }
+
+    /// [`Model::illuminance`] with luminaires placed for the request: the state solved as
+    /// it is and again under the maintenance factors (each group's weight and each change
+    /// by its group's factor, a luminaire without a group by the scene's), which the
+    /// maintained answers and the compliance read.
+    pub(super) fn placed_illuminance(
+        &self,
+        p: &Placed,
+        q: &IlluminanceQuery,
+        cancel: &Cancel,
+    ) -> Result<IlluminanceAnswer, QueryError> {
+        let factors = self.factors(q);
+        let mut a = self.solved_illuminance(&Lighting::Placed(p.clone()), q, cancel)?;
+        let pm = p.maintained(&factors.groups, factors.emission);
+        let m = self.solved_illuminance(&Lighting::Placed(pm), q, cancel)?;
+        a.maintained = Maintained {
+            points: m.points,
+            surfaces: m.surfaces,
+            grids: m.grids,
+        };
+        a.compliance = self.compliance(q, None, &a.maintained.grids, cancel)?;
+        let groups = self.baked.scene.lights.iter().map(|g| g.id.clone());
+        a.maintenance_factors = groups
+            .zip(factors.groups)
+            .chain([("placed".to_string(), factors.emission)])
+            .collect();
+        Ok(a)
+    }
 }
