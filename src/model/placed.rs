@@ -78,6 +78,9 @@ pub struct LuminaireChange {
     /// The light group whose setting and maintenance factor it takes (none for a new
     /// luminaire given no group).
     pub group: Option<usize>,
+    /// Whether it takes a scene luminaire's light out (moved, changed or removed), at
+    /// minus its group's weight.
+    pub taken_out: bool,
 }
 
 /// A lighting state with luminaires placed for the request: the groups' weights and the
@@ -109,6 +112,36 @@ impl Placed {
                 })
                 .collect(),
         }
+    }
+
+    /// Every luminaire that shines in this state, its colour times its weight: the scene's
+    /// (of `scene`, whose groups `weights` follows) less those taken out, and the changes
+    /// put in. None at zero weight. What per-pixel direct light traces
+    /// ([`crate::render::pipeline::final_state_image`]), where signed light would not do.
+    pub fn lit(&self, scene: &Scene) -> Vec<Luminaire> {
+        let out: std::collections::HashSet<&str> = self
+            .changes
+            .iter()
+            .filter(|c| c.taken_out)
+            .map(|c| c.luminaire.id.as_str())
+            .collect();
+        let weighted = |l: &Luminaire, w: Rgb| {
+            (w.max_component() > 0.0).then(|| {
+                let mut l = l.clone();
+                l.color *= w;
+                l
+            })
+        };
+        let scene_lit = scene.lights.iter().zip(&self.weights).flat_map(|(g, &w)| {
+            g.luminaires
+                .iter()
+                .filter(|l| !out.contains(l.id.as_str()))
+                .filter_map(move |l| weighted(l, w))
+        });
+        let put_in = self.changes.iter().filter(|c| !c.taken_out);
+        scene_lit
+            .chain(put_in.filter_map(|c| weighted(&c.luminaire, c.weight)))
+            .collect()
     }
 
     /// Σ weight × lumens × colour over the changes, lm per channel.
@@ -193,6 +226,7 @@ fn entry_changes(
                 luminaire: old.clone(),
                 weight: weights[g] * -1.0,
                 group: Some(g),
+                taken_out: true,
             });
             if e.remove {
                 return Ok(());
@@ -226,6 +260,7 @@ fn entry_changes(
         luminaire,
         weight,
         group,
+        taken_out: false,
     });
     Ok(())
 }

@@ -13,7 +13,9 @@ use super::{final_gather, ViewBuffer};
 use crate::color::Rgb;
 use crate::model::query::Quantity;
 use crate::model::sky_state::SkyState;
-use crate::model::{Lighting, Model, QueryError};
+use crate::model::{Cancel, Lighting, Model, QueryError};
+use crate::scene::LightGroup;
+use crate::transport::transfer::GroupColumns;
 
 /// Lowest and highest ends of a false-colour range, lux.
 pub const MIN_RANGE_LUX: f64 = 1e-6;
@@ -32,7 +34,8 @@ pub enum Quality {
     /// Direct light traced per pixel, a final gather from the solved radiosity, the
     /// luminaires in view and glossy reflection on glTF materials
     /// ([`super::final_gather`]): a new camera costs seconds, a new
-    /// lighting state of light groups as little as with `Fast`.
+    /// lighting state of light groups as little as with `Fast`, any other state (an
+    /// emission vector, luminaires placed per request) what a new camera costs.
     Final,
 }
 
@@ -40,8 +43,8 @@ pub enum Quality {
 #[derive(Debug, Clone)]
 pub struct RenderOptions {
     pub camera: Camera,
-    /// `Final` needs a light-group state and, when per-group images are given in the
-    /// [`Frame`], uses them; false colour always shows the patches' illuminance.
+    /// `Final` uses the `final` images given in the [`Frame`] (the groups', or one state's
+    /// from [`final_state_image`]); false colour always shows the patches' illuminance.
     pub quality: Quality,
     /// Stops; None = auto exposure (log-average luminance to middle grey).
     pub exposure: Option<f32>,
@@ -155,15 +158,22 @@ pub fn render_once(
     settings: &final_gather::FinalSettings,
 ) -> Result<Rendered, RenderError> {
     let view = ViewBuffer::build(&model.baked.mesh, shading, &o.camera);
-    let cancel = crate::model::Cancel::default();
+    let cancel = Cancel::default();
     let mut finals = None;
     let mut daylight = None;
+    let state_weight = Lighting::Groups(vec![Rgb::ONE]);
+    let mut lighting = lighting;
     if wants_finals(o) {
-        needs_groups(lighting)?;
         let patches = final_gather::patch_locator(&model.baked.mesh, &model.baked.scene.triangles);
-        finals = Some(final_images(
-            model, shading, &patches, &o.camera, settings, &cancel,
-        )?);
+        let cam = &o.camera;
+        finals = Some(if let Lighting::Groups(_) = lighting {
+            final_images(model, shading, &patches, cam, settings, &cancel)?
+        } else {
+            let image =
+                final_state_image(model, shading, &patches, cam, lighting, settings, &cancel)?;
+            lighting = &state_weight;
+            image
+        });
         if let Some(sky) = sky {
             daylight = Some(final_daylight_image(
                 model, shading, &patches, &o.camera, sky, settings, &cancel,
@@ -278,6 +288,9 @@ pub struct Made {
     pub gather_points: u64,
     /// Bytes the patch lookup of `final` renders still takes (0 once built).
     pub patch_locator: u64,
+    /// For a state that the groups' images cannot sum to, whether its `final` image
+    /// ([`final_state_image`]) is made; None for a light-group state.
+    pub state_image: Option<bool>,
 }
 
 /// Peak bytes a render of `o` (under a sky when `sky`) may allocate beyond what `made`
@@ -295,10 +308,16 @@ pub fn estimate_bytes(model: &Model, o: &RenderOptions, sky: bool, made: &Made) 
             // Group images are at most the size of the buffer (else not made).
             + 2 * ViewBuffer::estimate_bytes(cam).min(24 * groups as u64 * px)
     });
-    let finals = if wants_finals(o) && !made.finals {
-        final_gather::estimate_bytes(cam, groups, made.gather_points) + made.patch_locator
-    } else {
-        0
+    let finals = match (wants_finals(o), made.state_image) {
+        (false, _) | (true, Some(true)) => 0,
+        (true, None) if made.finals => 0,
+        (true, None) => {
+            final_gather::estimate_bytes(cam, groups, made.gather_points) + made.patch_locator
+        }
+        // The state's solution (e, b, h) besides its image.
+        (true, Some(false)) => {
+            final_gather::estimate_bytes(cam, 1, made.gather_points) + made.patch_locator + 36 * n
+        }
     };
     let mut bytes = images + view + finals;
     if sky {
@@ -310,23 +329,6 @@ pub fn estimate_bytes(model: &Model, o: &RenderOptions, sky: bool, made: &Made) 
         }
     }
     bytes
-}
-
-/// `Err` unless `lighting` is a light-group state (what `final` images are made of).
-pub fn needs_groups(lighting: &Lighting) -> Result<(), QueryError> {
-    match lighting {
-        Lighting::Groups(_) => Ok(()),
-        Lighting::Emission(_) => Err(QueryError::Invalid(
-            "quality 'final' renders light-group states (lights); a per-patch emission renders \
-             at quality 'fast'"
-                .into(),
-        )),
-        Lighting::Placed(_) => Err(QueryError::Invalid(
-            "quality 'final' renders light-group states (lights); luminaires placed per request \
-             render at quality 'fast'"
-                .into(),
-        )),
-    }
 }
 
 /// The `final` images of every light group of `model` seen by `cam`, with the work per
@@ -401,7 +403,60 @@ fn final_scene<'a>(
         groups: &b.transfer.groups,
         lights: &b.scene.lights,
         sky,
+        emitters: final_gather::EmitterLight::PerGroup,
     }
+}
+
+/// The `final` image of one lighting state seen by `cam`, traced whole for it as a single
+/// group at unit weight (render it at weights `[1]`): for a per-patch emission and
+/// luminaires placed per request, which the groups' images cannot sum to. The state is
+/// solved, its luminaires (the scene's that shine, less those taken out, and those put
+/// in, [`Placed::lit`]) light every pixel exactly as the groups' do, and so do an
+/// emission vector's emitting patches ([`final_gather::EmitterLight::Patches`]).
+/// It costs what a new camera's `final` images cost.
+///
+/// [`Placed::lit`]: crate::model::placed::Placed::lit
+pub fn final_state_image(
+    model: &Model,
+    shading: &Shading,
+    patches: &crate::geometry::patch_locator::PatchLocator,
+    cam: &Camera,
+    lighting: &Lighting,
+    settings: &final_gather::FinalSettings,
+    cancel: &Cancel,
+) -> Result<GroupImages, QueryError> {
+    use crate::model::placed::Placed;
+    use final_gather::EmitterLight;
+    let scene = &model.baked.scene;
+    let (lit, emitters) = match lighting {
+        Lighting::Groups(w) => {
+            let p = Placed {
+                weights: w.clone(),
+                changes: vec![],
+            };
+            (p.lit(scene), EmitterLight::AnyPatch)
+        }
+        Lighting::Placed(p) => (p.lit(scene), EmitterLight::AnyPatch),
+        Lighting::Emission(_) => (vec![], EmitterLight::Patches),
+    };
+    let s = model.solve(lighting)?;
+    let column = GroupColumns {
+        e: s.e,
+        b: s.b,
+        h: s.h,
+        flux: s.luminaire_flux,
+        landed: s.luminaire_flux - s.direct_escaped,
+    };
+    let mut group = LightGroup::plain("state");
+    group.luminaires = lit;
+    let (groups, lights) = ([column], [group]);
+    let state = final_gather::FinalScene {
+        groups: &groups,
+        lights: &lights,
+        emitters,
+        ..final_scene(model, shading, patches, None)
+    };
+    final_gather::build(&state, cam, settings, cancel)
 }
 
 /// Encodes per-pixel radiance `rad` (cd/m², `o.camera`'s size, row 0 at the top) as a

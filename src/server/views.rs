@@ -6,7 +6,7 @@ use std::collections::{HashMap, VecDeque};
 use std::sync::{Arc, Mutex, OnceLock};
 
 use super::{AppState, Ready};
-use crate::model::{Cancel, QueryError};
+use crate::model::{Cancel, Lighting, QueryError};
 use crate::render::final_gather;
 use crate::render::pipeline::{self, RenderOptions};
 use crate::render::{Camera, GroupImages, ViewBuffer};
@@ -23,6 +23,10 @@ pub struct View {
     /// The `final` image of the daylight under the last sky asked for (its key), once
     /// built: a new sky state builds it again, as a new camera does.
     daylight: Mutex<Option<(String, Arc<GroupImages>)>>,
+    /// The `final` image of the last lighting state asked for that the groups' images
+    /// cannot sum to (an emission vector, luminaires placed per request), by its key
+    /// ([`state_key`]): a new such state traces it again.
+    state: Mutex<Option<(u64, Arc<GroupImages>)>>,
 }
 
 impl View {
@@ -36,6 +40,7 @@ impl View {
                 .map_or(0, GroupImages::bytes)
             + lock(&self.finals).as_ref().map_or(0, |f| f.bytes())
             + lock(&self.daylight).as_ref().map_or(0, |(_, f)| f.bytes())
+            + lock(&self.state).as_ref().map_or(0, |(_, f)| f.bytes())
     }
 
     /// Whether the `final` images are built.
@@ -100,6 +105,43 @@ impl View {
         )?);
         *slot = Some((key, built.clone()));
         Ok(built)
+    }
+
+    /// The `final` image of `lighting`, a state that is not of light groups alone
+    /// ([`pipeline::final_state_image`]), traced now unless it was the last such state
+    /// asked for (one build at a time, as [`Self::final_images`]).
+    pub fn final_state(
+        &self,
+        ready: &Ready,
+        cam: &Camera,
+        lighting: &Lighting,
+        settings: &final_gather::FinalSettings,
+        cancel: &Cancel,
+    ) -> Result<Arc<GroupImages>, QueryError> {
+        let key = state_key(lighting);
+        let mut slot = lock(&self.state);
+        if let Some((k, f)) = slot.as_ref() {
+            if *k == key {
+                return Ok(f.clone());
+            }
+        }
+        *slot = None;
+        let built = Arc::new(pipeline::final_state_image(
+            &ready.model,
+            ready.shading(),
+            ready.patch_locator(),
+            cam,
+            lighting,
+            settings,
+            cancel,
+        )?);
+        *slot = Some((key, built.clone()));
+        Ok(built)
+    }
+
+    /// Whether the `final` image of the state with key `key` is cached.
+    fn has_state(&self, key: u64) -> bool {
+        lock(&self.state).as_ref().is_some_and(|(k, _)| *k == key)
     }
 
     /// Whether group images for `groups` light groups would still have to be made.
@@ -236,6 +278,7 @@ pub fn view_for(state: &AppState, ready: &Ready, cam: &Camera) -> Arc<View> {
             groups: OnceLock::new(),
             finals: Mutex::new(None),
             daylight: Mutex::new(None),
+            state: Mutex::new(None),
         })
     }));
     match built {
@@ -251,11 +294,46 @@ pub fn view_for(state: &AppState, ready: &Ready, cam: &Camera) -> Arc<View> {
     }
 }
 
-/// What the cache holds of the view `o` renders ([`pipeline::Made`]), for the render's
-/// memory estimate ([`pipeline::estimate_bytes`]).
-pub fn made(state: &AppState, ready: &Ready, o: &RenderOptions) -> pipeline::Made {
+/// A key of a lighting state: equal states have equal keys (a hash of every number of the
+/// state, luminaires included).
+pub fn state_key(lighting: &Lighting) -> u64 {
+    use std::hash::{Hash, Hasher};
+    let mut h = std::collections::hash_map::DefaultHasher::new();
+    match lighting {
+        Lighting::Groups(w) => {
+            0u8.hash(&mut h);
+            w.iter()
+                .flat_map(|c| c.0)
+                .for_each(|v| v.to_bits().hash(&mut h));
+        }
+        Lighting::Emission(e) => {
+            1u8.hash(&mut h);
+            e.iter().for_each(|v| v.to_bits().hash(&mut h));
+        }
+        // Debug prints every number in full (the shortest text that reads back the same).
+        Lighting::Placed(p) => (2u8, format!("{p:?}")).hash(&mut h),
+    }
+    h.finish()
+}
+
+/// What the cache holds of the view `o` renders under `lighting` ([`pipeline::Made`]),
+/// for the render's memory estimate ([`pipeline::estimate_bytes`]).
+pub fn made(
+    state: &AppState,
+    ready: &Ready,
+    o: &RenderOptions,
+    lighting: &Lighting,
+) -> pipeline::Made {
     let groups = ready.model.baked.transfer.group_count();
     let cached = lock(&state.views).peek(&view_key(ready, &o.camera));
+    let state_image = match lighting {
+        Lighting::Groups(_) => None,
+        _ => Some(
+            cached
+                .as_ref()
+                .is_some_and(|v| v.has_state(state_key(lighting))),
+        ),
+    };
     pipeline::Made {
         view: cached.as_ref().map(|v| {
             if v.group_images_pending(groups) {
@@ -265,6 +343,7 @@ pub fn made(state: &AppState, ready: &Ready, o: &RenderOptions) -> pipeline::Mad
             }
         }),
         finals: cached.as_ref().is_some_and(|v| v.has_finals()),
+        state_image,
         gather_points: ready.gather_points(),
         patch_locator: ready.patch_locator_pending_bytes(),
     }
@@ -272,8 +351,15 @@ pub fn made(state: &AppState, ready: &Ready, o: &RenderOptions) -> pipeline::Mad
 
 /// Peak bytes a render of `o` (under a sky when `sky`) may allocate beyond what the cache
 /// holds.
-pub fn render_estimate(state: &AppState, ready: &Ready, o: &RenderOptions, sky: bool) -> u64 {
-    pipeline::estimate_bytes(&ready.model, o, sky, &made(state, ready, o))
+pub fn render_estimate(
+    state: &AppState,
+    ready: &Ready,
+    o: &RenderOptions,
+    lighting: &Lighting,
+    sky: bool,
+) -> u64 {
+    let made = made(state, ready, o, lighting);
+    pipeline::estimate_bytes(&ready.model, o, sky, &made)
 }
 
 fn lock<T>(m: &Mutex<T>) -> std::sync::MutexGuard<'_, T> {

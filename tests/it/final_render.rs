@@ -454,3 +454,95 @@ fn final_images_add_up_over_lighting_states() {
         assert!(lit > 96 * 72 / 4, "group {g} lights {lit} pixels");
     }
 }
+
+/// Furnace with a per-patch emission vector: a closed room of ρ = 0.5 whose every patch is
+/// given emission E for the request (nothing emits in the scene) shows E/(π(1 − ρ)) in
+/// every pixel of its `final` image, the emission reaching the gather and the camera
+/// through the patches, not through emitting triangles.
+#[test]
+fn a_final_image_of_an_emission_vector_shows_the_furnaces_radiance() {
+    use relight::model::lighting::Lighting;
+    use relight::render::final_gather::FinalSettings;
+    use relight::render::pipeline::final_state_image;
+    let _gate = common::shared();
+    let obj = box_faces("room", "grey", [0., 0., 0.], [2., 2., 2.], true);
+    let s = write_scene(
+        &obj,
+        "newmtl grey\nKd 0.5 0.5 0.5\n",
+        Some("[mesh]\nmax_edge = 0.25\n"),
+    );
+    let m = model(s.path());
+    let cam = Camera {
+        position: Vec3::new(0.3, 1.2, 0.4),
+        target: Vec3::new(1.9, 0.7, 1.6),
+        up: Vec3::Y,
+        fov_deg: 80.0,
+        width: 48,
+        height: 36,
+    };
+    let shading = Shading::new(&m.baked.mesh);
+    let patches = patch_locator(&m.baked.mesh, &m.baked.scene.triangles);
+    let emission = Lighting::Emission(vec![1.0; 3 * m.patches()]);
+    let settings = FinalSettings::default();
+    let img = final_state_image(
+        &m,
+        &shading,
+        &patches,
+        &cam,
+        &emission,
+        &settings,
+        &Cancel::default(),
+    )
+    .unwrap()
+    .linear(&[Rgb::ONE]);
+    let want = 1.0 / (std::f32::consts::PI * 0.5);
+    let worst = img
+        .iter()
+        .map(|p| (p[1] / want - 1.0).abs())
+        .fold(0.0f32, f32::max);
+    eprintln!(
+        "emission furnace: worst pixel off by {:.3} %",
+        100.0 * worst
+    );
+    assert!(worst < 0.005, "worst pixel off by {worst}");
+}
+
+/// A light group's emission given as a per-patch emission vector renders in `final` as
+/// the group does: the same light, within 1 % RMSE of the group's image, though its
+/// emitters reach the gather through the patches instead of exact triangle emitters.
+#[test]
+fn a_final_image_of_a_groups_emission_vector_matches_the_groups_image() {
+    use relight::model::lighting::Lighting;
+    use relight::render::final_gather::FinalSettings;
+    use relight::render::pipeline::final_state_image;
+    let _gate = common::shared();
+    let m = model(&common::scenes_dir().join("desk-room"));
+    let cam = Camera::from_def(&m.baked.scene.cameras[0], 96, 72);
+    let group = finals(&m, &cam).linear(&[Rgb::ONE, Rgb::ZERO]);
+    let shading = Shading::new(&m.baked.mesh);
+    let patches = patch_locator(&m.baked.mesh, &m.baked.scene.triangles);
+    let e = m.baked.transfer.groups[0].e.clone();
+    let settings = FinalSettings::default();
+    let img = final_state_image(
+        &m,
+        &shading,
+        &patches,
+        &cam,
+        &Lighting::Emission(e),
+        &settings,
+        &Cancel::default(),
+    )
+    .unwrap()
+    .linear(&[Rgb::ONE]);
+    let n = (3 * img.len()) as f64;
+    let mean = group.iter().flat_map(|p| p.0).map(f64::from).sum::<f64>() / n;
+    let sq: f64 = img
+        .iter()
+        .zip(&group)
+        .flat_map(|(p, q)| (0..3).map(move |k| (p.0[k] - q.0[k]) as f64))
+        .map(|d| d * d)
+        .sum();
+    let e = (sq / n).sqrt() / mean;
+    eprintln!("group as emission: relative RMSE {:.3} %", 100.0 * e);
+    assert!(e < 0.01, "relative RMSE {e:.4}");
+}

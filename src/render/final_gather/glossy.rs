@@ -23,7 +23,7 @@ use super::gather::{square_count, SideHit};
 use super::lights::{Scratch, SIGNIFICANT};
 use super::point::ShadingPoint;
 use super::specular::Lobe;
-use super::{LightParts, Tracer};
+use super::{EmitterLight, LightParts, Tracer};
 use crate::color::Rgb;
 use crate::geometry::lifted;
 use crate::geometry::patch_locator::PatchRay;
@@ -220,7 +220,11 @@ impl Tracer<'_> {
         let scene = self.scene;
         let inv_pi = std::f32::consts::FRAC_1_PI;
         let (tri, back) = (hit.triangle, hit.back);
-        let group = scene.triangles.get(tri as usize).and_then(|t| t.group);
+        // One lighting state's image has one group, whatever the triangle's.
+        let group = match scene.emitters {
+            EmitterLight::PerGroup => scene.triangles.get(tri as usize).and_then(|t| t.group),
+            EmitterLight::AnyPatch | EmitterLight::Patches => Some(0),
+        };
         if let (Some(k), false, None) = (group, back, &scene.sky) {
             let k = k as usize;
             if k < self.reflected.groups() && self.lights.explicit(k) {

@@ -91,6 +91,23 @@ pub struct FinalScene<'a> {
     pub lights: &'a [LightGroup],
     /// With a sky, [`build`] makes one image, the daylight, instead of the groups'.
     pub sky: Option<FinalSky<'a>>,
+    /// How the emission of `groups` lights a point.
+    pub emitters: EmitterLight,
+}
+
+/// How the emitting surfaces of a [`FinalScene`]'s groups light a point.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum EmitterLight {
+    /// Each group's emitting triangles, exactly ([`lights`]): a group's emission lies on
+    /// its own patches (`Patch::group`), uniform over each input triangle (a material's).
+    PerGroup,
+    /// Every emitting patch's triangle, exactly, whatever its group: one lighting state
+    /// made of the groups' emission at their weights, so still uniform per triangle.
+    AnyPatch,
+    /// Every emitting patch's own facets, exactly: a per-patch emission vector may light
+    /// part of a triangle. More than [`lights::MAX_EMITTER_TRIANGLES`] such facets leave
+    /// the emission to the gather, which then reads `B` with the emission in it.
+    Patches,
 }
 
 /// Most pixels a `final` image may have (1024 × 1024): its cost grows with the pixels

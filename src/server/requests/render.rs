@@ -65,7 +65,7 @@ setting!(ModeName(bool), ["shaded" => false, "falsecolor" => true],
     "falsecolor maps illuminance (lux) on a log scale, with a legend bar labelled in lux at the right edge; the range is in the X-Relight-Falsecolor-Lux header. It is an 8-bit image: not with format exr.");
 setting!(QualityName(Quality), ["fast" => Quality::Fast, "final" => Quality::Final],
     "fast or final",
-    "fast blends the solved patches per pixel (milliseconds for a new camera). final traces the direct light per pixel, gathers the indirect light from the solved radiosity and shows the luminaires: seconds for a new camera, then as fast as fast for new light-group settings. final renders light-group states only (not emission); false colour is the same in both.");
+    "fast blends the solved patches per pixel (milliseconds for a new camera). final traces the direct light per pixel, gathers the indirect light from the solved radiosity and shows the luminaires: seconds for a new camera, then as fast as fast for new light-group settings; a per-patch emission or luminaires placed per request are traced for their state, as a new camera is (the last such state is kept per view). False colour is the same in both.");
 setting!(TonemapName(ToneMap), ["filmic" => ToneMap::Filmic, "clamp" => ToneMap::Clamp],
     "filmic or clamp", "The tone curve of shaded 8-bit images.");
 
@@ -212,7 +212,7 @@ lit_request! {
 /// A render request in the model's terms.
 pub(crate) struct RenderAsk {
     pub lighting: Lighting,
-    /// The sky whose daylight is added (light-group states only).
+    /// The sky whose daylight is added (not with a per-patch emission).
     pub sky: Option<SkyState>,
     pub options: RenderOptions,
 }

@@ -11,6 +11,7 @@ use axum::response::Response;
 
 use super::{made, put};
 use crate::budget::human_bytes;
+use crate::color::Rgb;
 use crate::model::sky_state::SkyState;
 use crate::model::{Cancel, Lighting};
 use crate::render::pipeline::{self, Daylit, Frame, RenderOptions};
@@ -36,9 +37,17 @@ pub(super) fn render_image(
     let entry = view_for(state, ready, &o.camera);
     let settings = &state.config.final_settings;
     let (mut finals, mut daylight) = (None, None);
+    let state_weight = Lighting::Groups(vec![Rgb::ONE]);
+    let mut lighting = lighting;
     if pipeline::wants_finals(o) {
-        pipeline::needs_groups(lighting)?;
-        finals = Some(entry.final_images(ready, &o.camera, settings, cancel)?);
+        finals = Some(if let Lighting::Groups(_) = lighting {
+            entry.final_images(ready, &o.camera, settings, cancel)?
+        } else {
+            // One image for this state, at unit weight.
+            let image = entry.final_state(ready, &o.camera, lighting, settings, cancel)?;
+            lighting = &state_weight;
+            image
+        });
         if let Some(sky) = sky {
             daylight = Some(entry.final_daylight(ready, &o.camera, sky, settings, cancel)?);
         }
@@ -83,7 +92,7 @@ async fn respond(
     } = ask;
     let t0 = Instant::now();
     let format = o.format;
-    let bytes = render_estimate(&state, &ready, &o, sky.is_some());
+    let bytes = render_estimate(&state, &ready, &o, &lighting, sky.is_some());
     let what = format!(
         "a {}×{} render (view buffer up to {})",
         o.camera.width,

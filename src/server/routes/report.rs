@@ -128,7 +128,7 @@ pub(crate) async fn report(
         .collect();
     let renders = images
         .iter()
-        .map(|i| render_estimate(&state, &ready, &i.options, false));
+        .map(|i| render_estimate(&state, &ready, &i.options, &lighting, false));
     let bytes = DesignReport::estimate_bytes(m, &pixels, renders.max().unwrap_or(0));
     let points: usize = m.grids.iter().map(|g| g.len()).sum();
     let what = format!(

@@ -63,6 +63,70 @@ async fn a_luminaire_placed_over_http_equals_the_library_answer() {
     );
 }
 
+/// A `final` render of a state with a placed luminaire over HTTP is the library's image
+/// of that state ([`relight::render::pipeline::final_state_image`]), to the pixel.
+#[tokio::test]
+async fn a_final_render_with_a_placed_luminaire_is_the_librarys_image() {
+    use relight::render::final_gather::FinalSettings;
+    use relight::render::pipeline::final_state_image;
+    use relight::render::{Camera, Shading};
+    let _gate = common::shared();
+    let body = json!({"lights": {"ceiling": 0, "lamp": 0}, "luminaires": [over_the_desk()],
+        "camera": "door", "width": 40, "height": 30, "quality": "final", "format": "exr"});
+    let (s, _, bytes) = super::send(
+        app(),
+        axum::http::Request::post("/api/scenes/desk-room/render")
+            .header(axum::http::header::CONTENT_TYPE, "application/json")
+            .body(axum::body::Body::from(body.to_string()))
+            .unwrap(),
+    )
+    .await;
+    assert_eq!(s, StatusCode::OK, "{}", String::from_utf8_lossy(&bytes));
+    let got = image::load_from_memory(&bytes).unwrap().to_rgb32f();
+    let r = ready("desk-room");
+    let m = &r.model;
+    let lum = LuminairePlacement {
+        id: "task".into(),
+        position: Some([1.2, 2.6, 2.4]),
+        photometry: Some(Photometry::Ies(IES.into())),
+        lumens: Some(1200.0),
+        cct: Some(3000.0),
+        ..Default::default()
+    };
+    let placed = place(&m.baked.scene, m.patches(), vec![Rgb::ZERO; 2], &[lum]).unwrap();
+    let door = m
+        .baked
+        .scene
+        .cameras
+        .iter()
+        .find(|c| c.id == "door")
+        .unwrap();
+    let cam = Camera::from_def(door, 40, 30);
+    let shading = Shading::new(&m.baked.mesh);
+    let patches =
+        relight::render::final_gather::patch_locator(&m.baked.mesh, &m.baked.scene.triangles);
+    let settings = FinalSettings::default();
+    let want = final_state_image(
+        m,
+        &shading,
+        &patches,
+        &cam,
+        &Lighting::Placed(placed),
+        &settings,
+        &Default::default(),
+    )
+    .unwrap()
+    .linear(&[Rgb::ONE]);
+    let peak = want.iter().map(|p| p.0[1]).fold(0f32, f32::max);
+    assert!(peak > 0.0);
+    let worst = got
+        .pixels()
+        .zip(&want)
+        .map(|(a, b)| (a.0[1] - b.0[1]).abs() / peak)
+        .fold(0f32, f32::max);
+    assert!(worst < 1e-3, "worst pixel off by {worst} of the peak");
+}
+
 #[tokio::test]
 async fn placed_luminaires_with_bad_input_get_a_422_naming_the_field() {
     let _gate = common::shared();

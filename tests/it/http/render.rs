@@ -73,9 +73,10 @@ async fn render_endpoints_return_images_and_precise_errors() {
 }
 
 /// `quality=final` on both routes: an image from the traced view, relit by light-group
-/// settings without a new build; refused with a per-patch emission, or a bad name.
+/// settings without a new build; a per-patch emission traced for its state; a bad name or
+/// too many pixels refused.
 #[tokio::test]
-async fn final_quality_renders_light_groups_and_refuses_emission() {
+async fn final_quality_renders_light_groups_and_emission_states() {
     let _gate = common::shared();
     let req = |uri: &str| Request::get(uri).body(Body::empty()).unwrap();
     let uri = "/api/scenes/cornell-box/render.png?w=40&h=30&exposure=0&quality=final";
@@ -109,15 +110,30 @@ async fn final_quality_renders_light_groups_and_refuses_emission() {
             json!({"quality": "final", "width": 2048, "height": 1024}),
             "at most 1048576 pixels",
         ),
-        (
-            json!({"quality": "final", "emission": {"17": [1, 1, 1]}}),
-            "final",
-        ),
     ] {
         let (s, _, v) = post(app(), "/api/scenes/cornell-box/render", body.to_string()).await;
         assert_eq!(s, StatusCode::UNPROCESSABLE_ENTITY, "{v}");
         assert!(v["detail"].as_str().unwrap().contains(needle), "{v}");
     }
+    // An emission state: the patches given emission show lit, the rest dark but for
+    // their light; twice the emission is twice the image (a fixed exposure, EXR).
+    let emit = |e: f64| {
+        let body = json!({"width": 32, "height": 24, "quality": "final", "format": "exr",
+            "emission": {"17": [e, e, e], "300": [e, e, e]}});
+        let r = Request::post("/api/scenes/cornell-box/render")
+            .header(header::CONTENT_TYPE, "application/json")
+            .body(Body::from(body.to_string()))
+            .unwrap();
+        send(app(), r)
+    };
+    let sum = |exr: &[u8]| {
+        let img = image::load_from_memory(exr).unwrap().to_rgb32f();
+        img.pixels().map(|p| p.0[1] as f64).sum::<f64>()
+    };
+    let ((s1, _, one), (s2, _, two)) = (emit(1000.0).await, emit(2000.0).await);
+    assert_eq!((s1, s2), (StatusCode::OK, StatusCode::OK));
+    let (a, b) = (sum(&one), sum(&two));
+    assert!(a > 0.0 && (b / a - 2.0).abs() < 1e-3, "{a} then {b}");
 }
 
 #[tokio::test]

@@ -11,7 +11,7 @@ use crate::color::{Rgb, Rgb64};
 use crate::geometry::ray_offset;
 use crate::geometry::shaft::Shaft;
 use crate::render::final_gather::point::ShadowOrigin;
-use crate::render::final_gather::FinalScene;
+use crate::render::final_gather::{EmitterLight, FinalScene};
 use crate::sampling::{stratified_on_triangle, Rng};
 use crate::transport::direct::visible;
 use crate::transport::formfactor::point_to_polygon;
@@ -227,12 +227,44 @@ struct KernelWeights {
     hidden: f64,
 }
 
-/// The emitting input triangles of group `k`, with their exitance at unit weight (the
-/// area-weighted mean of their patches' emission `e`, lm/m²).
+/// The emitting facets of every patch that `e` gives emission, each at its patch's
+/// exitance (lm/m²), up to one more than [`super::MAX_EMITTER_TRIANGLES`] (which leaves
+/// them to the gather).
+fn facet_emitters(scene: &FinalScene<'_>, e: &[f32]) -> Vec<Emitter> {
+    let mut out = Vec::new();
+    for (i, ej) in Rgb::column(e).iter().enumerate() {
+        if ej.iter().all(|&v| v <= 0.0) {
+            continue;
+        }
+        for f in scene.mesh.facets(i) {
+            if out.len() > super::MAX_EMITTER_TRIANGLES {
+                return out;
+            }
+            out.push(Emitter {
+                source: f.source,
+                area: f.area,
+                corners: f.corners,
+                centroid: f.centroid,
+                normal: f.normal,
+                exitance: *ej,
+                luminous: ej.luminance().max(1e-12) as f64,
+                set: 0,
+            });
+        }
+    }
+    out
+}
+
+/// The emitting input triangles of group `k` (of any group under
+/// [`EmitterLight::AnyPatch`]), with their exitance at unit weight (the area-weighted mean
+/// of their patches' emission `e`, lm/m²).
 pub(super) fn emitters_of(scene: &FinalScene<'_>, k: usize, e: &[f32]) -> Vec<Emitter> {
+    if scene.emitters == EmitterLight::Patches {
+        return facet_emitters(scene, e);
+    }
     let mut by_source: BTreeMap<u32, (f64, Rgb64)> = BTreeMap::new();
     for (i, (patch, ej)) in scene.mesh.patches.iter().zip(Rgb::column(e)).enumerate() {
-        if patch.group != Some(k as u32) {
+        if scene.emitters == EmitterLight::PerGroup && patch.group != Some(k as u32) {
             continue;
         }
         if ej.iter().all(|&v| v <= 0.0) {

@@ -18,7 +18,8 @@
 //!   share is exactly 1 and no ray is traced. The rest, the tail, is estimated without
 //!   bias by one triangle drawn in proportion to its light, with one ray. A group with
 //!   more than [`MAX_EMITTER_TRIANGLES`] emitting triangles leaves its emission to the
-//!   gather instead ([`GroupLights::explicit`]).
+//!   gather instead ([`GroupLights::explicit`]). A per-patch emission vector's emitters
+//!   are its emitting patches' facets ([`super::EmitterLight::Patches`]).
 
 mod emitters;
 mod luminaires;
