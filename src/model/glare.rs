@@ -21,7 +21,8 @@ use std::sync::{Arc, Mutex};
 use glam::{DVec3, Vec3A};
 use serde::Serialize;
 
-use super::{Model, QueryError};
+use super::placed::Placed;
+use super::{Lighting, Model, QueryError};
 use crate::color::{Rgb, Rgb64};
 use crate::photometry::glare::{guth_position_index, ugr, GlareSource};
 
@@ -38,6 +39,7 @@ const CACHED_VIEWS: usize = 4_096;
 #[cfg_attr(feature = "server", derive(utoipa::ToSchema))]
 pub struct GlareTerm {
     pub luminaire: String,
+    /// Its light group's id; empty for a luminaire placed per request without a group.
     pub group: String,
     /// Luminance of its luminous area towards the eye, cd/m².
     pub luminance: f64,
@@ -133,12 +135,13 @@ impl Model {
         16 * self.baked.mesh.len() as u64 * observers as u64
     }
 
-    /// The UGR at each observer (eye, unit direction of view; metres) for group weights
-    /// `w`.
+    /// The UGR at each observer (eye, unit direction of view; metres) for a lighting state:
+    /// group weights, or luminaires placed per request. A per-patch emission has no
+    /// luminaires to rate (an error).
     pub fn glare(
         &self,
         observers: &[(DVec3, DVec3)],
-        w: &[Rgb],
+        lighting: &Lighting,
         cancel: &super::Cancel,
     ) -> Result<Vec<ObserverGlare>, QueryError> {
         if observers.len() > MAX_OBSERVERS {
@@ -147,13 +150,29 @@ impl Model {
                 observers.len()
             )));
         }
+        let placed = match lighting {
+            Lighting::Groups(_) => None,
+            Lighting::Placed(p) => Some(PlacedGlare::new(self, p)?),
+            Lighting::Emission(_) => {
+                return Err(QueryError::Invalid(
+                    "glare rates luminaires: give light-group settings (lights) and \
+                     luminaires, not a per-patch emission"
+                        .into(),
+                ))
+            }
+        };
         observers
             .iter()
             .map(|&(eye, dir)| {
                 if cancel.is_cancelled() {
                     return Err(QueryError::Cancelled);
                 }
-                Ok(self.rate(&self.view(eye, dir), w))
+                let v = self.view(eye, dir);
+                Ok(match (&placed, lighting) {
+                    (Some(p), _) => self.rate_placed(&v, p),
+                    (None, Lighting::Groups(w)) => self.rate(&v, w),
+                    (None, _) => unreachable!("placed and emission states are matched above"),
+                })
             })
             .collect()
     }
@@ -196,11 +215,8 @@ impl Model {
                 e
             })
             .collect();
-        // The view frame: R along the view, H up (world +y, made perpendicular), T across.
-        let up = (DVec3::Y - dir * DVec3::Y.dot(dir))
-            .try_normalize()
-            .unwrap_or(DVec3::Z);
-        let right = dir.cross(up);
+        // The view frame: R along the view, H up, T across.
+        let (up, right) = frame(dir);
         let (mut sources, mut left_out) = (Vec::new(), Vec::new());
         for (gi, g) in k.scene.lights.iter().enumerate() {
             for l in &g.luminaires {
@@ -235,45 +251,19 @@ impl Model {
             e += bg * wg.to_f64();
         }
         let e_ind = e.luminance().max(0.0);
-        let lb = e_ind / std::f64::consts::PI;
         let lit = |g: usize, color: &Rgb| {
             let wg = w.get(g).copied().unwrap_or(Rgb::ZERO);
             (wg * *color).to_f64().luminance()
         };
-        let mut terms: Vec<GlareTerm> = v
+        let terms: Vec<GlareTerm> = v
             .sources
             .iter()
             .filter_map(|s| {
                 let i = s.intensity * lit(s.group, &s.color);
-                if i <= 0.0 {
-                    return None;
-                }
-                let src = GlareSource {
-                    luminance: i / s.area,
-                    solid_angle: s.area / (s.distance * s.distance),
-                    position_index: s.p,
-                };
-                Some(GlareTerm {
-                    luminaire: s.id.clone(),
-                    group: lights[s.group].id.clone(),
-                    luminance: src.luminance,
-                    solid_angle: src.solid_angle,
-                    position_index: s.p,
-                    projected_area: s.area,
-                    distance: s.distance,
-                    term: src.term(),
-                })
+                let group = lights[s.group].id.clone();
+                (i > 0.0).then(|| term(s.id.clone(), group, i, s.area, s.distance, s.p))
             })
             .collect();
-        terms.sort_by(|a, b| b.term.total_cmp(&a.term));
-        let rating = ugr(
-            lb,
-            terms.iter().map(|t| GlareSource {
-                luminance: t.luminance,
-                solid_angle: t.solid_angle,
-                position_index: t.position_index,
-            }),
-        );
         let left_out = v
             .left_out
             .iter()
@@ -283,16 +273,140 @@ impl Model {
                 reason: reason.clone(),
             })
             .collect();
-        ObserverGlare {
-            eye: v.eye.to_array(),
-            direction: v.direction.to_array(),
-            ugr: rating,
-            background_luminance: lb,
-            indirect_illuminance: e_ind,
-            luminaires: terms,
-            left_out,
-        }
+        rated(v, e_ind, terms, left_out)
     }
+
+    /// The rating of one view under a state with luminaires placed per request: the
+    /// background is the groups' at their weights plus the changes' interreflected light
+    /// gathered at the eye, and the sources are the luminaires that shine in the state
+    /// (their geometry towards this eye computed now, as they may have moved).
+    fn rate_placed(&self, v: &ObserverView, p: &PlacedGlare) -> ObserverGlare {
+        let k = &self.baked;
+        let mut e = Rgb64::ZERO;
+        for (&bg, wg) in v.background.iter().zip(&p.weights) {
+            e += bg * wg.to_f64();
+        }
+        if let Some(extra) = &p.extra_b {
+            let b = Rgb::column(extra);
+            let weights = crate::transport::probe::gather_weights(
+                &k.mesh,
+                &k.bvh,
+                &p.importance,
+                v.eye,
+                v.direction,
+            );
+            for (j, wj) in weights {
+                e += wj * b[j as usize].to_f64();
+            }
+        }
+        let e_ind = e.luminance().max(0.0);
+        let (up, right) = frame(v.direction);
+        let (mut terms, mut left_out) = (Vec::new(), Vec::new());
+        for (l, group) in &p.lit {
+            match viewed(&k.bvh, l, v.eye, v.direction, up, right) {
+                Ok((intensity, area, distance, pi)) => {
+                    let i = intensity * l.color.to_f64().luminance();
+                    if i > 0.0 {
+                        let group = group.map_or(String::new(), |g| k.scene.lights[g].id.clone());
+                        terms.push(term(l.id.clone(), group, i, area, distance, pi));
+                    }
+                }
+                Err(reason) => left_out.push(LeftOut {
+                    luminaire: l.id.clone(),
+                    reason: reason.to_string(),
+                }),
+            }
+        }
+        rated(v, e_ind, terms, left_out)
+    }
+}
+
+/// What a placed state's ratings share over its observers.
+struct PlacedGlare {
+    weights: Vec<Rgb>,
+    /// The luminaires that shine, colour × weight, with their groups ([`Placed::lit`]).
+    lit: Vec<(crate::photometry::Luminaire, Option<usize>)>,
+    /// The changes' radiosity (lm/m², n × 3), when there are changes, and where a gather
+    /// at an eye looks for it.
+    extra_b: Option<Vec<f32>>,
+    importance: Vec<f32>,
+}
+
+impl PlacedGlare {
+    fn new(m: &Model, p: &Placed) -> Result<PlacedGlare, QueryError> {
+        let extra_b = if p.changes.is_empty() {
+            None
+        } else {
+            Some(m.placed_parts(p)?.1)
+        };
+        let importance = extra_b
+            .as_ref()
+            .map(|b| b.iter().map(|v| v.abs()).collect())
+            .unwrap_or_default();
+        Ok(PlacedGlare {
+            weights: p.weights.clone(),
+            lit: p.lit_in_groups(&m.baked.scene),
+            extra_b,
+            importance,
+        })
+    }
+}
+
+/// A luminaire's glare term: its intensity towards the eye `i` (cd, at its weight) over
+/// its projected luminous area (m²) at `distance` (m) with position index `p`.
+fn term(luminaire: String, group: String, i: f64, area: f64, distance: f64, p: f64) -> GlareTerm {
+    let src = GlareSource {
+        luminance: i / area,
+        solid_angle: area / (distance * distance),
+        position_index: p,
+    };
+    GlareTerm {
+        luminaire,
+        group,
+        luminance: src.luminance,
+        solid_angle: src.solid_angle,
+        position_index: p,
+        projected_area: area,
+        distance,
+        term: src.term(),
+    }
+}
+
+/// The rating of view `v` from its indirect illuminance at the eye (lux) and its terms.
+fn rated(
+    v: &ObserverView,
+    e_ind: f64,
+    mut terms: Vec<GlareTerm>,
+    left_out: Vec<LeftOut>,
+) -> ObserverGlare {
+    let lb = e_ind / std::f64::consts::PI;
+    terms.sort_by(|a, b| b.term.total_cmp(&a.term));
+    let rating = ugr(
+        lb,
+        terms.iter().map(|t| GlareSource {
+            luminance: t.luminance,
+            solid_angle: t.solid_angle,
+            position_index: t.position_index,
+        }),
+    );
+    ObserverGlare {
+        eye: v.eye.to_array(),
+        direction: v.direction.to_array(),
+        ugr: rating,
+        background_luminance: lb,
+        indirect_illuminance: e_ind,
+        luminaires: terms,
+        left_out,
+    }
+}
+
+/// The view frame of a direction of view: H up (world +y, made perpendicular to it) and
+/// T across.
+fn frame(dir: DVec3) -> (DVec3, DVec3) {
+    let up = (DVec3::Y - dir * DVec3::Y.dot(dir))
+        .try_normalize()
+        .unwrap_or(DVec3::Z);
+    (up, dir.cross(up))
 }
 
 /// A luminaire's intensity towards the eye at unit weight (cd), projected luminous area

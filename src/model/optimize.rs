@@ -27,7 +27,7 @@ use microlp::{ComparisonOp, OptimizationDirection, Problem};
 use serde::Serialize;
 
 use super::query::{GridAnswer, LuminairePower};
-use super::{Model, QueryError};
+use super::{Lighting, Model, QueryError};
 use crate::color::Rgb;
 
 /// Bounds on one grid (lux, or a ratio for U₀; `None` is not asked). The grid is named by
@@ -482,7 +482,7 @@ impl Model {
             let observers = super::compliance::task_observers(grid);
             let parts = |w: &[Rgb]| -> Result<Vec<(f64, f64)>, QueryError> {
                 Ok(self
-                    .glare(&observers, w, &cancel)?
+                    .glare(&observers, &Lighting::Groups(w.to_vec()), &cancel)?
                     .iter()
                     .map(|o| {
                         let sum = o.luminaires.iter().map(|l| l.term).sum::<f64>();
@@ -515,7 +515,8 @@ impl Model {
 
     /// The highest UGR of grid `gi`'s task observers under weights `w`.
     fn worst_ugr(&self, gi: usize, w: &[Rgb]) -> Result<Option<f64>, QueryError> {
-        let rated = self.task_ugr(&self.grids[gi].grid, w, &super::Cancel::default())?;
+        let lit = Lighting::Groups(w.to_vec());
+        let rated = self.task_ugr(&self.grids[gi].grid, &lit, &super::Cancel::default())?;
         Ok(super::compliance::highest(&rated))
     }
 

@@ -119,6 +119,15 @@ impl Placed {
     /// put in. None at zero weight. What per-pixel direct light traces
     /// ([`crate::render::pipeline::final_state_image`]), where signed light would not do.
     pub fn lit(&self, scene: &Scene) -> Vec<Luminaire> {
+        self.lit_in_groups(scene)
+            .into_iter()
+            .map(|(l, _)| l)
+            .collect()
+    }
+
+    /// [`Placed::lit`], each luminaire with the light group it belongs to (none for a new
+    /// luminaire given no group).
+    pub fn lit_in_groups(&self, scene: &Scene) -> Vec<(Luminaire, Option<usize>)> {
         let out: std::collections::HashSet<&str> = self
             .changes
             .iter()
@@ -132,16 +141,47 @@ impl Placed {
                 l
             })
         };
-        let scene_lit = scene.lights.iter().zip(&self.weights).flat_map(|(g, &w)| {
-            g.luminaires
+        let scene_lit =
+            scene
+                .lights
                 .iter()
-                .filter(|l| !out.contains(l.id.as_str()))
-                .filter_map(move |l| weighted(l, w))
-        });
+                .zip(&self.weights)
+                .enumerate()
+                .flat_map(|(k, (g, &w))| {
+                    g.luminaires
+                        .iter()
+                        .filter(|l| !out.contains(l.id.as_str()))
+                        .filter_map(move |l| Some((weighted(l, w)?, Some(k))))
+                });
         let put_in = self.changes.iter().filter(|c| !c.taken_out);
         scene_lit
-            .chain(put_in.filter_map(|c| weighted(&c.luminaire, c.weight)))
+            .chain(put_in.filter_map(|c| Some((weighted(&c.luminaire, c.weight)?, c.group))))
             .collect()
+    }
+
+    /// The lowest colour rendering index Ra of what shines in this state: the lit groups'
+    /// (of `scene`) and the groups of the luminaires put in; `Err` names the groups
+    /// without an Ra, and the luminaires put in without a group (whose Ra is unknown).
+    pub fn lit_ra(&self, scene: &Scene) -> Result<Option<f64>, Vec<String>> {
+        let mut w = self.weights.clone();
+        let mut unknown = Vec::new();
+        for c in self.changes.iter().filter(|c| !c.taken_out) {
+            match c.group {
+                Some(g) => w[g] = w[g] + c.weight.map(f32::abs),
+                None => unknown.push(format!(
+                    "{} (a luminaire placed without a group)",
+                    c.luminaire.id
+                )),
+            }
+        }
+        match (super::compliance::lit_ra(scene, &w), unknown.is_empty()) {
+            (Ok(ra), true) => Ok(ra),
+            (Ok(_), false) => Err(unknown),
+            (Err(mut groups), _) => {
+                groups.extend(unknown);
+                Err(groups)
+            }
+        }
     }
 
     /// Σ weight × lumens × colour over the changes, lm per channel.
@@ -567,7 +607,12 @@ impl Model {
             surfaces: m.surfaces,
             grids: m.grids,
         };
-        a.compliance = self.compliance(q, None, &a.maintained.grids, cancel)?;
+        a.compliance = self.compliance(
+            q,
+            Some(&Lighting::Placed(p.clone())),
+            &a.maintained.grids,
+            cancel,
+        )?;
         let groups = self.baked.scene.lights.iter().map(|g| g.id.clone());
         a.maintenance_factors = groups
             .zip(factors.groups)

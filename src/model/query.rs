@@ -407,7 +407,8 @@ impl Model {
             surfaces: surfaces(&wm),
             grids: self.grid_answers(&q.grids, &wm),
         };
-        let compliance = self.compliance(q, Some(w), &maintained.grids, cancel)?;
+        let lit = Lighting::Groups(w.to_vec());
+        let compliance = self.compliance(q, Some(&lit), &maintained.grids, cancel)?;
         let groups = self.baked.scene.lights.iter().map(|g| g.id.clone());
         Ok(IlluminanceAnswer {
             unit: "lx",
@@ -481,12 +482,12 @@ impl Model {
     }
 
     /// The compliance of the query's grids that carry requirements, from their
-    /// `maintained` answers; UGR at the task observers under weights `w` (None: a
-    /// per-patch emission, which UGR cannot rate).
+    /// `maintained` answers; UGR at the task observers and Ra under lighting state `lit`
+    /// (None: a per-patch emission, which UGR cannot rate).
     pub(super) fn compliance(
         &self,
         q: &IlluminanceQuery,
-        w: Option<&[Rgb]>,
+        lit: Option<&Lighting>,
         maintained: &BTreeMap<String, GridAnswer>,
         cancel: &Cancel,
     ) -> Result<BTreeMap<String, Compliance>, QueryError> {
@@ -499,8 +500,8 @@ impl Model {
             let grid = &self.grids[gi].grid;
             let m = maintained.get(&grid.id);
             let measured = m.is_some_and(|m| m.count > m.excluded);
-            let observers = match (w, r.ugr_l) {
-                (Some(w), Some(_)) => Some(self.task_ugr(grid, w, cancel)?),
+            let observers = match (lit, r.ugr_l) {
+                (Some(l), Some(_)) => Some(self.task_ugr(grid, l, cancel)?),
                 (Some(_), None) => Some(vec![]),
                 (None, _) => None,
             };
@@ -508,9 +509,10 @@ impl Model {
                 em: m.filter(|_| measured).map(|m| m.avg),
                 u0: m.filter(|_| measured).and_then(|m| m.u0),
                 observers,
-                ra: match w {
-                    Some(w) => compliance::lit_ra(&self.baked.scene, w),
-                    None => Ok(None),
+                ra: match lit {
+                    Some(Lighting::Groups(w)) => compliance::lit_ra(&self.baked.scene, w),
+                    Some(Lighting::Placed(p)) => p.lit_ra(&self.baked.scene),
+                    Some(Lighting::Emission(_)) | None => Ok(None),
                 },
             };
             out.insert(grid.id.clone(), compliance::check(&r, &achieved));
@@ -518,16 +520,16 @@ impl Model {
         Ok(out)
     }
 
-    /// UGR at a task area's observers ([`compliance::task_observers`]) under weights `w`.
+    /// UGR at a task area's observers ([`compliance::task_observers`]) under `lighting`.
     pub(crate) fn task_ugr(
         &self,
         grid: &crate::scene::Grid,
-        w: &[Rgb],
+        lighting: &Lighting,
         cancel: &Cancel,
     ) -> Result<Vec<ObserverUgr>, QueryError> {
         let observers = compliance::task_observers(grid);
         Ok(self
-            .glare(&observers, w, cancel)?
+            .glare(&observers, lighting, cancel)?
             .into_iter()
             .map(|o| ObserverUgr {
                 eye: o.eye,

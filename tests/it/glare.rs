@@ -3,7 +3,7 @@
 use glam::DVec3;
 use relight::bake::{load_or_bake, BakeOptions, CachePolicy};
 use relight::color::Rgb;
-use relight::model::{Cancel, LightState, Model};
+use relight::model::{Cancel, LightState, Lighting, Model};
 
 use crate::common::{self, *};
 
@@ -61,7 +61,7 @@ fn ugr_at_an_observer_matches_the_hand_calculation() {
         )
         .unwrap(),
     );
-    let w = model.weights(&LightState::default()).unwrap();
+    let w = Lighting::Groups(model.weights(&LightState::default()).unwrap());
     let answer = model
         .glare(&[(eye, DVec3::Z)], &w, &Cancel::default())
         .unwrap();
@@ -113,7 +113,7 @@ fn ugr_at_an_observer_matches_the_hand_calculation() {
             color: Rgb::ONE,
         },
     );
-    let w = model.weights(&dim).unwrap();
+    let w = Lighting::Groups(model.weights(&dim).unwrap());
     let dimmed = model
         .glare(&[(eye, DVec3::Z)], &w, &Cancel::default())
         .unwrap();

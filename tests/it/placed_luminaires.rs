@@ -344,3 +344,76 @@ fn final_image_of_luminaires_placed_per_request_equals_the_same_luminaires_baked
         "the room before the change differs by only {far:.4}"
     );
 }
+
+/// Glare under a luminaire placed per request equals glare under the same luminaire baked:
+/// the same terms (luminance from its photometry and opening, solid angle, position
+/// index) and the background within 1 %, so the UGR within 0.1; and the scene's own
+/// luminaire, removed, no longer counts.
+#[test]
+fn glare_under_a_luminaire_placed_per_request_equals_the_same_luminaire_baked() {
+    use glam::DVec3;
+    let _gate = common::shared();
+    let (_base_dir, base) = bake(room("", "factored"));
+    let (_baked_dir, baked) = bake(room(
+        "[[luminaires]]\nid = \"l2\"\ngroup = \"spare\"\nphotometry = \"down.ies\"\nposition = [3.0, 2.75, 2.0]\n",
+        "factored",
+    ));
+    let observers = [(DVec3::new(0.4, 1.2, 1.5), DVec3::X)];
+    let cancel = Cancel::default();
+    let placed = place(
+        &base.baked.scene,
+        base.patches(),
+        vec![Rgb::ONE],
+        &[new_downlight("l2", [3.0, 2.75, 2.0])],
+    )
+    .unwrap();
+    let got = &base
+        .glare(&observers, &Lighting::Placed(placed), &cancel)
+        .unwrap()[0];
+    let want = &baked
+        .glare(&observers, &Lighting::Groups(vec![Rgb::ONE; 2]), &cancel)
+        .unwrap()[0];
+    assert_eq!(got.luminaires.len(), 2, "{got:?}");
+    for t in &want.luminaires {
+        let g = got
+            .luminaires
+            .iter()
+            .find(|g| g.luminaire == t.luminaire)
+            .unwrap();
+        assert!(
+            (g.term - t.term).abs() < 1e-9 * t.term,
+            "{g:?} against {t:?}"
+        );
+        assert!((g.luminance - t.luminance).abs() < 1e-9 * t.luminance);
+    }
+    let bg = (got.background_luminance / want.background_luminance - 1.0).abs();
+    assert!(bg < 0.01, "background off by {bg}");
+    let (u, v) = (got.ugr.unwrap(), want.ugr.unwrap());
+    eprintln!(
+        "UGR placed {u:.3}, baked {v:.3}; background off by {:.4} %",
+        100.0 * bg
+    );
+    assert!((u - v).abs() < 0.1, "UGR {u} against {v}");
+    // The scene's luminaire taken out: only the new one glares.
+    let out = LuminairePlacement {
+        id: "l1".into(),
+        remove: true,
+        ..Default::default()
+    };
+    let placed = place(
+        &base.baked.scene,
+        base.patches(),
+        vec![Rgb::ONE],
+        &[new_downlight("l2", [3.0, 2.75, 2.0]), out],
+    )
+    .unwrap();
+    let alone = &base
+        .glare(&observers, &Lighting::Placed(placed), &cancel)
+        .unwrap()[0];
+    let ids: Vec<&str> = alone
+        .luminaires
+        .iter()
+        .map(|t| t.luminaire.as_str())
+        .collect();
+    assert_eq!(ids, ["l2"]);
+}

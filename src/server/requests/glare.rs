@@ -7,12 +7,11 @@ use utoipa::openapi::schema::Schema;
 use utoipa::openapi::RefOr;
 use utoipa::ToSchema;
 
-use super::lighting::{light_weights, Direction, Lights, Position};
+use super::lighting::{lighting, Direction, Lights, LuminaireEntry, Position};
 use super::{object_only, raw, schema_ref, some, Resolve};
-use crate::color::Rgb;
 use crate::input_limits::MAX_REQUEST_COORD_M;
 use crate::model::glare::{MAX_OBSERVERS, SEATED_EYE_HEIGHT};
-use crate::model::Model;
+use crate::model::{Lighting, Model};
 use crate::server::parse::{bounded_triple, direction, number};
 use crate::server::AppError;
 
@@ -56,6 +55,12 @@ pub(crate) struct GlareRequest {
     #[serde(default, deserialize_with = "some")]
     #[schema(nullable = false)]
     lights: Option<Lights>,
+    /// Luminaires added, moved, re-aimed, swapped or removed for this request only (as in
+    /// every lighting state; factored and hierarchical transfers), at most 1,000. A new
+    /// luminaire glares by its photometry and luminous opening.
+    #[serde(default, deserialize_with = "some")]
+    #[schema(nullable = false, max_items = 1000)]
+    luminaires: Option<Vec<LuminaireEntry>>,
     #[schema(schema_with = observers_schema)]
     observers: Vec<Observer>,
 }
@@ -64,16 +69,21 @@ object_only!(GlareRequest, "a JSON object");
 
 /// A glare request in the model's terms.
 pub(crate) struct GlareAsk {
-    pub weights: Vec<Rgb>,
+    pub lighting: Lighting,
     pub observers: Vec<Eye>,
 }
 
 impl Resolve for GlareRequest {
     type Resolved = GlareAsk;
 
-    /// The group weights and each observer's eye and unit direction of view.
+    /// The lighting state and each observer's eye and unit direction of view.
     fn resolve(&self, model: &Model) -> Result<GlareAsk, AppError> {
-        let w = light_weights(self.lights.as_ref(), model)?;
+        let lit = lighting(
+            self.lights.as_ref(),
+            None,
+            self.luminaires.as_deref(),
+            model,
+        )?;
         if self.observers.is_empty() || self.observers.len() > MAX_OBSERVERS {
             return Err(AppError::Invalid(format!(
                 "{} observers; give 1 to {MAX_OBSERVERS}",
@@ -121,7 +131,7 @@ impl Resolve for GlareRequest {
             })
             .collect::<Result<_, AppError>>()?;
         Ok(GlareAsk {
-            weights: w,
+            lighting: lit,
             observers,
         })
     }

@@ -4,6 +4,8 @@
 use axum::Json;
 
 use crate::model::glare::ObserverGlare;
+use crate::model::query::BYTES_PER_PATCH_ANSWER;
+use crate::model::Lighting;
 use crate::server::openapi::{PostErrors, SceneIdParam};
 use crate::server::parse::ScenePost;
 use crate::server::requests::glare::GlareAsk;
@@ -17,7 +19,7 @@ pub(crate) struct GlareAnswer {
 }
 
 #[utoipa::path(post, path = "/api/scenes/{id}/glare", operation_id = "glare", tags = ["scenes"],
-    summary = "Discomfort glare (CIE 117 UGR) at observers for a lighting state: per observer the UGR, the background luminance L_b = E_ind/π (cd/m²) and each luminaire's luminance (cd/m²), solid angle (sr) and Guth position index. Luminaires need a luminous opening (the photometric file's dimensions).",
+    summary = "Discomfort glare (CIE 117 UGR) at observers for a lighting state: per observer the UGR, the background luminance L_b = E_ind/π (cd/m²) and each luminaire's luminance (cd/m²), solid angle (sr) and Guth position index. Luminaires need a luminous opening (the photometric file's dimensions); `luminaires` places, moves or removes them for this request.",
     params(SceneIdParam),
     request_body(content = GlareRequest, content_type = "application/json",
         description = "A lighting state and the observers.",
@@ -26,12 +28,19 @@ pub(crate) struct GlareAnswer {
 pub(crate) async fn glare(
     ScenePost(ready, state, req): ScenePost<GlareRequest>,
 ) -> Result<Json<GlareAnswer>, AppError> {
-    let GlareAsk { weights, observers } = req.resolve(&ready.model)?;
-    let bytes = ready.model.glare_bytes(observers.len());
+    let GlareAsk {
+        lighting,
+        observers,
+    } = req.resolve(&ready.model)?;
+    let mut bytes = ready.model.glare_bytes(observers.len());
+    if let Lighting::Placed(_) = lighting {
+        // The changes' solve: a solution and the radiosity a gather looks for.
+        bytes += BYTES_PER_PATCH_ANSWER * ready.model.patches() as u64;
+    }
     let what = format!("glare at {} observers", observers.len());
     let answer = state
         .heavy(bytes, &what, move |cancel| {
-            Ok(ready.model.glare(&observers, &weights, cancel)?)
+            Ok(ready.model.glare(&observers, &lighting, cancel)?)
         })
         .await?;
     Ok(Json(GlareAnswer { observers: answer }))

@@ -83,7 +83,7 @@ async fn a_ugr_ceiling_is_honoured_at_the_least_flux_or_refused_with_the_reason(
     let worst_ugr = |x: f64, y: f64| {
         m.glare(
             &observers,
-            &[Rgb::splat(x as f32), Rgb::splat(y as f32)],
+            &relight::model::Lighting::Groups(vec![Rgb::splat(x as f32), Rgb::splat(y as f32)]),
             &cancel,
         )
         .unwrap()

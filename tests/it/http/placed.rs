@@ -127,6 +127,35 @@ async fn a_final_render_with_a_placed_luminaire_is_the_librarys_image() {
     assert!(worst < 1e-3, "worst pixel off by {worst} of the peak");
 }
 
+/// `/glare` takes placed luminaires: a new one glares by its photometry and opening, in
+/// no group; a columns scene refuses them.
+#[tokio::test]
+async fn glare_rates_a_luminaire_placed_per_request() {
+    let _gate = common::shared();
+    let body = json!({"lights": {"ceiling": 0, "lamp": 0}, "luminaires": [over_the_desk()],
+        "observers": [{"eye": [3.5, 1.2, 2.4], "direction": [-1, 0, 0]}]});
+    let (s, _, v) = post(app(), "/api/scenes/desk-room/glare", body.to_string()).await;
+    assert_eq!(s, StatusCode::OK, "{v}");
+    let o = &v["observers"][0];
+    let t = &o["luminaires"][0];
+    assert_eq!(
+        (t["luminaire"].as_str(), t["group"].as_str()),
+        (Some("task"), Some("")),
+        "{o}"
+    );
+    // 0.2 × 0.2 m opening 2.3 m ahead, 1.4 m up: seen at γ = 58.7° from its axis.
+    let (dx, dy) = (2.3f64, 1.4f64);
+    let area = 0.04 * (dy / dx.hypot(dy));
+    assert!(
+        (t["projected_area"].as_f64().unwrap() / area - 1.0).abs() < 1e-3,
+        "{t}"
+    );
+    assert!(o["ugr"].as_f64().is_some(), "{o}");
+    let (s, _, v) = post(app(), "/api/scenes/office/glare", body.to_string()).await;
+    assert_eq!(s, StatusCode::UNPROCESSABLE_ENTITY, "{v}");
+    assert!(v["detail"].as_str().unwrap().contains("columns"), "{v}");
+}
+
 #[tokio::test]
 async fn placed_luminaires_with_bad_input_get_a_422_naming_the_field() {
     let _gate = common::shared();
