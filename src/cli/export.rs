@@ -6,7 +6,7 @@ use std::path::PathBuf;
 use anyhow::{Context, Result};
 
 use super::{outln, ModelArgs};
-use relight::model::LightState;
+use relight::model::{LightState, Lighting};
 use relight::render::{export_glb, ExportOptions, Shading, ToneMap};
 
 #[derive(clap::Args)]
@@ -63,7 +63,7 @@ pub fn run(a: ExportArgs) -> Result<()> {
     let weights = model.weights(&state)?;
     let t0 = std::time::Instant::now();
     let shading = Shading::new(&model.baked.mesh);
-    let out = export_glb(&model, &shading, &weights, &o);
+    let out = export_glb(&model, &shading, &Lighting::Groups(weights), &o)?;
     let ms = t0.elapsed().as_secs_f64() * 1e3;
     std::fs::write(&a.output, &out.bytes)
         .with_context(|| format!("writing {}", a.output.display()))?;

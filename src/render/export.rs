@@ -16,9 +16,13 @@
 //! - The material is unlit (`KHR_materials_unlit`) and one-sided, as surfaces are: only
 //!   fronts are lit (two-sided surfaces have a patch per side).
 //! - Cameras: each `scene.toml` camera preset as a perspective camera node.
+//! - `_LIGHT_REQUEST` (float VEC3, linear), for a state the groups cannot sum to
+//!   (luminaires placed per request, a per-patch emission): that part of the light, in
+//!   cd/m² at the weights asked, so `Σ_g weight_g · _LIGHT_g + _LIGHT_REQUEST` is `L`.
 //! - `asset.extras.relight`: the scene id, units, the exposure (stops) and tone map used,
 //!   and per group its id, name, attribute name and weight (intensity × colour) at export;
-//!   per surface its name and triangle range in the primitive.
+//!   per surface its name and triangle range in the primitive; `request`, the request's
+//!   own attribute and what it holds.
 
 use glam::{DMat3, DQuat, DVec3};
 use serde_json::{json, Value};
@@ -27,7 +31,7 @@ use super::shading::Shading;
 use super::tonemap::{auto_exposure, tone_curve, ToneMap};
 use crate::color::Rgb;
 use crate::model::query::Quantity;
-use crate::model::Model;
+use crate::model::{Lighting, Model, QueryError};
 
 /// Largest exported file, bytes (1 GiB).
 pub const MAX_EXPORT_BYTES: u64 = 1 << 30;
@@ -59,7 +63,8 @@ pub fn export_bytes(model: &Model, nv: usize, relightable: bool) -> u64 {
     } else {
         0
     };
-    12 * nv * (2 + groups) + 12 * nt + 64 * (groups + model.baked.scene.surfaces.len() as u64)
+    // One attribute more for a request's own light.
+    12 * nv * (3 + groups) + 12 * nt + 64 * (groups + model.baked.scene.surfaces.len() as u64)
 }
 
 /// The glTF attribute name of each group: `_LIGHT_` and the id in upper case, other
@@ -152,16 +157,33 @@ fn camera_node(def: &crate::scene::CameraDef, index: usize) -> Option<Value> {
 pub fn export_glb(
     model: &Model,
     shading: &Shading,
-    weights: &[Rgb],
+    lighting: &Lighting,
     o: &ExportOptions,
-) -> Exported {
+) -> Result<Exported, QueryError> {
+    let none = vec![Rgb::ZERO; model.baked.scene.lights.len()];
+    let weights = match lighting {
+        Lighting::Groups(w) => w.as_slice(),
+        Lighting::Placed(p) => p.weights.as_slice(),
+        Lighting::Emission(_) => none.as_slice(),
+    };
     let ex = Export {
         model,
         shading,
         weights,
     };
     let mut per_patch = vec![0f32; 3 * model.baked.mesh.len()];
-    let l = ex.radiance(weights, &mut per_patch);
+    // The state's radiance, and for a state the groups cannot sum to, its own part: the
+    // placed luminaires' light (the state less the groups'), or the emission's.
+    let (l, request) = match lighting {
+        Lighting::Groups(w) => (ex.radiance(w, &mut per_patch), None),
+        _ => {
+            let b = model.per_patch(lighting, Quantity::Radiosity)?;
+            let l = ex.vertex_radiance(&b);
+            let groups = ex.radiance(weights, &mut per_patch);
+            let own: Vec<Rgb> = l.iter().zip(&groups).map(|(a, g)| *a - *g).collect();
+            (l, Some(own))
+        }
+    };
     let ev = o.exposure.unwrap_or_else(|| auto_exposure(&l));
     let k = ev.exp2();
     let color: Vec<Rgb> = l
@@ -185,11 +207,34 @@ pub fn export_glb(
     let color_0 = b.vec3(bytemuck::cast_slice(&color), false);
     let mut attributes = json!({"POSITION": position, "COLOR_0": color_0});
     let groups = ex.groups(o.relightable, &mut b, &mut attributes, &mut per_patch);
-    let doc = ex.document(attributes, groups, (ev, o.tonemap), &b);
-    Exported {
+    let mut own_entry = None;
+    if let Some(own) = request.filter(|_| o.relightable) {
+        let mut ids: Vec<&str> = model
+            .baked
+            .scene
+            .lights
+            .iter()
+            .map(|g| g.id.as_str())
+            .collect();
+        ids.push("request");
+        let name = attribute_names(&ids).pop().unwrap_or_default();
+        attributes[&name] = json!(b.vec3(bytemuck::cast_slice(&own), false));
+        own_entry = Some(json!({
+            "attribute": name,
+            "what": match lighting {
+                Lighting::Placed(_) => "the light of the luminaires placed, moved or removed for the request, at the weights asked",
+                _ => "the light of the request's per-patch emission",
+            },
+        }));
+    }
+    let mut doc = ex.document(attributes, groups, (ev, o.tonemap), &b);
+    if let Some(entry) = own_entry {
+        doc["asset"]["extras"]["relight"]["request"] = entry;
+    }
+    Ok(Exported {
         bytes: glb(&doc, &b.bin),
         exposure: ev,
-    }
+    })
 }
 
 /// What one export reads.
@@ -203,11 +248,16 @@ impl Export<'_> {
     /// Radiance (cd/m²) at the shading vertices under group weights `weights`;
     /// `per_patch` is scratch space of 3 floats a patch.
     fn radiance(&self, weights: &[Rgb], per_patch: &mut [f32]) -> Vec<Rgb> {
-        let inv_pi = std::f32::consts::FRAC_1_PI;
         self.model
             .per_patch_groups(weights, Quantity::Radiosity, per_patch);
+        self.vertex_radiance(per_patch)
+    }
+
+    /// Radiance (cd/m²) at the shading vertices from per-patch radiosity `b` (lm/m²).
+    fn vertex_radiance(&self, b: &[f32]) -> Vec<Rgb> {
+        let inv_pi = std::f32::consts::FRAC_1_PI;
         self.shading
-            .vertex_values(per_patch)
+            .vertex_values(b)
             .into_iter()
             .map(|c| c * inv_pi)
             .collect()

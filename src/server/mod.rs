@@ -109,7 +109,10 @@ pub fn router(state: Arc<AppState>) -> Router {
         .route("/api/scenes/{id}/optimize", post(optimize::optimize))
         .route("/api/scenes/{id}/render", post(render::render_post))
         .route("/api/scenes/{id}/render.png", get(render::render_get))
-        .route("/api/scenes/{id}/export.glb", get(export::export_glb))
+        .route(
+            "/api/scenes/{id}/export.glb",
+            get(export::export_glb).post(export::export_glb_post),
+        )
         .route("/api/scenes/{id}/report", get(report::report))
         .route("/api/{*rest}", axum::routing::any(service::not_found))
         .fallback_service(ServeDir::new(static_dir).not_found_service(not_found))

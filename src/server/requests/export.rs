@@ -1,15 +1,15 @@
-//! The query of `GET …/export.glb`: a lighting state and the look of the exported colours.
+//! The query of `GET …/export.glb` and the body of `POST …/export.glb`: a lighting state
+//! and the look of the exported colours.
 
 use std::collections::BTreeMap;
 
 use super::lighting::{light_weights, Lights};
 use super::query::{as_written, read_query};
-use super::render::{TonemapName, MAX_EXPOSURE};
-use super::Resolve;
+use super::render::{Exposure, TonemapName, MAX_EXPOSURE};
+use super::{lit_request, some, Resolve};
 use crate::budget::human_bytes;
-use crate::color::Rgb;
-use crate::model::Model;
-use crate::render::{export_bytes, ExportOptions, MAX_EXPORT_BYTES};
+use crate::model::{Lighting, Model};
+use crate::render::{export_bytes, ExportOptions, ToneMap, MAX_EXPORT_BYTES};
 use crate::server::parse::{number, shorten};
 use crate::server::AppError;
 
@@ -56,9 +56,9 @@ impl ExportRequest {
     }
 }
 
-/// An export in the model's terms: the group weights and the look of the colours.
+/// An export in the model's terms: the lighting state and the look of the colours.
 pub(crate) struct ExportAsk {
-    pub weights: Vec<Rgb>,
+    pub lighting: Lighting,
     pub options: ExportOptions,
     /// The file's size at most, bytes (within [`MAX_EXPORT_BYTES`]).
     pub bytes: u64,
@@ -71,38 +71,85 @@ impl Resolve for ExportRequest {
     /// and the file's size, refused over [`MAX_EXPORT_BYTES`].
     fn resolve(&self, model: &Model) -> Result<ExportAsk, AppError> {
         let weights = light_weights(Some(&self.lights), model)?;
-        let exposure = match self.exposure {
-            None => None,
-            Some(e) => {
-                let e = number(e, "exposure")?;
-                if e.abs() > MAX_EXPOSURE {
-                    return Err(AppError::Invalid(format!(
-                        "exposure {e} stops is outside ±{MAX_EXPOSURE}"
-                    )));
-                }
-                Some(e as f32)
-            }
-        };
-        let options = ExportOptions {
-            exposure,
-            tonemap: self.tonemap.0,
-            relightable: self.relightable,
-        };
-        // Shading vertices are at most three per patch.
-        let bytes = export_bytes(model, 3 * model.baked.mesh.len(), options.relightable);
-        if bytes > MAX_EXPORT_BYTES {
-            return Err(AppError::Invalid(format!(
-                "the export could take up to {} (limit {}): ask with relightable=false",
-                human_bytes(bytes),
-                human_bytes(MAX_EXPORT_BYTES)
-            )));
-        }
-        Ok(ExportAsk {
-            weights,
-            options,
-            bytes,
-        })
+        let look = (self.exposure, self.tonemap.0, self.relightable);
+        ask(Lighting::Groups(weights), look, model)
     }
+}
+
+lit_request! {
+    /// A lighting state (light groups, luminaires placed per request or a per-patch
+    /// emission) and the look of the exported colours.
+    #[derive(Default)]
+    ExportBody, "a JSON object" {
+        #[serde(default, deserialize_with = "some")]
+        #[schema(nullable = false)]
+        exposure: Option<Exposure>,
+        #[serde(default)]
+        #[schema(inline)]
+        tonemap: TonemapName,
+        /// Write one `_LIGHT_<GROUP>` attribute per light group, and `_LIGHT_REQUEST` for
+        /// the light of placed luminaires or an emission (default true).
+        #[serde(default, deserialize_with = "some")]
+        #[schema(nullable = false)]
+        relightable: Option<bool>,
+    }
+}
+
+impl Resolve for ExportBody {
+    type Resolved = ExportAsk;
+
+    /// The lighting state and options, and the file's size, refused over
+    /// [`MAX_EXPORT_BYTES`].
+    fn resolve(&self, model: &Model) -> Result<ExportAsk, AppError> {
+        let lighting = self.lighting(model)?;
+        let exposure = match self.exposure {
+            None | Some(Exposure::Auto) => None,
+            Some(Exposure::Stops(e)) => Some(e),
+        };
+        let look = (exposure, self.tonemap.0, self.relightable.unwrap_or(true));
+        ask(lighting, look, model)
+    }
+}
+
+/// An export of `lighting` with the exposure (stops; None: auto), tone map and
+/// relightable attributes of `look`: the exposure checked, the file's size refused over
+/// [`MAX_EXPORT_BYTES`].
+fn ask(
+    lighting: Lighting,
+    (exposure, tonemap, relightable): (Option<f64>, ToneMap, bool),
+    model: &Model,
+) -> Result<ExportAsk, AppError> {
+    let exposure = match exposure {
+        None => None,
+        Some(e) => {
+            let e = number(e, "exposure")?;
+            if e.abs() > MAX_EXPOSURE {
+                return Err(AppError::Invalid(format!(
+                    "exposure {e} stops is outside ±{MAX_EXPOSURE}"
+                )));
+            }
+            Some(e as f32)
+        }
+    };
+    let options = ExportOptions {
+        exposure,
+        tonemap,
+        relightable,
+    };
+    // Shading vertices are at most three per patch.
+    let bytes = export_bytes(model, 3 * model.baked.mesh.len(), options.relightable);
+    if bytes > MAX_EXPORT_BYTES {
+        return Err(AppError::Invalid(format!(
+            "the export could take up to {} (limit {}): ask with relightable=false",
+            human_bytes(bytes),
+            human_bytes(MAX_EXPORT_BYTES)
+        )));
+    }
+    Ok(ExportAsk {
+        lighting,
+        options,
+        bytes,
+    })
 }
 
 /// The query of `export.glb` as documented (read as a list of pairs, to refuse repeats).

@@ -297,3 +297,82 @@ async fn export_options_and_precise_errors() {
         );
     }
 }
+
+/// `POST …/export.glb` exports any state: with a luminaire placed per request, the
+/// groups' attributes at their weights plus `_LIGHT_REQUEST` give the state's radiance,
+/// which `COLOR_0` shows (clamp, fixed exposure), and the request's own light does not
+/// depend on the groups' settings.
+#[tokio::test]
+async fn exported_glb_of_a_placed_luminaire_state_adds_up_to_the_state() {
+    let _gate = common::shared();
+    let ies = include_str!("../../../scenes/office-floor/downlight.ies");
+    let task =
+        serde_json::json!({"id": "task", "position": [1.2, 2.6, 2.4], "ies": ies, "lumens": 1200});
+    let post = |ceiling: f64| {
+        let body = serde_json::json!({"lights": {"ceiling": ceiling, "lamp": 0},
+            "luminaires": [task.clone()], "exposure": -6, "tonemap": "clamp"});
+        send(
+            app(),
+            Request::post("/api/scenes/desk-room/export.glb")
+                .header(header::CONTENT_TYPE, "application/json")
+                .body(Body::from(body.to_string()))
+                .unwrap(),
+        )
+    };
+    let (s, h, b) = post(0.5).await;
+    assert_eq!(s, StatusCode::OK, "{}", String::from_utf8_lossy(&b));
+    assert_eq!(
+        h[header::CONTENT_DISPOSITION],
+        "attachment; filename=\"desk-room.glb\""
+    );
+    let g = parse_glb(&b);
+    let extras = &g.doc["asset"]["extras"]["relight"];
+    assert_eq!(extras["request"]["attribute"], "_LIGHT_REQUEST", "{extras}");
+    let attr = |g: &Glb, name: &str| g.floats(&g.primitive()["attributes"][name]);
+    let (ceiling, own, color) = (
+        attr(&g, "_LIGHT_CEILING"),
+        attr(&g, "_LIGHT_REQUEST"),
+        attr(&g, "COLOR_0"),
+    );
+    let peak = own.iter().fold(0f32, |a, &x| a.max(x));
+    assert!(peak > 1.0, "the luminaire lights the room: {peak} cd/m²");
+    let k = (-6f32).exp2();
+    for ((c, o), shown) in ceiling.iter().zip(&own).zip(&color) {
+        let want = ((0.5 * c + o) * k).min(1.0);
+        assert!(
+            (shown - want).abs() < 1e-5 * want.max(1.0),
+            "{shown} against {want}"
+        );
+    }
+    // The groups off: the same request light.
+    let (_, _, b) = post(0.0).await;
+    let alone = attr(&parse_glb(&b), "_LIGHT_REQUEST");
+    let worst = own
+        .iter()
+        .zip(&alone)
+        .map(|(a, b)| (a - b).abs())
+        .fold(0f32, f32::max);
+    assert!(worst < 1e-4 * peak, "{worst}");
+    // Bad input: the same errors as every lighting state.
+    for (body, status) in [
+        (
+            r#"{"emission": {"0": [1, 1]}}"#,
+            StatusCode::UNPROCESSABLE_ENTITY,
+        ),
+        (r#"{"exposure": 99}"#, StatusCode::UNPROCESSABLE_ENTITY),
+        (
+            r#"{"luminaires": [{"id": "x", "position": [9, 1, 1], "lumens": 10}]}"#,
+            StatusCode::UNPROCESSABLE_ENTITY,
+        ),
+    ] {
+        let (s, _, b) = send(
+            app(),
+            Request::post("/api/scenes/desk-room/export.glb")
+                .header(header::CONTENT_TYPE, "application/json")
+                .body(Body::from(body))
+                .unwrap(),
+        )
+        .await;
+        assert_eq!(s, status, "{body}: {}", String::from_utf8_lossy(&b));
+    }
+}
