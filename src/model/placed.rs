@@ -81,11 +81,14 @@ pub struct LuminaireChange {
     /// Whether it takes a scene luminaire's light out (moved, changed or removed), at
     /// minus its group's weight.
     pub taken_out: bool,
+    /// The photometry it was given for the request: a file of the scene folder, or
+    /// `inline IES` / `inline EULUMDAT` (None: the scene's own, unchanged).
+    pub photometry: Option<String>,
 }
 
 /// A lighting state with luminaires placed for the request: the groups' weights and the
 /// changes.
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, Default)]
 pub struct Placed {
     pub weights: Vec<Rgb>,
     pub changes: Vec<LuminaireChange>,
@@ -159,6 +162,51 @@ impl Placed {
             .collect()
     }
 
+    /// Every luminaire installed in this state, lit or not: the scene's less those taken
+    /// out, then those put in, each with its group and the photometry given for the
+    /// request ([`LuminaireChange::photometry`]; None for the scene's own).
+    pub fn installed<'a>(
+        &'a self,
+        scene: &'a Scene,
+    ) -> Vec<(&'a Luminaire, Option<usize>, Option<&'a str>)> {
+        let out: std::collections::HashSet<&str> = self
+            .changes
+            .iter()
+            .filter(|c| c.taken_out)
+            .map(|c| c.luminaire.id.as_str())
+            .collect();
+        let scene_ones = scene.lights.iter().enumerate().flat_map(|(k, g)| {
+            g.luminaires
+                .iter()
+                .filter(|l| !out.contains(l.id.as_str()))
+                .map(move |l| (l, Some(k), None))
+        });
+        let put_in = self.changes.iter().filter(|c| !c.taken_out);
+        scene_ones
+            .chain(put_in.map(|c| (&c.luminaire, c.group, c.photometry.as_deref())))
+            .collect()
+    }
+
+    /// Flux (lm) and electrical power (W) of the luminaires that shine in this state
+    /// (of `scene`): each one's lumens times its weight's luminous level, and its watts
+    /// likewise (dimming assumed proportional); watts null when a lit one gives none.
+    pub fn power(&self, scene: &Scene) -> super::query::LuminairePower {
+        let (mut lumens, mut watts, mut known) = (0.0, 0.0, true);
+        for (l, _) in self.lit_in_groups(scene) {
+            // Its colour is its own (luminance 1) times its weight.
+            let level = l.color.to_f64().luminance();
+            lumens += l.lumens * level;
+            match l.watts {
+                Some(w) => watts += w * level,
+                None => known = false,
+            }
+        }
+        super::query::LuminairePower {
+            luminaire_lumens: lumens,
+            luminaire_watts: known.then_some(watts),
+        }
+    }
+
     /// The lowest colour rendering index Ra of what shines in this state: the lit groups'
     /// (of `scene`) and the groups of the luminaires put in; `Err` names the groups
     /// without an Ra, and the luminaires put in without a group (whose Ra is unknown).
@@ -167,7 +215,7 @@ impl Placed {
         let mut unknown = Vec::new();
         for c in self.changes.iter().filter(|c| !c.taken_out) {
             match c.group {
-                Some(g) => w[g] = w[g] + c.weight.map(f32::abs),
+                Some(g) => w[g] += c.weight.map(f32::abs),
                 None => unknown.push(format!(
                     "{} (a luminaire placed without a group)",
                     c.luminaire.id
@@ -267,6 +315,7 @@ fn entry_changes(
                 weight: weights[g] * -1.0,
                 group: Some(g),
                 taken_out: true,
+                photometry: None,
             });
             if e.remove {
                 return Ok(());
@@ -296,11 +345,17 @@ fn entry_changes(
             (build(scene, e, at)?, weight)
         }
     };
+    let photometry = e.photometry.as_ref().map(|p| match p {
+        Photometry::File(name) => name.clone(),
+        Photometry::Ies(_) => "inline IES".to_string(),
+        Photometry::Ldt(_) => "inline EULUMDAT".to_string(),
+    });
     changes.push(LuminaireChange {
         luminaire,
         weight,
         group,
         taken_out: false,
+        photometry,
     });
     Ok(())
 }
@@ -613,6 +668,7 @@ impl Model {
             &a.maintained.grids,
             cancel,
         )?;
+        a.power = Some(p.power(&self.baked.scene));
         let groups = self.baked.scene.lights.iter().map(|g| g.id.clone());
         a.maintenance_factors = groups
             .zip(factors.groups)

@@ -113,7 +113,10 @@ pub fn router(state: Arc<AppState>) -> Router {
             "/api/scenes/{id}/export.glb",
             get(export::export_glb).post(export::export_glb_post),
         )
-        .route("/api/scenes/{id}/report", get(report::report))
+        .route(
+            "/api/scenes/{id}/report",
+            get(report::report).post(report::report_post),
+        )
         .route("/api/{*rest}", axum::routing::any(service::not_found))
         .fallback_service(ServeDir::new(static_dir).not_found_service(not_found))
         .layer(axum::extract::DefaultBodyLimit::max(

@@ -20,10 +20,11 @@
 use std::collections::{BTreeMap, HashMap};
 
 use super::compliance::Compliance;
+use super::placed::Placed;
 use super::query::{GridAnswer, IlluminanceQuery, LuminairePower};
 use super::{Cancel, Lighting, Model, QueryError};
 use crate::color::Rgb;
-use crate::photometry::{Distribution, PhotometricFormat};
+use crate::photometry::{Distribution, Luminaire, PhotometricFormat};
 
 mod html;
 mod plan;
@@ -154,19 +155,34 @@ impl DesignReport {
         render_bytes + kept + 2 * model.illuminance_bytes(&q) + BYTES_PER_PLAN_POINT * points
     }
 
-    /// Assembles the report of group weights `w` on `model`, with the caller's `images`.
+    /// Assembles the report of `lighting` (group weights, or luminaires placed for the
+    /// request) on `model`, with the caller's `images`. A per-patch emission has no
+    /// luminaires or groups to report (an error).
     pub fn assemble(
         model: &Model,
-        w: &[Rgb],
+        lighting: &Lighting,
         meta: ReportMeta,
         images: Vec<CameraImage>,
         cancel: &Cancel,
     ) -> Result<DesignReport, QueryError> {
+        let scene = &model.baked.scene;
+        let none = Placed::default();
+        let (w, installed) = match lighting {
+            Lighting::Groups(w) => (w.as_slice(), none.installed(scene)),
+            Lighting::Placed(p) => (p.weights.as_slice(), p.installed(scene)),
+            Lighting::Emission(_) => {
+                return Err(QueryError::Invalid(
+                    "a design report reports light groups (lights) and luminaires, not a \
+                     per-patch emission"
+                        .into(),
+                ))
+            }
+        };
         let q = IlluminanceQuery {
             grids: (0..model.grids.len()).collect(),
             ..Default::default()
         };
-        let mut answer = model.illuminance(&Lighting::Groups(w.to_vec()), &q, cancel)?;
+        let mut answer = model.illuminance(lighting, &q, cancel)?;
         let grids = model
             .grids
             .iter()
@@ -184,7 +200,6 @@ impl DesignReport {
                 })
             })
             .collect();
-        let scene = &model.baked.scene;
         let groups = scene
             .lights
             .iter()
@@ -202,7 +217,7 @@ impl DesignReport {
                 ra: g.ra,
             })
             .collect();
-        let schedule = schedule(model);
+        let schedule = schedule(model, &installed);
         let power = power(
             model,
             &schedule,
@@ -227,16 +242,23 @@ impl DesignReport {
     }
 }
 
-/// The luminaire schedule: luminaires grouped by kind, file, lumens and watts, in scene
-/// order of their first member.
-fn schedule(model: &Model) -> Vec<ScheduleRow> {
+/// The luminaire schedule of the `installed` luminaires (with their groups and the
+/// photometry a request gave them): grouped by kind, file, lumens and watts, in order of
+/// their first member.
+fn schedule(
+    model: &Model,
+    installed: &[(&Luminaire, Option<usize>, Option<&str>)],
+) -> Vec<ScheduleRow> {
     let scene = &model.baked.scene;
     let files = photometric_files(scene);
     let mut rows: Vec<ScheduleRow> = Vec::new();
-    for g in &scene.lights {
-        for l in &g.luminaires {
+    for &(l, group, given) in installed {
+        let g = &group.map_or("(no group)".to_string(), |k| scene.lights[k].id.clone());
+        {
             let kind = kind_label(&l.distribution);
-            let file = files.get(&l.id).cloned();
+            let file = given
+                .map(str::to_string)
+                .or_else(|| files.get(&l.id).cloned());
             let same = |r: &ScheduleRow| {
                 r.kind == kind
                     && r.file == file
@@ -246,14 +268,14 @@ fn schedule(model: &Model) -> Vec<ScheduleRow> {
             match rows.iter_mut().find(|r| same(r)) {
                 Some(r) => {
                     r.count += 1;
-                    if !r.groups.contains(&g.id) {
-                        r.groups.push(g.id.clone());
+                    if !r.groups.contains(g) {
+                        r.groups.push(g.clone());
                     }
                 }
                 None => rows.push(ScheduleRow {
                     kind,
                     file,
-                    groups: vec![g.id.clone()],
+                    groups: vec![g.clone()],
                     count: 1,
                     lumens: l.lumens,
                     watts: l.watts,

@@ -147,6 +147,7 @@ impl Modify for Constraints {
         routes::export::export_glb,
         routes::export::export_glb_post,
         routes::report::report,
+        routes::report::report_post,
         routes::radiosity::radiosity,
         routes::illuminance::illuminance,
         routes::daylight::daylight,
@@ -164,6 +165,7 @@ impl Modify for Constraints {
             Target, Exposure, RadiosityRequest, IlluminanceRequest, BatchRequest,
             OptimizeRequest, RenderRequest, ProblemDetails, Rgb, Millis, DaylightRequest, AnnualRequest,
             GlareRequest, Observer, super::requests::export::ExportBody,
+            super::requests::render::ReportBody,
             PngImage, JpegImage, ExrImage, GlbModel, MeshBinary, ReportDocument, PatchesBinary,
             RadiosityBinary, crate::server::routes::radiosity::RadiosityResponse,
             crate::server::routes::scenes::Patches,
@@ -186,6 +188,7 @@ const REQUIRED_HEADERS: &[(&str, &str, &[&str])] = &[
         &["X-Relight-Render-Ms", "Cache-Control"],
     ),
     ("report", "get", &["X-Relight-Report-Ms", "Cache-Control"]),
+    ("report", "post", &["X-Relight-Report-Ms", "Cache-Control"]),
 ];
 
 /// The document.

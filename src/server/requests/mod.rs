@@ -122,6 +122,8 @@ macro_rules! lit_request {
 
         impl $name {
             /// The lighting state: group weights, or a per-patch emission.
+            // A request that hands its lighting fields on (a report's) leaves it unused.
+            #[allow(dead_code)]
             pub(crate) fn lighting(
                 &self,
                 model: &$crate::model::Model,

@@ -209,6 +209,70 @@ lit_request! {
     }
 }
 
+lit_request! {
+    /// A design report of a lighting state (light groups, luminaires placed per request):
+    /// its images as a render takes them, and the title block's words.
+    #[derive(Default)]
+    ReportBody, "a JSON object" {
+        /// A camera preset's id: one image from it (default: one per preset).
+        #[serde(default, deserialize_with = "some")]
+        #[schema(nullable = false, min_length = 1)]
+        camera: Option<String>,
+        #[serde(default, deserialize_with = "some")]
+        #[schema(schema_with = side)]
+        width: Option<f64>,
+        #[serde(default, deserialize_with = "some")]
+        #[schema(schema_with = side)]
+        height: Option<f64>,
+        #[serde(default, deserialize_with = "some")]
+        #[schema(nullable = false)]
+        exposure: Option<Exposure>,
+        #[serde(default)]
+        #[schema(inline)]
+        mode: ModeName,
+        #[serde(default)]
+        #[schema(inline)]
+        tonemap: TonemapName,
+        #[serde(default)]
+        #[schema(inline)]
+        quality: QualityName,
+        /// The report's title (default "Lighting design report"); at most 200 characters.
+        #[serde(default, deserialize_with = "some")]
+        #[schema(nullable = false, max_length = 200)]
+        title: Option<String>,
+        /// The project's name; at most 200 characters.
+        #[serde(default, deserialize_with = "some")]
+        #[schema(nullable = false, max_length = 200)]
+        project: Option<String>,
+        /// Who made it; at most 200 characters.
+        #[serde(default, deserialize_with = "some")]
+        #[schema(nullable = false, max_length = 200)]
+        author: Option<String>,
+    }
+}
+
+impl ReportBody {
+    /// The title block's words (title, project, author) and the render request of the
+    /// report's images.
+    pub(crate) fn into_parts(self) -> ([Option<String>; 3], RenderRequest) {
+        let words = [self.title, self.project, self.author];
+        let req = RenderRequest {
+            lights: self.lights,
+            emission: self.emission,
+            luminaires: self.luminaires,
+            camera: self.camera.map(CameraSpec::Preset),
+            width: self.width,
+            height: self.height,
+            exposure: self.exposure,
+            mode: self.mode,
+            tonemap: self.tonemap,
+            quality: self.quality,
+            ..Default::default()
+        };
+        (words, req)
+    }
+}
+
 /// A render request in the model's terms.
 pub(crate) struct RenderAsk {
     pub lighting: Lighting,

@@ -1,4 +1,4 @@
-//! `GET /api/scenes/{id}/report`: the printable design report
+//! `GET` and `POST /api/scenes/{id}/report`: the printable design report
 //! ([`crate::model::design_report`]) of a lighting state given as `render.png` takes it,
 //! with a relit image per camera. All of it runs on the blocking pool.
 
@@ -13,12 +13,12 @@ use crate::model::design_report::{CameraImage, DesignReport, ReportMeta, MAX_MET
 use crate::model::Lighting;
 use crate::render::pipeline::RenderOptions;
 use crate::render::Camera;
-use crate::server::openapi::{QueryErrors, ReportHtml, SceneIdParam};
-use crate::server::parse::{shorten, ReadyScene};
-use crate::server::requests::render::{RenderAsk, RenderQuery};
+use crate::server::openapi::{PostErrors, QueryErrors, ReportHtml, SceneIdParam};
+use crate::server::parse::{shorten, ReadyScene, ScenePost};
+use crate::server::requests::render::{RenderAsk, RenderQuery, ReportBody};
 use crate::server::requests::{RenderRequest, Resolve};
 use crate::server::views::render_estimate;
-use crate::server::{AppError, Ready};
+use crate::server::{AppError, AppState, Ready};
 
 /// The images' size unless the query gives `w`/`h`, pixels.
 const IMAGE_SIZE: (u32, u32) = (640, 400);
@@ -50,16 +50,7 @@ fn read(q: &[(String, String)]) -> Result<(ReportMeta, RenderRequest), AppError>
             "author" => &mut meta.author,
             _ => return Ok(false),
         };
-        let n = p.value.chars().count();
-        if n > MAX_META_CHARS {
-            return Err(AppError::Invalid(format!(
-                "{} has {n} characters (at most {MAX_META_CHARS}): {}",
-                p.written,
-                shorten(p.value)
-            )));
-        }
-        let v = p.value.trim();
-        *slot = (!v.is_empty()).then(|| v.to_string());
+        *slot = meta_word(p.written, p.value)?;
         Ok(true)
     })?;
     Ok((meta, req))
@@ -115,12 +106,56 @@ pub(crate) async fn report(
 ) -> Result<Response, AppError> {
     let t0 = Instant::now();
     let (meta, req) = read(&q)?;
+    respond(state, ready, meta, req, t0).await
+}
+
+#[utoipa::path(post, path = "/api/scenes/{id}/report", operation_id = "reportPost", tags = ["scenes"],
+    summary = "The printable design report of GET …/report for any lighting state, given in a JSON body: light groups and luminaires placed per request (added, moved or removed; the schedule lists them and their power counts), the images' camera preset, size and look, and the title block's words.",
+    params(SceneIdParam),
+    request_body(content = ReportBody, content_type = "application/json",
+        description = "An empty object reports the default state with one image per camera preset.",
+        example = json!({"lights": {"window_row": 0.8}, "title": "Option B", "width": 320, "height": 200})),
+    responses(ReportHtml, PostErrors))]
+pub(crate) async fn report_post(
+    ScenePost(ready, state, body): ScenePost<ReportBody>,
+) -> Result<Response, AppError> {
+    let t0 = Instant::now();
+    let (words, req) = body.into_parts();
+    let mut meta = ReportMeta::default();
+    let names = ["title", "project", "author"];
+    let slots = [&mut meta.title, &mut meta.project, &mut meta.author];
+    for ((slot, word), name) in slots.into_iter().zip(words).zip(names) {
+        if let Some(v) = word {
+            *slot = meta_word(name, &v)?;
+        }
+    }
+    respond(state, ready, meta, req, t0).await
+}
+
+/// A title block's word as given (`name` in messages): 422 over [`MAX_META_CHARS`]
+/// characters, None when blank.
+fn meta_word(name: &str, value: &str) -> Result<Option<String>, AppError> {
+    let n = value.chars().count();
+    if n > MAX_META_CHARS {
+        return Err(AppError::Invalid(format!(
+            "{name} has {n} characters (at most {MAX_META_CHARS}): {}",
+            shorten(value)
+        )));
+    }
+    let v = value.trim();
+    Ok((!v.is_empty()).then(|| v.to_string()))
+}
+
+/// The report of `req`'s lighting state and images with title block `meta`, made on the
+/// blocking pool.
+async fn respond(
+    state: std::sync::Arc<AppState>,
+    ready: std::sync::Arc<Ready>,
+    meta: ReportMeta,
+    req: RenderRequest,
+    t0: Instant,
+) -> Result<Response, AppError> {
     let (lighting, images) = resolve(&req, &ready)?;
-    let Lighting::Groups(w) = lighting.clone() else {
-        return Err(AppError::Internal(
-            "report: the query gave an emission".into(),
-        ));
-    };
     let m = &ready.model;
     let pixels: Vec<u64> = images
         .iter()
@@ -149,7 +184,7 @@ pub(crate) async fn report(
                     png: r.bytes,
                 });
             }
-            Ok(DesignReport::assemble(&ready.model, &w, meta, shots, cancel)?.html())
+            Ok(DesignReport::assemble(&ready.model, &lighting, meta, shots, cancel)?.html())
         })
         .await?;
     let timing = ("x-relight-report-ms", t0);

@@ -234,3 +234,55 @@ async fn the_office_report_time_is_reported() {
         std::fs::write(out, &html).unwrap();
     }
 }
+
+/// `POST …/report` takes any state as JSON: the same report as the query for a group
+/// state, and with a luminaire placed per request its schedule lists it (inline IES, no
+/// group) and its flux and power count.
+#[tokio::test]
+async fn a_posted_report_lists_the_luminaires_placed_for_it() {
+    let _gate = common::shared();
+    let post_report = |scene: &str, body: Value| {
+        let r = Request::post(format!("/api/scenes/{scene}/report"))
+            .header(header::CONTENT_TYPE, "application/json")
+            .body(Body::from(body.to_string()))
+            .unwrap();
+        send(app(), r)
+    };
+    let (s, _, b) = post_report(
+        "office",
+        json!({"lights": {"window_row": 0.5}, "title": "Option B", "width": 64, "height": 40}),
+    )
+    .await;
+    let html = String::from_utf8(b).unwrap();
+    assert_eq!(s, StatusCode::OK, "{html}");
+    assert!(html.contains("Option B"));
+    assert_eq!(text_of(&html, "luminaire-count"), "6");
+    let (_, _, got) = report("?light.window_row=0.5&title=Option%20B&w=64&h=40").await;
+    assert_eq!(
+        text_of(&got, "luminaire-count"),
+        text_of(&html, "luminaire-count")
+    );
+    let ies = include_str!("../../../scenes/office-floor/downlight.ies");
+    let task = json!({"id": "task", "position": [1.2, 2.6, 2.4], "ies": ies, "lumens": 1200,
+        "watts": 12});
+    let (s, _, b) = post_report(
+        "desk-room",
+        json!({"lights": {"ceiling": 0, "lamp": 0}, "luminaires": [task], "width": 32, "height": 24}),
+    )
+    .await;
+    let html = String::from_utf8(b).unwrap();
+    assert_eq!(s, StatusCode::OK, "{html}");
+    assert_eq!(text_of(&html, "luminaire-count"), "1");
+    assert_eq!(text_of(&html, "total-lumens"), "1200");
+    let row = row_of(&html, "luminaire-count");
+    assert!(row.contains("12.0"), "installed watts: {row}");
+    assert!(
+        html.contains("inline IES") && html.contains("(no group)"),
+        "schedule"
+    );
+    // Bad input as every request: an unknown field, a title too long.
+    for body in [json!({"titel": "x"}), json!({"title": "x".repeat(201)})] {
+        let (s, _, b) = post_report("office", body).await;
+        assert!(s.is_client_error(), "{}", String::from_utf8_lossy(&b));
+    }
+}

@@ -74,7 +74,7 @@ fn scene_operations_document_their_errors() {
             }
         }
     }
-    assert_eq!(posts, 8);
+    assert_eq!(posts, 10);
 }
 
 #[test]
@@ -89,7 +89,7 @@ fn required_headers_are_marked() {
             marked += 1;
         }
     }
-    assert_eq!(marked, 7);
+    assert_eq!(marked, 9);
     let retry = &s["components"]["responses"]["Unavailable"]["headers"]["Retry-After"];
     assert_eq!(retry["required"], true);
 }
