@@ -104,7 +104,7 @@ fn main() {
     let times: Vec<f64> = (0..20)
         .map(|_| {
             let t = Instant::now();
-            let answer = room.optimize(&base, &free, &[target]).unwrap();
+            let answer = room.optimize(&base, &[], &free, &[target]).unwrap();
             std::hint::black_box(answer);
             t.elapsed().as_secs_f64() * 1e3
         })
@@ -223,7 +223,7 @@ fn office_floor(cache: &std::path::Path) {
     let base = vec![Rgb::ONE; groups];
     let free: Vec<usize> = (0..groups).collect();
     let ms = time_ms(10, |_| {
-        std::hint::black_box(m.optimize(&base, &free, &targets).unwrap());
+        std::hint::black_box(m.optimize(&base, &[], &free, &targets).unwrap());
     });
     println!(
         "optimize: {groups} groups, Eavg ≥ 60 % of full and U0 ≥ 0.4 on {} grids ({points} points): median {ms:.2} ms",

@@ -26,6 +26,7 @@ use std::collections::BTreeMap;
 use microlp::{ComparisonOp, OptimizationDirection, Problem};
 use serde::Serialize;
 
+use super::placed::{LuminaireChange, Placed};
 use super::query::{GridAnswer, LuminairePower};
 use super::{Lighting, Model, QueryError};
 use crate::color::Rgb;
@@ -384,30 +385,35 @@ pub struct OptimizeAnswer {
 }
 
 impl Model {
-    /// Peak bytes of [`Model::optimize`] for these free groups and targets.
-    pub fn optimize_bytes(&self, free: usize, targets: &[GridTarget]) -> u64 {
+    /// Peak bytes of [`Model::optimize`] for these free groups and targets, with
+    /// luminaires placed for the request when `placed` (a solve per part, kept).
+    pub fn optimize_bytes(&self, free: usize, targets: &[GridTarget], placed: bool) -> u64 {
         let rows: u64 = targets
             .iter()
             .map(|t| self.grids[t.grid].len() as u64)
             .sum();
-        2 * rows * (free as u64 + 2) * 64 + (1 << 20)
+        let solves = if placed {
+            (free as u64 + 2) * super::query::BYTES_PER_PATCH_ANSWER * self.patches() as u64
+        } else {
+            0
+        };
+        2 * rows * (free as u64 + 2) * 64 + (1 << 20) + solves
     }
 
     /// Levels of the `free` groups (the others keep `base`) that meet `targets` with the
-    /// least flux. Groups and grids are given by index, each at most once.
+    /// least flux. Groups and grids are given by index, each at most once. `changes` are
+    /// luminaires placed, moved or removed for the request ([`Placed::changes`]): one in a
+    /// free group dims with it, any other is held at its weight.
     pub fn optimize(
         &self,
         base: &[Rgb],
+        changes: &[LuminaireChange],
         free: &[usize],
         targets: &[GridTarget],
     ) -> Result<OptimizeAnswer, QueryError> {
         let t0 = std::time::Instant::now();
         let scene = &self.baked.scene;
-        let is_free = |g: usize| free.contains(&g);
-        // Fixed groups keep the given state; free ones are 0 in the fixed part.
-        let fixed_w: Vec<Rgb> = (0..scene.lights.len())
-            .map(|g| if is_free(g) { Rgb::ZERO } else { base[g] })
-            .collect();
+        let parts = Parts::new(self, base, changes, free)?;
         let terms: Vec<GridTerms> = targets
             .iter()
             .map(|t| {
@@ -421,11 +427,12 @@ impl Model {
                         .collect()
                 };
                 GridTerms {
-                    free: free
+                    free: parts
+                        .free
                         .iter()
-                        .map(|&g| measured(gr.group_values(g, scene.lights[g].color)))
+                        .map(|p| measured(self.part_values(t.grid, p)))
                         .collect(),
-                    fixed: measured(gr.values(&fixed_w).iter().map(|&v| v as f64).collect()),
+                    fixed: measured(self.part_values(t.grid, &parts.fixed)),
                 }
             })
             .collect();
@@ -433,56 +440,99 @@ impl Model {
             .iter()
             .map(|t| t.named(self.grids[t.grid].grid.id.clone()))
             .collect();
-        let flux: Vec<f64> = free
-            .iter()
-            .map(|&g| self.groups[g].lumens * scene.lights[g].color.luminance() as f64)
-            .collect();
-        let glare = self.glare_models(&fixed_w, free, targets)?;
+        let flux: Vec<f64> = parts.free.iter().map(|p| self.part_lumens(p)).collect();
+        let glare = self.glare_models(&parts, targets)?;
         let levels = optimize(&flux, &labelled, &terms, &glare)?;
-        let mut w = fixed_w;
-        for (&g, &x) in free.iter().zip(&levels) {
-            w[g] = scene.lights[g].color.map(|c| c * x as f32);
+        let mut state = parts.fixed.state.clone();
+        for (p, &x) in parts.free.iter().zip(&levels) {
+            for (w, wg) in state.weights.iter_mut().zip(&p.state.weights) {
+                *w += *wg * x as f32;
+            }
+            state
+                .changes
+                .extend(p.state.changes.iter().map(|c| LuminaireChange {
+                    weight: c.weight * x as f32,
+                    ..c.clone()
+                }));
         }
+        let w = state.weights.clone();
         let solve_ms = t0.elapsed().as_secs_f64() * 1e3;
         let grid_ix: Vec<usize> = targets.iter().map(|t| t.grid).collect();
-        let grids = self.grid_answers(&grid_ix, &w);
+        let lit = if state.changes.is_empty() {
+            Lighting::Groups(w.clone())
+        } else {
+            Lighting::Placed(state.clone())
+        };
+        let grids = match &lit {
+            Lighting::Placed(_) => {
+                let q = super::query::IlluminanceQuery {
+                    grids: grid_ix,
+                    ..Default::default()
+                };
+                self.illuminance(&lit, &q, &super::Cancel::default())?.grids
+            }
+            _ => self.grid_answers(&grid_ix, &w),
+        };
         let mut answers = Vec::with_capacity(targets.len());
         for (t, gt) in labelled.iter().zip(targets) {
             // The achieved UGR, rated anew at the optimized state.
             let ugr = match t.ugr_max {
-                Some(_) => self.worst_ugr(gt.grid, &w)?,
+                Some(_) => self.worst_ugr(gt.grid, &lit)?,
                 None => None,
             };
             answers.push(target_answer(t, &grids, ugr));
         }
+        let (lumens, power) = match &lit {
+            Lighting::Placed(p) => (self.lumens(&w) + p.flux().luminance(), p.power(scene)),
+            _ => (self.lumens(&w), self.luminaire_power(&w)),
+        };
         Ok(OptimizeAnswer {
             lights: self.levels(&w, free, &levels),
-            lumens: self.lumens(&w),
-            power: self.luminaire_power(&w),
+            lumens,
+            power,
             targets: answers,
             grids,
             solve_ms,
         })
     }
 
+    /// Luminous illuminance (lx) at every point of grid `gi` under a part's state.
+    fn part_values(&self, gi: usize, p: &Part) -> Vec<f64> {
+        match &p.extra_b {
+            None => self.grids[gi]
+                .values(&p.state.weights)
+                .iter()
+                .map(|&v| v as f64)
+                .collect(),
+            Some(extra) => self
+                .placed_grid_values(gi, &p.state, extra, &super::Cancel::default())
+                .iter()
+                .map(|&v| v as f64)
+                .collect(),
+        }
+    }
+
+    /// The luminous flux (lm) a part emits: its groups' and its changes'.
+    fn part_lumens(&self, p: &Part) -> f64 {
+        self.lumens(&p.state.weights) + p.state.flux().luminance()
+    }
+
     /// The glare models of the targets' UGR ceilings, one per task observer: the fixed
-    /// groups at `fixed_w`, each free group at level 1 in its colour.
+    /// part as it is, each free part (a group at level 1 in its colour, with its changes).
     fn glare_models(
         &self,
-        fixed_w: &[Rgb],
-        free: &[usize],
+        parts: &Parts,
         targets: &[GridTarget],
     ) -> Result<Vec<(String, GlareModel)>, QueryError> {
-        let scene = &self.baked.scene;
         let cancel = super::Cancel::default();
         let mut out = Vec::new();
         for t in targets {
             let Some(ugr_max) = t.ugr_max else { continue };
             let grid = &self.grids[t.grid].grid;
             let observers = super::compliance::task_observers(grid);
-            let parts = |w: &[Rgb]| -> Result<Vec<(f64, f64)>, QueryError> {
+            let rate = |p: &Part| -> Result<Vec<(f64, f64)>, QueryError> {
                 Ok(self
-                    .glare(&observers, &Lighting::Groups(w.to_vec()), &cancel)?
+                    .glare(&observers, &p.lighting(), &cancel)?
                     .iter()
                     .map(|o| {
                         let sum = o.luminaires.iter().map(|l| l.term).sum::<f64>();
@@ -490,12 +540,10 @@ impl Model {
                     })
                     .collect())
             };
-            let fixed = parts(fixed_w)?;
-            let mut per_group = Vec::with_capacity(free.len());
-            for &g in free {
-                let mut w = vec![Rgb::ZERO; scene.lights.len()];
-                w[g] = scene.lights[g].color;
-                per_group.push(parts(&w)?);
+            let fixed = rate(&parts.fixed)?;
+            let mut per_group = Vec::with_capacity(parts.free.len());
+            for p in &parts.free {
+                per_group.push(rate(p)?);
             }
             for (k, &(a_fixed, b_fixed)) in fixed.iter().enumerate() {
                 out.push((
@@ -513,10 +561,9 @@ impl Model {
         Ok(out)
     }
 
-    /// The highest UGR of grid `gi`'s task observers under weights `w`.
-    fn worst_ugr(&self, gi: usize, w: &[Rgb]) -> Result<Option<f64>, QueryError> {
-        let lit = Lighting::Groups(w.to_vec());
-        let rated = self.task_ugr(&self.grids[gi].grid, &lit, &super::Cancel::default())?;
+    /// The highest UGR of grid `gi`'s task observers under `lit`.
+    fn worst_ugr(&self, gi: usize, lit: &Lighting) -> Result<Option<f64>, QueryError> {
+        let rated = self.task_ugr(&self.grids[gi].grid, lit, &super::Cancel::default())?;
         Ok(super::compliance::highest(&rated))
     }
 
@@ -557,6 +604,85 @@ impl Model {
             .zip(&self.groups)
             .map(|(wt, info)| wt.to_f64().luminance() * info.lumens)
             .sum()
+    }
+}
+
+/// One linear part of an optimized state: the held part, or one free group at level 1 in
+/// its colour with the request's changes of its luminaires.
+struct Part {
+    state: Placed,
+    /// The changes' radiosity (lm/m², n × 3) when it has changes, solved once.
+    extra_b: Option<Vec<f32>>,
+}
+
+impl Part {
+    fn new(m: &Model, state: Placed) -> Result<Part, QueryError> {
+        let extra_b = if state.changes.is_empty() {
+            None
+        } else {
+            Some(m.placed_parts(&state)?.1)
+        };
+        Ok(Part { state, extra_b })
+    }
+
+    /// Its lighting state.
+    fn lighting(&self) -> Lighting {
+        if self.state.changes.is_empty() {
+            Lighting::Groups(self.state.weights.clone())
+        } else {
+            Lighting::Placed(self.state.clone())
+        }
+    }
+}
+
+/// A state split into its held part and one part per free group: the state at levels x is
+/// `fixed + Σ_g x_g free_g`.
+struct Parts {
+    fixed: Part,
+    free: Vec<Part>,
+}
+
+impl Parts {
+    fn new(
+        m: &Model,
+        base: &[Rgb],
+        changes: &[LuminaireChange],
+        free: &[usize],
+    ) -> Result<Parts, QueryError> {
+        let lights = &m.baked.scene.lights;
+        let is_free = |g: Option<usize>| g.is_some_and(|g| free.contains(&g));
+        // Fixed groups keep the given state; free ones are 0 in the fixed part.
+        let fixed = Placed {
+            weights: (0..lights.len())
+                .map(|g| if is_free(Some(g)) { Rgb::ZERO } else { base[g] })
+                .collect(),
+            changes: changes
+                .iter()
+                .filter(|c| !is_free(c.group))
+                .cloned()
+                .collect(),
+        };
+        let free = free
+            .iter()
+            .map(|&g| {
+                let color = lights[g].color;
+                let mut weights = vec![Rgb::ZERO; lights.len()];
+                weights[g] = color;
+                let changes = changes
+                    .iter()
+                    .filter(|c| c.group == Some(g))
+                    .map(|c| LuminaireChange {
+                        weight: color * if c.taken_out { -1.0 } else { 1.0 },
+                        ..c.clone()
+                    })
+                    .collect();
+                Part::new(m, Placed { weights, changes })
+            })
+            .collect::<Result<_, _>>()?;
+        Ok(Parts {
+            fixed: Part::new(m, fixed)?,
+            free,
+        })
     }
 }
 

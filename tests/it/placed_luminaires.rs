@@ -417,3 +417,64 @@ fn glare_under_a_luminaire_placed_per_request_equals_the_same_luminaire_baked() 
         .collect();
     assert_eq!(ids, ["l2"]);
 }
+
+/// `/optimize` with luminaires placed for the request: a luminaire added to the free group
+/// dims with it and an ungrouped one is held, and the level found equals the level found
+/// on the same luminaires baked (the second in a held group), to 1 %; at that level the
+/// grid's average is the target.
+#[test]
+fn optimize_with_luminaires_placed_per_request_equals_the_same_luminaires_baked() {
+    use relight::model::optimize::GridTarget;
+    let _gate = common::shared();
+    let (_base_dir, base) = bake(room("", "factored"));
+    let (_baked_dir, baked) = bake(room(
+        "[[luminaires]]\nid = \"l2\"\ngroup = \"ceiling\"\nphotometry = \"down.ies\"\nposition = [3.0, 2.75, 2.0]\n\
+         [[luminaires]]\nid = \"held\"\ngroup = \"spare\"\nphotometry = \"down.ies\"\nposition = [0.8, 2.75, 0.8]\nlumens = 600\n",
+        "factored",
+    ));
+    let target = |m: &Model| GridTarget {
+        grid: m.grid_index("work").unwrap(),
+        eavg_min: Some(150.0),
+        emin_min: None,
+        u0_min: None,
+        ugr_max: None,
+    };
+    let mut l2 = new_downlight("l2", [3.0, 2.75, 2.0]);
+    l2.group = Some("ceiling".into());
+    let mut held = new_downlight("held", [0.8, 2.75, 0.8]);
+    held.lumens = Some(600.0);
+    let placed = place(
+        &base.baked.scene,
+        base.patches(),
+        vec![Rgb::ONE],
+        &[l2, held],
+    )
+    .unwrap();
+    let got = base
+        .optimize(&placed.weights, &placed.changes, &[0], &[target(&base)])
+        .unwrap();
+    let want = baked
+        .optimize(&[Rgb::ONE; 2], &[], &[0], &[target(&baked)])
+        .unwrap();
+    let (x, y) = (
+        got.lights["ceiling"].intensity,
+        want.lights["ceiling"].intensity,
+    );
+    eprintln!("optimized level: placed {x:.4}, baked {y:.4}");
+    assert!(
+        y > 0.05 && y < 0.95,
+        "the target binds inside the range: {y}"
+    );
+    assert!((x - y).abs() < 0.01 * y, "level {x} against {y}");
+    let avg = got.grids["work"].avg;
+    assert!((avg - 150.0).abs() < 1e-3 * 150.0, "average {avg} lx");
+    assert!(got.targets[0].met);
+    // The flux counts the placed luminaires: the ceiling group's two at the level, the
+    // held one at full.
+    let flux = got.lumens;
+    let want_flux = want.lumens;
+    assert!(
+        (flux - want_flux).abs() < 0.01 * want_flux,
+        "{flux} lm against {want_flux}"
+    );
+}

@@ -7,11 +7,12 @@ use utoipa::openapi::schema::Schema;
 use utoipa::openapi::RefOr;
 use utoipa::ToSchema;
 
-use super::lighting::{light_weights, Lights};
+use super::lighting::{lighting, Lights, LuminaireEntry};
 use super::{object_only, raw, schema_ref, some, Resolve};
 use crate::color::Rgb;
 use crate::model::optimize::{GridTarget, MAX_TARGET_LUX};
-use crate::model::Model;
+use crate::model::placed::LuminaireChange;
+use crate::model::{Lighting, Model};
 use crate::server::parse::{group_list, number};
 use crate::server::AppError;
 
@@ -84,6 +85,12 @@ pub(crate) struct OptimizeRequest {
     /// State of the groups that are not free.
     #[serde(default)]
     lights: Lights,
+    /// Luminaires added, moved, re-aimed, swapped or removed for this request only, at
+    /// most 1,000 (factored and hierarchical transfers): one in a free group dims with it,
+    /// any other is held at its weight.
+    #[serde(default, deserialize_with = "some")]
+    #[schema(nullable = false, max_items = 1000)]
+    luminaires: Option<Vec<LuminaireEntry>>,
 }
 
 object_only!(OptimizeRequest, "a JSON object");
@@ -92,6 +99,8 @@ object_only!(OptimizeRequest, "a JSON object");
 pub(crate) struct OptimizeAsk {
     /// The weights of every group; the free groups' are replaced by the levels found.
     pub base: Vec<Rgb>,
+    /// Luminaires placed, moved or removed for the request.
+    pub changes: Vec<LuminaireChange>,
     /// The groups the optimizer may dim.
     pub free: Vec<usize>,
     pub targets: Vec<GridTarget>,
@@ -101,7 +110,12 @@ impl Resolve for OptimizeRequest {
     type Resolved = OptimizeAsk;
 
     fn resolve(&self, model: &Model) -> Result<OptimizeAsk, AppError> {
-        let base = light_weights(Some(&self.lights), model)?;
+        let lit = lighting(Some(&self.lights), None, self.luminaires.as_deref(), model)?;
+        let (base, changes) = match lit {
+            Lighting::Placed(p) => (p.weights, p.changes),
+            Lighting::Groups(w) => (w, vec![]),
+            Lighting::Emission(_) => unreachable!("no emission was given"),
+        };
         let free = match &self.groups {
             None => (0..model.baked.scene.lights.len()).collect(),
             Some(ids) if ids.is_empty() => {
@@ -113,6 +127,7 @@ impl Resolve for OptimizeRequest {
         };
         Ok(OptimizeAsk {
             base,
+            changes,
             free,
             targets: self.targets(model)?,
         })

@@ -21,7 +21,7 @@ pub(crate) async fn optimize(
 ) -> Result<Json<OptimizeAnswer>, AppError> {
     let ask = req.resolve(&ready.model)?;
     let m = &ready.model;
-    let bytes = m.optimize_bytes(ask.free.len(), &ask.targets);
+    let bytes = m.optimize_bytes(ask.free.len(), &ask.targets, !ask.changes.is_empty());
     let rows: usize = ask.targets.iter().map(|t| m.grids[t.grid].len()).sum();
     let what = format!(
         "optimizing {} groups over {rows} grid points",
@@ -29,7 +29,8 @@ pub(crate) async fn optimize(
     );
     let answer = state
         .heavy(bytes, &what, move |_| {
-            Ok(ready.model.optimize(&ask.base, &ask.free, &ask.targets)?)
+            let m = &ready.model;
+            Ok(m.optimize(&ask.base, &ask.changes, &ask.free, &ask.targets)?)
         })
         .await?;
     Ok(Json(answer))
