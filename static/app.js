@@ -10,6 +10,7 @@
 //   models.js    the "Open model" upload dialog and the glTF export link
 //   sky.js       the daylight panel (sky, sun time, daylight factor, annual metrics)
 //   report.js    the "Report" button (the printable design report in a new tab)
+//   luminaires.js the luminaire layout: markers, drag, aim, add, remove, scene.toml
 //
 // Data flow: every control change bumps `state.version` (changed() in state.js) and asks
 // both views to update (onChange below). Each view has at most one request in flight;
@@ -28,6 +29,7 @@ import { attachHover, resetSurfaceCache } from "./views/hover.js";
 import { wireModels } from "./models.js";
 import { wireSky, setupSky } from "./sky.js";
 import { wireReport } from "./report.js";
+import { wireLuminaires, setupLuminaires, layoutToml } from "./luminaires.js";
 
 /** After every change: labels, URL hash, and a request for each view. */
 function onChange() {
@@ -59,6 +61,7 @@ function showScene(details, buf, previewBuf, hash) {
   $("#scene-info").textContent = `${details.patches.toLocaleString()} patches · ${details.transfer} transfer`;
   buildLightControls();
   buildCameraSelect();
+  setupLuminaires();
   $("#falsecolor").checked = state.falsecolor;
   state.gridStats = null;
   setupGrids();
@@ -76,6 +79,9 @@ async function main() {
     stats: { imagesShown: 0, imageVersion: -1, glFrames: 0, glVersion: -1 },
     get state() { return state; },
     measureFps: (frames) => viewer.measureFps(frames),
+    // For tests: where a world point is drawn in the 3D view, and the layout's scene.toml.
+    project: (p) => viewer.project(p),
+    layoutToml,
   };
   try {
     createViewer($("#gl"));
@@ -100,6 +106,7 @@ async function main() {
   wireModels(openUploaded);
   wireSky();
   wireReport();
+  wireLuminaires();
   window.addEventListener("resize", () => imageFlight());
   await openFirstScene();
 }

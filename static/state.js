@@ -13,6 +13,9 @@ export const state = {
   exposure: null,   // stops, locked after metering; null = meter on the next image
   range: null,      // false-colour [lo, hi] lux, locked on first use
   sky: null,        // daylight panel: {type, eh, edn, date, hour}, or null (sky.js)
+  layout: [],       // luminaires placed for every request (luminaires.js): {id, position,
+                    // aim, photometry, group, remove}, the scene's by id, new ones besides
+  snap: 0.25,       // the grid (m) a dragged luminaire snaps to; 0 = none
   version: 0,       // bumped on every lighting change
   // gridStats (per-grid illuminance, or null) is added when a scene is shown.
 };
@@ -51,6 +54,26 @@ export function lightingJson() {
   return out;
 }
 
+/** Most luminaire edits a layout holds (the server takes at most 1,000 per request). */
+export const MAX_LAYOUT = 1000;
+
+/** The request body's lighting: the groups, and the layout's luminaires when any. */
+export function lightingBody() {
+  const b = { lights: lightingJson() };
+  if (state.layout.length) b.luminaires = state.layout.map(luminaireEntry);
+  return b;
+}
+
+/** One layout edit as the API's `luminaires` entry. */
+function luminaireEntry(e) {
+  if (e.remove) return { id: e.id, remove: true };
+  const out = { id: e.id, position: e.position };
+  if (e.aim) out.aim = e.aim;
+  if (e.photometry) out.photometry = e.photometry;
+  if (e.group) out.group = e.group;
+  return out;
+}
+
 export function defaultsFor(g) {
   return { pct: 100, color: linearToSrgbHex(g.color), on: true };
 }
@@ -63,6 +86,7 @@ export function resetForScene(h) {
   state.exposure = null;
   state.range = null;
   state.sky = null;
+  state.layout = [];
   applyHash(h);
 }
 
@@ -104,6 +128,8 @@ export function writeHash(viewerCam) {
     p.set("sky", [s.type, s.eh, s.date, s.hour].join(":"));
   }
   if (state.exposure !== null) p.set("ev", state.exposure.toFixed(2));
+  if (state.layout.length) p.set("lum", state.layout.map(layoutItem).join(";"));
+  if (state.snap !== 0.25) p.set("snap", String(state.snap));
   if (viewerCam) {
     const c = viewerCam;
     p.set("v", [...c.pos, c.yaw, c.pitch, c.dist].map((v) => +v.toFixed(4)).join(","));
@@ -117,7 +143,35 @@ export function readHash() {
   return Object.fromEntries(p.entries());
 }
 
+const fixed = (v) => v.map((x) => +x.toFixed(4)).join(",");
+
+/** One layout edit in the hash: `id|x,y,z|ax,ay,az|photometry|group|r` (r: removed). */
+function layoutItem(e) {
+  return [e.id, e.position ? fixed(e.position) : "", e.aim ? fixed(e.aim) : "",
+    e.photometry || "", e.group || "", e.remove ? "r" : ""].join("|");
+}
+
+/** The layout edits of the hash's `lum`, those that read whole (at most MAX_LAYOUT). */
+function readLayout(text) {
+  const triple = (t) => {
+    const v = (t || "").split(",").map(Number);
+    return v.length === 3 && v.every(Number.isFinite) ? v : null;
+  };
+  const out = [];
+  for (const item of (text || "").split(";").slice(0, MAX_LAYOUT)) {
+    const [id, pos, aim, photometry, group, r] = item.split("|");
+    if (!id || id.length > 64 || out.some((e) => e.id === id)) continue;
+    const e = { id, position: triple(pos), aim: triple(aim), photometry: photometry || null,
+      group: group || null, remove: r === "r" };
+    if (e.remove || e.position) out.push(e);
+  }
+  return out;
+}
+
 function applyHash(h) {
+  state.layout = readLayout(h.lum);
+  const snap = Number(h.snap);
+  state.snap = Number.isFinite(snap) && snap >= 0 && snap <= 10 ? snap : 0.25;
   for (const item of (h.l || "").split(",")) {
     const [id, pct, color, on] = item.split(":");
     const l = state.lights[id];

@@ -123,6 +123,13 @@ function viewProj(cam, aspect, near, far) {
   return m;
 }
 
+/** The ray through (x, y) in [-1, 1]² (y up) of a camera with this aspect: {o, d}. */
+export function rayThrough(cam, aspect, x, y) {
+  const [r, u, f] = basis(cam);
+  const t = Math.tan((cam.fov * Math.PI) / 360);
+  return { o: cam.pos, d: norm(add(f, add(scale(r, x * t * aspect), scale(u, y * t)))) };
+}
+
 /**
  * The patch hit by the ray through (x, y) in [-1, 1]² (y up) of a camera with this aspect;
  * null when the ray hits nothing. Only lit (front) sides count, like in the images.

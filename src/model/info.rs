@@ -74,6 +74,11 @@ impl Bounds {
     }
 }
 
+/// Most photometric files a scene's details list.
+pub const MAX_LISTED_PHOTOMETRIC_FILES: usize = 256;
+/// Most entries of a scene folder looked at for them.
+const MAX_SCANNED_ENTRIES: usize = 10_000;
+
 /// The kind of a luminaire's intensity distribution.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
 #[cfg_attr(feature = "server", derive(utoipa::ToSchema))]
@@ -113,6 +118,13 @@ pub struct LuminaireInfo {
     /// Unit photometric axis.
     #[cfg_attr(feature = "server", schema(value_type = crate::schema::Rgb))]
     pub aim: [f64; 3],
+    /// Direction of C = 0°, unit, perpendicular to `aim`.
+    #[cfg_attr(feature = "server", schema(value_type = crate::schema::Rgb))]
+    pub c0: [f64; 3],
+    /// Its photometric file in the scene folder, as scene.toml names it; null for an
+    /// isotropic or spot luminaire, or when scene.toml cannot be read.
+    #[cfg_attr(feature = "server", schema(required = true))]
+    pub photometry: Option<String>,
     /// Luminous flux, lm.
     pub lumens: f64,
     /// Electrical power, W: `scene.toml`'s `watts` (or lumens over `efficacy`), else the
@@ -228,20 +240,46 @@ impl Model {
     /// Every point luminaire, by group in scene order.
     pub fn luminaires(&self) -> Vec<LuminaireInfo> {
         let groups = &self.baked.scene.lights;
+        let files = super::design_report::photometric_files(&self.baked.scene);
         groups
             .iter()
             .flat_map(|g| {
+                let files = &files;
                 g.luminaires.iter().map(move |l| LuminaireInfo {
                     id: l.id.clone(),
                     group: g.id.clone(),
                     position: l.position.to_array(),
                     aim: l.aim.to_array(),
+                    c0: l.c0.to_array(),
+                    photometry: files.get(&l.id).cloned(),
                     lumens: l.lumens,
                     watts: l.watts,
                     distribution: (&l.distribution).into(),
                 })
             })
             .collect()
+    }
+
+    /// The photometric files (`.ies`, `.ldt`) at the top of the scene folder, sorted, at
+    /// most [`MAX_LISTED_PHOTOMETRIC_FILES`]: what a luminaire placed per request may name
+    /// as its `photometry`.
+    pub fn photometric_file_names(&self) -> Vec<String> {
+        let Ok(dir) = std::fs::read_dir(&self.baked.scene.dir) else {
+            return vec![];
+        };
+        let mut names: Vec<String> = dir
+            .filter_map(|e| e.ok())
+            .take(MAX_SCANNED_ENTRIES)
+            .filter(|e| e.file_type().is_ok_and(|t| t.is_file()))
+            .filter_map(|e| e.file_name().into_string().ok())
+            .filter(|n| {
+                let lower = n.to_ascii_lowercase();
+                lower.ends_with(".ies") || lower.ends_with(".ldt")
+            })
+            .collect();
+        names.sort();
+        names.truncate(MAX_LISTED_PHOTOMETRIC_FILES);
+        names
     }
 
     /// Every calculation grid, in scene order.

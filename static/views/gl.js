@@ -4,7 +4,7 @@
 
 import { Viewer, parseMesh, vertexValues, cameraFromLookAt } from "../viewer.js";
 import { $, luminance, fmtLux } from "../util.js";
-import { state, imageCamera, lightingJson } from "../state.js";
+import { state, imageCamera, lightingBody } from "../state.js";
 import { postJson, problem, singleFlight } from "../api.js";
 import { skyJson } from "../sky.js";
 
@@ -47,7 +47,7 @@ export const glFlight = singleFlight(async (signal) => {
   if (!state.details || !mesh) return;
   const version = state.version;
   const t0 = performance.now();
-  const body = { lights: lightingJson(), quantity: state.falsecolor ? "illuminance" : "radiosity" };
+  const body = { ...lightingBody(), quantity: state.falsecolor ? "illuminance" : "radiosity" };
   const sky = skyJson();
   if (sky) body.sky = sky;
   const r = await postJson("/radiosity", body, { signal, binary: true });

@@ -3,17 +3,19 @@
 // false-colour scale, with lux values where labels do not overlap (drawOverlay).
 
 import { $, fmtLux, fmtRatio } from "../util.js";
-import { state, lightingJson } from "../state.js";
+import { state, lightingBody } from "../state.js";
 import { postJson, problem, singleFlight } from "../api.js";
 import { viewer } from "./gl.js";
 import { skyJson } from "../sky.js";
+import { drawLuminaires } from "../luminaires.js";
 
 export const gridFlight = singleFlight(async (signal) => {
   if (!state.details) return;
   const version = state.version;
-  const body = { lights: lightingJson(), grids: state.details.grids.map((g) => g.id), surfaces: [] };
+  const body = { ...lightingBody(), grids: state.details.grids.map((g) => g.id), surfaces: [] };
   const sky = skyJson();
-  if (sky) body.sky = sky;
+  // /daylight answers the scene's own luminaires: a layout goes to /illuminance only.
+  if (sky) Object.assign(body, { sky, luminaires: undefined });
   // Under a sky, /daylight answers the grids (daylight plus the electric light).
   const r = await postJson(sky ? "/daylight" : "/illuminance", body, { signal });
   if (!r.ok) throw new Error(await problem(r));
@@ -99,6 +101,7 @@ export function drawOverlay() {
   const g2 = c.getContext("2d");
   g2.setTransform(dpr, 0, 0, dpr, 0, 0);
   g2.clearRect(0, 0, w, h);
+  drawLuminaires(g2);
   if (!state.details || !state.gridStats || !$("#grid-overlay").checked || !viewer) return;
   const all = Object.values(state.gridStats).flatMap((s) => s.values.filter((v) => v != null));
   const color = luxColour(Math.max(...all, 1e-6));

@@ -4,7 +4,7 @@
 
 import { pick, cameraFromLookAt } from "../viewer.js";
 import { $, luminance, fmtLux, showBanner } from "../util.js";
-import { state, imageCamera, lightingJson } from "../state.js";
+import { state, imageCamera, lightingBody } from "../state.js";
 import { postJson, problem } from "../api.js";
 import { viewer, mesh } from "./gl.js";
 
@@ -33,10 +33,10 @@ async function surfaceStats() {
   if (surfaceCache.version === state.version) return surfaceCache;
   const version = state.version;
   const names = state.details.surfaces.map((s) => s.id);
-  const lights = lightingJson();
+  const lit = lightingBody();
   const [sr, pr] = await Promise.all([
-    postJson("/illuminance", { lights, surfaces: names }),
-    postJson("/radiosity", { lights, quantity: "illuminance" }, { binary: true }),
+    postJson("/illuminance", { ...lit, surfaces: names }),
+    postJson("/radiosity", { ...lit, quantity: "illuminance" }, { binary: true }),
   ]);
   if (!sr.ok) throw new Error(await problem(sr));
   if (!pr.ok) throw new Error(await problem(pr));

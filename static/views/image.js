@@ -2,7 +2,7 @@
 // false-colour range locked from the first image's headers, and the timing readouts.
 
 import { $ } from "../util.js";
-import { state, inputTime, imageCamera, lightingJson, writeHash } from "../state.js";
+import { state, inputTime, imageCamera, lightingBody, writeHash } from "../state.js";
 import { postJson, problem, singleFlight } from "../api.js";
 import { showExposure } from "../controls.js";
 import { viewer, glFlight } from "./gl.js";
@@ -14,7 +14,7 @@ function renderBody(canvas) {
   const w = Math.min(1600, Math.max(64, Math.round(canvas.clientWidth * dpr)));
   const h = Math.min(1200, Math.max(48, Math.round((w * 3) / 4)));
   const body = {
-    lights: lightingJson(),
+    ...lightingBody(),
     camera: typeof state.camera === "string" ? state.camera : imageCamera(),
     width: w,
     height: h,

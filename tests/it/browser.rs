@@ -844,3 +844,179 @@ pub(crate) fn base64_decode(s: &str) -> Vec<u8> {
     }
     out
 }
+
+/// The luminaire layout on the page, on the desk room (factored) with a photometric file:
+/// "Add" places a luminaire and every view follows with it in the request; dragging its
+/// marker moves it on its mounting plane, snapped to the grid; the URL hash carries the
+/// layout (a link opens it again); the scene.toml tables hold it; ✕ takes it out.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn the_page_places_drags_and_removes_luminaires() {
+    let Some((driver_bin, browser_bin)) = find_driver() else {
+        let msg = "chromium/chromedriver not found (apt-get install chromium chromium-driver)";
+        if std::env::var("RELIGHT_REQUIRE_BROWSER").as_deref() == Ok("1") {
+            panic!("{msg}");
+        }
+        eprintln!("SKIPPED the browser test: {msg}");
+        return;
+    };
+    let _gate = common::alone();
+    let root = Path::new(env!("CARGO_TARGET_TMPDIR")).join("browser-luminaires");
+    let room = root.join("scenes/desk-room");
+    std::fs::create_dir_all(&room).unwrap();
+    for f in std::fs::read_dir(common::scenes_dir().join("desk-room")).unwrap() {
+        let f = f.unwrap();
+        if f.file_type().unwrap().is_file() {
+            std::fs::copy(f.path(), room.join(f.file_name())).unwrap();
+        }
+    }
+    std::fs::copy(
+        common::bundled_scenes().join("office-floor/downlight.ies"),
+        room.join("downlight.ies"),
+    )
+    .unwrap();
+    let (site, server) = serve(root.join("scenes"), root.join("cache")).await;
+    let (s, _driver, _profile) = open_session(&driver_bin, &browser_bin).await;
+    // The 3D view from the door looking up at (2, 2.75, 1.5), under the ceiling.
+    let view = "v=3.7,1.6,0.3,-0.9566,0.5047,2.3775";
+    s.post(
+        "/url",
+        json!({"url": format!("{site}/#scene=desk-room&{view}")}),
+    )
+    .await;
+    s.wait_for(
+        "window.relight && window.relight.ready && window.relight.stats.imagesShown > 0 \
+         && window.relight.stats.glFrames > 0 && window.relight.state.exposure !== null",
+        "the desk room",
+    )
+    .await;
+    let v0 = s
+        .js("return window.relight.state.version;")
+        .await
+        .as_u64()
+        .unwrap();
+    image_for(&s, v0).await;
+    let before = canvas(&s, "#image").await;
+    let files = s
+        .js("return [...document.querySelectorAll('#lum-file option')].map(o => o.value);")
+        .await;
+    assert_eq!(files, json!(["downlight.ies"]));
+
+    // ---- Add: a luminaire at the mounting height, in every request; the image brightens.
+    s.js("document.querySelector('#lum-add').click();").await;
+    let v = s
+        .js("return window.relight.state.version;")
+        .await
+        .as_u64()
+        .unwrap();
+    image_for(&s, v).await;
+    s.wait_for(
+        &format!("window.relight.stats.glVersion >= {v}"),
+        "the 3D view with the new luminaire",
+    )
+    .await;
+    let layout = s.js("return window.relight.state.layout;").await;
+    assert_eq!(layout[0]["id"], "new1", "{layout}");
+    assert_eq!(layout[0]["photometry"], "downlight.ies");
+    let y = layout[0]["position"][1].as_f64().unwrap();
+    assert!(
+        (y - 2.75).abs() < 1e-9,
+        "mounted just below the ceiling: {y}"
+    );
+    let after = canvas(&s, "#image").await;
+    assert!(
+        after["mean"].as_f64().unwrap() > before["mean"].as_f64().unwrap() + 1.0,
+        "a 2,500 lm downlight brightens the room: {before} → {after}"
+    );
+    let hash = s.js("return location.hash;").await;
+    assert!(hash.as_str().unwrap().contains("lum=new1"), "{hash}");
+    // Its marker is drawn on the 3D view's overlay where it projects (when in view).
+    let marker = s
+        .js(r#"
+        const q = window.relight.project(window.relight.state.layout[0].position);
+        const c = document.querySelector('#overlay');
+        if (!q || q[0] < 0 || q[1] < 0 || q[0] > c.clientWidth || q[1] > c.clientHeight) return null;
+        const k = c.width / c.clientWidth;
+        return c.getContext('2d').getImageData(Math.round(q[0] * k), Math.round(q[1] * k), 1, 1).data[3];
+        "#)
+        .await;
+    assert!(
+        marker.as_u64().is_some_and(|a| a > 0),
+        "no marker: {marker}"
+    );
+
+    // ---- Drag its marker 60 px right: it moves on its plane, snapped to 0.25 m.
+    let moved = s
+        .js(r#"
+        const l = window.relight.state.layout[0];
+        const q = window.relight.project(l.position);
+        const c = document.querySelector('#gl');
+        const r = c.getBoundingClientRect();
+        const at = (dx) => ({clientX: r.left + q[0] + dx, clientY: r.top + q[1],
+                             pointerId: 7, bubbles: true, button: 0});
+        c.dispatchEvent(new PointerEvent('pointerdown', at(0)));
+        for (let k = 1; k <= 6; k++) c.dispatchEvent(new PointerEvent('pointermove', at(10 * k)));
+        c.dispatchEvent(new PointerEvent('pointerup', at(60)));
+        return {from: q, to: window.relight.state.layout[0].position};
+        "#)
+        .await;
+    let to = &moved["to"];
+    assert!((to[1].as_f64().unwrap() - 2.75).abs() < 1e-9, "{moved}");
+    for k in [0, 2] {
+        let v = to[k].as_f64().unwrap();
+        assert!(
+            ((v / 0.25).round() * 0.25 - v).abs() < 1e-9,
+            "snapped: {moved}"
+        );
+    }
+    assert_ne!(layout[0]["position"], *to, "the drag moved it: {moved}");
+    let v = s
+        .js("return window.relight.state.version;")
+        .await
+        .as_u64()
+        .unwrap();
+    image_for(&s, v).await;
+
+    // ---- The scene.toml tables, and the link: the layout comes back from the hash.
+    let toml = s.js("return window.relight.layoutToml();").await;
+    let toml = toml.as_str().unwrap();
+    assert!(
+        toml.contains("[[luminaires]]\nid = \"new1\"\nphotometry = \"downlight.ies\""),
+        "{toml}"
+    );
+    relight::scene::parse_scene_toml("scene.toml", toml).expect("the tables read as scene.toml");
+    let link = s.js("return location.href;").await;
+    s.post("/url", json!({"url": "about:blank"})).await;
+    s.post("/url", json!({"url": link})).await;
+    s.wait_for(
+        "window.relight && window.relight.ready && window.relight.state.layout.length === 1",
+        "the layout from the link",
+    )
+    .await;
+    let back = s
+        .js("return window.relight.state.layout[0].position;")
+        .await;
+    assert_eq!(back, *to, "the link keeps the position");
+
+    // ---- ✕ removes it: no `luminaires` any more, nor `lum` in the hash.
+    s.wait_for(
+        "document.querySelector('#lum-table tr[data-id=\"new1\"] .del')",
+        "the row",
+    )
+    .await;
+    s.js("document.querySelector('#lum-table tr[data-id=\"new1\"] .del').click();")
+        .await;
+    let left = s.js("return window.relight.state.layout.length;").await;
+    assert_eq!(left, 0);
+    s.wait_for(
+        "!location.hash.includes('lum=')",
+        "the hash without the layout",
+    )
+    .await;
+    assert!(
+        s.console_errors().await.is_empty(),
+        "{:?}",
+        s.console_errors().await
+    );
+    s.cmd(reqwest::Method::DELETE, "", Value::Null).await;
+    server.abort();
+}

@@ -307,7 +307,7 @@ fn kind_label(d: &Distribution) -> String {
 
 /// The photometric file of each luminaire id, from the scene folder's `scene.toml` (the
 /// loaded scene keeps the table, not its name); empty when it cannot be read.
-fn photometric_files(scene: &crate::scene::Scene) -> HashMap<String, String> {
+pub(crate) fn photometric_files(scene: &crate::scene::Scene) -> HashMap<String, String> {
     let path = scene.dir.join("scene.toml");
     let Ok(text) = std::fs::read_to_string(&path) else {
         return HashMap::new();

@@ -140,6 +140,9 @@ pub(crate) struct SceneDetails {
     cameras: Vec<CameraDef>,
     #[schema(inline)]
     luminaires: Vec<LuminaireInfo>,
+    /// The photometric files (`.ies`, `.ldt`) at the top of the scene folder, sorted (at
+    /// most 256): what a luminaire placed per request may name as its `photometry`.
+    photometric_files: Vec<String>,
     #[schema(inline)]
     grids: Vec<GridInfo>,
     #[schema(inline)]
@@ -167,6 +170,7 @@ impl SceneDetails {
             lights: m.groups.clone(),
             cameras: b.scene.cameras.clone(),
             luminaires: m.luminaires(),
+            photometric_files: m.photometric_file_names(),
             grids: m.grid_infos(),
             site: m.site_info(),
             surfaces: m.surface_infos(),
