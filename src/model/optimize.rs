@@ -125,18 +125,22 @@ fn mean(v: &[f64]) -> f64 {
     v.iter().sum::<f64>() / v.len().max(1) as f64
 }
 
-/// Levels (one per free group, in [0, 1]) minimising Σ flux_g·x_g subject to `targets`
-/// over `terms` (one per target, same order) and every UGR ceiling in `glare`.
+/// Levels (one per free variable, in [0, 1]) minimising Σ flux_g·x_g subject to
+/// `targets` over `terms` (one per target, same order) and every UGR ceiling in `glare`.
+/// `choices` lists sets of variables of which at most one may be lit (the photometries
+/// offered at one candidate position): each gets a binary "installed" y with x ≤ y and
+/// Σ y ≤ 1 over the set, a mixed-integer program solved exactly by branch and bound.
 pub fn optimize(
     flux: &[f64],
     targets: &[Target],
     terms: &[GridTerms],
     glare: &[(String, GlareModel)],
+    choices: &[Vec<usize>],
 ) -> Result<Vec<f64>, OptimizeError> {
     // Tangent planes of the glare constraints: (gradient, right-hand side).
     let mut cuts: Vec<(Vec<f64>, f64)> = Vec::new();
     for _ in 0..MAX_CUT_ROUNDS {
-        let x = match solve_lp(flux, targets, terms, &cuts) {
+        let x = match solve_lp(flux, targets, terms, &cuts, choices) {
             Ok(x) => x,
             Err(OptimizeError::Unreachable(_)) if !cuts.is_empty() => {
                 return Err(OptimizeError::Unreachable(glare_unreachable(glare)))
@@ -179,12 +183,14 @@ fn glare_unreachable(glare: &[(String, GlareModel)]) -> String {
     )
 }
 
-/// The LP of the illuminance targets plus the glare `cuts` (rows `g·x ≤ rhs`).
+/// The LP of the illuminance targets plus the glare `cuts` (rows `g·x ≤ rhs`), and the
+/// binary choices of `choices`.
 fn solve_lp(
     flux: &[f64],
     targets: &[Target],
     terms: &[GridTerms],
     cuts: &[(Vec<f64>, f64)],
+    choices: &[Vec<usize>],
 ) -> Result<Vec<f64>, OptimizeError> {
     let g = flux.len();
     let mut lp = Problem::new(OptimizationDirection::Minimize);
@@ -216,6 +222,17 @@ fn solve_lp(
     for (grad, rhs) in cuts {
         let expr: Vec<_> = (0..g).map(|k| (vars[k], grad[k])).collect();
         lp.add_constraint(expr, ComparisonOp::Le, *rhs);
+    }
+    for set in choices {
+        let installed: Vec<_> = set
+            .iter()
+            .map(|&k| {
+                let y = lp.add_binary_var(0.0);
+                lp.add_constraint([(vars[k], 1.0), (y, -1.0)], ComparisonOp::Le, 0.0);
+                (y, 1.0)
+            })
+            .collect();
+        lp.add_constraint(installed, ComparisonOp::Le, 1.0);
     }
     match lp.solve() {
         Ok(microlp::SolveOutcome::Solution(s)) => {
@@ -311,6 +328,36 @@ impl GridTarget {
     }
 }
 
+/// A luminaire the optimizer may install: one photometry at one of the request's
+/// candidate positions, at unit weight and in no group ([`Model::optimize_layout`]).
+#[derive(Debug, Clone)]
+pub struct Candidate {
+    /// The index of its position among the request's: at most one per position is lit.
+    pub position: usize,
+    pub change: LuminaireChange,
+}
+
+/// A candidate the optimizer installs.
+#[derive(Debug, Clone, Serialize)]
+#[cfg_attr(feature = "server", derive(utoipa::ToSchema))]
+pub struct InstalledAnswer {
+    /// `c<position>_<photometry>`: the indices of its position and file in the request.
+    pub id: String,
+    /// m.
+    #[cfg_attr(feature = "server", schema(value_type = crate::schema::Rgb))]
+    pub position: [f64; 3],
+    /// Its photometric file.
+    pub photometry: String,
+    /// Its dimming level in (0, 1].
+    pub level: f64,
+    /// Luminous flux at that level, lm.
+    pub lumens: f64,
+    /// Electrical power at that level, W (dimming assumed proportional); null when its
+    /// file gives none.
+    #[cfg_attr(feature = "server", schema(required = true))]
+    pub watts: Option<f64>,
+}
+
 /// One group's level in an optimized state.
 #[derive(Debug, Clone, Serialize)]
 #[cfg_attr(feature = "server", derive(utoipa::ToSchema))]
@@ -372,6 +419,8 @@ pub struct OptimizeAnswer {
     /// Every group's level, keyed by group id.
     #[cfg_attr(feature = "server", schema(inline))]
     pub lights: BTreeMap<String, LevelAnswer>,
+    /// The candidates to install, with their levels (empty without candidates).
+    pub installed: Vec<InstalledAnswer>,
     /// Total luminous flux of the state, lm.
     pub lumens: f64,
     pub power: LuminairePower,
@@ -411,9 +460,40 @@ impl Model {
         free: &[usize],
         targets: &[GridTarget],
     ) -> Result<OptimizeAnswer, QueryError> {
+        self.optimize_layout(base, changes, free, targets, &[])
+    }
+
+    /// [`Model::optimize`] that also chooses which `candidates` to install and at what
+    /// level: at most one photometry per candidate position, each installed one dimmed in
+    /// [0, 1] like a free group (a mixed-integer program, solved exactly).
+    pub fn optimize_layout(
+        &self,
+        base: &[Rgb],
+        changes: &[LuminaireChange],
+        free: &[usize],
+        targets: &[GridTarget],
+        candidates: &[Candidate],
+    ) -> Result<OptimizeAnswer, QueryError> {
         let t0 = std::time::Instant::now();
         let scene = &self.baked.scene;
-        let parts = Parts::new(self, base, changes, free)?;
+        let mut parts = Parts::new(self, base, changes, free)?;
+        for c in candidates {
+            let state = Placed {
+                weights: vec![Rgb::ZERO; scene.lights.len()],
+                changes: vec![c.change.clone()],
+            };
+            parts.free.push(Part::new(self, state)?);
+        }
+        let mut choices: Vec<Vec<usize>> = Vec::new();
+        for (k, c) in candidates.iter().enumerate() {
+            match choices
+                .iter_mut()
+                .find(|set| candidates[set[0] - free.len()].position == c.position)
+            {
+                Some(set) => set.push(free.len() + k),
+                None => choices.push(vec![free.len() + k]),
+            }
+        }
         let terms: Vec<GridTerms> = targets
             .iter()
             .map(|t| {
@@ -442,18 +522,20 @@ impl Model {
             .collect();
         let flux: Vec<f64> = parts.free.iter().map(|p| self.part_lumens(p)).collect();
         let glare = self.glare_models(&parts, targets)?;
-        let levels = optimize(&flux, &labelled, &terms, &glare)?;
+        let levels = optimize(&flux, &labelled, &terms, &glare, &choices)?;
         let mut state = parts.fixed.state.clone();
         for (p, &x) in parts.free.iter().zip(&levels) {
             for (w, wg) in state.weights.iter_mut().zip(&p.state.weights) {
                 *w += *wg * x as f32;
             }
-            state
-                .changes
-                .extend(p.state.changes.iter().map(|c| LuminaireChange {
-                    weight: c.weight * x as f32,
-                    ..c.clone()
-                }));
+            if x > 1e-9 {
+                state
+                    .changes
+                    .extend(p.state.changes.iter().map(|c| LuminaireChange {
+                        weight: c.weight * x as f32,
+                        ..c.clone()
+                    }));
+            }
         }
         let w = state.weights.clone();
         let solve_ms = t0.elapsed().as_secs_f64() * 1e3;
@@ -486,8 +568,25 @@ impl Model {
             Lighting::Placed(p) => (self.lumens(&w) + p.flux().luminance(), p.power(scene)),
             _ => (self.lumens(&w), self.luminaire_power(&w)),
         };
+        let installed = candidates
+            .iter()
+            .zip(&levels[free.len()..])
+            .filter(|(_, &x)| x > 1e-9)
+            .map(|(c, &x)| {
+                let l = &c.change.luminaire;
+                InstalledAnswer {
+                    id: l.id.clone(),
+                    position: l.position.to_array(),
+                    photometry: c.change.photometry.clone().unwrap_or_default(),
+                    level: x,
+                    lumens: l.lumens * x,
+                    watts: l.watts.map(|w| w * x),
+                }
+            })
+            .collect();
         Ok(OptimizeAnswer {
-            lights: self.levels(&w, free, &levels),
+            lights: self.levels(&w, free, &levels[..free.len()]),
+            installed,
             lumens,
             power,
             targets: answers,

@@ -478,3 +478,81 @@ fn optimize_with_luminaires_placed_per_request_equals_the_same_luminaires_baked(
         "{flux} lm against {want_flux}"
     );
 }
+
+/// `/optimize` with candidates (positions × photometric files): the mixed-integer answer
+/// lights at most one file per position and uses exactly the least flux of every way to
+/// choose a file (or none) per position, each solved alone as a plain LP (brute force).
+#[test]
+fn optimize_with_candidates_installs_the_least_flux_choice() {
+    use relight::model::optimize::{Candidate, GridTarget};
+    let _gate = common::shared();
+    let dir = room("", "factored");
+    // A second file: the same distribution at 60 % of the intensity.
+    let dim = IES.replace("1 2500 1 19", "1 2500 0.6 19");
+    assert_ne!(dim, IES);
+    std::fs::write(dir.path().join("dim.ies"), dim).unwrap();
+    let (_dir, m) = bake(dir);
+    let scene = &m.baked.scene;
+    let positions = [[0.8, 2.75, 0.8], [3.2, 2.75, 0.8], [2.0, 2.75, 2.2]];
+    let files = ["down.ies", "dim.ies"];
+    let candidate = |p: usize, f: usize| {
+        let entry = LuminairePlacement {
+            id: format!("c{p}_{f}"),
+            position: Some(positions[p]),
+            photometry: Some(Photometry::File(files[f].into())),
+            ..Default::default()
+        };
+        let placed = place(scene, m.patches(), vec![Rgb::ZERO], &[entry]).unwrap();
+        Candidate {
+            position: p,
+            change: placed.changes[0].clone(),
+        }
+    };
+    // The scene's own downlight off: the candidates light the grid.
+    let target = GridTarget {
+        grid: m.grid_index("work").unwrap(),
+        eavg_min: Some(300.0),
+        emin_min: Some(100.0),
+        u0_min: None,
+        ugr_max: None,
+    };
+    let all: Vec<Candidate> = (0..3)
+        .flat_map(|p| (0..2).map(move |f| (p, f)))
+        .map(|(p, f)| candidate(p, f))
+        .collect();
+    let got = m
+        .optimize_layout(&[Rgb::ZERO], &[], &[], &[target], &all)
+        .unwrap();
+    let mut per_position = [0; 3];
+    for i in &got.installed {
+        per_position[i.id[1..2].parse::<usize>().unwrap()] += 1;
+    }
+    assert!(per_position.iter().all(|&n| n <= 1), "{:?}", got.installed);
+    assert!(got.targets[0].met, "{:?}", got.targets);
+    // Brute force: a file or none at each position, 27 ways, each a plain LP.
+    let mut best = f64::INFINITY;
+    for code in 0..27usize {
+        let pick: Vec<Candidate> = (0..3)
+            .filter_map(|p| match (code / 3usize.pow(p as u32)) % 3 {
+                0 => None,
+                f => Some(candidate(p, f - 1)),
+            })
+            .collect();
+        if let Ok(a) = m.optimize_layout(&[Rgb::ZERO], &[], &[], &[target], &pick) {
+            best = best.min(a.lumens);
+        }
+    }
+    eprintln!(
+        "candidates: installed {:?}, {:.1} lm; brute force {best:.1} lm",
+        got.installed
+            .iter()
+            .map(|i| (&i.id, i.level))
+            .collect::<Vec<_>>(),
+        got.lumens
+    );
+    assert!(
+        (got.lumens - best).abs() < 1e-6 * best,
+        "{} lm against the best choice's {best} lm",
+        got.lumens
+    );
+}

@@ -163,6 +163,7 @@ impl Modify for Constraints {
         schemas(
             Color, Position, Direction, LightSetting, Lights, Emission, LightingState, Point,
             Target, Exposure, RadiosityRequest, IlluminanceRequest, BatchRequest,
+            super::requests::optimize::Candidates,
             OptimizeRequest, RenderRequest, ProblemDetails, Rgb, Millis, DaylightRequest, AnnualRequest,
             GlareRequest, Observer, super::requests::export::ExportBody,
             super::requests::render::ReportBody,

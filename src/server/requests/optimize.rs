@@ -7,11 +7,12 @@ use utoipa::openapi::schema::Schema;
 use utoipa::openapi::RefOr;
 use utoipa::ToSchema;
 
-use super::lighting::{lighting, Lights, LuminaireEntry};
+use super::lighting::{lighting, Direction, Lights, LuminaireEntry, Position};
 use super::{object_only, raw, schema_ref, some, Resolve};
 use crate::color::Rgb;
-use crate::model::optimize::{GridTarget, MAX_TARGET_LUX};
+use crate::model::optimize::{Candidate, GridTarget, MAX_TARGET_LUX};
 use crate::model::placed::LuminaireChange;
+use crate::model::placed::{place, LuminairePlacement, Photometry};
 use crate::model::{Lighting, Model};
 use crate::server::parse::{group_list, number};
 use crate::server::AppError;
@@ -91,6 +92,82 @@ pub(crate) struct OptimizeRequest {
     #[serde(default, deserialize_with = "some")]
     #[schema(nullable = false, max_items = 1000)]
     luminaires: Option<Vec<LuminaireEntry>>,
+    /// Luminaires the optimizer may install: positions × photometric files, at most one
+    /// file per position, each installed one dimmed like a free group.
+    #[serde(default, deserialize_with = "some")]
+    #[schema(nullable = false)]
+    candidates: Option<Candidates>,
+}
+
+/// Most candidates (positions × photometric files) in one request: each is solved once.
+pub const MAX_CANDIDATES: usize = 200;
+
+/// Candidate luminaires: every photometric file at every position.
+#[derive(Debug, Deserialize, ToSchema)]
+#[serde(remote = "Self", deny_unknown_fields)]
+pub(crate) struct Candidates {
+    /// Photometric centres, metres, inside the scene's bounds.
+    #[schema(min_items = 1, max_items = 200)]
+    positions: Vec<Position>,
+    /// Photometric files of the scene folder offered at every position.
+    #[schema(min_items = 1, max_items = 8)]
+    photometry: Vec<String>,
+    /// Photometric axis of every candidate (default straight down, −Y).
+    #[serde(default, deserialize_with = "some")]
+    #[schema(nullable = false)]
+    aim: Option<Direction>,
+}
+
+object_only!(Candidates, "an object {positions, photometry, aim}");
+
+impl Candidates {
+    /// Every (position, file) pair as a luminaire at unit weight in no group, checked as a
+    /// placed luminaire is (bounds, file); `c<position>_<file>` ids.
+    fn resolve(&self, model: &Model) -> Result<Vec<Candidate>, AppError> {
+        let (np, nf) = (self.positions.len(), self.photometry.len());
+        if np == 0 || nf == 0 || np * nf > MAX_CANDIDATES {
+            return Err(AppError::Invalid(format!(
+                "candidates: {np} positions × {nf} photometric files; give at least one of \
+                 each, at most {MAX_CANDIDATES} pairs"
+            )));
+        }
+        model.require_factored()?;
+        let scene = &model.baked.scene;
+        let none = vec![Rgb::ZERO; scene.lights.len()];
+        let mut out = Vec::with_capacity(np * nf);
+        for (p, at) in self.positions.iter().enumerate() {
+            for (f, file) in self.photometry.iter().enumerate() {
+                let entry = LuminairePlacement {
+                    id: format!("c{p}_{f}"),
+                    position: Some(at.0 .0),
+                    aim: self.aim.map(|a| a.0 .0),
+                    photometry: Some(Photometry::File(file.clone())),
+                    ..Default::default()
+                };
+                let placed =
+                    place(scene, model.patches(), none.clone(), &[entry]).map_err(|e| {
+                        // The entry's own words, named as the request gives it.
+                        let m = e.to_string();
+                        let m = m
+                            .split_once("): ")
+                            .map_or(m.as_str(), |(_, m)| m)
+                            .to_string();
+                        AppError::Invalid(format!(
+                            "candidates.positions[{p}] with candidates.photometry[{f}]: {m}"
+                        ))
+                    })?;
+                let change =
+                    placed.changes.into_iter().next().ok_or_else(|| {
+                        AppError::Internal("a candidate made no luminaire".into())
+                    })?;
+                out.push(Candidate {
+                    position: p,
+                    change,
+                });
+            }
+        }
+        Ok(out)
+    }
 }
 
 object_only!(OptimizeRequest, "a JSON object");
@@ -101,6 +178,8 @@ pub(crate) struct OptimizeAsk {
     pub base: Vec<Rgb>,
     /// Luminaires placed, moved or removed for the request.
     pub changes: Vec<LuminaireChange>,
+    /// Luminaires the optimizer may install.
+    pub candidates: Vec<Candidate>,
     /// The groups the optimizer may dim.
     pub free: Vec<usize>,
     pub targets: Vec<GridTarget>,
@@ -125,9 +204,14 @@ impl Resolve for OptimizeRequest {
             }
             Some(ids) => group_list(ids, model)?,
         };
+        let candidates = match &self.candidates {
+            Some(c) => c.resolve(model)?,
+            None => vec![],
+        };
         Ok(OptimizeAsk {
             base,
             changes,
+            candidates,
             free,
             targets: self.targets(model)?,
         })
