@@ -162,3 +162,53 @@ async fn a_ugr_ceiling_is_honoured_at_the_least_flux_or_refused_with_the_reason(
         assert!(v["detail"].as_str().unwrap().contains(says), "{v}");
     }
 }
+
+/// Candidates are checked before any work: too many pairs, a position outside the scene,
+/// a file the scene lacks, and a columns scene each get a 422 naming what is wrong.
+#[tokio::test]
+async fn optimize_candidates_with_bad_input_get_a_422() {
+    let _gate = common::shared();
+    let target = r#""targets": [{"grid": "desk", "eavg_min": 300}]"#;
+    let many: Vec<String> = (0..101)
+        .map(|i| format!("[{}, 2.9, 1]", 0.01 * i as f64))
+        .collect();
+    let cases = [
+        (
+            "office",
+            format!(
+                r#"{{{target}, "candidates": {{"positions": [{}], "photometry": ["a.ies", "b.ies"]}}}}"#,
+                many.join(",")
+            ),
+            "at most 200 pairs",
+        ),
+        (
+            "office",
+            format!(
+                r#"{{{target}, "candidates": {{"positions": [[1, 2.9, 1]], "photometry": ["downlight.ies"]}}}}"#
+            ),
+            "columns",
+        ),
+        (
+            "desk-room",
+            format!(
+                r#"{{{target}, "candidates": {{"positions": [[1, 9, 1]], "photometry": ["x.ies"]}}}}"#
+            ),
+            "candidates.positions[0]",
+        ),
+        (
+            "desk-room",
+            format!(
+                r#"{{{target}, "candidates": {{"positions": [[1, 2.5, 1]], "photometry": ["missing.ies"]}}}}"#
+            ),
+            "missing.ies",
+        ),
+    ];
+    for (scene, body, needle) in cases {
+        let (s, _, v) = post(app(), &format!("/api/scenes/{scene}/optimize"), body).await;
+        assert_eq!(s, StatusCode::UNPROCESSABLE_ENTITY, "{v}");
+        assert!(
+            v["detail"].as_str().unwrap().contains(needle),
+            "{needle}: {v}"
+        );
+    }
+}
