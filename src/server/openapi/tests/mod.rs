@@ -372,6 +372,14 @@ fn answer_schemas_describe_the_model_types() {
             },
         )]
         .into(),
+        installed: vec![crate::model::optimize::InstalledAnswer {
+            id: "c0_0".into(),
+            position: [1.0, 2.0, 3.0],
+            photometry: "down.ies".into(),
+            level: 0.5,
+            lumens: 1250.0,
+            watts: None,
+        }],
         lumens: 10.0,
         power: LuminairePower {
             luminaire_lumens: 10.0,
