@@ -1,10 +1,11 @@
 // Models in and out: the "Open model" dialog (PUT /api/scenes/{id} with a .glb or a zipped
 // scene folder, the admin token, then the bake's progress) and the "Export glTF" link
-// (GET /api/scenes/{id}/export.glb with the page's lighting and exposure).
+// (GET /api/scenes/{id}/export.glb with the page's lighting and exposure; a POST with the
+// luminaire layout when there is one).
 
-import { $ } from "./util.js";
-import { state, lightingJson } from "./state.js";
-import { problem } from "./api.js";
+import { $, showBanner } from "./util.js";
+import { state, lightingJson, lightingBody } from "./state.js";
+import { postJson, problem } from "./api.js";
 
 const TOKEN_KEY = "relight.adminToken";
 
@@ -131,5 +132,19 @@ export function wireModels(onReady) {
   const refresh = () => { if (state.details) link.href = exportUrl(); };
   link.addEventListener("pointerenter", refresh);
   link.addEventListener("focus", refresh);
-  link.addEventListener("click", refresh);
+  link.addEventListener("click", async (ev) => {
+    refresh();
+    if (!state.details || !state.layout.length) return;
+    // A luminaire layout rides in a POST body: fetch the file, then save it.
+    ev.preventDefault();
+    const body = lightingBody();
+    if (state.exposure !== null) body.exposure = state.exposure;
+    const r = await postJson("/export.glb", body, { binary: true });
+    if (!r.ok) return showBanner(`Export: ${await problem(r)}`, "error");
+    const a = document.createElement("a");
+    a.href = URL.createObjectURL(await r.blob());
+    a.download = `${state.scene}.glb`;
+    a.click();
+    setTimeout(() => URL.revokeObjectURL(a.href), 10000);
+  });
 }

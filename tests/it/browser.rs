@@ -976,6 +976,43 @@ async fn the_page_places_drags_and_removes_luminaires() {
         .unwrap();
     image_for(&s, v).await;
 
+    // ---- "Export glTF" with a layout: the page POSTs it and saves the file it gets.
+    s.js(r#"
+        window.__saved = [];
+        const make = URL.createObjectURL;
+        URL.createObjectURL = (b) => { window.__saved.push([b.size, b.type]); return make(b); };
+        HTMLAnchorElement.prototype.click = function () { window.__clicked = this.download; };
+        document.querySelector('#export-glb').dispatchEvent(
+            new MouseEvent('click', {bubbles: true, cancelable: true}));
+        "#)
+        .await;
+    s.wait_for("window.__clicked === 'desk-room.glb'", "the exported file")
+        .await;
+    let saved = s.js("return window.__saved;").await;
+    assert_eq!(saved[0][1], "model/gltf-binary", "{saved}");
+    assert!(saved[0][0].as_u64().unwrap() > 10_000, "{saved}");
+
+    // ---- "Report" with a layout: POSTed, shown from the answer; its schedule lists it.
+    s.js(r#"
+        window.open = () => ({ set location(u) { window.__report = u; }, close() {} });
+        document.querySelector('#report-button').click();
+        "#)
+        .await;
+    s.wait_for("typeof window.__report === 'string'", "the report")
+        .await;
+    let html = s
+        .js_async(
+            "const done = arguments[arguments.length - 1];
+             fetch(window.__report).then((r) => r.text()).then(done);",
+        )
+        .await;
+    let html = html.as_str().unwrap();
+    assert!(
+        html.contains("Luminaire schedule") && html.contains("downlight.ies"),
+        "{}",
+        &html[..html.len().min(300)]
+    );
+
     // ---- The scene.toml tables, and the link: the layout comes back from the hash.
     let toml = s.js("return window.relight.layoutToml();").await;
     let toml = toml.as_str().unwrap();
