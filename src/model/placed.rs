@@ -232,6 +232,25 @@ impl Placed {
         }
     }
 
+    /// The maintenance factor every light of this state takes, when they all take the
+    /// same one ([`Placed::maintained`]'s factors: `groups[g]` for the lit groups and the
+    /// changes in them, `other` for a change without a group); None when they differ.
+    pub fn common_factor(&self, groups: &[f64], other: f64) -> Option<f64> {
+        let lit_groups = self
+            .weights
+            .iter()
+            .enumerate()
+            .filter(|(_, w)| w.iter().any(|&c| c != 0.0))
+            .map(|(g, _)| groups.get(g).copied().unwrap_or(other));
+        let changes = self
+            .changes
+            .iter()
+            .map(|c| c.group.and_then(|g| groups.get(g).copied()).unwrap_or(other));
+        let mut all = lit_groups.chain(changes);
+        let first = all.next()?;
+        all.all(|f| f == first).then_some(first)
+    }
+
     /// Σ weight × lumens × colour over the changes, lm per channel.
     pub fn flux(&self) -> Rgb64 {
         self.luminaires()
@@ -655,12 +674,31 @@ impl Model {
     ) -> Result<IlluminanceAnswer, QueryError> {
         let factors = self.factors(q);
         let mut a = self.solved_illuminance(&Lighting::Placed(p.clone()), q, cancel)?;
-        let pm = p.maintained(&factors.groups, factors.emission);
-        let m = self.solved_illuminance(&Lighting::Placed(pm), q, cancel)?;
-        a.maintained = Maintained {
-            points: m.points,
-            surfaces: m.surfaces,
-            grids: m.grids,
+        a.maintained = match p.common_factor(&factors.groups, factors.emission) {
+            // Every light of the state takes the same factor: the answer scaled, as a
+            // second solve would give it (light is linear), at no cost.
+            Some(mf) => Maintained {
+                points: a.points.iter().map(|x| x.scaled(mf)).collect(),
+                surfaces: a
+                    .surfaces
+                    .iter()
+                    .map(|(k, s)| (k.clone(), s.scaled(mf)))
+                    .collect(),
+                grids: a
+                    .grids
+                    .iter()
+                    .map(|(k, g)| (k.clone(), g.scaled(mf)))
+                    .collect(),
+            },
+            None => {
+                let pm = p.maintained(&factors.groups, factors.emission);
+                let m = self.solved_illuminance(&Lighting::Placed(pm), q, cancel)?;
+                Maintained {
+                    points: m.points,
+                    surfaces: m.surfaces,
+                    grids: m.grids,
+                }
+            }
         };
         a.compliance = self.compliance(
             q,
