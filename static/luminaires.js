@@ -68,6 +68,9 @@ export function setupLuminaires() {
   $("#lum-group").replaceChildren(new Option("(no group)", ""),
     ...state.details.lights.map((g) => new Option(g.name || g.id, g.id)));
   $("#lum-add").disabled = !files.length;
+  $("#lum-add").title = files.length
+    ? "Add a luminaire where the 3D view looks, at the mounting height"
+    : "No .ies or .ldt file in the scene folder to add from";
   showLayout();
 }
 

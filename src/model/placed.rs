@@ -131,34 +131,14 @@ impl Placed {
     /// [`Placed::lit`], each luminaire with the light group it belongs to (none for a new
     /// luminaire given no group).
     pub fn lit_in_groups(&self, scene: &Scene) -> Vec<(Luminaire, Option<usize>)> {
-        let out: std::collections::HashSet<&str> = self
-            .changes
-            .iter()
-            .filter(|c| c.taken_out)
-            .map(|c| c.luminaire.id.as_str())
-            .collect();
-        let weighted = |l: &Luminaire, w: Rgb| {
-            (w.max_component() > 0.0).then(|| {
+        self.weighted(scene)
+            .into_iter()
+            .filter(|(_, _, _, w)| w.max_component() > 0.0)
+            .map(|(l, group, _, w)| {
                 let mut l = l.clone();
                 l.color *= w;
-                l
+                (l, group)
             })
-        };
-        let scene_lit =
-            scene
-                .lights
-                .iter()
-                .zip(&self.weights)
-                .enumerate()
-                .flat_map(|(k, (g, &w))| {
-                    g.luminaires
-                        .iter()
-                        .filter(|l| !out.contains(l.id.as_str()))
-                        .filter_map(move |l| Some((weighted(l, w)?, Some(k))))
-                });
-        let put_in = self.changes.iter().filter(|c| !c.taken_out);
-        scene_lit
-            .chain(put_in.filter_map(|c| Some((weighted(&c.luminaire, c.weight)?, c.group))))
             .collect()
     }
 
@@ -169,6 +149,18 @@ impl Placed {
         &'a self,
         scene: &'a Scene,
     ) -> Vec<(&'a Luminaire, Option<usize>, Option<&'a str>)> {
+        self.weighted(scene)
+            .into_iter()
+            .map(|(l, group, file, _)| (l, group, file))
+            .collect()
+    }
+
+    /// [`Placed::installed`], each with the weight its light counts at: its group's for
+    /// the scene's own, the change's for one put in.
+    fn weighted<'a>(
+        &'a self,
+        scene: &'a Scene,
+    ) -> Vec<(&'a Luminaire, Option<usize>, Option<&'a str>, Rgb)> {
         let out: std::collections::HashSet<&str> = self
             .changes
             .iter()
@@ -176,14 +168,15 @@ impl Placed {
             .map(|c| c.luminaire.id.as_str())
             .collect();
         let scene_ones = scene.lights.iter().enumerate().flat_map(|(k, g)| {
+            let w = self.weights.get(k).copied().unwrap_or(Rgb::ZERO);
             g.luminaires
                 .iter()
                 .filter(|l| !out.contains(l.id.as_str()))
-                .map(move |l| (l, Some(k), None))
+                .map(move |l| (l, Some(k), None, w))
         });
         let put_in = self.changes.iter().filter(|c| !c.taken_out);
         scene_ones
-            .chain(put_in.map(|c| (&c.luminaire, c.group, c.photometry.as_deref())))
+            .chain(put_in.map(|c| (&c.luminaire, c.group, c.photometry.as_deref(), c.weight)))
             .collect()
     }
 
@@ -242,10 +235,11 @@ impl Placed {
             .enumerate()
             .filter(|(_, w)| w.iter().any(|&c| c != 0.0))
             .map(|(g, _)| groups.get(g).copied().unwrap_or(other));
-        let changes = self
-            .changes
-            .iter()
-            .map(|c| c.group.and_then(|g| groups.get(g).copied()).unwrap_or(other));
+        let changes = self.changes.iter().map(|c| {
+            c.group
+                .and_then(|g| groups.get(g).copied())
+                .unwrap_or(other)
+        });
         let mut all = lit_groups.chain(changes);
         let first = all.next()?;
         all.all(|f| f == first).then_some(first)

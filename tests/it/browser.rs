@@ -174,6 +174,20 @@ async fn switch_scene(s: &Session, scene: &str, also: &str) {
     .await;
 }
 
+/// [`find_driver`], or None after saying the test is skipped (a panic instead when
+/// `RELIGHT_REQUIRE_BROWSER=1`, as in CI).
+fn driver_or_skip() -> Option<(PathBuf, PathBuf)> {
+    let found = find_driver();
+    if found.is_none() {
+        let msg = "chromium/chromedriver not found (apt-get install chromium chromium-driver)";
+        if std::env::var("RELIGHT_REQUIRE_BROWSER").as_deref() == Ok("1") {
+            panic!("{msg}");
+        }
+        eprintln!("SKIPPED the browser test: {msg}");
+    }
+    found
+}
+
 pub(crate) fn find_driver() -> Option<(PathBuf, PathBuf)> {
     let driver = std::env::var_os("RELIGHT_CHROMEDRIVER")
         .map(PathBuf::from)
@@ -209,12 +223,7 @@ fn scenes() -> (PathBuf, PathBuf) {
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn the_page_relights_live_in_headless_chromium() {
-    let Some((driver_bin, browser_bin)) = find_driver() else {
-        let msg = "chromium/chromedriver not found (apt-get install chromium chromium-driver)";
-        if std::env::var("RELIGHT_REQUIRE_BROWSER").as_deref() == Ok("1") {
-            panic!("{msg}");
-        }
-        eprintln!("SKIPPED the browser test: {msg}");
+    let Some((driver_bin, browser_bin)) = driver_or_skip() else {
         return;
     };
     let _gate = common::alone();
@@ -851,12 +860,7 @@ pub(crate) fn base64_decode(s: &str) -> Vec<u8> {
 /// layout (a link opens it again); the scene.toml tables hold it; ✕ takes it out.
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn the_page_places_drags_and_removes_luminaires() {
-    let Some((driver_bin, browser_bin)) = find_driver() else {
-        let msg = "chromium/chromedriver not found (apt-get install chromium chromium-driver)";
-        if std::env::var("RELIGHT_REQUIRE_BROWSER").as_deref() == Ok("1") {
-            panic!("{msg}");
-        }
-        eprintln!("SKIPPED the browser test: {msg}");
+    let Some((driver_bin, browser_bin)) = driver_or_skip() else {
         return;
     };
     let _gate = common::alone();

@@ -332,3 +332,17 @@ pub fn rect_factor(p: (f64, f64), (x0, x1): (f64, f64), (z0, z1): (f64, f64), c:
     .map(|&(a, b)| corner_factor(a, b, c))
     .sum()
 }
+
+/// Relative RMSE of image `a` against image `b`: √(mean |a − b|²) / mean of `b`, over the
+/// channels.
+pub fn relative_rmse(a: &[relight::color::Rgb], b: &[relight::color::Rgb]) -> f64 {
+    let n = (3 * b.len()) as f64;
+    let mean = b.iter().flat_map(|p| p.0).map(f64::from).sum::<f64>() / n;
+    let sq = a
+        .iter()
+        .zip(b)
+        .flat_map(|(p, q)| (0..3).map(move |k| (p.0[k] - q.0[k]) as f64))
+        .map(|d| d * d)
+        .sum::<f64>();
+    (sq / n).sqrt() / mean
+}

@@ -534,15 +534,7 @@ fn a_final_image_of_a_groups_emission_vector_matches_the_groups_image() {
     )
     .unwrap()
     .linear(&[Rgb::ONE]);
-    let n = (3 * img.len()) as f64;
-    let mean = group.iter().flat_map(|p| p.0).map(f64::from).sum::<f64>() / n;
-    let sq: f64 = img
-        .iter()
-        .zip(&group)
-        .flat_map(|(p, q)| (0..3).map(move |k| (p.0[k] - q.0[k]) as f64))
-        .map(|d| d * d)
-        .sum();
-    let e = (sq / n).sqrt() / mean;
+    let e = common::relative_rmse(&img, &group);
     eprintln!("group as emission: relative RMSE {:.3} %", 100.0 * e);
     assert!(e < 0.01, "relative RMSE {e:.4}");
 }

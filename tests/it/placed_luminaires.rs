@@ -267,20 +267,6 @@ fn placed_luminaires_are_maintained_by_their_groups_factor() {
     assert!((alone - 1.0).abs() < 1e-6, "without a group: {alone}");
 }
 
-/// Relative RMSE of image `a` against image `b`: √(mean |a − b|²) / mean of `b`, over the
-/// channels.
-fn relative_rmse(a: &[Rgb], b: &[Rgb]) -> f64 {
-    let n = (3 * b.len()) as f64;
-    let mean = b.iter().flat_map(|p| p.0).map(f64::from).sum::<f64>() / n;
-    let sq = a
-        .iter()
-        .zip(b)
-        .flat_map(|(p, q)| (0..3).map(move |k| (p.0[k] - q.0[k]) as f64))
-        .map(|d| d * d)
-        .sum::<f64>();
-    (sq / n).sqrt() / mean
-}
-
 /// A `final` image of a state with luminaires placed per request (one added, the scene's
 /// own moved) equals the `final` image of the same luminaires written into scene.toml and
 /// baked, within 0.5 % RMSE: the new luminaires' direct light is traced per pixel as the
@@ -330,7 +316,7 @@ fn final_image_of_luminaires_placed_per_request_equals_the_same_luminaires_baked
     let placed = place(&base.baked.scene, base.patches(), vec![Rgb::ONE], &edits).unwrap();
     let got = image(&base, Some(&Lighting::Placed(placed)));
     let want = image(&baked, None);
-    let e = relative_rmse(&got, &want);
+    let e = common::relative_rmse(&got, &want);
     eprintln!(
         "final, placed against baked: relative RMSE {:.3} %",
         100.0 * e
@@ -338,7 +324,7 @@ fn final_image_of_luminaires_placed_per_request_equals_the_same_luminaires_baked
     assert!(e < 0.005, "relative RMSE {e:.4}");
     // Not a test that cannot fail: the unmoved room's image is far from it.
     let before = image(&base, None);
-    let far = relative_rmse(&before[..], &want);
+    let far = common::relative_rmse(&before[..], &want);
     assert!(
         far > 0.1,
         "the room before the change differs by only {far:.4}"
