@@ -67,7 +67,7 @@ fn expected_sweeps(t: &Transfer) -> u64 {
 /// What a batch reports for each state besides the power balance.
 #[derive(Debug, Clone, Default)]
 pub struct BatchReport {
-    /// Grids whose statistics each state answers (light-group states only).
+    /// Grids whose statistics each state answers ([`Model::state_grid_answers`]).
     pub grids: Vec<usize>,
     /// Surfaces whose illuminance statistics each state answers.
     pub surfaces: Vec<usize>,
@@ -88,7 +88,10 @@ impl Model {
             .sum();
         let radiosity = if report.radiosity { 150 * n } else { 0 };
         let per_state = 400 * report.surfaces.len() as u64 + 48 * grid_points + radiosity;
-        2 * plan.states as u64 * per_state + plan.bytes + BYTES_PER_PATCH_ANSWER * n
+        // A placed or emission state's grids gather from its radiosity: the changes' part and
+        // the gather's importance, one state at a time.
+        let gather = if report.grids.is_empty() { 0 } else { 24 * n };
+        2 * plan.states as u64 * per_state + plan.bytes + BYTES_PER_PATCH_ANSWER * n + gather
     }
 
     /// Checks a batch of `states` lighting states, `emission_states` of them per-patch

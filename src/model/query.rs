@@ -322,6 +322,65 @@ impl Model {
         grid_answer(&g.grid, g.stats(w))
     }
 
+    /// Grid answers for any lighting state `l` already solved as `sol`, keyed by grid id:
+    /// a weighted sum of the stored responses for group weights; for luminaires placed
+    /// per request, those plus the changes traced and gathered at each point
+    /// ([`Model::placed_grid_values`]); for an emission, a gather of its radiosity at each
+    /// point.
+    pub fn state_grid_answers(
+        &self,
+        l: &Lighting,
+        sol: &crate::transport::transfer::Solution,
+        grids: &[usize],
+        cancel: &Cancel,
+    ) -> Result<BTreeMap<String, GridAnswer>, QueryError> {
+        let answers = match l {
+            Lighting::Groups(w) => self.grid_answers(grids, w),
+            Lighting::Placed(p) => {
+                // The changes' radiosity: the state's less the groups'.
+                let mut extra = sol.b.clone();
+                let base = self.baked.transfer.relight(&p.weights);
+                extra.iter_mut().zip(&base.b).for_each(|(x, b)| *x -= b);
+                grids
+                    .iter()
+                    .map(|&gi| {
+                        let values = self.placed_grid_values(gi, p, &extra, cancel);
+                        let g = &self.grids[gi];
+                        (
+                            g.grid.id.clone(),
+                            grid_answer(&g.grid, grid::stats(values, &g.excluded)),
+                        )
+                    })
+                    .collect()
+            }
+            Lighting::Emission(_) => grids
+                .iter()
+                .map(|&gi| {
+                    let g = &self.grids[gi];
+                    let n = DVec3::from_array(g.grid.normal);
+                    let values = g
+                        .grid
+                        .points
+                        .par_iter()
+                        .map(|x| {
+                            if cancel.is_cancelled() {
+                                return 0.0;
+                            }
+                            let x = DVec3::from_array(*x);
+                            self.lit_point_illuminance(l, &sol.b, x, n).luminance() as f32
+                        })
+                        .collect();
+                    (
+                        g.grid.id.clone(),
+                        grid_answer(&g.grid, grid::stats(values, &g.excluded)),
+                    )
+                })
+                .collect(),
+        };
+        cancel.check()?;
+        Ok(answers)
+    }
+
     /// Grid answers for group weights, keyed by grid id.
     pub fn grid_answers(&self, grids: &[usize], w: &[Rgb]) -> BTreeMap<String, GridAnswer> {
         grids

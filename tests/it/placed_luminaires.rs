@@ -542,3 +542,41 @@ fn optimize_with_candidates_installs_the_least_flux_choice() {
         got.lumens
     );
 }
+
+/// A batch state's grids (`Model::state_grid_answers`, what `/batch` answers per state)
+/// with a luminaire placed per request equal the same luminaire baked, to 1 % per point.
+#[test]
+fn batch_grids_of_a_placed_state_equal_the_same_luminaire_baked() {
+    let _gate = common::shared();
+    let (_base_dir, base) = bake(room("", "factored"));
+    let (_baked_dir, baked) = bake(room(
+        "[[luminaires]]\nid = \"l2\"\ngroup = \"spare\"\nphotometry = \"down.ies\"\nposition = [3.0, 2.75, 2.0]\n",
+        "factored",
+    ));
+    let placed = place(
+        &base.baked.scene,
+        base.patches(),
+        vec![Rgb::new(0.5, 0.5, 0.5)],
+        &[new_downlight("l2", [3.0, 2.75, 2.0])],
+    )
+    .unwrap();
+    let lit = Lighting::Placed(placed);
+    let sol = base.solve(&lit).unwrap();
+    let gi = base.grid_index("work").unwrap();
+    let got = base
+        .state_grid_answers(&lit, &sol, &[gi], &Cancel::default())
+        .unwrap();
+    let w = [Rgb::new(0.5, 0.5, 0.5), Rgb::ONE];
+    let want = baked.grid_answers(&[baked.grid_index("work").unwrap()], &w);
+    let (g, b) = (&got["work"], &want["work"]);
+    for (x, y) in g.values.iter().zip(&b.values) {
+        let (x, y) = (x.unwrap(), y.unwrap());
+        assert!((x - y).abs() <= 0.01 * y, "grid point: {x} against {y}");
+    }
+    assert!(
+        (g.avg - b.avg).abs() < 0.005 * b.avg,
+        "{} against {}",
+        g.avg,
+        b.avg
+    );
+}

@@ -43,7 +43,7 @@ fn batch_surfaces() -> RefOr<Schema> {
 }
 
 fn batch_grids() -> RefOr<Schema> {
-    names("Grid ids: also return grid statistics for each state (light-group states only).")
+    names("Grid ids: also return grid statistics for each state (for a state of light groups a weighted sum of the stored responses; with luminaires placed per request or an emission, traced and gathered at each point).")
 }
 
 /// Lighting states, answered in order (per-patch emission states are solved together),

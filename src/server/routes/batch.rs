@@ -9,7 +9,6 @@ use utoipa::ToSchema;
 
 use crate::model::query::GridAnswer;
 use crate::model::report::{PowerReport, SurfaceIlluminance};
-use crate::model::Lighting;
 use crate::schema::{lm, lm_per_m2, lx};
 use crate::server::openapi::{PostErrors, SceneIdParam};
 use crate::server::parse::ScenePost;
@@ -80,19 +79,14 @@ pub(crate) async fn batch(
                 &plan,
                 |k| states[k].lighting(m).map_err(|e| at(k, e)),
                 cancel,
-                |k, l, sol| {
+                |_, l, sol| {
                     let radiosity = report
                         .radiosity
                         .then(|| crate::color::Rgb::column(&sol.b).to_vec());
                     let grid_answers = if report.grids.is_empty() {
                         None
                     } else {
-                        let Lighting::Groups(w) = l else {
-                            return Err(at(k, AppError::Invalid(
-                                "grids need light-group states (per-patch emission and placed luminaires have no grid columns)".into(),
-                            )));
-                        };
-                        Some(m.grid_answers(&report.grids, &w))
+                        Some(m.state_grid_answers(&l, &sol, &report.grids, cancel)?)
                     };
                     results.push(BatchResult {
                         surfaces: m.surface_stats(&report.surfaces, &sol.h),
