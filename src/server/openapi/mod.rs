@@ -78,7 +78,7 @@ impl Modify for Constraints {
             );
         }
         // Bodies that may be left out (an empty body means the defaults).
-        for path in ["radiosity", "illuminance", "render"] {
+        for path in ["radiosity", "illuminance", "render", "export.glb", "report"] {
             let item = api
                 .paths
                 .paths
