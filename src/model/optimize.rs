@@ -484,16 +484,7 @@ impl Model {
             };
             parts.free.push(Part::new(self, state)?);
         }
-        let mut choices: Vec<Vec<usize>> = Vec::new();
-        for (k, c) in candidates.iter().enumerate() {
-            match choices
-                .iter_mut()
-                .find(|set| candidates[set[0] - free.len()].position == c.position)
-            {
-                Some(set) => set.push(free.len() + k),
-                None => choices.push(vec![free.len() + k]),
-            }
-        }
+        let choices = choices_by_position(candidates, free.len());
         let terms: Vec<GridTerms> = targets
             .iter()
             .map(|t| {
@@ -523,20 +514,7 @@ impl Model {
         let flux: Vec<f64> = parts.free.iter().map(|p| self.part_lumens(p)).collect();
         let glare = self.glare_models(&parts, targets)?;
         let levels = optimize(&flux, &labelled, &terms, &glare, &choices)?;
-        let mut state = parts.fixed.state.clone();
-        for (p, &x) in parts.free.iter().zip(&levels) {
-            for (w, wg) in state.weights.iter_mut().zip(&p.state.weights) {
-                *w += *wg * x as f32;
-            }
-            if x > 1e-9 {
-                state
-                    .changes
-                    .extend(p.state.changes.iter().map(|c| LuminaireChange {
-                        weight: c.weight * x as f32,
-                        ..c.clone()
-                    }));
-            }
-        }
+        let state = parts.at(&levels);
         let w = state.weights.clone();
         let solve_ms = t0.elapsed().as_secs_f64() * 1e3;
         let grid_ix: Vec<usize> = targets.iter().map(|t| t.grid).collect();
@@ -568,22 +546,7 @@ impl Model {
             Lighting::Placed(p) => (self.lumens(&w) + p.flux().luminance(), p.power(scene)),
             _ => (self.lumens(&w), self.luminaire_power(&w)),
         };
-        let installed = candidates
-            .iter()
-            .zip(&levels[free.len()..])
-            .filter(|(_, &x)| x > 1e-9)
-            .map(|(c, &x)| {
-                let l = &c.change.luminaire;
-                InstalledAnswer {
-                    id: l.id.clone(),
-                    position: l.position.to_array(),
-                    photometry: c.change.photometry.clone().unwrap_or_default(),
-                    level: x,
-                    lumens: l.lumens * x,
-                    watts: l.watts.map(|w| w * x),
-                }
-            })
-            .collect();
+        let installed = installed_answers(candidates, &levels[free.len()..]);
         Ok(OptimizeAnswer {
             lights: self.levels(&w, free, &levels[..free.len()]),
             installed,
@@ -734,6 +697,42 @@ impl Part {
     }
 }
 
+/// The candidates lit at `levels` (one per candidate), with their levels, lumens and watts.
+fn installed_answers(candidates: &[Candidate], levels: &[f64]) -> Vec<InstalledAnswer> {
+    candidates
+        .iter()
+        .zip(levels)
+        .filter(|(_, &x)| x > 1e-9)
+        .map(|(c, &x)| {
+            let l = &c.change.luminaire;
+            InstalledAnswer {
+                id: l.id.clone(),
+                position: l.position.to_array(),
+                photometry: c.change.photometry.clone().unwrap_or_default(),
+                level: x,
+                lumens: l.lumens * x,
+                watts: l.watts.map(|w| w * x),
+            }
+        })
+        .collect()
+}
+
+/// The sets of variables of which at most one may be lit: the candidates of each position
+/// (variables numbered after the `groups` free groups).
+fn choices_by_position(candidates: &[Candidate], groups: usize) -> Vec<Vec<usize>> {
+    let mut choices: Vec<Vec<usize>> = Vec::new();
+    for (k, c) in candidates.iter().enumerate() {
+        match choices
+            .iter_mut()
+            .find(|set| candidates[set[0] - groups].position == c.position)
+        {
+            Some(set) => set.push(groups + k),
+            None => choices.push(vec![groups + k]),
+        }
+    }
+    choices
+}
+
 /// A state split into its held part and one part per free group: the state at levels x is
 /// `fixed + Σ_g x_g free_g`.
 struct Parts {
@@ -782,6 +781,25 @@ impl Parts {
             fixed: Part::new(m, fixed)?,
             free,
         })
+    }
+    /// The state at `levels` (one per free part): `fixed + Σ x · free`, each change of a
+    /// part at its weight times the part's level (none from a part left at 0).
+    fn at(&self, levels: &[f64]) -> Placed {
+        let mut state = self.fixed.state.clone();
+        for (p, &x) in self.free.iter().zip(levels) {
+            for (w, wg) in state.weights.iter_mut().zip(&p.state.weights) {
+                *w += *wg * x as f32;
+            }
+            if x > 1e-9 {
+                state
+                    .changes
+                    .extend(p.state.changes.iter().map(|c| LuminaireChange {
+                        weight: c.weight * x as f32,
+                        ..c.clone()
+                    }));
+            }
+        }
+        state
     }
 }
 
