@@ -512,12 +512,135 @@ fn rooms_lit_only_through_a_door_or_a_window_read_low_in_hierarchical_mode() {
         assert!(eh.abs() < 2e-3, "{name}: hierarchical imbalance {eh:.2e}");
         assert!(ef.abs() < 1e-3, "{name}: factored imbalance {ef:.2e}");
     }
+    emission_answers_equal_the_converged_sweeps(&h);
     // Not trivial: the rooms away from the lit one are dim, and the check reaches them.
     let s = f.transfer.relight(&one(0));
     let avg = surface_averages(&f.scene, &f.mesh, &s);
     let lux = |n: &str| avg[n].illuminance.iter().sum::<f64>() / 3.0;
     let ratio = lux("c_floor") / lux("a_floor");
     assert!(ratio < 3e-3, "room C gets {ratio:.1e} of room A");
+}
+
+/// An emission answer (GMRES through the links, [`relight::transport::transfer::EMISSION_TOL`])
+/// against the same links swept to 10⁻¹⁰: one patch on room A's floor, whose light reaches
+/// rooms B and C only through the door and the window; that light moved to room B's floor
+/// (a source of both signs); and a random emission on every patch. Every surface of at
+/// least 1 m² within 0.5 % and 99 % of the patches within 2 % (of the answer to the
+/// source's magnitude, where light taken out and put in cancel), and the power balance as
+/// the converged solve's within 10⁻³.
+fn emission_answers_equal_the_converged_sweeps(h: &Baked) {
+    let t = &h.transfer;
+    let (n, hier) = (t.n, t.hierarchy.as_ref().unwrap());
+    let first_patch = |name: &str| {
+        let k = h
+            .scene
+            .surfaces
+            .iter()
+            .position(|s| s.name == name)
+            .expect("a floor");
+        h.mesh.surface_patches[k].start as usize
+    };
+    let (p, q) = (first_patch("a_floor"), first_patch("b_floor"));
+    let mut one = vec![0f32; 3 * n];
+    one[3 * p..3 * p + 3].copy_from_slice(&[1000.0, 500.0, 250.0]);
+    let mut moved = one.clone();
+    moved[3 * q..3 * q + 3].copy_from_slice(&[-1000.0, -500.0, -250.0]);
+    let mut seed = 0x2545_f491_4f6c_dd1du64;
+    let dense: Vec<f32> = (0..3 * n)
+        .map(|_| {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            (seed >> 40) as f32 / (1u64 << 24) as f32
+        })
+        .collect();
+    let converged = |e: &[f32]| {
+        let x = hier.solve(&t.rho, e, 3, 1e-10, 5000, &|_| {});
+        relight::transport::transfer::Solution {
+            e: e.to_vec(),
+            b: x.b,
+            h: x.h,
+            luminaire_flux: relight::color::Rgb64::ZERO,
+            direct_escaped: relight::color::Rgb64::ZERO,
+        }
+    };
+    for (name, e) in [("one patch", one), ("moved", moved), ("every patch", dense)] {
+        let got = t.solve(&e).expect("an emission answer");
+        let want = converged(&e);
+        let magnitude: Vec<f32> = e.iter().map(|v| v.abs()).collect();
+        let scale = converged(&magnitude);
+        let [sg, sw, ss] = [&got, &want, &scale].map(|s| surface_averages(&h.scene, &h.mesh, s));
+        let mut worst = (String::new(), 0f64);
+        for (k, w) in &sw {
+            let lux = |s: &std::collections::BTreeMap<
+                _,
+                relight::model::report::SurfaceAverage,
+            >| { s[k].illuminance.iter().sum::<f64>() };
+            let rel = (lux(&sg) - lux(&sw)).abs() / lux(&ss);
+            if w.area >= 1.0 && lux(&ss) > 0.0 && rel > worst.1 {
+                worst = (k.clone(), rel);
+            }
+        }
+        eprintln!("{name}: worst surface {} {:.4} %", worst.0, 100.0 * worst.1);
+        assert!(
+            worst.1 < 5e-3,
+            "{name}: {} off by {:.3} %",
+            worst.0,
+            100.0 * worst.1
+        );
+        let sum3 = |v: &[f32]| -> f32 { v.iter().sum() };
+        let past = (0..n)
+            .filter(|&i| {
+                let r = 3 * i..3 * i + 3;
+                let (g, w, m) = (
+                    sum3(&got.h[r.clone()]),
+                    sum3(&want.h[r.clone()]),
+                    sum3(&scale.h[r]),
+                );
+                (g - w).abs() > 0.02 * m
+            })
+            .count();
+        assert!(past * 100 <= n, "{name}: {past} of {n} patches past 2 %");
+        if name != "moved" {
+            let balance = |s| {
+                let p = t.power(s);
+                let e: f64 = p.emitted.iter().sum();
+                (e - p.absorbed.iter().sum::<f64>() - p.escaped.iter().sum::<f64>()) / e
+            };
+            let (bg, bw) = (balance(&got), balance(&want));
+            assert!(
+                (bg - bw).abs() < 1e-3,
+                "{name}: balance {bg:.2e}, converged {bw:.2e}"
+            );
+        }
+    }
+}
+
+/// The furnace: a closed box of reflectance 0.5 emitting 1 lm/m² from every patch has
+/// `B = 1 / (1 − ρ) = 2` everywhere. The emission answer (GMRES through the links) holds
+/// it at every patch within 0.5 %.
+#[test]
+fn an_emission_answer_in_hierarchical_mode_fills_the_furnace() {
+    let _gate = common::shared();
+    let obj = box_faces("room", "white", [0., 0., 0.], [3., 2., 2.5], true);
+    let s = write_scene(
+        &obj,
+        "newmtl white\nKd 0.5 0.5 0.5\n",
+        Some("[mesh]\ntarget_patches = 2500\n"),
+    );
+    let b = bake(s.path(), TransferMode::Hierarchical);
+    let n = b.transfer.n;
+    let sol = b.transfer.solve(&vec![1f32; 3 * n]).expect("an answer");
+    let worst = sol
+        .b
+        .iter()
+        .map(|&v| (v as f64 / 2.0 - 1.0).abs())
+        .fold(0.0, f64::max);
+    assert!(
+        worst < 5e-3,
+        "worst patch off the furnace by {:.3} %",
+        100.0 * worst
+    );
 }
 
 /// `auto` picked the columns mode from 6,000 to 15,000 patches, and that mode refuses

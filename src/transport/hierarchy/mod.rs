@@ -10,7 +10,9 @@
 //!   their error is large next to what their receiver gathers in some light group.
 //! - `glow.rs`: each patch's expected brightness, which weighs the refinement's errors.
 //! - `sweeps.rs`: [`Hierarchy::solve`], gather, push and pull (Jacobi) to a stated
-//!   tolerance.
+//!   tolerance: the bake's many columns.
+//! - `krylov.rs`: [`Hierarchy::solve_krylov`], GMRES through the same links: a request's
+//!   few emission columns in fewer passes.
 //!
 //! Storage is compact: per link a u32 source, an f32 factor and a u8 visibility, grouped
 //! by receiver (CSR offsets); per internal node its two children; per patch σ.
@@ -18,6 +20,7 @@
 pub mod closure;
 mod glow;
 pub mod importance;
+mod krylov;
 pub mod refine;
 mod sweeps;
 pub mod tree;
@@ -33,6 +36,7 @@ use crate::geometry::mesh::Mesh;
 use crate::transport::formfactor::{patch_geometry, FormFactorOptions};
 pub use glow::{emitter_bounce, GLOW_EMITTERS};
 pub use importance::DarkRoomPass;
+pub use krylov::KRYLOV_BYTES;
 pub use refine::HierarchyOptions;
 pub use sweeps::HierarchySolution;
 use tree::Tree;

@@ -27,7 +27,7 @@ impl Hierarchy {
     }
 
     /// Area means of `c` columns from the leaves up (`x` is nodes × c; leaves filled).
-    fn pull(&self, x: &mut [f32], c: usize) {
+    pub(super) fn pull(&self, x: &mut [f32], c: usize) {
         for (k, ch) in self.children.iter().enumerate() {
             let node = self.n + k;
             let (wa, wb) = (self.area[ch[0] as usize], self.area[ch[1] as usize]);
@@ -51,7 +51,7 @@ impl Hierarchy {
     /// [`Hierarchy::gather`] into `g` (resized to nodes × c; the patches' rows come
     /// first), so that sweeps reuse one buffer: at a few hundred columns it is hundreds of
     /// MB, and a fresh one per sweep cost as much time in page faults as in arithmetic.
-    fn gather_into(&self, x: &[f32], c: usize, g: &mut Vec<f32>) {
+    pub(super) fn gather_into(&self, x: &[f32], c: usize, g: &mut Vec<f32>) {
         g.clear();
         g.resize(self.nodes() * c, 0.0);
         if c == 3 {
@@ -179,7 +179,7 @@ impl Hierarchy {
 }
 
 /// Largest relative residual `‖S − (B − ρH)‖∞ / ‖S‖∞` over the columns.
-fn residual(b: &[f32], s: &[f32], h: &[f32], rho: &[Rgb], c: usize) -> f64 {
+pub(super) fn residual(b: &[f32], s: &[f32], h: &[f32], rho: &[Rgb], c: usize) -> f64 {
     let mut worst = 0f64;
     for j in 0..c {
         let (mut num, mut den) = (0f64, 0f64);
