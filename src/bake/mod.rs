@@ -455,7 +455,7 @@ fn finish(
     let mut transfer = Transfer::build(&p.scene, &p.mesh, coupling, direct, sky, p.mode, &|x| {
         progress(Stage::Solving, 0.95 * x)
     });
-    transfer.grids =
+    (transfer.grids, transfer.grid_gathers) =
         crate::transport::probe::grid_columns(&p.scene, &p.mesh, &p.bvh, &transfer.groups);
     stats.solve_s = t1.elapsed().as_secs_f64();
     stats.residual = transfer.info.residual;
@@ -544,6 +544,12 @@ fn try_cache(
 /// with the grid's number of points.
 fn grids_match(scene: &Scene, t: &Transfer) -> bool {
     t.grids.len() == scene.grids.len()
+        && t.grid_gathers.len() == scene.grids.len()
+        && scene
+            .grids
+            .iter()
+            .zip(&t.grid_gathers)
+            .all(|(g, w)| w.points() == g.points.len())
         && scene.grids.iter().zip(&t.grids).all(|(g, cols)| {
             cols.len() == t.groups.len() && cols.iter().all(|c| c.len() == 3 * g.points.len())
         })

@@ -15,6 +15,7 @@ use crate::color::Rgb;
 use crate::geometry::bvh::Bvh;
 use crate::geometry::obstructed;
 use crate::scene::{Grid, Scene};
+use crate::transport::probe::GridGather;
 
 /// A grid with its per-group responses.
 pub struct GridResponse {
@@ -24,6 +25,8 @@ pub struct GridResponse {
     /// Per point: left out of the statistics, inside an object or under a surface at close
     /// range ([`crate::geometry::obstructed`]); all false when the grid keeps them.
     pub excluded: Vec<bool>,
+    /// The gather's weights per point: the indirect illuminance of any radiosity.
+    pub gather: GridGather,
 }
 
 /// Statistics of a grid for one lighting state (lux), over the points it measures.
@@ -57,15 +60,22 @@ impl GridResponse {
     /// Every grid of the scene with its per-group responses, as baked into the transfer
     /// (`Transfer::grids`, [`crate::transport::probe::grid_columns`]).
     /// Points inside objects are marked excluded with shadow rays over `bvh`.
-    pub fn build_all(scene: &Scene, bvh: &Bvh, columns: Vec<Vec<Vec<f32>>>) -> Vec<GridResponse> {
+    pub fn build_all(
+        scene: &Scene,
+        bvh: &Bvh,
+        columns: Vec<Vec<Vec<f32>>>,
+        gathers: Vec<GridGather>,
+    ) -> Vec<GridResponse> {
         scene
             .grids
             .iter()
             .zip(columns)
-            .map(|(grid, per_group)| GridResponse {
+            .zip(gathers)
+            .map(|((grid, per_group), gather)| GridResponse {
                 excluded: excluded_points(scene, bvh, grid),
                 grid: grid.clone(),
                 per_group,
+                gather,
             })
             .collect()
     }

@@ -110,7 +110,8 @@ impl Model {
     pub fn new(mut baked: Baked) -> Model {
         let groups = group_infos(&baked);
         let columns = std::mem::take(&mut baked.transfer.grids);
-        let grids = grid::GridResponse::build_all(&baked.scene, &baked.bvh, columns);
+        let weights = std::mem::take(&mut baked.transfer.grid_gathers);
+        let grids = grid::GridResponse::build_all(&baked.scene, &baked.bvh, columns, weights);
         let gathers =
             daylight::GatherCache::for_scene(baked.transfer.n, baked.transfer.sky.is_some());
         Model {
@@ -124,14 +125,15 @@ impl Model {
         }
     }
 
-    /// Bytes this model holds: the transfer, the mesh and BVH, the grid responses, and the
+    /// Bytes this model holds: the transfer, the mesh and BVH, the grid responses and their
+    /// gather weights, and the
     /// most its caches of gathers, daylight coefficients and sun directions may hold.
     pub fn bytes(&self) -> u64 {
         let t = &self.baked.transfer;
         let grid_bytes: u64 = self
             .grids
             .iter()
-            .map(|g| 16 * g.len() as u64 * (1 + 3 * t.group_count() as u64))
+            .map(|g| 16 * g.len() as u64 * (1 + 3 * t.group_count() as u64) + g.gather.bytes())
             .sum();
         t.bytes()
             + SCENE_BYTES_PER_PATCH * t.n as u64

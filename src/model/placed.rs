@@ -545,13 +545,6 @@ fn rebuild(
     Ok(l)
 }
 
-/// Under luminaires placed for a request, a grid point gathers the changes' interreflected
-/// light only from patches whose change of radiosity is at least this share of the
-/// brightest change: the rest adds at most this share of the brightest radiosity to any
-/// point (0.1 % in a room the change lights), and leaving out the far rooms the change
-/// barely reaches keeps the gather to the rooms it lights.
-pub const PLACED_GATHER_CUTOFF: f32 = 1e-3;
-
 impl Model {
     /// The solution of a state with luminaires placed for the request, and the radiosity
     /// (n × 3) of the changes' light alone: the changes' direct light D, its first
@@ -595,8 +588,8 @@ impl Model {
 
     /// Grid `gi`'s luminous illuminance (lx) at every point under a placed state: the
     /// groups' stored responses at their weights, the changes' direct light traced per
-    /// point, and their interreflected light gathered from `extra_b` over the patches it
-    /// reaches (a patch below [`PLACED_GATHER_CUTOFF`] of the brightest is left out).
+    /// point, and their interreflected light `extra_b` through the grid's baked gather
+    /// weights ([`crate::transport::probe::GridGather`]).
     pub(super) fn placed_grid_values(
         &self,
         gi: usize,
@@ -612,29 +605,14 @@ impl Model {
             &p.weights,
             &mut base,
         );
-        let top = Rgb::column(extra_b)
-            .iter()
-            .fold(0f32, |m, b| m.max(b.luminance().abs()));
-        let importance: Vec<f32> = Rgb::column(extra_b)
-            .iter()
-            .flat_map(|b| {
-                let keep = b.luminance().abs() > PLACED_GATHER_CUTOFF * top;
-                b.0.map(|v| {
-                    if keep {
-                        v.abs().max(f32::MIN_POSITIVE)
-                    } else {
-                        0.0
-                    }
-                })
-            })
-            .collect();
         let n = DVec3::from_array(g.grid.normal);
         let extra = Rgb::column(extra_b);
         g.grid
             .points
             .par_iter()
             .zip(Rgb::column(&base).par_iter())
-            .map(|(x, b)| {
+            .enumerate()
+            .map(|(i, (x, b))| {
                 if cancel.is_cancelled() {
                     return 0.0;
                 }
@@ -646,11 +624,7 @@ impl Model {
                     x,
                     n,
                 );
-                for (j, w) in
-                    crate::transport::probe::gather_weights(&k.mesh, &k.bvh, &importance, x, n)
-                {
-                    e += w * extra[j as usize].to_f64();
-                }
+                e += g.gather.illuminance(i, extra);
                 e.luminance() as f32
             })
             .collect()

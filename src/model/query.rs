@@ -325,8 +325,8 @@ impl Model {
     /// Grid answers for any lighting state `l` already solved as `sol`, keyed by grid id:
     /// a weighted sum of the stored responses for group weights; for luminaires placed
     /// per request, those plus the changes traced and gathered at each point
-    /// ([`Model::placed_grid_values`]); for an emission, a gather of its radiosity at each
-    /// point.
+    /// ([`Model::placed_grid_values`]); for an emission, its emitting patches gathered at
+    /// each point and its reflected radiosity through the grid's gather weights.
     pub fn state_grid_answers(
         &self,
         l: &Lighting,
@@ -358,16 +358,26 @@ impl Model {
                 .map(|&gi| {
                     let g = &self.grids[gi];
                     let n = DVec3::from_array(g.grid.normal);
+                    // The emitting patches gathered exactly at each point (rays where
+                    // they are bright), the reflected radiosity B − E through the grid's
+                    // baked gather weights.
+                    let reflected: Vec<f32> =
+                        sol.b.iter().zip(&sol.e).map(|(b, e)| b - e).collect();
+                    let k = &self.baked;
                     let values = g
                         .grid
                         .points
                         .par_iter()
-                        .map(|x| {
+                        .enumerate()
+                        .map(|(i, x)| {
                             if cancel.is_cancelled() {
                                 return 0.0;
                             }
                             let x = DVec3::from_array(*x);
-                            self.lit_point_illuminance(l, &sol.b, x, n).luminance() as f32
+                            let e = crate::transport::probe::illuminance_at(
+                                &k.mesh, &k.bvh, &sol.e, x, n,
+                            ) + g.gather.illuminance(i, Rgb::column(&reflected));
+                            e.luminance() as f32
                         })
                         .collect();
                     (

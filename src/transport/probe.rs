@@ -122,37 +122,108 @@ pub fn gather_weights(
         .collect()
 }
 
+/// One point's gather: (patch, weight) pairs.
+type Weights = Vec<(u32, f64)>;
+
+/// A grid's gather as weights, per point (compressed rows): the indirect illuminance at
+/// point p for any radiosity B is `Σ w · B_j` over its row (lux per lm/m²), as
+/// [`gather_weights`] gives it. The bake keeps them, so that a lighting state that is not
+/// a sum of the groups (an emission vector, luminaires placed per request) has its grid
+/// answered by one sparse product instead of a gather per point.
+#[derive(Clone, Default, Debug, PartialEq)]
+pub struct GridGather {
+    /// Row p is `offsets[p] .. offsets[p + 1]`; points + 1 entries.
+    pub offsets: Vec<u32>,
+    pub patch: Vec<u32>,
+    pub weight: Vec<f32>,
+}
+
+impl GridGather {
+    /// The rows, checked: offsets rising from 0 to the weights' count, one row per point,
+    /// patches below `n`. None when they are not consistent.
+    pub fn from_parts(
+        offsets: Vec<u32>,
+        patch: Vec<u32>,
+        weight: Vec<f32>,
+        points: usize,
+        n: usize,
+    ) -> Option<GridGather> {
+        let ok = offsets.len() == points + 1
+            && offsets.first() == Some(&0)
+            && offsets.last().map(|&l| l as usize) == Some(patch.len())
+            && patch.len() == weight.len()
+            && offsets.windows(2).all(|w| w[0] <= w[1])
+            && patch.iter().all(|&j| (j as usize) < n)
+            && weight.iter().all(|w| w.is_finite() && *w >= 0.0);
+        ok.then_some(GridGather {
+            offsets,
+            patch,
+            weight,
+        })
+    }
+
+    /// Points (rows).
+    pub fn points(&self) -> usize {
+        self.offsets.len().saturating_sub(1)
+    }
+
+    /// Bytes held.
+    pub fn bytes(&self) -> u64 {
+        4 * (self.offsets.len() + self.patch.len() + self.weight.len()) as u64
+    }
+
+    /// The gathered illuminance at point `p` (lux per channel) from radiosity `b` (lm/m²).
+    pub fn illuminance(&self, p: usize, b: &[Rgb]) -> Rgb64 {
+        let r = self.offsets[p] as usize..self.offsets[p + 1] as usize;
+        let mut e = Rgb64::ZERO;
+        for (&j, &w) in self.patch[r.clone()].iter().zip(&self.weight[r]) {
+            e += w as f64 * b[j as usize].to_f64();
+        }
+        e
+    }
+}
+
 /// Per grid of the scene and per light group: the illuminance at each grid point (lux,
 /// points × 3 interleaved) for the group at unit weight: its luminaires' direct light with
-/// shadow rays plus the gather ([`gather_weights`]) from its radiosity column `b`.
+/// shadow rays plus the gather ([`gather_weights`]) from its radiosity column `b`; and per
+/// grid, the gather's weights ([`GridGather`]).
 pub fn grid_columns(
     scene: &Scene,
     mesh: &Mesh,
     bvh: &Bvh,
     groups: &[GroupColumns],
-) -> Vec<Vec<Vec<f32>>> {
+) -> (Vec<Vec<Vec<f32>>>, Vec<GridGather>) {
     if scene.grids.is_empty() {
-        return vec![];
+        return (vec![], vec![]);
     }
-    // Importance for the gather's ray budget: every group's radiosity at unit weight.
+    // Importance for the gather's ray budget: every group's radiosity at unit weight, and
+    // a floor of 10⁻⁶ of its mean on every patch, so that the weights reach the patches no
+    // group lights too (light placed later may).
     let mut importance = vec![0f32; 3 * mesh.len()];
     for g in groups {
         for (a, b) in importance.iter_mut().zip(&g.b) {
             *a += b;
         }
     }
+    let mean = importance.iter().map(|&v| v as f64).sum::<f64>() / importance.len().max(1) as f64;
+    let floor = if mean > 0.0 {
+        (1e-6 * mean) as f32
+    } else {
+        1.0
+    };
+    importance.iter_mut().for_each(|v| *v = v.max(floor));
     scene
         .grids
         .iter()
         .map(|grid| {
             let n = DVec3::from_array(grid.normal);
-            let rows: Vec<Vec<Rgb>> = grid
+            let rows: Vec<(Vec<Rgb>, Weights)> = grid
                 .points
                 .par_iter()
                 .map(|p| {
                     let x = DVec3::from_array(*p);
                     let w = gather_weights(mesh, bvh, &importance, x, n);
-                    scene
+                    let values = scene
                         .lights
                         .iter()
                         .zip(groups)
@@ -169,12 +240,25 @@ pub fn grid_columns(
                             }
                             e.to_f32()
                         })
-                        .collect()
+                        .collect();
+                    (values, w)
                 })
                 .collect();
-            (0..groups.len())
-                .map(|g| rows.iter().flat_map(|r| r[g].0).collect())
-                .collect()
+            let columns = (0..groups.len())
+                .map(|g| rows.iter().flat_map(|r| r.0[g].0).collect())
+                .collect();
+            let mut gather = GridGather {
+                offsets: vec![0],
+                ..Default::default()
+            };
+            for (_, w) in &rows {
+                for &(j, wj) in w {
+                    gather.patch.push(j);
+                    gather.weight.push(wj as f32);
+                }
+                gather.offsets.push(gather.patch.len() as u32);
+            }
+            (columns, gather)
         })
-        .collect()
+        .unzip()
 }

@@ -18,7 +18,12 @@ fn bake(s: &TempScene) -> Baked {
 }
 
 fn grid_values(b: &Baked, id: &str) -> Vec<f32> {
-    let grids = GridResponse::build_all(&b.scene, &b.bvh, b.transfer.grids.clone());
+    let grids = GridResponse::build_all(
+        &b.scene,
+        &b.bvh,
+        b.transfer.grids.clone(),
+        b.transfer.grid_gathers.clone(),
+    );
     let g = grids.iter().find(|g| g.grid.id == id).unwrap();
     g.values(&vec![Rgb::ONE; b.scene.lights.len()])
 }

@@ -10,7 +10,7 @@ use crate::transport::transfer::{SolveInfo, TransferMode};
 /// The first 8 bytes of every cache file.
 pub(super) const MAGIC: &[u8; 8] = b"RLTRANS\0";
 /// Bump when the file layout changes.
-pub(super) const FORMAT_VERSION: u32 = 6;
+pub(super) const FORMAT_VERSION: u32 = 7;
 /// Bump when the numbers a bake produces change (meshing, form factors, solver,
 /// photometry: 3 applies IES tilt data and no longer scales LM-63-2019 tables by their file
 /// generation type).
@@ -59,6 +59,10 @@ pub struct Header {
     /// Points of each calculation grid (one section per grid and group).
     #[serde(default)]
     pub grid_points: Vec<usize>,
+    /// Weights of each grid's gather (sections `gw{i}o`, the points + 1 row offsets, and
+    /// `gw{i}j` and `gw{i}w`, a patch and a weight per entry).
+    #[serde(default)]
+    pub grid_weights: Vec<u64>,
     /// Sky patches of a daylight transfer (0: none): a section `skyd` (n × K) and one
     /// `sky{k}` (n × 3) per patch.
     #[serde(default)]
@@ -125,6 +129,11 @@ fn grid_sections(h: &Header, out: &mut Sections) -> Option<()> {
     if h.grid_points.len().saturating_mul(h.groups) > h.sections.len() {
         return None;
     }
+    if h.grid_weights.len() != h.grid_points.len()
+        || h.grid_points.len().saturating_mul(3) > h.sections.len()
+    {
+        return None;
+    }
     for (i, &points) in h.grid_points.iter().enumerate() {
         for g in 0..h.groups {
             out.push((
@@ -133,8 +142,22 @@ fn grid_sections(h: &Header, out: &mut Sections) -> Option<()> {
                 (points as u64).checked_mul(12)?,
             ));
         }
+        let [o, j, w] = gather_sections(i);
+        let entries = h.grid_weights[i];
+        out.push((
+            o,
+            Kind::Floats,
+            (points as u64).checked_add(1)?.checked_mul(4)?,
+        ));
+        out.push((j, Kind::Floats, entries.checked_mul(4)?));
+        out.push((w, Kind::Floats, entries.checked_mul(4)?));
     }
     Some(())
+}
+
+/// The sections of grid `i`'s gather weights: row offsets, patches, weights.
+pub(super) fn gather_sections(i: usize) -> [String; 3] {
+    [format!("gw{i}o"), format!("gw{i}j"), format!("gw{i}w")]
 }
 
 /// Adds the sky's sections (the direct part, one per sky patch), if any; None when they

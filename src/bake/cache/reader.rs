@@ -10,12 +10,13 @@ use std::path::Path;
 use xxhash_rust::xxh3::Xxh3;
 
 use super::format::{
-    expected_sections, grid_section, sky_section, Header, Kind, Section, FORMAT_VERSION, MAGIC,
-    MAX_HEADER_BYTES, PREAMBLE,
+    expected_sections, gather_sections, grid_section, sky_section, Header, Kind, Section,
+    FORMAT_VERSION, MAGIC, MAX_HEADER_BYTES, PREAMBLE,
 };
 use super::CacheError;
 use crate::color::{Rgb, Rgb64};
 use crate::transport::hierarchy::{Hierarchy, Links};
+use crate::transport::probe::GridGather;
 use crate::transport::transfer::{Factored, GroupColumns, SkyColumns, Transfer, TransferMode};
 
 /// The file at `path`, opened, and its size in bytes.
@@ -246,11 +247,19 @@ fn assemble(path: &Path, h: &Header, mut s: Sections) -> Result<Transfer, CacheE
         });
     }
     let mut grids = Vec::new();
-    for i in 0..h.grid_points.len() {
+    let mut grid_gathers = Vec::new();
+    let words = |v: Vec<f32>| -> Vec<u32> { bytemuck::cast_slice::<f32, u32>(&v).to_vec() };
+    for (i, &points) in h.grid_points.iter().enumerate() {
         grids.push(
             (0..h.groups)
                 .map(|g| take(&grid_section(i, g)))
                 .collect::<Result<Vec<_>, _>>()?,
+        );
+        let [o, j, w] = gather_sections(i);
+        let (o, j, w) = (words(take(&o)?), words(take(&j)?), take(&w)?);
+        grid_gathers.push(
+            GridGather::from_parts(o, j, w, points, h.patch_count)
+                .ok_or_else(|| corrupt(format!("grid {i}'s gather weights are inconsistent")))?,
         );
     }
     let sky = match h.sky_patches {
@@ -285,6 +294,7 @@ fn assemble(path: &Path, h: &Header, mut s: Sections) -> Result<Transfer, CacheE
         factored,
         hierarchy,
         grids,
+        grid_gathers,
         sky,
         info: h.info,
     })

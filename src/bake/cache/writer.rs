@@ -10,7 +10,8 @@ use xxhash_rust::xxh3::Xxh3;
 
 use super::folder::temp_path;
 use super::format::{
-    grid_section, sky_section, Header, Section, ALGORITHM_VERSION, FORMAT_VERSION, MAGIC,
+    gather_sections, grid_section, sky_section, Header, Section, ALGORITHM_VERSION, FORMAT_VERSION,
+    MAGIC,
 };
 use super::CacheError;
 use crate::transport::transfer::Transfer;
@@ -95,6 +96,11 @@ pub fn write(
             .iter()
             .map(|g| g.first().map_or(0, |c| c.len() / 3))
             .collect(),
+        grid_weights: t
+            .grid_gathers
+            .iter()
+            .map(|g| g.patch.len() as u64)
+            .collect(),
         sky_patches: t.sky.as_ref().map_or(0, |s| s.k),
         sections: section_table(&all),
     };
@@ -131,10 +137,14 @@ fn sections_of(t: &Transfer) -> Vec<(String, Data<'_>)> {
         all.push((format!("b{g}"), Data::Slice(bytemuck::cast_slice(&col.b))));
         all.push((format!("h{g}"), Data::Slice(bytemuck::cast_slice(&col.h))));
     }
-    for (i, grid) in t.grids.iter().enumerate() {
+    for (i, (grid, gather)) in t.grids.iter().zip(&t.grid_gathers).enumerate() {
         for (g, col) in grid.iter().enumerate() {
             all.push((grid_section(i, g), Data::Slice(bytemuck::cast_slice(col))));
         }
+        let [o, j, w] = gather_sections(i);
+        all.push((o, Data::Slice(bytemuck::cast_slice(&gather.offsets))));
+        all.push((j, Data::Slice(bytemuck::cast_slice(&gather.patch))));
+        all.push((w, Data::Slice(bytemuck::cast_slice(&gather.weight))));
     }
     if let Some(sky) = &t.sky {
         all.push((

@@ -261,6 +261,7 @@ impl Build<'_> {
             factored: None,
             hierarchy: Some(hier),
             grids: vec![],
+            grid_gathers: vec![],
             info,
         }
     }
@@ -320,6 +321,7 @@ impl Build<'_> {
             factored,
             hierarchy: None,
             grids: vec![],
+            grid_gathers: vec![],
             info: SolveInfo { residual, sweeps },
         }
     }

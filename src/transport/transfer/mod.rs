@@ -186,6 +186,8 @@ pub struct Transfer {
     /// the illuminance at each grid point (lux, points × 3 interleaved) at unit weight
     /// ([`crate::transport::probe::grid_columns`]).
     pub grids: Vec<Vec<Vec<f32>>>,
+    /// Per calculation grid: the gather's weights per point, which answer any radiosity.
+    pub grid_gathers: Vec<crate::transport::probe::GridGather>,
     /// The sky patches' responses, for a scene with a site.
     pub sky: Option<SkyColumns>,
     pub info: SolveInfo,
@@ -570,6 +572,7 @@ mod tests {
             factored: Some(factored),
             hierarchy: None,
             grids: vec![],
+            grid_gathers: vec![],
             sky: None,
             info: SolveInfo::default(),
         };
