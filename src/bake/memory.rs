@@ -145,8 +145,9 @@ pub struct MemoryEstimate {
 }
 
 /// Estimates the memory a scene's bake and cached load need, from its mesh: the patch
-/// count, the light groups, and how many reflectance channels differ (ρ of R, G and B
-/// compared over the materials the patches use, as the solver does).
+/// count, the light groups, how many reflectance channels differ (ρ of R, G and B
+/// compared over the materials the patches use, as the solver does), and the grids'
+/// gather weights.
 pub fn memory_estimate(scene: &Scene, mesh: &Mesh, mode: TransferMode) -> MemoryEstimate {
     let mut used = vec![false; scene.materials.len()];
     for p in &mesh.patches {
@@ -169,12 +170,18 @@ pub fn memory_estimate(scene: &Scene, mesh: &Mesh, mode: TransferMode) -> Memory
         }
     }
     let (n, groups, lu_count) = (mesh.len(), solved_columns(scene), distinct.len());
+    // The grids' gather weights (8 bytes each): at most every patch per point, at most
+    // MAX_GRID_WEIGHTS.
+    let points: u64 = scene.grids.iter().map(|g| g.points.len() as u64).sum();
+    let weights = 8 * points
+        .saturating_mul(n as u64)
+        .min(crate::transport::probe::MAX_GRID_WEIGHTS);
     MemoryEstimate {
         patches: n,
         mode,
         groups,
         lu_count,
-        bake: estimate_bake_bytes(n, mode, groups, lu_count),
-        load: estimate_load_bytes(n, mode, groups, lu_count),
+        bake: estimate_bake_bytes(n, mode, groups, lu_count).saturating_add(weights),
+        load: estimate_load_bytes(n, mode, groups, lu_count).saturating_add(weights),
     }
 }

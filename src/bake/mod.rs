@@ -549,7 +549,7 @@ fn grids_match(scene: &Scene, t: &Transfer) -> bool {
             .grids
             .iter()
             .zip(&t.grid_gathers)
-            .all(|(g, w)| w.points() == g.points.len())
+            .all(|(g, w)| w.points() == g.points.len() || w.points() == 0)
         && scene.grids.iter().zip(&t.grids).all(|(g, cols)| {
             cols.len() == t.groups.len() && cols.iter().all(|c| c.len() == 3 * g.points.len())
         })

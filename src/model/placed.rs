@@ -606,7 +606,6 @@ impl Model {
             &mut base,
         );
         let n = DVec3::from_array(g.grid.normal);
-        let extra = Rgb::column(extra_b);
         g.grid
             .points
             .par_iter()
@@ -624,7 +623,7 @@ impl Model {
                     x,
                     n,
                 );
-                e += g.gather.illuminance(i, extra);
+                e += g.gather.indirect(i, extra_b, &k.mesh, &k.bvh, x, n);
                 e.luminance() as f32
             })
             .collect()

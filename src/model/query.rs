@@ -376,7 +376,7 @@ impl Model {
                             let x = DVec3::from_array(*x);
                             let e = crate::transport::probe::illuminance_at(
                                 &k.mesh, &k.bvh, &sol.e, x, n,
-                            ) + g.gather.illuminance(i, Rgb::column(&reflected));
+                            ) + g.gather.indirect(i, &reflected, &k.mesh, &k.bvh, x, n);
                             e.luminance() as f32
                         })
                         .collect();

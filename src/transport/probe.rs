@@ -122,6 +122,10 @@ pub fn gather_weights(
         .collect()
 }
 
+/// Most gather weights the bake keeps over all grids of a scene (8 bytes each: 512 MB).
+/// A grid that would pass it keeps none, and its points gather per request instead.
+pub const MAX_GRID_WEIGHTS: u64 = 64 << 20;
+
 /// One point's gather: (patch, weight) pairs.
 type Weights = Vec<(u32, f64)>;
 
@@ -148,6 +152,9 @@ impl GridGather {
         points: usize,
         n: usize,
     ) -> Option<GridGather> {
+        if offsets.is_empty() && patch.is_empty() && weight.is_empty() {
+            return Some(GridGather::default());
+        }
         let ok = offsets.len() == points + 1
             && offsets.first() == Some(&0)
             && offsets.last().map(|&l| l as usize) == Some(patch.len())
@@ -162,9 +169,33 @@ impl GridGather {
         })
     }
 
-    /// Points (rows).
+    /// Points (rows); 0 when the weights were not kept ([`MAX_GRID_WEIGHTS`]).
     pub fn points(&self) -> usize {
         self.offsets.len().saturating_sub(1)
+    }
+
+    /// The indirect illuminance at point `p` of a grid (`x`, facing `n`) for radiosity `b`
+    /// (lux per channel): through the weights, or, where they were not kept, by a gather at
+    /// the point with `b`'s magnitude as the rays' importance.
+    pub fn indirect(
+        &self,
+        p: usize,
+        b: &[f32],
+        mesh: &Mesh,
+        bvh: &Bvh,
+        x: DVec3,
+        nrm: DVec3,
+    ) -> Rgb64 {
+        if p < self.points() {
+            return self.illuminance(p, Rgb::column(b));
+        }
+        let importance: Vec<f32> = b.iter().map(|v| v.abs()).collect();
+        let rgb = Rgb::column(b);
+        let mut e = Rgb64::ZERO;
+        for (j, w) in gather_weights(mesh, bvh, &importance, x, nrm) {
+            e += w * rgb[j as usize].to_f64();
+        }
+        e
     }
 
     /// Bytes held.
@@ -212,6 +243,7 @@ pub fn grid_columns(
         1.0
     };
     importance.iter_mut().for_each(|v| *v = v.max(floor));
+    let mut kept = 0u64;
     scene
         .grids
         .iter()
@@ -247,18 +279,50 @@ pub fn grid_columns(
             let columns = (0..groups.len())
                 .map(|g| rows.iter().flat_map(|r| r.0[g].0).collect())
                 .collect();
-            let mut gather = GridGather {
-                offsets: vec![0],
-                ..Default::default()
-            };
-            for (_, w) in &rows {
-                for &(j, wj) in w {
-                    gather.patch.push(j);
-                    gather.weight.push(wj as f32);
+            let entries: u64 = rows.iter().map(|r| r.1.len() as u64).sum();
+            let mut gather = GridGather::default();
+            if kept + entries <= MAX_GRID_WEIGHTS {
+                kept += entries;
+                gather.offsets.push(0);
+                for (_, w) in &rows {
+                    for &(j, wj) in w {
+                        gather.patch.push(j);
+                        gather.weight.push(wj as f32);
+                    }
+                    gather.offsets.push(gather.patch.len() as u32);
                 }
-                gather.offsets.push(gather.patch.len() as u32);
             }
             (columns, gather)
         })
         .unzip()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::GridGather;
+
+    #[test]
+    fn gather_weights_are_checked_when_read() {
+        let ok = GridGather::from_parts(vec![0, 1, 3], vec![4, 0, 2], vec![0.1, 0.2, 0.3], 2, 5);
+        assert_eq!(ok.map(|g| g.points()), Some(2));
+        // Not kept: no rows at all.
+        assert_eq!(
+            GridGather::from_parts(vec![], vec![], vec![], 2, 5).map(|g| g.points()),
+            Some(0)
+        );
+        let bad = [
+            (vec![0, 1], vec![4], vec![0.1], 2),             // a row short
+            (vec![0, 2, 1], vec![4, 0], vec![0.1, 0.2], 2),  // offsets fall
+            (vec![0, 1, 2], vec![4, 9], vec![0.1, 0.2], 2),  // a patch past n
+            (vec![0, 1, 2], vec![4, 0], vec![0.1, -0.2], 2), // a negative weight
+            (vec![0, 1, 2], vec![4, 0], vec![0.1, f32::NAN], 2),
+            (vec![1, 1, 2], vec![4, 0], vec![0.1, 0.2], 2), // not from 0
+        ];
+        for (o, j, w, points) in bad {
+            assert!(
+                GridGather::from_parts(o.clone(), j, w, points, 5).is_none(),
+                "{o:?}"
+            );
+        }
+    }
 }

@@ -79,6 +79,39 @@ fn grid_responses_are_baked_into_the_cache() {
     let b = load(s.path(), CachePolicy::ReadWrite(cache.path())).unwrap();
     assert!(b.stats.from_cache);
     assert_eq!(a.transfer.grids, b.transfer.grids);
+    // The gather weights come back too, and give the group's indirect light: the group's
+    // response less its luminaires' direct light (none: the panel is emissive, and its
+    // light reaches the points through the gather as well).
+    assert_eq!(a.transfer.grid_gathers, b.transfer.grid_gathers);
+    assert_eq!(header.grid_weights.len(), 1);
+    let w = &b.transfer.grid_gathers[0];
+    assert_eq!(w.points(), 3);
+    let radiosity = relight::color::Rgb::column(&b.transfer.groups[0].b);
+    for p in 0..3 {
+        let e = w.illuminance(p, radiosity);
+        for c in 0..3 {
+            let want = b.transfer.grids[0][0][3 * p + c] as f64;
+            assert!(
+                (e.0[c] - want).abs() <= 1e-4 * want,
+                "point {p}: {} against {want}",
+                e.0[c]
+            );
+        }
+    }
+    // A grid whose weights were not kept (over MAX_GRID_WEIGHTS) gathers at its points
+    // instead, with rays where the radiosity is: within 2 % of the weights here.
+    let none = relight::transport::probe::GridGather::default();
+    let grid = &b.scene.grids[0];
+    let n = glam::DVec3::from_array(grid.normal);
+    for (p, x) in grid.points.iter().enumerate() {
+        let x = glam::DVec3::from_array(*x);
+        let got = none.indirect(p, &b.transfer.groups[0].b, &b.mesh, &b.bvh, x, n);
+        let want = w.illuminance(p, radiosity);
+        assert!(
+            (got.luminance() / want.luminance() - 1.0).abs() < 0.02,
+            "point {p}: {got:?} against {want:?}"
+        );
+    }
 }
 
 #[test]
