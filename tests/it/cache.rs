@@ -114,6 +114,25 @@ fn grid_responses_are_baked_into_the_cache() {
     }
 }
 
+/// A grid in a scene without light groups (the bundled rooflight: daylight only) has no
+/// per-group responses, and the header counted its points from them: 0. The gather
+/// weights' offsets were then expected to be 4 bytes long, and the entry the bake had
+/// just written was rejected on every load.
+#[test]
+fn a_grid_in_a_scene_without_light_groups_made_its_cache_entry_unreadable() {
+    let _gate = common::shared();
+    let obj = box_faces("room", "wall", [0., 0., 0.], [2., 2., 2.], true);
+    let toml = "[mesh]\ntarget_patches = 300\n[[grids]]\nid = \"floor\"\npoints = [[0.5, 0.0, 0.5], [1.5, 0.0, 1.5]]\n";
+    let s = write_scene(&obj, "newmtl wall\nKd 0.6 0.5 0.4\n", Some(toml));
+    let cache = tempfile::tempdir().unwrap();
+    let a = load(s.path(), CachePolicy::ReadWrite(cache.path())).unwrap();
+    assert_eq!(a.transfer.groups.len(), 0);
+    assert_eq!(a.transfer.grid_gathers[0].points(), 2);
+    let b = load(s.path(), CachePolicy::ReadOnly(cache.path())).expect("the entry loads");
+    assert!(b.stats.from_cache);
+    assert_eq!(a.transfer.grid_gathers, b.transfer.grid_gathers);
+}
+
 #[test]
 fn corrupt_entry_is_detected_and_rebaked() {
     let _gate = common::shared();

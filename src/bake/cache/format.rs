@@ -59,10 +59,11 @@ pub struct Header {
     /// Points of each calculation grid (one section per grid and group).
     #[serde(default)]
     pub grid_points: Vec<usize>,
-    /// Weights of each grid's gather (sections `gw{i}o`, the points + 1 row offsets, and
-    /// `gw{i}j` and `gw{i}w`, a patch and a weight per entry).
+    /// Weights of each grid's gather (sections `gw{i}o`, the rows + 1 offsets, and
+    /// `gw{i}j` and `gw{i}w`, a patch and a weight per entry): per grid its rows (its
+    /// points, or 0 where the weights were not kept) and entries.
     #[serde(default)]
-    pub grid_weights: Vec<u64>,
+    pub grid_weights: Vec<[u64; 2]>,
     /// Sky patches of a daylight transfer (0: none): a section `skyd` (n × K) and one
     /// `sky{k}` (n × 3) per patch.
     #[serde(default)]
@@ -143,12 +144,14 @@ fn grid_sections(h: &Header, out: &mut Sections) -> Option<()> {
             ));
         }
         let [o, j, w] = gather_sections(i);
-        let entries = h.grid_weights[i];
-        out.push((
-            o,
-            Kind::Floats,
-            (points as u64).checked_add(1)?.checked_mul(4)?,
-        ));
+        // `grid_points` is 0 for a grid of a scene without light groups (no responses);
+        // the weights' rows are the grid's points all the same.
+        let [rows, entries] = h.grid_weights[i];
+        if rows != 0 && points != 0 && rows != points as u64 {
+            return None;
+        }
+        let offsets = if rows == 0 { 0 } else { rows.checked_add(1)? };
+        out.push((o, Kind::Floats, offsets.checked_mul(4)?));
         out.push((j, Kind::Floats, entries.checked_mul(4)?));
         out.push((w, Kind::Floats, entries.checked_mul(4)?));
     }

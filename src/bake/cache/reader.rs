@@ -249,7 +249,7 @@ fn assemble(path: &Path, h: &Header, mut s: Sections) -> Result<Transfer, CacheE
     let mut grids = Vec::new();
     let mut grid_gathers = Vec::new();
     let words = |v: Vec<f32>| -> Vec<u32> { bytemuck::cast_slice::<f32, u32>(&v).to_vec() };
-    for (i, &points) in h.grid_points.iter().enumerate() {
+    for (i, &[rows, _]) in h.grid_weights.iter().enumerate() {
         grids.push(
             (0..h.groups)
                 .map(|g| take(&grid_section(i, g)))
@@ -258,7 +258,7 @@ fn assemble(path: &Path, h: &Header, mut s: Sections) -> Result<Transfer, CacheE
         let [o, j, w] = gather_sections(i);
         let (o, j, w) = (words(take(&o)?), words(take(&j)?), take(&w)?);
         grid_gathers.push(
-            GridGather::from_parts(o, j, w, points, h.patch_count)
+            GridGather::from_parts(o, j, w, rows as usize, h.patch_count)
                 .ok_or_else(|| corrupt(format!("grid {i}'s gather weights are inconsistent")))?,
         );
     }

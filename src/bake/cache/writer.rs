@@ -99,7 +99,7 @@ pub fn write(
         grid_weights: t
             .grid_gathers
             .iter()
-            .map(|g| g.patch.len() as u64)
+            .map(|g| [g.points() as u64, g.patch.len() as u64])
             .collect(),
         sky_patches: t.sky.as_ref().map_or(0, |s| s.k),
         sections: section_table(&all),
