@@ -113,34 +113,8 @@ impl Hierarchy {
                     })
                     .collect();
                 hv.push(hk);
-                let mut col = vec![0f64; (k + 2) * c];
-                for (i, vi) in v.iter().enumerate() {
-                    let d = dots(&w, vi, c);
-                    axpy_neg(&mut w, vi, &d, c);
-                    col[i * c..(i + 1) * c].copy_from_slice(&d);
-                }
-                let wn = norms(&w);
-                col[(k + 1) * c..].copy_from_slice(&wn);
-                let mut rk = vec![(1f64, 0f64); c];
-                g.resize((k + 2) * c, 0.0);
-                for j in 0..c {
-                    for (i, ri) in rot.iter().enumerate() {
-                        let (cs, sn) = ri[j];
-                        let (a, b) = (col[i * c + j], col[(i + 1) * c + j]);
-                        col[i * c + j] = cs * a + sn * b;
-                        col[(i + 1) * c + j] = -sn * a + cs * b;
-                    }
-                    let (a, b) = (col[k * c + j], col[(k + 1) * c + j]);
-                    let d = a.hypot(b);
-                    let (cs, sn) = if d > 0.0 { (a / d, b / d) } else { (1.0, 0.0) };
-                    rk[j] = (cs, sn);
-                    col[k * c + j] = d;
-                    col[(k + 1) * c + j] = 0.0;
-                    let gk = g[k * c + j];
-                    g[k * c + j] = cs * gk;
-                    g[(k + 1) * c + j] = -sn * gk;
-                }
-                rot.push(rk);
+                let (mut col, wn) = orthogonalize(&mut w, &v, c);
+                rot.push(givens(&mut col, &rot, &mut g, k, c));
                 hess.push(col);
                 // The iterate after this pass, and its change since the last.
                 coef = back_substitute(&hess, &g, c);
@@ -236,6 +210,53 @@ fn back_substitute(hess: &[Vec<f64>], g: &[f64], c: usize) -> Vec<f64> {
         }
     }
     y
+}
+
+/// Modified Gram–Schmidt of `w` against the basis `v`, per column: the Hessenberg
+/// column (v.len() + 1 rows × c, the last row `‖w‖`) and `‖w‖` per column.
+fn orthogonalize(w: &mut [f32], v: &[Vec<f32>], c: usize) -> (Vec<f64>, Vec<f64>) {
+    let k = v.len() - 1;
+    let mut col = vec![0f64; (k + 2) * c];
+    for (i, vi) in v.iter().enumerate() {
+        let d = dots(w, vi, c);
+        axpy_neg(w, vi, &d, c);
+        col[i * c..(i + 1) * c].copy_from_slice(&d);
+    }
+    let wn: Vec<f64> = dots(w, w, c).into_iter().map(f64::sqrt).collect();
+    col[(k + 1) * c..].copy_from_slice(&wn);
+    (col, wn)
+}
+
+/// Applies the earlier rotations `rot` to Hessenberg column `k` (`col`), per column, and
+/// returns the rotation that zeroes its subdiagonal, applied to `g` as well (which then
+/// holds the least-squares residual at row k + 1).
+fn givens(
+    col: &mut [f64],
+    rot: &[Vec<(f64, f64)>],
+    g: &mut Vec<f64>,
+    k: usize,
+    c: usize,
+) -> Vec<(f64, f64)> {
+    let mut rk = vec![(1f64, 0f64); c];
+    g.resize((k + 2) * c, 0.0);
+    for j in 0..c {
+        for (i, ri) in rot.iter().enumerate() {
+            let (cs, sn) = ri[j];
+            let (a, b) = (col[i * c + j], col[(i + 1) * c + j]);
+            col[i * c + j] = cs * a + sn * b;
+            col[(i + 1) * c + j] = -sn * a + cs * b;
+        }
+        let (a, b) = (col[k * c + j], col[(k + 1) * c + j]);
+        let d = a.hypot(b);
+        let (cs, sn) = if d > 0.0 { (a / d, b / d) } else { (1.0, 0.0) };
+        rk[j] = (cs, sn);
+        col[k * c + j] = d;
+        col[(k + 1) * c + j] = 0.0;
+        let gk = g[k * c + j];
+        g[k * c + j] = cs * gk;
+        g[(k + 1) * c + j] = -sn * gk;
+    }
+    rk
 }
 
 /// Per column, `Σ a·b` (f64).
