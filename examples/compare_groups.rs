@@ -104,7 +104,12 @@ fn main() {
             balance(&a.transfer, &sa),
             balance(&b.transfer, &sb)
         );
-        for (s, p, q, d) in rows.iter().take(6) {
+        for (s, p, q, d) in rows.iter().take(
+            std::env::var("SHOW")
+                .ok()
+                .and_then(|v| v.parse().ok())
+                .unwrap_or(6),
+        ) {
             println!(
                 "    {s:<20} {p:>10.3} lx {q:>10.3} lx {:>+8.2} %",
                 100.0 * d

@@ -347,13 +347,8 @@ pub fn load_or_bake(
             let (plan, front) = hierarchy_plan(&p, &direct);
             let all = plan.plane_roots().to_vec();
             let part = plan.part(&all, &p.bvh, &front, opts.hier, opts.ff, &ff_progress);
-            let rho = crate::transport::transfer::patch_rho(&p.scene, &p.mesh);
-            let pass = p
-                .scene
-                .per_group_accuracy
-                .then(|| dark_room_pass(&p, &rho, &direct, sky.as_ref(), opts));
             let (h, escape) = plan
-                .assemble(vec![part], opts.hier, pass.as_ref())
+                .assemble(vec![part], opts.hier)
                 .expect("one part over every plane covers the scene");
             Coupling::Links(Box::new(h), escape)
         }
@@ -361,42 +356,6 @@ pub fn load_or_bake(
     };
     stats.form_factor_s = t0.elapsed().as_secs_f64();
     finish(p, coupling, &direct, sky, cache_policy, stats, progress)
-}
-
-/// The dark-room pass's inputs ([`crate::transport::hierarchy::importance`]): the light
-/// groups' sources as the transfer solves them, and for a scene with a site one more
-/// column for daylight, every sky patch (and the ground) at 1 cd/m².
-fn dark_room_pass<'a>(
-    p: &'a Prepared,
-    rho: &'a [crate::color::Rgb],
-    direct: &[Option<Vec<f32>>],
-    sky: Option<&crate::transport::transfer::SkyDirect>,
-    opts: &BakeOptions,
-) -> crate::transport::hierarchy::DarkRoomPass<'a> {
-    use crate::transport::transfer::{group_emission, group_sources};
-    let mut sources = group_sources(&group_emission(&p.scene, &p.mesh), direct, rho);
-    let mut direct = direct.to_vec();
-    if let Some(d) = sky.filter(|d| d.k > 0) {
-        let lux: Vec<f32> = d
-            .direct
-            .chunks_exact(d.k)
-            .map(|row| row.iter().sum())
-            .collect();
-        sources.push(
-            lux.iter()
-                .zip(rho)
-                .flat_map(|(&e, r)| [r[0] * e, r[1] * e, r[2] * e])
-                .collect(),
-        );
-        direct.push(Some(lux.iter().flat_map(|&e| [e; 3]).collect()));
-    }
-    crate::transport::hierarchy::DarkRoomPass {
-        bvh: &p.bvh,
-        ff: opts.ff,
-        rho,
-        sources,
-        direct,
-    }
 }
 
 /// The hierarchical mode's starting point (tree, geometry, the sources' glow) and the

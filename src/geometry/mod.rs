@@ -2,6 +2,7 @@
 //! triangles ([`bvh`]), the panes daylight crosses ([`glazing`]) and the calculation
 //! points buried in objects ([`obstructed`]). Lengths are metres.
 
+pub mod blocker;
 pub mod bvh;
 pub mod glazing;
 pub mod mesh;

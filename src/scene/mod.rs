@@ -167,7 +167,7 @@ pub struct Scene {
     pub transfer: TransferChoice,
     /// Hierarchical mode: every light group right on its own, also where its light reaches
     /// a room only through an opening (scene.toml `per_group_accuracy`; see
-    /// [`crate::transport::hierarchy::importance`]). Costs bake time.
+    /// [`crate::transport::hierarchy::refine`]). About doubles the refinement's time.
     pub per_group_accuracy: bool,
     /// Where the scene stands, for daylight (`[site]`); None: no daylight.
     pub site: Option<crate::daylight::Site>,

@@ -283,14 +283,9 @@ pub fn merge(
     }
     let direct = crate::transport::direct::group_direct(&p.scene, &p.mesh, &p.bvh);
     let (plan, _) = hierarchy_plan(&p, &direct);
-    let rho = crate::transport::transfer::patch_rho(&p.scene, &p.mesh);
     let sky = super::sky_direct(&p.scene, &p.mesh, &p.bvh);
-    let pass = p
-        .scene
-        .per_group_accuracy
-        .then(|| super::dark_room_pass(&p, &rho, &direct, sky.as_ref(), opts));
     let (h, escape) = plan
-        .assemble(parts, opts.hier, pass.as_ref())
+        .assemble(parts, opts.hier)
         .map_err(|m| shard_error(&id, format!("the shards do not fit together: {m}")))?;
     let stats = BakeStats {
         patches: p.mesh.len(),

@@ -112,6 +112,15 @@ impl Bvh {
         });
     }
 
+    /// Calls `f` with the corners of every triangle the open segment `from → to` crosses
+    /// (ends trimmed as in [`Bvh::occluded`]).
+    pub fn each_hit_corners(&self, from: Vec3A, to: Vec3A, mut f: impl FnMut([Vec3A; 3])) {
+        self.along(from, to, |k, _| {
+            f(self.blocks[k / 4].corners(k % 4));
+            false
+        });
+    }
+
     /// Calls `visit(index, t)` for the stored triangles the segment `from → to` (ends
     /// trimmed by `1e-5` of its length) crosses, until it returns true; whether it did.
     ///
@@ -298,6 +307,24 @@ impl Bvh {
                 let [a, b, c] = self.blocks[k / 4].corners(k % 4);
                 if a.min(b).min(c).cmple(hi).all() && lo.cmple(a.max(b).max(c)).all() {
                     out.push(self.ids[k]);
+                }
+                false
+            },
+        );
+    }
+
+    /// Calls `f` with the corners of every triangle whose bounding box overlaps the box
+    /// `lo..hi` (boxes touching at a face count).
+    pub fn overlapping_corners(&self, lo: Vec3A, hi: Vec3A, mut f: impl FnMut([Vec3A; 3])) {
+        self.traverse(
+            |nlo, nhi| nlo.cmple(hi).all() && lo.cmple(nhi).all(),
+            |k| {
+                let [a, b, c] = self.blocks[k / 4].corners(k % 4);
+                if self.ids[k] != u32::MAX
+                    && a.min(b).min(c).cmple(hi).all()
+                    && lo.cmple(a.max(b).max(c)).all()
+                {
+                    f([a, b, c]);
                 }
                 false
             },

@@ -6,8 +6,6 @@
 //! - [`refine`]: links from receiver nodes to source nodes, refined by an error oracle
 //!   (the spread of the factor over sample pairs, visibility included) until below ε.
 //! - [`closure`]: each patch's factor sum checked against rays and rescaled.
-//! - [`importance`]: the dark-room pass: after a first solve, links refined again where
-//!   their error is large next to what their receiver gathers in some light group.
 //! - `glow.rs`: each patch's expected brightness, which weighs the refinement's errors.
 //! - `sweeps.rs`: [`Hierarchy::solve`], gather, push and pull (Jacobi) to a stated
 //!   tolerance: the bake's many columns.
@@ -19,7 +17,6 @@
 
 pub mod closure;
 mod glow;
-pub mod importance;
 mod krylov;
 pub mod refine;
 mod sweeps;
@@ -35,7 +32,6 @@ use crate::geometry::bvh::Bvh;
 use crate::geometry::mesh::Mesh;
 use crate::transport::formfactor::{patch_geometry, FormFactorOptions};
 pub use glow::{emitter_bounce, GLOW_EMITTERS};
-pub use importance::DarkRoomPass;
 pub use krylov::KRYLOV_BYTES;
 pub use refine::HierarchyOptions;
 pub use sweeps::HierarchySolution;
@@ -209,8 +205,8 @@ pub struct Plan {
     tree: Tree,
     geo: Vec<crate::transport::formfactor::PatchGeo>,
     glow: Vec<f32>,
-    /// Per-group accuracy (scene.toml `per_group_accuracy`): unbiased link values, hidden
-    /// links kept as zero links, and the dark-room pass at assembly ([`importance`]).
+    /// Per-group accuracy (scene.toml `per_group_accuracy`): links dropped as hidden only
+    /// where a wall proves it, and unbiased link values ([`refine`]).
     per_group: bool,
 }
 
@@ -224,8 +220,8 @@ impl Plan {
         }
     }
 
-    /// The plan with per-group accuracy on or off (off by default): see
-    /// [`importance`]. Every part of a sharded bake must be planned alike.
+    /// The plan with per-group accuracy on or off (off by default): see [`refine`].
+    /// Every part of a sharded bake must be planned alike.
     pub fn per_group_accuracy(mut self, on: bool) -> Plan {
         self.per_group = on;
         self
@@ -296,31 +292,15 @@ impl Plan {
     /// The hierarchy from parts that cover every plane exactly once, and every patch's
     /// escape fraction; an error names what is missing or repeated. Links are sorted by
     /// (receiver, source), so the result does not depend on how the planes were grouped.
-    /// With `dark` and per-group accuracy, the assembled links go through the dark-room
-    /// pass ([`importance`]).
     pub fn assemble(
         self,
         parts: Vec<Part>,
         opts: HierarchyOptions,
-        dark: Option<&DarkRoomPass<'_>>,
     ) -> Result<(Hierarchy, Vec<f32>), String> {
         check_cover(&self.tree, &parts)?;
         let joined = Joined::new(&self.tree, parts)?;
-        let mut refine_s = joined.refine_s;
-        let mut links = joined.links;
-        let (mut h, mut escape) = self.close(&links, &joined.hits, opts);
-        if let Some(pass) = dark.filter(|_| self.per_group) {
-            let t0 = Instant::now();
-            if let Some(imp) = importance::Importance::solve(&self.tree, &h, pass) {
-                drop(h);
-                links = refine::refine_again(&self, pass.bvh, opts, pass.ff, &imp, links);
-                drop(imp);
-                links.par_sort_unstable_by_key(|l| (l.r, l.s, l.k.to_bits(), l.vis));
-                (h, escape) = self.close(&links, &joined.hits, opts);
-            }
-            refine_s += t0.elapsed().as_secs_f64();
-        }
-        h.stats.refine_s = refine_s;
+        let (mut h, escape) = self.close(&joined.links, &joined.hits, opts);
+        h.stats.refine_s = joined.refine_s;
         h.stats.closure_s = joined.closure_s;
         Ok((h, escape))
     }
@@ -431,7 +411,7 @@ impl Joined {
 impl Hierarchy {
     /// The hierarchy of `tree` with `links` sorted by receiver (CSR), before closure (σ
     /// 1, no stats).
-    /// Zero links (hidden ones the refinement keeps for the dark-room pass) are left out.
+    /// Zero links are left out.
     fn from_sorted_links(tree: &Tree, links: &[refine::Link]) -> Hierarchy {
         let nodes = tree.nodes();
         let mut offsets = vec![0u32; nodes + 1];

@@ -19,15 +19,28 @@
 //!   from behind) do not drop a link that is not wholly behind: it is split.
 //!   An accepted link's value is then estimated again from fresh pairs (with their own
 //!   visibility rays when the link is partly or wholly hidden): reusing the deciding
-//!   samples would bias every link low, since small estimates are the accepted ones
-//!   (measured on the Cornell box: the ceiling gathered 0.4 % too little). The fresh
-//!   pairs give the value only, never a decision, and pair the strata by a random turn
-//!   ([`Ctx::pair`]), so the value is unbiased. A link judged wholly hidden and valued
-//!   0 is kept as a zero link until assembly ([`refine_again`] looks at it again).
+//!   samples would bias every link low, since small estimates are the ones accepted
+//!   (measured on the Cornell box: the ceiling gathered 0.4 % too little).
 //!
-//! [`refine_again`] is the dark-room pass ([`super::importance`]): links whose bound is
-//! loose next to what their receiver gathers in some light group are refined again under
-//! the tighter bound.
+//! **Per-group accuracy** ([`Plan::per_group_accuracy`]) changes three things, for rooms
+//! lit only through openings (docs/accuracy.md, "Light through openings"):
+//! - **Hidden only where a wall proves it.** Rays cannot show that a link is hidden:
+//!   light from one room into the next but one, through a door and a window, is seen by
+//!   0.1 % of a pair of wall clusters' point pairs and missed by hundreds of rays. A link
+//!   whose factor is too large to keep partly visible is settled by its first rays
+//!   ([`Ctx::estimate`]): rays that saw both ways split it; when the first
+//!   [`HierarchyOptions::samples`] are all blocked, a plane of the scene's triangles
+//!   between the two nodes' boxes that covers every segment between them
+//!   ([`crate::geometry::blocker`]) drops it, and otherwise it is split too, down to
+//!   nodes small enough that the rays see through the openings or a wall proves them
+//!   hidden. By default such links are dropped when their rays and a few fresh ones all
+//!   miss: the room two openings from the lit one of `benches/doors` read 11 % low.
+//! - **Fresh values from fresh rays.** Every accepted link's value traces a visibility
+//!   ray per fresh pair: a "wholly visible" verdict from N rays hides a blocked part of
+//!   up to about 1/N, every such link too high by the same sign (with walls alone, the
+//!   rooms beside a lit one read 2–3 % high).
+//! - **Pairs turned at random.** The fresh pairs pair the strata by a random turn
+//!   ([`Ctx::pair`]), so their value is unbiased.
 //!
 //! Receivers are planar (a patch or a cluster of coplanar patches): every leaf under a
 //! receiver has the receiver's normal, so the irradiance gathered at the receiver holds for
@@ -42,7 +55,6 @@ use glam::{DVec3, Vec3A};
 use rayon::prelude::*;
 use serde::Serialize;
 
-use super::importance::Importance;
 use super::tree::{Tree, NONE};
 use super::Plan;
 use crate::geometry::bvh::Bvh;
@@ -100,12 +112,6 @@ const PARTIAL_CLUSTER: f64 = 8.0;
 /// Most visibility rays of one link estimate.
 const MAX_LINK_RAYS: u32 = 128;
 
-/// Most visibility rays of one link estimate in the dark-room pass. Its bounds are up
-/// to [`super::importance::FLOOR`] of the first pass's, and rays that all agree can
-/// only be trusted to F/(e·N); more rays per link cost less than splitting every link
-/// across a wall down to the patches.
-const MAX_PASS_LINK_RAYS: u32 = 1024;
-
 /// Receivers with more leaves than this split in parallel.
 const PARALLEL_LEAVES: u32 = 512;
 
@@ -119,12 +125,9 @@ struct Ctx<'a> {
     opts: HierarchyOptions,
     ff: FormFactorOptions,
     quad: [Vec<DVec3>; 5],
-    /// The dark-room pass's bounds ([`super::importance`]), in the second pass only.
-    importance: Option<&'a Importance>,
-    /// Per-group accuracy ([`Plan::per_group_accuracy`]): fresh values that decide
-    /// nothing, source strata turned at random, capped rays that count their possible
-    /// miss, and hidden links kept as zero links.
-    unbiased: bool,
+    /// Per-group accuracy ([`Plan::per_group_accuracy`]): links dropped as hidden only
+    /// where a wall proves it, fresh values from fresh rays, pairs turned at random.
+    walls: bool,
 }
 
 /// The links of every receiver under the plane roots `roots` of `plan`'s tree, in no
@@ -144,7 +147,7 @@ pub(crate) fn refine(
     progress: &(dyn Fn(f64) + Sync),
 ) -> Vec<Link> {
     let tree = &plan.tree;
-    let ctx = Ctx::new(plan, bvh, opts, ff, None);
+    let ctx = Ctx::new(plan, bvh, opts, ff);
     let total: f64 = roots.iter().map(|&p| tree.area[p as usize]).sum();
     let done = AtomicU64::new(0);
     let root = tree.root();
@@ -165,39 +168,6 @@ pub(crate) fn refine(
     joined(parts)
 }
 
-/// The dark-room pass ([`super::importance`]): every link of `links` whose first-pass
-/// bound ε / (1 + glow) exceeds the importance bound `t(r, s)` is refined again under
-/// both bounds; the others (and links between two patches, which are exact) are kept.
-/// In no particular order.
-pub(crate) fn refine_again(
-    plan: &Plan,
-    bvh: &Bvh,
-    opts: HierarchyOptions,
-    ff: FormFactorOptions,
-    importance: &Importance,
-    links: Vec<Link>,
-) -> Vec<Link> {
-    let ctx = Ctx::new(plan, bvh, opts, ff, Some(importance));
-    let t = ctx.tree;
-
-    let parts: Vec<Vec<Link>> = links
-        .par_chunks(256)
-        .map(|chunk| {
-            let mut out = Vec::with_capacity(chunk.len());
-            for &l in chunk {
-                let exact = t.is_leaf(l.r) && t.is_leaf(l.s);
-                if exact || ctx.eps(l.r, l.s) >= ctx.first_eps(l.s) {
-                    out.push(l);
-                } else {
-                    ctx.link(l.r, l.s, &mut out);
-                }
-            }
-            out
-        })
-        .collect();
-    joined(parts)
-}
-
 /// The parts' links in one vector, each part freed as soon as it is moved (the peak is
 /// about one copy of the links, not two).
 fn joined(parts: Vec<Vec<Link>>) -> Vec<Link> {
@@ -209,13 +179,7 @@ fn joined(parts: Vec<Vec<Link>>) -> Vec<Link> {
 }
 
 impl<'a> Ctx<'a> {
-    fn new(
-        plan: &'a Plan,
-        bvh: &'a Bvh,
-        opts: HierarchyOptions,
-        ff: FormFactorOptions,
-        importance: Option<&'a Importance>,
-    ) -> Ctx<'a> {
+    fn new(plan: &'a Plan, bvh: &'a Bvh, opts: HierarchyOptions, ff: FormFactorOptions) -> Ctx<'a> {
         let tree = &plan.tree;
         let mut glow: Vec<f32> = plan.glow.to_vec();
         glow.resize(tree.n, 0.0);
@@ -230,26 +194,15 @@ impl<'a> Ctx<'a> {
             opts,
             ff,
             quad: quadrature_tables(),
-            importance,
-            unbiased: plan.per_group,
+            walls: plan.per_group,
         }
     }
 }
 
 impl Ctx<'_> {
-    /// The first pass's bound on the factor error of a link from `s`: ε / (1 + glow).
-    fn first_eps(&self, s: u32) -> f64 {
+    /// The bound on the factor error of a link from `s`: ε / (1 + glow).
+    fn eps(&self, s: u32) -> f64 {
         self.opts.epsilon / (1.0 + self.glow[s as usize] as f64)
-    }
-
-    /// The bound on the factor error of the link r ← s: the first pass's, and in the
-    /// dark-room pass also the importance bound.
-    fn eps(&self, r: u32, s: u32) -> f64 {
-        let first = self.first_eps(s);
-        match self.importance {
-            Some(imp) => first.min(imp.threshold(r, s, self.opts.epsilon)),
-            None => first,
-        }
     }
 
     fn link(&self, r: u32, s: u32, out: &mut Vec<Link>) {
@@ -273,17 +226,23 @@ impl Ctx<'_> {
         }
         let near = t.center(r).distance(t.center(s)) < NEAR * (t.size(r) + t.size(s));
         if !near {
-            let eps = self.eps(r, s);
+            let eps = self.eps(s);
             let (k, spread, vis, unoccluded) = self.estimate(r, s, eps);
             if spread <= eps {
                 let hidden = vis == 0.0;
+                let w = self.partial_weight(r);
+                if hidden && self.walls && unoccluded * w > eps {
+                    // A wall proved it hidden ([`Ctx::estimate`]).
+                    return;
+                }
                 // The accepted value comes from fresh pairs: the deciding estimate is
                 // biased low (small estimates are the ones accepted), and so is a "wholly
                 // hidden" verdict from a few rays.
                 let (k, vis) = if k > 0.0 || hidden {
                     let m = self.opts.samples.max(1);
                     let partial = vis < 1.0;
-                    self.fresh_value(r, s, if partial { 2 * m } else { m }, partial, vis)
+                    let rays = partial || self.walls;
+                    self.fresh_value(r, s, if partial { 2 * m } else { m }, rays, vis)
                 } else {
                     (k, vis)
                 };
@@ -293,25 +252,15 @@ impl Ctx<'_> {
                 // receiver's mean, a fraction of theirs), and it is refined like any
                 // partly visible link. That lets the fresh rays decide, and a link
                 // refined when they contradict the verdict and dropped when they do not
-                // loses v·F·(1 − v)^(rays) on average, every such link the same sign:
-                // with per-group accuracy the fresh pairs only give the value.
-                let contradicted = hidden && vis > 0.0 && unoccluded * self.partial_weight(r) > eps;
-                if self.unbiased || !contradicted {
+                // loses v·F·(1 − v)^(rays) on average, every such link the same sign.
+                let contradicted = !self.walls && hidden && vis > 0.0 && unoccluded * w > eps;
+                if !contradicted {
                     if k > 0.0 {
                         out.push(Link {
                             r,
                             s,
                             k: k as f32,
                             vis: (vis * 255.0).round() as u8,
-                        });
-                    } else if hidden && self.unbiased {
-                        // Kept as a zero link until assembly, so that the dark-room pass
-                        // can look at it again (`Plan::assemble` leaves zero links out).
-                        out.push(Link {
-                            r,
-                            s,
-                            k: 0.0,
-                            vis: 0,
                         });
                     }
                     return;
@@ -374,6 +323,14 @@ impl Ctx<'_> {
         };
         let (pr, ps) = (t.plane[r as usize], t.plane[s as usize]);
         behind(pr, s) || (ps != NONE && behind(ps, r))
+    }
+
+    /// Whether a wall of the scene lies between r and s and blocks every segment between
+    /// their boxes ([`crate::geometry::blocker`]).
+    fn walled(&self, r: u32, s: u32) -> bool {
+        let t = self.tree;
+        let bx = |k: u32| (t.lo[k as usize], t.hi[k as usize]);
+        crate::geometry::blocker::wall_between(self.bvh, bx(r), bx(s))
     }
 
     /// Patch to patch, as the dense mode computes it.
@@ -440,7 +397,7 @@ impl Ctx<'_> {
     /// point pairs ([`Ctx::pair`]): uniform in 0..count with per-group accuracy, else 0
     /// (and no random number drawn, so the default bake is unchanged).
     fn pair_shift(&self, count: u32, rng: &mut Rng) -> u32 {
-        if self.unbiased {
+        if self.walls {
             rng.index(count as usize) as u32
         } else {
             0
@@ -546,11 +503,15 @@ impl Ctx<'_> {
     /// whose rays all agree is accepted as wholly visible or hidden, and the chance that
     /// N rays all miss a part visible with fraction v is (1 − v)^N, so the error of that
     /// decision, v·F·(1 − v)^N ≤ F/(e·N), stays below ε/20 (and below 0.3 % of F) while
-    /// N is not capped; a capped N counts F/(e·N) as the error. The accepted value comes
-    /// from fresh rays, so it is not biased by the decision. A partly visible link's error is
-    /// its whole factor: it is refined until the factor is below ε (shadow boundaries),
-    /// ε / [`PARTIAL_CLUSTER`] at a cluster receiver. Pairs that all see zero bound
-    /// nothing (the error is infinite: split).
+    /// N is not capped. A partly visible link's error is its whole factor: it is refined
+    /// until the factor is below ε (shadow boundaries), ε / [`PARTIAL_CLUSTER`] at a
+    /// cluster receiver. Pairs that all see zero bound nothing (the error is infinite:
+    /// split).
+    ///
+    /// With per-group accuracy a link whose factor exceeds that bound stops at its first
+    /// rays: seen both ways it is split (an infinite error); its first `samples` rays all
+    /// blocked, it is hidden (factor, error and visibility 0) where a wall proves it
+    /// ([`Ctx::walled`]), else split.
     fn estimate(&self, r: u32, s: u32, eps: f64) -> (f64, f64, f64, f64) {
         let m = self.opts.samples.max(1);
         let e = self.ends(r, s);
@@ -573,12 +534,10 @@ impl Ctx<'_> {
             // samples. Zero pairs bound nothing, so the link is split, not dropped.
             return (0.0, f64::INFINITY, 1.0, 0.0);
         }
-        let cap = if self.importance.is_some() {
-            MAX_PASS_LINK_RAYS
-        } else {
-            MAX_LINK_RAYS
-        };
-        let rays = ((8.0 * f / eps).ceil().min(u32::MAX as f64) as u32).clamp(m, cap.max(m));
+        let rays =
+            ((8.0 * f / eps).ceil().min(u32::MAX as f64) as u32).clamp(m, MAX_LINK_RAYS.max(m));
+        // A link too large to keep partly visible is settled by its first rays.
+        let settle = self.walls && f * self.partial_weight(r) > eps;
         let mut free = 0u32;
         for k in 0..rays {
             let (x, y) = match pairs.get(k as usize) {
@@ -591,20 +550,28 @@ impl Ctx<'_> {
                 }
             };
             free += u32::from(!self.blocked(&x, &y));
+            if settle {
+                // Partly visible or hidden, the link is split unless a wall proves it
+                // hidden: the other rays would decide nothing. Rays that saw both ways
+                // settle it at once; the first `m` all blocked ask for the wall.
+                let traced = k + 1;
+                if free > 0 && free < traced {
+                    return (0.0, f64::INFINITY, 1.0, f);
+                }
+                if free == 0 && traced == m {
+                    return if self.walled(r, s) {
+                        (0.0, 0.0, 0.0, f)
+                    } else {
+                        (0.0, f64::INFINITY, 1.0, f)
+                    };
+                }
+            }
         }
         let vis = free as f64 / rays as f64;
         let spread = if free == 0 || free == rays {
             // Rays that all agree may miss a part seen (or hidden) with fraction
-            // v ≈ 1/N: at most F/(e·N) of light, below ε/(8e) while N = 8F/ε. Where
-            // the cap on N binds (large factors, or the small ε of the dark-room pass)
-            // that bound can exceed ε: with per-group accuracy the link is then refined
-            // instead of trusted.
-            let miss = f / (std::f64::consts::E * rays as f64);
-            if self.unbiased {
-                ((hi - lo) * vis).max(miss)
-            } else {
-                (hi - lo) * vis
-            }
+            // v ≈ 1/N: at most F/(e·N) of light, below ε/(8e) while N = 8F/ε.
+            (hi - lo) * vis
         } else {
             f * self.partial_weight(r)
         };
