@@ -8,8 +8,8 @@ only through the door and the window.
     python3 benches/doors/make_scene.py OUT_DIR [MAX_EDGE]
 
 tests/data/three-rooms is this script's output at max_edge 0.5. The scene sets
-`per_group_accuracy = true` (the dark-room pass of the hierarchical mode); without that
-line it bakes as any scene does.
+`per_group_accuracy = true` (links dropped as hidden only where a wall proves it, in the
+hierarchical mode); without that line it bakes as any scene does.
 """
 import os
 import sys
