@@ -81,21 +81,66 @@ fn corners((lo, hi): Aabb) -> [DVec3; 8] {
     })
 }
 
+/// A plane `n·x = d` with a basis `u`, `v` for its own 2-D coordinates.
+struct Plane {
+    n: DVec3,
+    d: f64,
+    u: DVec3,
+    v: DVec3,
+}
+
+impl Plane {
+    fn new(n: DVec3, d: f64) -> Plane {
+        let u = n.any_orthonormal_vector();
+        Plane {
+            n,
+            d,
+            u,
+            v: n.cross(u),
+        }
+    }
+
+    fn height(&self, p: DVec3) -> f64 {
+        self.n.dot(p) - self.d
+    }
+
+    fn flat(&self, p: DVec3) -> DVec2 {
+        DVec2::new(self.u.dot(p), self.v.dot(p))
+    }
+}
+
 /// Whether the plane `n·x = d` separates `a` from `b` by more than `tol` and its triangles
 /// cover every segment between them.
 fn covered(bvh: &Bvh, a: Aabb, b: Aabb, n: DVec3, d: f64, tol: f64) -> bool {
+    let plane = Plane::new(n, d);
+    let Some((crossings, lo, hi)) = crossings(&plane, a, b, tol) else {
+        return false;
+    };
+    let pad = DVec3::splat(2.0 * tol);
+    let Some(tris) = plane_triangles(bvh, &plane, (lo - pad, hi + pad), tol) else {
+        return false;
+    };
+    let hull = convex_hull(crossings);
+    let whole = area(&hull);
+    if whole.is_nan() || whole <= 0.0 {
+        // The boxes are points or segments seen edge-on: nothing to prove it with.
+        return false;
+    }
+    cut_out(hull, whole, &tris)
+}
+
+/// Where the 64 segments between the corners of `a` and `b` cross `plane` (in its 2-D
+/// coordinates), and the crossings' bounding box; None unless the plane separates the
+/// boxes by more than `tol`.
+fn crossings(plane: &Plane, a: Aabb, b: Aabb, tol: f64) -> Option<(Vec<DVec2>, DVec3, DVec3)> {
     let (ka, kb) = (corners(a), corners(b));
-    let ha = ka.map(|p| n.dot(p) - d);
-    let hb = kb.map(|p| n.dot(p) - d);
+    let ha = ka.map(|p| plane.height(p));
+    let hb = kb.map(|p| plane.height(p));
     let above = |h: &[f64; 8]| h.iter().all(|&x| x > tol);
     let below = |h: &[f64; 8]| h.iter().all(|&x| x < -tol);
     if !((above(&ha) && below(&hb)) || (below(&ha) && above(&hb))) {
-        return false;
+        return None;
     }
-    // A basis of the plane.
-    let u = n.any_orthonormal_vector();
-    let v = n.cross(u);
-    let flat = |p: DVec3| DVec2::new(u.dot(p), v.dot(p));
     let mut crossings = Vec::with_capacity(64);
     let (mut lo, mut hi) = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
     for (p, hp) in ka.iter().zip(ha) {
@@ -103,11 +148,16 @@ fn covered(bvh: &Bvh, a: Aabb, b: Aabb, n: DVec3, d: f64, tol: f64) -> bool {
             let x = *p + (*q - *p) * (hp / (hp - hq));
             lo = lo.min(x);
             hi = hi.max(x);
-            crossings.push(flat(x));
+            crossings.push(plane.flat(x));
         }
     }
-    let pad = DVec3::splat(2.0 * tol);
-    let (lo, hi) = (lo - pad, hi + pad);
+    Some((crossings, lo, hi))
+}
+
+/// The scene's triangles within `tol` of `plane` whose boxes overlap `(lo, hi)`, in the
+/// plane's coordinates and counter-clockwise; None for none, or more than
+/// [`MAX_TRIANGLES`].
+fn plane_triangles(bvh: &Bvh, plane: &Plane, (lo, hi): Aabb, tol: f64) -> Option<Vec<[DVec2; 3]>> {
     let mut tris: Vec<[DVec2; 3]> = Vec::new();
     let mut too_many = false;
     bvh.overlapping_corners(
@@ -118,12 +168,12 @@ fn covered(bvh: &Bvh, a: Aabb, b: Aabb, n: DVec3, d: f64, tol: f64) -> bool {
                 return;
             }
             let t = tri.map(|c| c.as_dvec3());
-            if t.iter().all(|&p| (n.dot(p) - d).abs() <= tol) {
+            if t.iter().all(|&p| plane.height(p).abs() <= tol) {
                 if tris.len() >= MAX_TRIANGLES {
                     too_many = true;
                     return;
                 }
-                let mut f = t.map(flat);
+                let mut f = t.map(|p| plane.flat(p));
                 let twice = (f[1] - f[0]).perp_dot(f[2] - f[0]);
                 if twice < 0.0 {
                     f.swap(1, 2);
@@ -134,16 +184,14 @@ fn covered(bvh: &Bvh, a: Aabb, b: Aabb, n: DVec3, d: f64, tol: f64) -> bool {
             }
         },
     );
-    if too_many || tris.is_empty() {
-        return false;
-    }
-    let hull = convex_hull(crossings);
-    let whole = area(&hull);
-    if whole.is_nan() || whole <= 0.0 {
-        // The boxes are points or segments seen edge-on: nothing to prove it with.
-        return false;
-    }
-    // Triangles of less area than Q cannot cover it.
+    (!too_many && !tris.is_empty()).then_some(tris)
+}
+
+/// Whether the triangles `tris` (counter-clockwise) cover the convex polygon `hull` of
+/// area `whole`: each is cut out of what is left, as convex pieces. False past
+/// [`MAX_PIECES`] pieces.
+fn cut_out(hull: Vec<DVec2>, whole: f64, tris: &[[DVec2; 3]]) -> bool {
+    // Triangles of less area than the hull cannot cover it.
     let total: f64 = tris
         .iter()
         .map(|t| 0.5 * (t[1] - t[0]).perp_dot(t[2] - t[0]))
@@ -153,7 +201,7 @@ fn covered(bvh: &Bvh, a: Aabb, b: Aabb, n: DVec3, d: f64, tol: f64) -> bool {
     }
     let least = 1e-9 * whole;
     let mut left = vec![hull];
-    for t in &tris {
+    for t in tris {
         let mut next = Vec::with_capacity(left.len());
         for piece in left {
             cut(piece, t, least, &mut next);
