@@ -67,6 +67,22 @@ fn main() {
     emissions.push(("1 % of patches", sparse));
     let dense: Vec<f32> = (0..3 * n).map(|_| (100.0 * rng.next()) as f32).collect();
     emissions.push(("every patch", dense));
+    let coarse: Vec<(usize, relight::transport::hierarchy::Coarse)> = std::env::var("COARSE")
+        .unwrap_or_default()
+        .split(',')
+        .filter(|x| !x.is_empty())
+        .map(|x| {
+            let m: usize = x.parse().expect("COARSE: a list of cluster counts");
+            let t0 = Instant::now();
+            let c = hier.coarse(&b.mesh, &b.bvh, &t.rho, m);
+            eprintln!(
+                "coarse {m}: {} clusters, built in {:.2} s",
+                c.area.len(),
+                t0.elapsed().as_secs_f64()
+            );
+            (m, c)
+        })
+        .collect();
     for (name, e) in &emissions {
         let t0 = Instant::now();
         let truth = hier.solve(&t.rho, e, 3, 1e-9, 5000, &|_| {});
@@ -98,6 +114,19 @@ fn main() {
             let t0 = Instant::now();
             let s = hier.solve_krylov(&t.rho, e, 3, 0.0, k);
             runs.push((format!("gmres ×{k}"), s, t0.elapsed().as_secs_f64()));
+        }
+        for (m, c) in &coarse {
+            let pre = |v: &[f32]| c.precondition(&hier.area, v, 3);
+            let tols: Vec<f64> = std::env::var("PTOL")
+                .unwrap_or("0.01".into())
+                .split(',')
+                .map(|x| x.parse().expect("PTOL: tolerances"))
+                .collect();
+            for tol in tols {
+                let t0 = Instant::now();
+                let s = hier.solve_krylov_with(&t.rho, e, 3, tol, EMISSION_MAX_PASSES, Some(&pre));
+                runs.push((format!("pgmres {m} {tol}"), s, t0.elapsed().as_secs_f64()));
+            }
         }
         // As the server answers: to EMISSION_TOL.
         let t0 = Instant::now();

@@ -5,7 +5,7 @@ use serde::Serialize;
 
 use crate::geometry::mesh::Mesh;
 use crate::scene::Scene;
-use crate::transport::hierarchy::BYTES_PER_LINK;
+use crate::transport::hierarchy::{BYTES_PER_LINK, MAX_CLUSTERS};
 use crate::transport::transfer::TransferMode;
 
 /// Bytes per patch besides the n×n matrices and the group columns: mesh vertices and patch
@@ -30,6 +30,16 @@ pub const HIER_BAKE_BYTES_PER_LINK: u64 = 25;
 /// (53,894 patches, 148 columns): 46 bytes per patch and column beyond the links.
 pub const HIER_BYTES_PER_PATCH_GROUP: u64 = 80;
 
+/// Hierarchical mode: the peak bytes of building the coarse transfer
+/// ([`crate::transport::hierarchy::Coarse`]) over `patches` patches: with m clusters (at
+/// most [`MAX_CLUSTERS`]), the assembly table over clusters and the nodes above them
+/// (4·(2m)²), the coarse operator, and per channel its system and answer (4·m² each): 40·m²
+/// bytes, of which 12·m² are kept.
+pub fn coarse_bytes(patches: usize) -> u64 {
+    let m = patches.min(MAX_CLUSTERS) as u64;
+    40 * m * m + 8 * patches as u64
+}
+
 /// Estimated peak memory of baking `patches` patches in `mode` with `groups` light groups
 /// and `lu_count` distinct reflectance channels (1–3: channels with identical ρ over all
 /// patches share one factorization; see [`memory_estimate`]).
@@ -43,7 +53,7 @@ pub const HIER_BYTES_PER_PATCH_GROUP: u64 = 80;
 /// - **Columns** keeps only `F` (Jacobi needs no factorization): `4·n²`.
 /// - **Hierarchical** holds no n × n matrix: [`HIER_LINKS_PER_PATCH`] links per patch at
 ///   [`HIER_BAKE_BYTES_PER_LINK`] bytes, and [`HIER_BYTES_PER_PATCH_GROUP`] per patch and
-///   group for the sweeps, instead of the per-group term below.
+///   group for the sweeps, instead of the per-group term below, and [`coarse_bytes`].
 /// - Plus [`BAKE_BYTES_PER_PATCH`]·n, [`BAKE_BYTES_PER_PATCH_GROUP`]·n·groups and
 ///   [`BAKE_BYTES_BASE`].
 ///
@@ -68,6 +78,7 @@ pub fn estimate_bake_bytes(
                         .saturating_mul(HIER_BYTES_PER_PATCH_GROUP),
                 )
                 .saturating_add(BAKE_BYTES_BASE)
+                .saturating_add(coarse_bytes(patches))
         }
     };
     matrices
@@ -106,6 +117,7 @@ pub fn estimate_load_bytes(
                         .saturating_mul(BAKE_BYTES_PER_PATCH_GROUP),
                 )
                 .saturating_add(BAKE_BYTES_BASE)
+                .saturating_add(coarse_bytes(patches))
         }
         TransferMode::Columns => {
             let n = patches as u64;

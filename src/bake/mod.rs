@@ -23,7 +23,7 @@ use crate::geometry::mesh::Mesh;
 use crate::scene::{is_two_sided, Scene, TransferChoice};
 use crate::transport::formfactor::{self, FormFactorOptions};
 use crate::transport::hierarchy::closure::Sides;
-use crate::transport::hierarchy::{HierarchyOptions, Plan};
+use crate::transport::hierarchy::{HierarchyOptions, Plan, COARSE_CLUSTERS};
 use crate::transport::transfer::{Coupling, Transfer, TransferMode};
 use cache::CacheError;
 
@@ -303,7 +303,10 @@ impl Prepared {
         }
     }
 
-    fn done(self, transfer: Transfer, stats: BakeStats) -> Baked {
+    fn done(self, mut transfer: Transfer, stats: BakeStats) -> Baked {
+        if let Some(h) = &transfer.hierarchy {
+            transfer.coarse = Some(h.coarse(&self.mesh, &self.bvh, &transfer.rho, COARSE_CLUSTERS));
+        }
         Baked {
             glazing: scene_glazing(&self.scene),
             scene: self.scene,

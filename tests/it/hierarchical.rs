@@ -674,3 +674,95 @@ fn auto_transfer_above_the_factored_limit_answers_per_patch_emission() {
         assert!((relit.b[k] - solved.b[k]).abs() < 1e-5 * scale, "B at {k}");
     }
 }
+
+/// Two rooms, 1.5 and 4.5 m deep, under one floor and one ceiling (single quads), parted
+/// by a wall with a door; a lamp in room A.
+fn rooms_sharing_a_floor() -> TempScene {
+    let mut obj = box_faces("room", "white", [0., 0., 0.], [6., 2.5, 3.], true);
+    obj += &box_faces("wall_s", "white", [1.45, 0., 0.], [1.55, 2.5, 1.0], false);
+    obj += &box_faces("wall_n", "white", [1.45, 0., 1.9], [1.55, 2.5, 3.0], false);
+    obj += &box_faces("lintel", "white", [1.45, 2.1, 1.0], [1.55, 2.5, 1.9], false);
+    obj += &quad(
+        "lamp",
+        "lamp",
+        [
+            [0.4, 2.49, 1.0],
+            [1.1, 2.49, 1.0],
+            [1.1, 2.49, 2.0],
+            [0.4, 2.49, 2.0],
+        ],
+        [0., -1., 0.],
+    );
+    write_scene(
+        &obj,
+        "newmtl white\nKd 0.7 0.6 0.5\nnewmtl lamp\nKd 0 0 0\nKe 20 20 20\n",
+        Some("[mesh]\ntarget_patches = 3000\n[[lights]]\nid = \"lamp\"\nmaterials = [\"lamp\"]\n"),
+    )
+}
+
+/// The coarse transfer that preconditions the emission answers carries light between
+/// clusters at one value each. A cluster of the floor reaching under the wall into both
+/// rooms leaked the lit room's light into the dark one (on office-floor its surfaces read
+/// up to 170 times too bright at one pass): no cluster may hold patches on both sides of
+/// the wall. And the preconditioner must pay: an emission in room A, whose light reaches
+/// room B through the door, converges in fewer passes than without it, to the same
+/// answer.
+#[test]
+fn coarse_clusters_stay_in_one_room_and_save_passes() {
+    let _gate = common::shared();
+    let s = rooms_sharing_a_floor();
+    let h = bake(s.path(), TransferMode::Hierarchical);
+    let t = &h.transfer;
+    let hier = t.hierarchy.as_ref().unwrap();
+    // Few clusters, so that they are large enough to reach under the wall.
+    let few = hier.coarse(&h.mesh, &h.bvh, &t.rho, 30);
+    // Room B's patches; the wall's own faces (the jambs, the faces inside it) are in
+    // neither room.
+    let side = |i: usize| {
+        let x = h.mesh.patches[i].centroid.x;
+        (!(1.4..=1.6).contains(&x)).then_some(x > 1.5)
+    };
+    let mut seen = vec![[false; 2]; few.len()];
+    for i in 0..t.n {
+        if let Some(b) = side(i) {
+            seen[few.cluster[i] as usize][b as usize] = true;
+        }
+    }
+    let both = seen.iter().filter(|s| s[0] && s[1]).count();
+    assert_eq!(both, 0, "{both} of {} clusters span the wall", few.len());
+    assert!(few.len() >= 30, "{} clusters", few.len());
+    let coarse = t.coarse.as_ref().expect("the transfer's own clusters");
+    // One floor patch in room A emits.
+    let p = (0..t.n)
+        .find(|&i| {
+            let q = &h.mesh.patches[i];
+            q.normal.y > 0.9 && q.centroid.y < 0.01 && q.centroid.x < 0.5
+        })
+        .expect("a floor patch in room A");
+    let mut e = vec![0f32; 3 * t.n];
+    e[3 * p..3 * p + 3].copy_from_slice(&[1000.0, 800.0, 600.0]);
+    let tol = relight::transport::transfer::EMISSION_TOL;
+    let plain = hier.solve_krylov(&t.rho, &e, 3, tol, 100);
+    let pre = |v: &[f32]| coarse.precondition(&hier.area, v, 3);
+    let with = hier.solve_krylov_with(&t.rho, &e, 3, tol, 100, Some(&pre));
+    let truth = hier.solve(&t.rho, &e, 3, 1e-10, 5000, &|_| {});
+    eprintln!(
+        "passes: {} plain, {} preconditioned",
+        plain.sweeps, with.sweeps
+    );
+    assert!(
+        with.sweeps < plain.sweeps,
+        "{} passes preconditioned, {} without",
+        with.sweeps,
+        plain.sweeps
+    );
+    // Room B's mean irradiance (all of it through the door).
+    let room_b = |x: &[f32]| -> f64 {
+        (0..t.n)
+            .filter(|&i| side(i) == Some(true))
+            .map(|i| h.mesh.patches[i].area * x[3 * i..3 * i + 3].iter().sum::<f32>() as f64)
+            .sum()
+    };
+    let rel = room_b(&with.h) / room_b(&truth.h) - 1.0;
+    assert!(rel.abs() < 1e-3, "room B off by {:.3} %", 100.0 * rel);
+}

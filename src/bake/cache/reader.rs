@@ -293,6 +293,7 @@ fn assemble(path: &Path, h: &Header, mut s: Sections) -> Result<Transfer, CacheE
         groups,
         factored,
         hierarchy,
+        coarse: None,
         grids,
         grid_gathers,
         sky,

@@ -23,6 +23,10 @@ const MAX_BASIS: usize = 40;
 /// workspace would allow fewer ([`Hierarchy::krylov_fits`]).
 const MIN_BASIS: usize = 8;
 
+/// An approximate inverse of `I − ρH` for [`Hierarchy::solve_krylov_with`]: n × c in,
+/// n × c out.
+pub type Preconditioner<'a> = dyn Fn(&[f32]) -> Vec<f32> + Sync + 'a;
+
 impl Hierarchy {
     /// Steps between restarts that [`KRYLOV_BYTES`] allows for `c` columns.
     fn krylov_basis(&self, c: usize) -> usize {
@@ -65,6 +69,21 @@ impl Hierarchy {
         tol: f64,
         max_passes: usize,
     ) -> HierarchySolution {
+        self.solve_krylov_with(rho, s, c, tol, max_passes, None)
+    }
+
+    /// [`Hierarchy::solve_krylov`] with a right preconditioner `pre`, an approximate
+    /// inverse of `I − ρH` (n × c in, n × c out): GMRES on `(I − ρH) pre` in the
+    /// preconditioned basis.
+    pub fn solve_krylov_with(
+        &self,
+        rho: &[Rgb],
+        s: &[f32],
+        c: usize,
+        tol: f64,
+        max_passes: usize,
+        pre: Option<&Preconditioner<'_>>,
+    ) -> HierarchySolution {
         let n = self.n;
         let len = n * c;
         let basis = self.krylov_basis(c).max(1);
@@ -93,6 +112,8 @@ impl Hierarchy {
             // Arnoldi with modified Gram–Schmidt, per column; Givens rotations keep the
             // least-squares problem triangular.
             let mut v: Vec<Vec<f32>> = vec![scaled(&r, &beta, c)];
+            // The preconditioned basis (v itself without a preconditioner) and its images.
+            let mut pv: Vec<Vec<f32>> = Vec::new();
             let mut hv: Vec<Vec<f32>> = Vec::new();
             let mut hess: Vec<Vec<f64>> = Vec::new(); // hess[k][i * c + j]
             let mut rot: Vec<Vec<(f64, f64)>> = Vec::new(); // rot[k][j]
@@ -101,10 +122,14 @@ impl Hierarchy {
             while v.len() > hv.len() && hv.len() < basis && passes < max_passes {
                 let k = hv.len();
                 let mut hk = Vec::new();
-                self.irradiance_into(&v[k], c, &mut nodes, &mut hk);
+                let pk = match pre {
+                    Some(f) => f(&v[k]),
+                    None => v[k].clone(),
+                };
+                self.irradiance_into(&pk, c, &mut nodes, &mut hk);
                 passes += 1;
-                // w = A v_k = v_k − ρ H(v_k).
-                let mut w: Vec<f32> = v[k]
+                // w = A p_k = p_k − ρ H(p_k).
+                let mut w: Vec<f32> = pk
                     .par_chunks(c)
                     .zip(hk.par_chunks(c))
                     .enumerate()
@@ -113,13 +138,14 @@ impl Hierarchy {
                     })
                     .collect();
                 hv.push(hk);
+                pv.push(pk);
                 let (mut col, wn) = orthogonalize(&mut w, &v, c);
                 rot.push(givens(&mut col, &rot, &mut g, k, c));
                 hess.push(col);
                 // The iterate after this pass, and its change since the last.
                 coef = back_substitute(&hess, &g, c);
                 let mut now = y.clone();
-                for (vi, ci) in v.iter().zip(coef.chunks_exact(c)) {
+                for (vi, ci) in pv.iter().zip(coef.chunks_exact(c)) {
                     axpy(&mut now, vi, ci, c);
                 }
                 converged = passes >= 3 && settled(&now, &last, tol, c);

@@ -16,6 +16,7 @@
 //! by receiver (CSR offsets); per internal node its two children; per patch σ.
 
 pub mod closure;
+mod coarse;
 mod glow;
 mod krylov;
 pub mod refine;
@@ -31,8 +32,9 @@ use crate::color::Rgb;
 use crate::geometry::bvh::Bvh;
 use crate::geometry::mesh::Mesh;
 use crate::transport::formfactor::{patch_geometry, FormFactorOptions};
+pub use coarse::{Coarse, COARSE_CLUSTERS, MAX_CLUSTERS};
 pub use glow::{emitter_bounce, GLOW_EMITTERS};
-pub use krylov::KRYLOV_BYTES;
+pub use krylov::{Preconditioner, KRYLOV_BYTES};
 pub use refine::HierarchyOptions;
 pub use sweeps::HierarchySolution;
 use tree::Tree;

@@ -24,7 +24,7 @@ use serde::Serialize;
 use crate::color::{Rgb, Rgb64};
 use crate::geometry::mesh::Mesh;
 use crate::scene::{Scene, TransferChoice};
-use crate::transport::hierarchy::Hierarchy;
+use crate::transport::hierarchy::{Coarse, Hierarchy, Preconditioner};
 
 mod build;
 pub use build::{all_sources, group_emission, group_sources, patch_rho, solve_refined};
@@ -182,6 +182,9 @@ pub struct Transfer {
     pub factored: Option<Factored>,
     /// Hierarchical-mode links.
     pub hierarchy: Option<Hierarchy>,
+    /// Hierarchical mode: the later bounces between clusters, which precondition the
+    /// emission answers ([`Hierarchy::coarse`]). Built from the links at load.
+    pub coarse: Option<Coarse>,
     /// Per calculation grid of the scene (in `scene.grids` order) and per light group:
     /// the illuminance at each grid point (lux, points × 3 interleaved) at unit weight
     /// ([`crate::transport::probe::grid_columns`]).
@@ -212,6 +215,7 @@ impl Transfer {
         if let Some(h) = &self.hierarchy {
             b += h.bytes();
         }
+        b += self.coarse.as_ref().map_or(0, |c| c.bytes());
         b += self.grids.iter().flatten().map(f32s).sum::<u64>();
         b += self.sky.as_ref().map_or(0, |s| s.bytes());
         if let Some(f) = &self.factored {
@@ -343,7 +347,18 @@ impl Transfer {
                 }
             }
             let sol = if hier.krylov_fits(c) {
-                hier.solve_krylov(&self.rho, &s, c, EMISSION_TOL, EMISSION_MAX_PASSES)
+                let pre = self
+                    .coarse
+                    .as_ref()
+                    .map(|k| move |v: &[f32]| k.precondition(&hier.area, v, c));
+                hier.solve_krylov_with(
+                    &self.rho,
+                    &s,
+                    c,
+                    EMISSION_TOL,
+                    EMISSION_MAX_PASSES,
+                    pre.as_ref().map(|f| f as &Preconditioner<'_>),
+                )
             } else {
                 hier.solve(
                     &self.rho,
@@ -571,6 +586,7 @@ mod tests {
             groups: vec![],
             factored: Some(factored),
             hierarchy: None,
+            coarse: None,
             grids: vec![],
             grid_gathers: vec![],
             sky: None,
