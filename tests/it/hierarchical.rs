@@ -633,6 +633,20 @@ fn an_emission_answer_in_hierarchical_mode_fills_the_furnace() {
         "worst patch off the furnace by {:.3} %",
         100.0 * worst
     );
+    // The coarse transfer alone fills it too: every later bounce of a uniform emission,
+    // carried between clusters, is `ρ/(1 − ρ) = 1` at every patch.
+    let hier = b.transfer.hierarchy.as_ref().unwrap();
+    let coarse = b.transfer.coarse.as_ref().expect("a coarse transfer");
+    let filled = coarse.precondition(&hier.area, &vec![1f32; 3 * n], 3);
+    let worst = filled
+        .iter()
+        .map(|&v| (v as f64 / 2.0 - 1.0).abs())
+        .fold(0.0, f64::max);
+    assert!(
+        worst < 1e-2,
+        "the coarse transfer off the furnace by {:.3} %",
+        100.0 * worst
+    );
 }
 
 /// `auto` picked the columns mode from 6,000 to 15,000 patches, and that mode refuses
