@@ -1,19 +1,18 @@
-//! A coarse transfer for emission answers: the multi-bounce light between clusters,
-//! solved once at bake time, so that any emission vector costs one pass over the links.
+//! A coarse transfer: the light of every bounce after the first, carried between
+//! clusters and solved once at load, which preconditions the emission answers (GMRES in
+//! [`super::krylov`]).
 //!
-//! The clusters are a cut of the cluster tree (the largest nodes split first, about
-//! `m` of them). With `P` the prolongation (a cluster's value on every patch under it)
-//! and `R` the area mean, the Galerkin operator `K_c = R ρ H P` (m × m, per channel) is
-//! assembled from the links, and `M = (I − K_c)⁻¹ K_c` is kept. An emission `E` is then
-//! answered as
+//! The clusters are a cut of the cluster tree: the largest nodes split first (about
+//! [`COARSE_CLUSTERS`]), then every cluster split until it is coherent, one plane whose
+//! patches see each other (`coherent`): a cluster reaching under a wall would carry the
+//! lit room's light into the dark one. With `P` the prolongation (a cluster's value on
+//! every patch under it) and `R` the area mean, the Galerkin operator `K_c = R ρ H P`
+//! (m × m, per channel) is assembled from the links, and `M = (I − K_c)⁻¹ K_c` is kept.
+//! `v ↦ v + P M R v` approximates `(I − ρH)⁻¹`; GMRES corrects what it misses.
 //!
-//! ```text
-//! z = M R E            (the reflected radiosity, every bounce, per cluster)
-//! B = E + ρ H(E + P z) (the last bounce gathered through the links, per patch)
-//! ```
-//!
-//! The first bounce of `E` and the last bounce to every patch are exact; only the light
-//! between them is carried at cluster resolution, where it is smooth.
+//! Alone, as an answer in one pass (`B = E + ρH(E + P M R E)`), it was measured and not
+//! kept: light through doors and near each emitter varies inside a cluster (see
+//! docs/performance.md).
 
 use std::cmp::Ordering;
 use std::collections::BinaryHeap;
@@ -206,7 +205,7 @@ impl Hierarchy {
                 for &r in rs {
                     let r = r as usize;
                     let wr = if row < m {
-                        (asig[r] / self.area[roots[row] as usize] as f64) as f32
+                        (asig[r] / pos(self.area[roots[row] as usize]) as f64) as f32
                     } else {
                         1.0
                     };
@@ -222,7 +221,7 @@ impl Hierarchy {
                     }
                     let s = s as usize;
                     for ch in self.children[s - n] {
-                        let f = v * self.area[ch as usize] / self.area[s];
+                        let f = v * self.area[ch as usize] / pos(self.area[s]);
                         out[col(ch as usize)] += f;
                     }
                 }
@@ -235,7 +234,7 @@ impl Hierarchy {
                 let ch = ch as usize;
                 let dst = col(ch);
                 let f = if dst < m {
-                    (asig[ch] / self.area[ch] as f64) as f32
+                    (asig[ch] / pos(self.area[ch]) as f64) as f32
                 } else {
                     1.0
                 };
@@ -300,7 +299,7 @@ impl Coarse {
                 }
                 for q in 0..cols.len() {
                     for (x, &a) in e.col_as_slice_mut(q).iter_mut().zip(&self.area) {
-                        *x /= a;
+                        *x /= pos(a);
                     }
                 }
                 let mut z = Mat::<f32>::zeros(m, cols.len());
@@ -325,6 +324,11 @@ impl Coarse {
             });
         out
     }
+}
+
+/// An area as a divisor: a cluster of patches without area holds no light.
+fn pos(a: f32) -> f32 {
+    a.max(f32::MIN_POSITIVE)
 }
 
 /// Height above a cluster's plane of the points whose rays test it, m.
