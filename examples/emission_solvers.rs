@@ -1,8 +1,11 @@
 //! Emission answers in hierarchical mode: the sweeps (Jacobi) and GMRES after fixed pass
-//! counts (`PASSES=5,10,15,20` by default) and GMRES as the server runs it (to
-//! `EMISSION_TOL`), against a solve converged far past them (sweeps to 1e-9), per surface of
-//! ≥ 1 m² (mean incident illuminance) and per patch (incident illuminance), with each
-//! answer's power balance and time. The accuracy check of #47's fast transfer.
+//! counts (`PASSES=5,10,15,20` by default) and GMRES as the server ran it before the
+//! coarse preconditioner (to `EMISSION_TOL`, unpreconditioned); with `COARSE=m1,m2,…`, the
+//! coarse transfer of a cut of about m clusters, and GMRES preconditioned by it to each
+//! tolerance of `PTOL` (default 0.01; the server: `COARSE=1000`, [`EMISSION_TOL`]).
+//! Each against a solve converged far past them (sweeps to 1e-9), per surface of ≥ 1 m²
+//! (mean incident illuminance) and per patch (incident illuminance), with each answer's
+//! power balance and time. The accuracy check of #47's fast transfer.
 //!
 //! `cargo run --release --example emission_solvers -- SCENE_DIR CACHE_DIR`
 //! (the scene baked in hierarchical mode, e.g. scenes/office-floor).
