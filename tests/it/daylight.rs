@@ -1172,3 +1172,110 @@ fn the_sun_behind_a_facade_lit_the_room_through_its_neighbouring_sky_patches() {
         }
     }
 }
+
+/// Daylight adds any lighting state's electric light, as `/illuminance` answers it alone:
+/// group weights, luminaires placed for the request (the scene's moved, one added), and a
+/// per-patch emission. Light is linear, so at every point, on every surface and on the
+/// grid, daylight with the state equals daylight alone plus the state alone, maintained
+/// answers included (the daylight is not maintained).
+#[test]
+fn daylight_adds_the_light_of_any_lighting_state() {
+    use relight::color::Rgb;
+    use relight::model::lighting::Lighting;
+    use relight::model::placed::{place, LuminairePlacement, Photometry};
+    let _gate = common::shared();
+    let toml = format!(
+        "transfer = \"factored\"\nmaintenance_factor = 0.8\n[mesh]\ntarget_patches = 1200\n\
+         {SITE}[[luminaires]]\nid = \"l1\"\ngroup = \"ceiling\"\nphotometry = \"down.ies\"\n\
+         position = [1.0, 2.9, 1.0]\n\
+         [[grids]]\nid = \"work\"\nmin = [0.5, 0.5]\nmax = [3.5, 3.5]\nheight = 0.8\nspacing = 0.5\n"
+    );
+    let s = roof_room("grey", (1.5, 2.5), (1.5, 2.5), &toml);
+    std::fs::write(
+        s.path().join("down.ies"),
+        include_str!("../../scenes/office-floor/downlight.ies"),
+    )
+    .unwrap();
+    let m = model(&s, TransferMode::Factored);
+    let spec: SkySpec =
+        serde_json::from_value(json!({"type": "cie_overcast", "horizontal_illuminance": 10000}))
+            .unwrap();
+    let sky = spec.resolve(m.site().unwrap()).unwrap();
+    let q = IlluminanceQuery {
+        points: [[0.7, 0.8, 0.7], [2.0, 0.8, 2.0], [3.2, 0.0, 1.1]]
+            .iter()
+            .map(|p| (DVec3::from_array(*p), DVec3::Y))
+            .collect(),
+        surfaces: (0..m.baked.scene.surfaces.len()).collect(),
+        grids: vec![m.grid_index("work").unwrap()],
+        ..Default::default()
+    };
+    let moved = LuminairePlacement {
+        id: "l1".into(),
+        position: Some([3.0, 2.9, 3.0]),
+        ..Default::default()
+    };
+    let added = LuminairePlacement {
+        id: "new".into(),
+        position: Some([1.0, 2.9, 3.0]),
+        photometry: Some(Photometry::File("down.ies".into())),
+        lumens: Some(2000.0),
+        ..Default::default()
+    };
+    let placed = place(&m.baked.scene, m.patches(), vec![Rgb::ONE], &[moved, added]).unwrap();
+    let mut emission = vec![0f32; 3 * m.patches()];
+    for k in (0..m.patches()).step_by(97) {
+        emission[3 * k..3 * k + 3].copy_from_slice(&[50.0, 40.0, 30.0]);
+    }
+    let cancel = Cancel::default();
+    let alone = m.daylight(&sky, None, &q, &cancel).unwrap();
+    let close = |what: &str, got: f64, want: f64| {
+        assert!(
+            (got - want).abs() <= 1e-3 * want.abs().max(1.0),
+            "{what}: {got:.4} lx, want {want:.4}"
+        );
+    };
+    for (name, l) in [
+        ("groups", Lighting::Groups(vec![Rgb::splat(0.6)])),
+        ("placed", Lighting::Placed(placed)),
+        ("emission", Lighting::Emission(emission)),
+    ] {
+        let el = m.illuminance(&l, &q, &cancel).unwrap();
+        let both = m.daylight(&sky, Some(&l), &q, &cancel).unwrap();
+        let maintained = both.maintained.as_ref().expect("maintained answers");
+        assert!(!both.maintenance_factors.is_empty(), "{name}");
+        let mut lit = 0.0;
+        for (i, p) in both.points.iter().enumerate() {
+            let day = alone.points[i].lux;
+            close(&format!("{name}: point {i}"), p.lux, day + el.points[i].lux);
+            close(
+                &format!("{name}: point {i} maintained"),
+                maintained.points[i].lux,
+                day + el.maintained.points[i].lux,
+            );
+            lit += el.points[i].lux;
+        }
+        assert!(lit > 1.0, "{name}: the electric light reaches the points");
+        for (k, s) in &both.surfaces {
+            let want = alone.surfaces[k].avg.lux + el.surfaces[k].avg.lux;
+            close(&format!("{name}: {k}"), s.avg.lux, want);
+            let want = alone.surfaces[k].avg.lux + el.maintained.surfaces[k].avg.lux;
+            close(
+                &format!("{name}: {k} maintained"),
+                maintained.surfaces[k].avg.lux,
+                want,
+            );
+        }
+        let (g, d, e) = (
+            &both.grids["work"].illuminance,
+            &alone.grids["work"].illuminance,
+            &el.grids["work"],
+        );
+        close(&format!("{name}: grid"), g.avg, d.avg + e.avg);
+        close(
+            &format!("{name}: grid maintained"),
+            maintained.grids["work"].avg,
+            d.avg + el.maintained.grids["work"].avg,
+        );
+    }
+}

@@ -27,14 +27,17 @@ use super::grid::{self, GridStats};
 use super::query::{GridAnswer, IlluminanceQuery};
 use super::report::SurfaceIlluminance;
 use super::sky_state::{SkyState, SunPosition};
-use super::{Cancel, Model, QueryError};
-use crate::color::{Rgb, Rgb64};
+use super::{Cancel, Lighting, Model, QueryError};
+use crate::color::Rgb64;
 use crate::daylight::Site;
 use crate::transport::sky_view::{self, Reach};
 
+mod electric;
 mod gather;
 mod patches;
 mod points;
+
+use electric::ElectricLight;
 pub mod sun_on_patches;
 
 pub use gather::{
@@ -158,41 +161,66 @@ impl Model {
         64 * self.patches() as u64 + per_point * (q.points.len() as u64 + grid_points)
     }
 
-    /// Daylight (plus electric light for group weights `w`) on surfaces, at points and on
-    /// grids.
+    /// Daylight (plus the electric light of a lighting state: group weights, a per-patch
+    /// emission, or luminaires placed for the request) on surfaces, at points and on grids.
     pub fn daylight(
         &self,
         sky: &SkyState,
-        w: Option<&[Rgb]>,
+        electric: Option<&Lighting>,
         q: &IlluminanceQuery,
         cancel: &Cancel,
     ) -> Result<DaylightAnswer, QueryError> {
         let (site, l, sun_light) = self.sky_light(sky)?;
-        let light = PointLight::new(self, sky, site, &l, &sun_light, w);
+        let Some(lighting) = electric else {
+            let light = PointLight::new(self, sky, site, &l, &sun_light, None);
+            return self.daylight_once(&light, q, cancel);
+        };
+        let el = ElectricLight::new(self, lighting)?;
+        let light = PointLight::new(self, sky, site, &l, &sun_light, Some(&el));
         let mut answer = self.daylight_once(&light, q, cancel)?;
-        if let Some(w) = w {
-            // Light is linear in the groups: the maintained answer is the same query under
-            // the maintained weights (the sky, the sun and the gathers are the first's).
-            let factors = self.factors(q).groups;
-            let wm = super::compliance::maintained_weights(w, &factors);
-            let light = PointLight::new(self, sky, site, &l, &sun_light, Some(&wm));
-            let m = self.daylight_once(&light, q, cancel)?;
-            let groups = self.baked.scene.lights.iter().map(|g| g.id.clone());
-            answer.maintenance_factors = groups.zip(factors).collect();
-            answer.maintained = Some(super::query::Maintained {
-                points: m
-                    .points
-                    .iter()
-                    .map(|p| super::report::Lux::new(p.rgb))
-                    .collect(),
-                surfaces: m.surfaces,
-                grids: m
-                    .grids
-                    .into_iter()
-                    .map(|(k, g)| (k, g.illuminance))
-                    .collect(),
-            });
-        }
+        // The maintained answer: the electric light under the maintenance factors, the
+        // daylight unchanged (the sky, the sun and the gathers are the first's).
+        let factors = self.factors(q);
+        let groups = self.baked.scene.lights.iter().map(|g| g.id.clone());
+        let maintained = match lighting {
+            Lighting::Groups(w) => {
+                answer.maintenance_factors = groups.zip(factors.groups.clone()).collect();
+                let wm = super::compliance::maintained_weights(w, &factors.groups);
+                ElectricLight::owned(self, Lighting::Groups(wm))?
+            }
+            Lighting::Emission(_) => {
+                answer.maintenance_factors = [("emission".to_string(), factors.emission)].into();
+                el.scaled(factors.emission)
+            }
+            Lighting::Placed(p) => {
+                answer.maintenance_factors = groups
+                    .zip(factors.groups.clone())
+                    .chain([("placed".to_string(), factors.emission)])
+                    .collect();
+                match p.common_factor(&factors.groups, factors.emission) {
+                    Some(mf) => el.scaled(mf),
+                    None => {
+                        let pm = p.maintained(&factors.groups, factors.emission);
+                        ElectricLight::owned(self, Lighting::Placed(pm))?
+                    }
+                }
+            }
+        };
+        let light = PointLight::new(self, sky, site, &l, &sun_light, Some(&maintained));
+        let m = self.daylight_once(&light, q, cancel)?;
+        answer.maintained = Some(super::query::Maintained {
+            points: m
+                .points
+                .iter()
+                .map(|p| super::report::Lux::new(p.rgb))
+                .collect(),
+            surfaces: m.surfaces,
+            grids: m
+                .grids
+                .into_iter()
+                .map(|(k, g)| (k, g.illuminance))
+                .collect(),
+        });
         Ok(answer)
     }
 
@@ -224,7 +252,7 @@ impl Model {
             unit: "lx",
             sky: SkyInfo::of(light.sky),
             points,
-            surfaces: self.daylight_surfaces(&q.surfaces, light.l, light.sun_light, light.w),
+            surfaces: self.daylight_surfaces(&q.surfaces, light.l, light.sun_light, light.electric),
             grids,
             maintenance_factors: BTreeMap::new(),
             maintained: None,
@@ -260,24 +288,22 @@ impl Model {
     }
 
     /// Illuminance statistics of `surfaces` under sky patch luminances `l` and the sun's
-    /// light, plus the electric light of group weights `w`.
+    /// light, plus the electric light `el`.
     fn daylight_surfaces(
         &self,
         surfaces: &[usize],
         l: &[f64],
         sun_light: &SunLight,
-        w: Option<&[Rgb]>,
+        el: Option<&ElectricLight>,
     ) -> BTreeMap<String, SurfaceIlluminance> {
         if surfaces.is_empty() {
             return BTreeMap::new();
         }
         // Per-patch illuminance for the surfaces' statistics.
         let mut h = self.sky_patches(l, sun_light, true).h;
-        if let Some(w) = w {
-            let mut h_el = vec![0f32; 3 * self.patches()];
-            self.baked.transfer.illuminance_into(w, &mut h_el);
-            for (a, b) in h.iter_mut().zip(&h_el) {
-                *a += b;
+        if let Some(el) = el {
+            for (a, b) in h.iter_mut().zip(&el.h) {
+                *a += b * el.scale as f32;
             }
         }
         self.surface_stats(surfaces, &h)

@@ -5,9 +5,10 @@
 use glam::DVec3;
 use rayon::prelude::*;
 
+use super::electric::ElectricLight;
 use super::gather::PointGather;
 use super::patches::SunLight;
-use crate::color::{Rgb, Rgb64};
+use crate::color::Rgb64;
 use crate::daylight::Site;
 use crate::model::sky_state::SkyState;
 use crate::model::{Cancel, Model, QueryError};
@@ -30,9 +31,8 @@ pub(super) struct PointLight<'a> {
     /// The sun's scene direction and normal illuminance.
     sun: Option<(DVec3, f64)>,
     reach: Reach,
-    pub(super) w: Option<&'a [Rgb]>,
-    /// The electric light's radiosity, lm/m² (n × 3; empty without `w`).
-    b_el: Vec<f32>,
+    /// The electric light added, if any.
+    pub(super) electric: Option<&'a ElectricLight<'a>>,
 }
 
 impl<'a> PointLight<'a> {
@@ -42,14 +42,9 @@ impl<'a> PointLight<'a> {
         site: &'a Site,
         l: &'a [f64],
         sun_light: &'a SunLight,
-        w: Option<&'a [Rgb]>,
+        electric: Option<&'a ElectricLight<'a>>,
     ) -> PointLight<'a> {
         let t = &model.baked.transfer;
-        let mut b_el = vec![];
-        if let Some(w) = w {
-            b_el = vec![0f32; 3 * t.n];
-            t.relight_into(w, &mut b_el);
-        }
         PointLight {
             model,
             sky,
@@ -60,8 +55,7 @@ impl<'a> PointLight<'a> {
             sun_b: model.sun_reflected(sun_light),
             sun: sky.sun_direction(site),
             reach: model.reach(),
-            w,
-            b_el,
+            electric,
         }
     }
 
@@ -84,10 +78,8 @@ impl<'a> PointLight<'a> {
         }
         e += Rgb64::splat(direct);
         let daylight = e.luminance();
-        if let Some(w) = self.w {
-            let el = g.gather(&self.b_el);
-            m.add_luminaires(w, x, nrm, &mut e);
-            e += el;
+        if let Some(el) = self.electric {
+            e += (g.gather(&el.b) + el.direct_at(m, x, nrm)) * el.scale;
         }
         (e, daylight)
     }
