@@ -22,7 +22,7 @@ use rayon::prelude::*;
 
 use glam::Vec3A;
 
-use super::tree::{Tree, NONE as NO_PLANE};
+use super::tree::{Tree, NONE as TREE_NONE};
 use super::Hierarchy;
 use crate::color::Rgb;
 use crate::geometry::bvh::Bvh;
@@ -129,73 +129,47 @@ impl Hierarchy {
 
     /// The coarse transfer with about `m` clusters for reflectances `rho`.
     pub fn coarse(&self, mesh: &Mesh, bvh: &Bvh, rho: &[Rgb], m: usize) -> Coarse {
-        let nodes = self.nodes();
-        let n = self.n;
         let tree = Tree::build(mesh);
         let roots = self.cut(m.max(1), &|k| coherent(&tree, mesh, bvh, k));
-        let m = roots.len();
-        // Cluster of every node at or below the cut, upper index of every node above it.
-        let mut cl = vec![NONE; nodes];
-        for (c, &r) in roots.iter().enumerate() {
-            cl[r as usize] = c as u32;
+        let cut = Cut::new(&tree, roots);
+        let asig = self.area_sigma();
+        let k_c = self.galerkin(&cut, &asig);
+        let rho_bar = cut.mean_rho(&asig, rho, self.n);
+        Coarse {
+            cluster: cut.cl[..self.n].to_vec(),
+            area: cut.roots.iter().map(|&r| self.area[r as usize]).collect(),
+            transfer: [0, 1, 2].map(|j| channel_transfer(&k_c, &rho_bar, j)),
         }
-        let mut parent = vec![NONE; nodes];
-        for (k, ch) in self.children.iter().enumerate() {
-            for &c in ch {
-                parent[c as usize] = (n + k) as u32;
-            }
-        }
-        for k in (0..nodes).rev() {
-            if cl[k] == NONE && parent[k] != NONE {
-                cl[k] = cl[parent[k] as usize];
-            }
-        }
-        let upper: Vec<u32> = (0..nodes as u32)
-            .rev()
-            .filter(|&k| cl[k as usize] == NONE)
-            .collect(); // parents first
-        let mut up = vec![NONE; nodes];
-        for (i, &k) in upper.iter().enumerate() {
-            up[k as usize] = i as u32;
-        }
-        let u = upper.len();
-        let w = m + u;
-        let col = |s: usize| -> usize {
-            if cl[s] != NONE {
-                cl[s] as usize
-            } else {
-                m + up[s] as usize
-            }
-        };
-        // Σ A σ over the patches under every node, and per cluster Σ A σ ρ.
-        let mut asig = vec![0f64; nodes];
+    }
+
+    /// Σ A σ over the patches under every node.
+    fn area_sigma(&self) -> Vec<f64> {
+        let mut asig = vec![0f64; self.nodes()];
         for (a, (&area, &sigma)) in asig.iter_mut().zip(self.area.iter().zip(&self.sigma)) {
             *a = area as f64 * sigma as f64;
         }
         for (k, ch) in self.children.iter().enumerate() {
-            asig[n + k] = asig[ch[0] as usize] + asig[ch[1] as usize];
+            asig[self.n + k] = asig[ch[0] as usize] + asig[ch[1] as usize];
         }
-        let mut rho_bar = vec![[0f64; 3]; m];
-        for i in 0..n {
-            let c = cl[i] as usize;
-            for j in 0..3 {
-                rho_bar[c][j] += asig[i] * rho[i][j] as f64;
-            }
-        }
-        for (c, &r) in roots.iter().enumerate() {
-            let a = asig[r as usize].max(f64::MIN_POSITIVE);
-            rho_bar[c].iter_mut().for_each(|x| *x /= a);
-        }
+        asig
+    }
+
+    /// `K_c = R σ H P` without ρ (m × m), from the links.
+    ///
+    /// A table whose rows and columns are the clusters, then the upper nodes: a cluster
+    /// row holds the links at and below the cluster, an upper row the raw factors of the
+    /// upper node's links. Upper sources are spread to the clusters below them (their
+    /// value is the clusters' area mean), then upper receivers (their irradiance reaches
+    /// every patch below them).
+    fn galerkin(&self, cut: &Cut, asig: &[f64]) -> Mat<f32> {
+        let (n, m, w) = (self.n, cut.roots.len(), cut.width());
         // Fine receivers grouped by their row of the table.
         let mut rows: Vec<Vec<u32>> = vec![Vec::new(); w];
-        for r in 0..nodes {
-            if self.links.offsets[r] != self.links.offsets[r + 1] {
-                rows[col(r)].push(r as u32);
+        for r in 0..self.nodes() {
+            if !self.links.of(r).is_empty() {
+                rows[cut.col(r)].push(r as u32);
             }
         }
-        // The table: rows and columns are clusters, then upper nodes. A cluster row holds
-        // R σ H P for the links at and below the cluster; an upper row the raw factors of
-        // the upper node's links (spread to the clusters below it afterwards).
         let mut table = vec![0f32; w * w];
         table
             .par_chunks_mut(w)
@@ -205,34 +179,30 @@ impl Hierarchy {
                 for &r in rs {
                     let r = r as usize;
                     let wr = if row < m {
-                        (asig[r] / pos(self.area[roots[row] as usize]) as f64) as f32
+                        (asig[r] / pos(self.area[cut.roots[row] as usize]) as f64) as f32
                     } else {
                         1.0
                     };
                     for l in self.links.of(r) {
-                        out[col(self.links.src[l] as usize)] += wr * self.links.k[l];
+                        out[cut.col(self.links.src[l] as usize)] += wr * self.links.k[l];
                     }
                 }
-                // Upper sources: their value is the area mean of the clusters below.
-                for (i, &s) in upper.iter().enumerate() {
+                for (i, &s) in cut.upper.iter().enumerate() {
                     let v = out[m + i];
                     if v == 0.0 {
                         continue;
                     }
                     let s = s as usize;
                     for ch in self.children[s - n] {
-                        let f = v * self.area[ch as usize] / pos(self.area[s]);
-                        out[col(ch as usize)] += f;
+                        out[cut.col(ch as usize)] += v * self.area[ch as usize] / pos(self.area[s]);
                     }
                 }
             });
-        // Upper receivers: their gathered irradiance reaches every patch below them.
-        let mut k_c = Mat::<f32>::zeros(m, m);
-        for (i, &r) in upper.iter().enumerate() {
+        for (i, &r) in cut.upper.iter().enumerate() {
             let src = table[(m + i) * w..(m + i) * w + m].to_vec();
             for ch in self.children[r as usize - n] {
                 let ch = ch as usize;
-                let dst = col(ch);
+                let dst = cut.col(ch);
                 let f = if dst < m {
                     (asig[ch] / pos(self.area[ch]) as f64) as f32
                 } else {
@@ -243,25 +213,90 @@ impl Hierarchy {
                 }
             }
         }
-        for c in 0..m {
-            for (s, &v) in table[c * w..c * w + m].iter().enumerate() {
-                k_c[(c, s)] = v;
+        Mat::<f32>::from_fn(m, m, |c, s| table[c * w + s])
+    }
+}
+
+/// A cut of the tree: the cluster roots, the cluster of every node at or below them, and
+/// the nodes above them ("upper", parents first).
+struct Cut {
+    roots: Vec<u32>,
+    /// Cluster of every node, `NONE` above the cut.
+    cl: Vec<u32>,
+    upper: Vec<u32>,
+    /// Index in `upper` of every node above the cut.
+    up: Vec<u32>,
+}
+
+impl Cut {
+    fn new(tree: &Tree, roots: Vec<u32>) -> Cut {
+        let nodes = tree.nodes();
+        let mut cl = vec![NONE; nodes];
+        for (c, &r) in roots.iter().enumerate() {
+            cl[r as usize] = c as u32;
+        }
+        // Parents come after their children: downwards, every node takes its parent's.
+        for k in (0..nodes).rev() {
+            let p = tree.parent[k];
+            if cl[k] == NONE && p != TREE_NONE {
+                cl[k] = cl[p as usize];
             }
         }
-        drop(table);
-        let transfer = [0, 1, 2].map(|j| {
-            let kj = Mat::<f32>::from_fn(m, m, |a, b| rho_bar[a][j] as f32 * k_c[(a, b)]);
-            let a = Mat::<f32>::from_fn(m, m, |a, b| (a == b) as u8 as f32 - kj[(a, b)]);
-            let mut x = kj;
-            solve_general_in_place(a, x.as_mut());
-            x
-        });
-        Coarse {
-            cluster: (0..n).map(|i| cl[i]).collect(),
-            area: roots.iter().map(|&r| self.area[r as usize]).collect(),
-            transfer,
+        let upper: Vec<u32> = (0..nodes as u32)
+            .rev()
+            .filter(|&k| cl[k as usize] == NONE)
+            .collect();
+        let mut up = vec![NONE; nodes];
+        for (i, &k) in upper.iter().enumerate() {
+            up[k as usize] = i as u32;
+        }
+        Cut {
+            roots,
+            cl,
+            upper,
+            up,
         }
     }
+
+    /// Rows (and columns) of the assembly table: the clusters, then the upper nodes.
+    fn width(&self) -> usize {
+        self.roots.len() + self.upper.len()
+    }
+
+    /// Node `s`'s row (and column) of the table.
+    fn col(&self, s: usize) -> usize {
+        if self.cl[s] != NONE {
+            self.cl[s] as usize
+        } else {
+            self.roots.len() + self.up[s] as usize
+        }
+    }
+
+    /// Per cluster, ρ averaged with weights A σ over its `n` patches.
+    fn mean_rho(&self, asig: &[f64], rho: &[Rgb], n: usize) -> Vec<[f64; 3]> {
+        let mut rho_bar = vec![[0f64; 3]; self.roots.len()];
+        for i in 0..n {
+            let c = self.cl[i] as usize;
+            for j in 0..3 {
+                rho_bar[c][j] += asig[i] * rho[i][j] as f64;
+            }
+        }
+        for (c, &r) in self.roots.iter().enumerate() {
+            let a = asig[r as usize].max(f64::MIN_POSITIVE);
+            rho_bar[c].iter_mut().for_each(|x| *x /= a);
+        }
+        rho_bar
+    }
+}
+
+/// Channel `j`'s `M = (I − K_c)⁻¹ K_c` with `K_c = diag(ρ̄_j) k_c`.
+fn channel_transfer(k_c: &Mat<f32>, rho_bar: &[[f64; 3]], j: usize) -> Mat<f32> {
+    let m = k_c.nrows();
+    let kj = Mat::<f32>::from_fn(m, m, |a, b| rho_bar[a][j] as f32 * k_c[(a, b)]);
+    let a = Mat::<f32>::from_fn(m, m, |a, b| (a == b) as u8 as f32 - kj[(a, b)]);
+    let mut x = kj;
+    solve_general_in_place(a, x.as_mut());
+    x
 }
 
 impl Coarse {
@@ -339,7 +374,7 @@ const LIFT: f64 = 0.01;
 /// or furniture standing on the plane divides it.
 fn coherent(tree: &Tree, mesh: &Mesh, bvh: &Bvh, k: u32) -> bool {
     let plane = tree.plane[k as usize];
-    if plane == NO_PLANE {
+    if plane == TREE_NONE {
         return false;
     }
     let normal = tree.planes[plane as usize].0;
